@@ -1,0 +1,11 @@
+"""stagger_nb: edit skeletal motion in Jupyter with staggered poses, the magic wand and guided time warping.
+
+Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
+"""
+from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
+from .io import BVHError, read_bvh, write_bvh
+
+__version__ = "0.1.0"
+
+__all__ = ["Motion", "Skeleton", "concatenate", "forward_kinematics", "positions_in_root_frame",
+           "BVHError", "read_bvh", "write_bvh", "__version__"]

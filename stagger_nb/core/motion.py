@@ -1,0 +1,174 @@
+"""A frozen, uniformly sampled skeletal motion.
+
+Glossary used across the package: F frames, J joints, K staggered poses, D degrees of freedom.
+Times at the API are seconds; frame ranges are half-open ``[start, stop)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .rotations import quat_continuous, quat_normalize, slerp
+from .skeleton import Skeleton
+
+__all__ = ["Motion", "concatenate"]
+
+
+def _frozen(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """Skeletal motion sampled every ``frame_time`` seconds.
+
+    Attributes
+    ----------
+    skeleton : Skeleton
+    frame_time : float
+        Seconds between frames (> 0).
+    root_positions : ndarray, shape (F, 3)
+        World translation of the root joint, file units.
+    local_quats : ndarray, shape (F, J, 4), (x, y, z, w)
+        Unit quaternions of each joint relative to its parent; made hemisphere-continuous over time
+        on construction (``q`` and ``-q`` are the same rotation; consecutive frames have dot >= 0).
+    local_translations : ndarray, shape (F, J, 3), or None
+        Per-frame translation of each joint relative to its parent, for files that animate non-root
+        joint positions (BVH position channels replace the OFFSET). ``None`` means ``skeleton.offsets``.
+        Row 0 (the root) is ignored: ``root_positions`` is the root's translation.
+    """
+
+    skeleton: Skeleton
+    frame_time: float
+    root_positions: np.ndarray
+    local_quats: np.ndarray
+    local_translations: np.ndarray | None = None
+
+    def __post_init__(self):
+        ft = float(self.frame_time)
+        if not np.isfinite(ft) or ft <= 0:
+            raise ValueError(f"Motion: frame_time must be a positive number of seconds, got {self.frame_time!r}")
+        J = self.skeleton.num_joints
+        q = np.asarray(self.local_quats, dtype=float)
+        if q.ndim != 3 or q.shape[1:] != (J, 4):
+            raise ValueError(f"Motion: local_quats must have shape (F, {J}, 4), got {q.shape}")
+        F = q.shape[0]
+        rp = np.asarray(self.root_positions, dtype=float)
+        if rp.shape != (F, 3):
+            raise ValueError(f"Motion: root_positions must have shape ({F}, 3), got {rp.shape}")
+        lt = self.local_translations
+        if lt is not None:
+            lt = np.asarray(lt, dtype=float)
+            if lt.shape != (F, J, 3):
+                raise ValueError(f"Motion: local_translations must have shape ({F}, {J}, 3), got {lt.shape}")
+            lt = _frozen(lt)
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(rp))):
+            raise ValueError("Motion: local_quats and root_positions must be finite")
+        object.__setattr__(self, "frame_time", ft)
+        object.__setattr__(self, "local_quats", _frozen(quat_continuous(quat_normalize(q), axis=0)))
+        object.__setattr__(self, "root_positions", _frozen(rp))
+        object.__setattr__(self, "local_translations", lt)
+
+    # -- basic properties -------------------------------------------------------------------------
+    @property
+    def num_frames(self) -> int:
+        return int(self.local_quats.shape[0])
+
+    @property
+    def num_joints(self) -> int:
+        return self.skeleton.num_joints
+
+    @property
+    def fps(self) -> float:
+        return 1.0 / self.frame_time
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame: ``(F - 1) * frame_time``."""
+        return (self.num_frames - 1) * self.frame_time
+
+    @property
+    def times(self) -> np.ndarray:
+        """Frame times in seconds, shape (F,)."""
+        return np.arange(self.num_frames) * self.frame_time
+
+    def translations(self) -> np.ndarray:
+        """Per-frame joint translations ``(F, J, 3)`` (offsets broadcast where not animated), root row
+        = ``root_positions``."""
+        if self.local_translations is None:
+            t = np.broadcast_to(self.skeleton.offsets, (self.num_frames, self.num_joints, 3)).copy()
+        else:
+            t = np.array(self.local_translations)
+        t[:, 0] = self.root_positions
+        return t
+
+    # -- new motions ------------------------------------------------------------------------------
+    def replace(self, **changes) -> "Motion":
+        """A new Motion with some fields replaced (validated again)."""
+        fields = dict(skeleton=self.skeleton, frame_time=self.frame_time, root_positions=self.root_positions,
+                      local_quats=self.local_quats, local_translations=self.local_translations)
+        fields.update(changes)
+        return Motion(**fields)
+
+    def slice(self, start: int | None = None, stop: int | None = None, step: int | None = None) -> "Motion":
+        """Frames ``[start, stop)`` (every ``step``-th) as a new Motion."""
+        sl = slice(start, stop, step)
+        idx = np.arange(self.num_frames)[sl]
+        if idx.size == 0:
+            raise ValueError(f"Motion.slice: frames [{start}, {stop}) of a {self.num_frames}-frame motion are empty")
+        lt = None if self.local_translations is None else self.local_translations[sl]
+        return Motion(self.skeleton, self.frame_time * (step or 1), self.root_positions[sl],
+                      self.local_quats[sl], lt)
+
+    def sample(self, frames: np.ndarray, frame_time: float | None = None) -> "Motion":
+        """Evaluate at fractional frame indices ``frames (N,)`` (clamped to the clip): rotations by slerp,
+        translations linearly. The result is sampled every ``frame_time`` (default: this one)."""
+        f = np.clip(np.asarray(frames, dtype=float).reshape(-1), 0.0, self.num_frames - 1)
+        i0 = np.floor(f).astype(int)
+        i0 = np.minimum(i0, self.num_frames - 1)
+        i1 = np.minimum(i0 + 1, self.num_frames - 1)
+        a = f - i0
+        q = slerp(self.local_quats[i0], self.local_quats[i1], a[:, None])
+        rp = self.root_positions[i0] * (1 - a)[:, None] + self.root_positions[i1] * a[:, None]
+        lt = None
+        if self.local_translations is not None:
+            lt = self.local_translations[i0] * (1 - a)[:, None, None] + self.local_translations[i1] * a[:, None, None]
+        return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time, rp, q, lt)
+
+    def sample_times(self, times: np.ndarray, frame_time: float | None = None) -> "Motion":
+        """Like :meth:`sample` with times in seconds."""
+        return self.sample(np.asarray(times, dtype=float) / self.frame_time, frame_time)
+
+    def resample(self, frame_time: float) -> "Motion":
+        """Resample to a new frame time (seconds) covering the same duration (slerp / linear)."""
+        frame_time = float(frame_time)
+        if not np.isfinite(frame_time) or frame_time <= 0:
+            raise ValueError(f"Motion.resample: frame_time must be > 0 seconds, got {frame_time!r}")
+        n = int(np.floor(self.duration / frame_time + 1e-9)) + 1
+        return self.sample_times(np.arange(n) * frame_time, frame_time)
+
+    def __len__(self) -> int:
+        return self.num_frames
+
+    def __repr__(self) -> str:
+        return (f"Motion({self.num_frames} frames @ {self.fps:.4g} Hz = {self.duration:.3f} s, "
+                f"{self.num_joints} joints)")
+
+
+def concatenate(motions: list[Motion]) -> Motion:
+    """Join motions end to end (same skeleton and frame time); root positions are kept as they are."""
+    if not motions:
+        raise ValueError("concatenate: no motions given")
+    first = motions[0]
+    for k, m in enumerate(motions[1:], 1):
+        if m.skeleton != first.skeleton:
+            raise ValueError(f"concatenate: motion {k} has a different skeleton")
+        if abs(m.frame_time - first.frame_time) > 1e-12:
+            raise ValueError(f"concatenate: motion {k} has frame_time {m.frame_time}, expected {first.frame_time}")
+    has_lt = any(m.local_translations is not None for m in motions)
+    lt = np.concatenate([m.translations() for m in motions]) if has_lt else None
+    return Motion(first.skeleton, first.frame_time, np.concatenate([m.root_positions for m in motions]),
+                  np.concatenate([m.local_quats for m in motions]), lt)

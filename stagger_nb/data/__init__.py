@@ -1,0 +1,1 @@
+"""Sample clips (placeholder until the data issue lands: see stagger_nb.data.prepare)."""

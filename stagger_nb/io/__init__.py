@@ -1,0 +1,4 @@
+"""File formats: BVH read/write, CMU ASF/AMC read. Text in, :class:`~stagger_nb.core.Motion` out."""
+from .bvh import BVHError, format_bvh, parse_bvh, read_bvh, write_bvh
+
+__all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
