@@ -1,0 +1,39 @@
+"""Shared test fixtures: the real clips in ../shared/mocap (when present) and small hand-built motions."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_MOCAP = REPO.parent / "shared" / "mocap"
+SHARED_CLIPS = sorted(p.name for p in SHARED_MOCAP.glob("*.bvh")) if SHARED_MOCAP.is_dir() else []
+
+
+def shared_clip_path(name: str) -> Path:
+    """Path of a real clip in ../shared/mocap; skips the test (with the reason) where it is absent."""
+    p = SHARED_MOCAP / name
+    if not p.is_file():
+        pytest.skip(f"../shared/mocap/{name} not present on this machine (real clips are not copied into the repo)")
+    return p
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def shared_motion():
+    """Loader with a cache: ``shared_motion("xia_angry_run.bvh") -> Motion`` (skips if absent)."""
+    from stagger_nb import read_bvh
+
+    cache = {}
+
+    def load(name: str):
+        if name not in cache:
+            cache[name] = read_bvh(shared_clip_path(name))
+        return cache[name]
+
+    return load
