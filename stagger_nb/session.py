@@ -1,0 +1,766 @@
+"""Edit sessions: a source motion plus an ordered list of JSON-serialisable operations.
+
+An *op* is a plain dict such as ``{"op": "succession", "root": "LeftShoulder", "s": 0.03, "l": 2.0}``.
+Replaying the ops in order on the source motion gives the edited motion; this is what makes a notebook's
+edits reproducible (DESIGN.md, "session"). The state flowing through the ops is either a
+:class:`~stagger_nb.core.Motion` or a staggered-pose representation (``staggered.StaggeredMotion``):
+
+- staggered ops (``extract``, ``cull``, ``succession``, ``random_timing``, ``exaggerate``, ``edit_pose``)
+  need a staggered representation; a Motion is extracted first (Coleman et al. 2008, §4), and that
+  extraction, the expensive head, is cached per motion;
+- motion ops (``edit_frame``, ``propagate``, ``guided_warp``, ``linear_warp``, ``resample``) need a Motion;
+  a staggered state is evaluated first (§3).
+
+Every prefix of the op list is memoised, so changing the last op (a slider move) replays only the tail.
+
+Ops are validated on the way in (``add``/``set_ops``) and when a session file is loaded: an unknown op,
+an unknown or missing field or a wrongly typed value raises ``ValueError`` naming the field
+(e.g. ``ops[2].s``). Session files are JSON, never pickle; nothing in them is evaluated.
+
+This module does not import ipywidgets; the widgets build on it.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import os
+import tempfile
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from .core.motion import Motion
+from .core.rotations import quat_mul, rotvec_to_quat
+from .core.skeleton import Skeleton
+from .io.bvh import read_bvh, write_bvh
+
+__all__ = ["Session", "OpSpec", "OP_REGISTRY", "register_op", "validate_op", "apply_pose_deltas",
+           "SESSION_FORMAT", "SESSION_VERSION"]
+
+SESSION_FORMAT = "stagger_nb.session"
+SESSION_VERSION = 1
+_MEMO_SIZE = 48          # memoised op-list prefixes kept per session (a slider sweep touches a handful)
+_EXTRACT_CACHE_SIZE = 4  # cached staggered extractions (one per distinct input motion)
+
+
+# --------------------------------------------------------------------------------------------------
+# field validators: each takes (value, field_name) and returns the normalised JSON value or raises
+# --------------------------------------------------------------------------------------------------
+def _fail(field: str, expected: str, value) -> None:
+    raise ValueError(f"{field}: expected {expected}, got {value!r}")
+
+
+def _number(value, field):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        _fail(field, "a finite number", value)
+    return float(value)
+
+
+def _nonneg(value, field):
+    v = _number(value, field)
+    if v < 0:
+        _fail(field, "a number >= 0", value)
+    return v
+
+
+def _positive(value, field):
+    v = _number(value, field)
+    if v <= 0:
+        _fail(field, "a number > 0", value)
+    return v
+
+
+def _percent(value, field):
+    v = _number(value, field)
+    if not 0.0 <= v <= 100.0:
+        _fail(field, "a percentage in [0, 100]", value)
+    return v
+
+
+def _int(value, field):
+    if isinstance(value, bool) or not isinstance(value, int):
+        if isinstance(value, float) and value.is_integer():
+            return int(value)
+        _fail(field, "an integer", value)
+    return int(value)
+
+
+def _nonneg_int(value, field):
+    v = _int(value, field)
+    if v < 0:
+        _fail(field, "an integer >= 0", value)
+    return v
+
+
+def _str(value, field):
+    if not isinstance(value, str) or not value:
+        _fail(field, "a non-empty string", value)
+    return value
+
+
+def _bool(value, field):
+    if not isinstance(value, bool):
+        _fail(field, "true or false", value)
+    return value
+
+
+def _optional(check):
+    def f(value, field):
+        return None if value is None else check(value, field)
+    return f
+
+
+def _str_list(value, field):
+    if not isinstance(value, (list, tuple)):
+        _fail(field, "a list of joint names", value)
+    return [_str(v, f"{field}[{i}]") for i, v in enumerate(value)]
+
+
+def _deltas(value, field):
+    """``{joint name: [rx, ry, rz]}`` rotation vectors in degrees."""
+    if not isinstance(value, dict):
+        _fail(field, "an object {joint name: [rx, ry, rz] degrees}", value)
+    out = {}
+    for k, v in value.items():
+        _str(k, f"{field} key")
+        if not isinstance(v, (list, tuple)) or len(v) != 3:
+            _fail(f"{field}.{k}", "a list of 3 numbers (rotation vector, degrees)", v)
+        out[k] = [_number(x, f"{field}.{k}[{i}]") for i, x in enumerate(v)]
+    return out
+
+
+def _time_range(value, field):
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        _fail(field, "[start, stop]", value)
+    a, b = (_number(x, f"{field}[{i}]") for i, x in enumerate(value))
+    if b < a:
+        _fail(field, "start <= stop", value)
+    return [a, b]
+
+
+def _frame_range(value, field):
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        _fail(field, "[start_frame, stop_frame]", value)
+    a, b = (_nonneg_int(x, f"{field}[{i}]") for i, x in enumerate(value))
+    if b <= a:
+        _fail(field, "start_frame < stop_frame (half-open range)", value)
+    return [a, b]
+
+
+def _keytimes(value, field):
+    """``[[input_seconds, output_seconds], ...]`` pairs."""
+    if not isinstance(value, (list, tuple)):
+        _fail(field, "a list of [input_time, output_time] pairs (seconds)", value)
+    out = []
+    for i, pair in enumerate(value):
+        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+            _fail(f"{field}[{i}]", "[input_time, output_time] (seconds)", pair)
+        out.append([_nonneg(pair[0], f"{field}[{i}][0]"), _nonneg(pair[1], f"{field}[{i}][1]")])
+    return out
+
+
+def _reference(value, field):
+    """``"self"``, ``{"segment": [start_s, stop_s]}`` of the source, or ``{"path": "clip.bvh"}``."""
+    if value == "self":
+        return value
+    if isinstance(value, dict) and len(value) == 1:
+        if "segment" in value:
+            return {"segment": _time_range(value["segment"], f"{field}.segment")}
+        if "path" in value:
+            return {"path": _str(value["path"], f"{field}.path")}
+    _fail(field, '"self", {"segment": [start, stop]} or {"path": "file.bvh"}', value)
+
+
+# --------------------------------------------------------------------------------------------------
+# the op registry
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class OpSpec:
+    """One registered operation.
+
+    Attributes
+    ----------
+    name : str
+        The ``"op"`` value.
+    needs : str
+        ``"staggered"`` or ``"motion"``: the state the op consumes (converted automatically).
+    fields : dict[str, tuple[validator, default]]
+        Field validators; ``default is _REQUIRED`` marks a required field.
+    run : callable ``(state, params: dict, ctx: _Context) -> state``
+    """
+
+    name: str
+    needs: str
+    fields: dict
+    run: Callable
+
+
+_REQUIRED = object()
+OP_REGISTRY: dict[str, OpSpec] = {}
+
+
+def register_op(name: str, needs: str, fields: dict, run: Callable) -> OpSpec:
+    """Register (or replace) an op. ``fields`` maps field names to ``(validator, default)``; use
+    ``None`` as validator to accept any JSON value, and ``Session.REQUIRED`` as default for a required one."""
+    if needs not in ("staggered", "motion"):
+        raise ValueError(f"needs: expected 'staggered' or 'motion', got {needs!r}")
+    spec = OpSpec(name, needs, dict(fields), run)
+    OP_REGISTRY[name] = spec
+    return spec
+
+
+def validate_op(op: Any, where: str = "op") -> dict:
+    """A normalised copy of ``op`` (defaults filled in) or ``ValueError`` naming the bad field."""
+    if not isinstance(op, dict):
+        _fail(where, 'an object like {"op": "succession", ...}', op)
+    name = op.get("op")
+    if not isinstance(name, str):
+        _fail(f"{where}.op", "an op name", name)
+    spec = OP_REGISTRY.get(name)
+    if spec is None:
+        raise ValueError(f"{where}.op: unknown op {name!r}; known ops are {', '.join(sorted(OP_REGISTRY))}")
+    out = {"op": name}
+    for key in op:
+        if key != "op" and key not in spec.fields:
+            raise ValueError(f"{where}.{key}: unknown field for op {name!r}; fields are "
+                             f"{', '.join(spec.fields) or '(none)'}")
+    for key, (check, default) in spec.fields.items():
+        if key in op:
+            v = op[key]
+            out[key] = copy.deepcopy(v) if check is None else check(v, f"{where}.{key}")
+        elif default is _REQUIRED:
+            raise ValueError(f"{where}.{key}: required field of op {name!r} is missing")
+        else:
+            out[key] = copy.deepcopy(default)
+    return out
+
+
+def _joint(skeleton: Skeleton, name: str, field: str) -> int:
+    try:
+        return skeleton.index(name)
+    except KeyError:
+        raise ValueError(f"{field}: no joint named {name!r} in this skeleton") from None
+
+
+def apply_pose_deltas(pose_quats: np.ndarray, skeleton: Skeleton, deltas: dict, field: str = "deltas") -> np.ndarray:
+    """Rotate joints of one pose in their own frames: ``q_j <- q_j * exp(r_j)``.
+
+    Parameters
+    ----------
+    pose_quats : (J, 4) local rotations (x, y, z, w)
+    deltas : {joint name: [rx, ry, rz]} rotation vectors in **degrees**, in the joint's local frame
+
+    Returns
+    -------
+    (J, 4) edited local rotations (a new array)
+    """
+    out = np.array(pose_quats, dtype=float)
+    for name, rv in deltas.items():
+        j = _joint(skeleton, name, f"{field}.{name}")
+        out[j] = quat_mul(out[j], rotvec_to_quat(np.radians(np.asarray(rv, dtype=float))))
+    return out
+
+
+# -- runners ---------------------------------------------------------------------------------------
+def _staggered():
+    from . import staggered  # late import: the technique packages load only when an op needs them
+    return staggered
+
+
+def _wand():
+    from . import wand
+    return wand
+
+
+def _timewarp():
+    from . import timewarp
+    return timewarp
+
+
+def _run_extract(st, p, ctx):
+    return ctx.extract(st)
+
+
+def _run_cull(sm, p, ctx):
+    return _staggered().cull(sm, percent=p["percent"])
+
+
+def _run_succession(sm, p, ctx):
+    return _staggered().succession(sm, root=p["root"], s=p["s"], l=p["l"])
+
+
+def _run_random_timing(sm, p, ctx):
+    return _staggered().random_timing(sm, joints=p["joints"], tau=p["tau"], seed=p["seed"])
+
+
+def _run_exaggerate(sm, p, ctx):
+    st = _staggered()
+    kwargs = {k: v for k, v in p.items() if k not in ("op",) and v is not None}
+    return st.exaggerate(sm, **kwargs)
+
+
+def _run_edit_pose(sm, p, ctx):
+    return _staggered().edit_pose(sm, p["pose"], deltas=p["deltas"])
+
+
+def _run_edit_frame(m, p, ctx):
+    f = p["frame"]
+    if f >= m.num_frames:
+        raise ValueError(f"frame: {f} is outside the motion's {m.num_frames} frames")
+    q = np.array(m.local_quats)
+    q[f] = apply_pose_deltas(q[f], m.skeleton, p["deltas"])
+    return m.replace(local_quats=q)
+
+
+def _run_propagate(m, p, ctx):
+    f = p["frame"]
+    if f >= m.num_frames:
+        raise ValueError(f"frame: {f} is outside the motion's {m.num_frames} frames")
+    edited = apply_pose_deltas(m.local_quats[f], m.skeleton, p["deltas"])
+    fr = None if p["frame_range"] is None else tuple(p["frame_range"])
+    return _wand().propagate(m, f, edited, sigma=p["sigma"], frame_range=fr)
+
+
+def _warp_frames(m, duration):
+    return max(2, int(round(duration / m.frame_time)) + 1)
+
+
+def _run_guided_warp(m, p, ctx):
+    ref = ctx.reference(p["reference"], m)
+    out, _ = _timewarp().guided_warp(m, ref, _warp_frames(m, p["duration"]), skip=p["skip"],
+                                     keytimes=p["keytimes"])
+    return out
+
+
+def _run_linear_warp(m, p, ctx):
+    out, _ = _timewarp().linear_warp(m, _warp_frames(m, p["duration"]), keytimes=p["keytimes"])
+    return out
+
+
+def _run_resample(m, p, ctx):
+    return m.resample(p["frame_time"])
+
+
+register_op("extract", "motion", {}, _run_extract)
+register_op("cull", "staggered", {"percent": (_percent, _REQUIRED)}, _run_cull)
+register_op("succession", "staggered", {"root": (_str, _REQUIRED), "s": (_number, _REQUIRED),
+                                        "l": (_positive, 1.0)}, _run_succession)
+register_op("random_timing", "staggered", {"tau": (_nonneg, _REQUIRED), "seed": (_nonneg_int, 0),
+                                           "joints": (_optional(_str_list), None)}, _run_random_timing)
+register_op("exaggerate", "staggered", {"w_r": (_number, _REQUIRED), "joints": (_optional(_str_list), None),
+                                        "relative_to": (_optional(_str), None)}, _run_exaggerate)
+register_op("edit_pose", "staggered", {"pose": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED)},
+            _run_edit_pose)
+register_op("edit_frame", "motion", {"frame": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED)},
+            _run_edit_frame)
+register_op("propagate", "motion", {"frame": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED),
+                                    "sigma": (_optional(_positive), None),
+                                    "frame_range": (_optional(_frame_range), None)}, _run_propagate)
+register_op("guided_warp", "motion", {"duration": (_positive, _REQUIRED), "skip": (_nonneg_int, 8),
+                                      "keytimes": (_optional(_keytimes), None),
+                                      "reference": (_reference, "self")}, _run_guided_warp)
+register_op("linear_warp", "motion", {"duration": (_positive, _REQUIRED),
+                                      "keytimes": (_optional(_keytimes), None)}, _run_linear_warp)
+register_op("resample", "motion", {"frame_time": (_positive, _REQUIRED)}, _run_resample)
+
+
+# --------------------------------------------------------------------------------------------------
+# motion <-> JSON (for sessions without a source file)
+# --------------------------------------------------------------------------------------------------
+def _motion_to_json(m: Motion) -> dict:
+    sk = m.skeleton
+    return {"names": list(sk.names), "parents": sk.parents.tolist(), "offsets": sk.offsets.tolist(),
+            "channels": [list(c) for c in sk.channels],
+            "end_sites": {str(k): v.tolist() for k, v in sk.end_sites.items()},
+            "frame_time": m.frame_time, "root_positions": m.root_positions.tolist(),
+            "local_quats": m.local_quats.tolist(),
+            "local_translations": None if m.local_translations is None else m.local_translations.tolist()}
+
+
+def _motion_from_json(d: Any, field: str) -> Motion:
+    if not isinstance(d, dict):
+        _fail(field, "an embedded motion object", d)
+    need = ("names", "parents", "offsets", "channels", "end_sites", "frame_time", "root_positions", "local_quats")
+    for k in need:
+        if k not in d:
+            raise ValueError(f"{field}.{k}: missing")
+    try:
+        arrays = {k: np.asarray(d[k], dtype=float) for k in ("offsets", "root_positions", "local_quats")}
+        lt = None if d.get("local_translations") is None else np.asarray(d["local_translations"], dtype=float)
+        parents = np.asarray(d["parents"], dtype=np.int64)
+        sk = Skeleton(tuple(_str_list(d["names"], f"{field}.names")), parents, arrays["offsets"],
+                      tuple(tuple(c) for c in d["channels"]),
+                      {int(k): np.asarray(v, dtype=float) for k, v in dict(d["end_sites"]).items()})
+        m = Motion(sk, _positive(d["frame_time"], f"{field}.frame_time"), arrays["root_positions"],
+                   arrays["local_quats"], lt)
+    except ValueError as e:
+        raise ValueError(f"{field}: {e}") from None
+    except (TypeError, KeyError) as e:
+        raise ValueError(f"{field}: malformed embedded motion ({e})") from None
+    # Motion() re-normalises the quaternions; the stored ones were already normalised by a Motion, so
+    # keep the stored bits exactly (re-normalising can flip the last bit) -> bit-for-bit replay.
+    q = arrays["local_quats"]
+    if q.shape == m.local_quats.shape and np.allclose(q, m.local_quats, rtol=0, atol=1e-12):
+        q = q.copy()
+        q.setflags(write=False)
+        object.__setattr__(m, "local_quats", q)
+    return m
+
+
+def _sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _canonical(ops) -> str:
+    return json.dumps(ops, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+# --------------------------------------------------------------------------------------------------
+# the session
+# --------------------------------------------------------------------------------------------------
+class _Context:
+    """What runners may ask of the session: cached extraction and resolved references."""
+
+    def __init__(self, session: "Session"):
+        self._s = session
+        self._extractions: OrderedDict = OrderedDict()
+        self._references: dict = {}
+
+    def extract(self, motion: Motion):
+        key = id(motion)
+        hit = self._extractions.get(key)
+        if hit is not None and hit[0] is motion:
+            self._extractions.move_to_end(key)
+            return hit[1]
+        sm = _staggered().extract(motion, **self._s.extract_options)
+        self._extractions[key] = (motion, sm)
+        while len(self._extractions) > _EXTRACT_CACHE_SIZE:
+            self._extractions.popitem(last=False)
+        return sm
+
+    def reference(self, ref, motion: Motion) -> Motion:
+        if ref == "self":
+            return self._s.source
+        key = _canonical(ref)
+        if key not in self._references:
+            if "segment" in ref:
+                a, b = ref["segment"]
+                src = self._s.source
+                start = int(round(a / src.frame_time))
+                stop = min(src.num_frames, int(round(b / src.frame_time)) + 1)
+                if stop - start < 3:
+                    raise ValueError(f"reference.segment: [{a}, {b}] s holds fewer than 3 frames")
+                self._references[key] = src.slice(start, stop)
+            else:
+                self._references[key] = read_bvh(ref["path"])
+        return self._references[key]
+
+
+class Session:
+    """A source motion plus an ordered list of ops; :meth:`edited` replays them.
+
+    Parameters
+    ----------
+    source : Motion
+        The unedited motion (never modified).
+    ops : list of op dicts, optional
+        Validated with :func:`validate_op`.
+    source_path : str, optional
+        The file ``source`` was read from; saved sessions refer to it (with its SHA-256) instead of
+        embedding the motion, and :meth:`export_bvh` refuses to overwrite it.
+    extract_options : dict, optional
+        Keyword arguments for ``staggered.extract`` (JSON values; saved with the session).
+
+    Notes
+    -----
+    Each op list change (``add``, ``set_ops``, ``replace``, ``remove``, ``clear``) is one undo step.
+    Listeners registered with :meth:`observe` are called as ``listener(session)`` after every change.
+    """
+
+    REQUIRED = _REQUIRED
+
+    def __init__(self, source: Motion, ops=None, source_path=None, extract_options=None):
+        if not isinstance(source, Motion):
+            raise ValueError(f"source: expected a Motion, got {type(source).__name__}")
+        self.source = source
+        self.source_path = None if source_path is None else os.path.abspath(os.fspath(source_path))
+        self.extract_options = dict(extract_options or {})
+        _canonical(self.extract_options)  # JSON-serialisable or TypeError/ValueError now
+        self._ops = self._validated(ops or [], "ops")
+        self._undo: list = []
+        self._redo: list = []
+        self._memo: OrderedDict = OrderedDict()
+        self._ctx = _Context(self)
+        self._listeners: list = []
+
+    @classmethod
+    def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
+        """Read ``path`` as the source motion (remembering the path)."""
+        return cls(read_bvh(path), ops, source_path=path, **kwargs)
+
+    # -- ops ---------------------------------------------------------------------------------------
+    @staticmethod
+    def _validated(ops, where) -> list:
+        if not isinstance(ops, (list, tuple)):
+            _fail(where, "a list of op objects", ops)
+        return [validate_op(op, f"{where}[{i}]") for i, op in enumerate(ops)]
+
+    @property
+    def ops(self) -> list:
+        """A deep copy of the current op list."""
+        return copy.deepcopy(self._ops)
+
+    def __len__(self) -> int:
+        return len(self._ops)
+
+    def _commit(self, new_ops: list) -> bool:
+        if _canonical(new_ops) == _canonical(self._ops):
+            return False
+        self._undo.append(self._ops)
+        self._redo.clear()
+        self._ops = new_ops
+        self._notify()
+        return True
+
+    def set_ops(self, ops) -> bool:
+        """Replace the whole op list (one undo step); returns False when nothing changed."""
+        return self._commit(self._validated(ops, "ops"))
+
+    def add(self, op: dict) -> bool:
+        """Append one op."""
+        return self._commit(self._ops + [validate_op(op, f"ops[{len(self._ops)}]")])
+
+    def replace(self, index: int, op: dict) -> bool:
+        """Replace op ``index`` (negative indices count from the end)."""
+        n = len(self._ops)
+        if not -n <= index < n:
+            raise ValueError(f"index: {index} is outside the {n} ops")
+        new = list(self._ops)
+        new[index] = validate_op(op, f"ops[{index % n}]")
+        return self._commit(new)
+
+    def remove(self, index: int) -> bool:
+        n = len(self._ops)
+        if not -n <= index < n:
+            raise ValueError(f"index: {index} is outside the {n} ops")
+        new = list(self._ops)
+        del new[index]
+        return self._commit(new)
+
+    def clear(self) -> bool:
+        return self._commit([])
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def undo(self) -> bool:
+        """Go back one change; returns False when there is nothing to undo."""
+        if not self._undo:
+            return False
+        self._redo.append(self._ops)
+        self._ops = self._undo.pop()
+        self._notify()
+        return True
+
+    def redo(self) -> bool:
+        if not self._redo:
+            return False
+        self._undo.append(self._ops)
+        self._ops = self._redo.pop()
+        self._notify()
+        return True
+
+    def observe(self, listener: Callable) -> None:
+        """Call ``listener(session)`` after every change of the op list."""
+        self._listeners.append(listener)
+
+    def _notify(self):
+        for f in list(self._listeners):
+            f(self)
+
+    # -- replay ------------------------------------------------------------------------------------
+    def _convert(self, state, needs: str):
+        is_motion = isinstance(state, Motion)
+        if needs == "motion":
+            return state if is_motion else _staggered().evaluate(state)
+        return self._ctx.extract(state) if is_motion else state
+
+    def states(self, progress: Callable | None = None) -> list:
+        """The state after each op (``len(ops)`` items; Motion or StaggeredMotion), memoised by prefix.
+
+        ``progress(done, total, label)`` is called before each op that is actually computed.
+        """
+        states, state = [], self.source
+        todo = []
+        for i in range(len(self._ops)):
+            key = _canonical(self._ops[: i + 1])
+            hit = self._memo.get(key)
+            if hit is None:
+                todo.append((i, key))
+            states.append((key, hit))
+        # find the last memoised prefix; recompute from there
+        start = 0
+        for i in range(len(states) - 1, -1, -1):
+            if states[i][1] is not None:
+                start = i + 1
+                state = states[i][1]
+                break
+        out = [s for _, s in states[:start]]
+        total = len(self._ops) - start
+        for n, i in enumerate(range(start, len(self._ops))):
+            op = self._ops[i]
+            spec = OP_REGISTRY[op["op"]]
+            if progress is not None:
+                progress(n, total, op["op"])
+            try:
+                state = spec.run(self._convert(state, spec.needs), op, self._ctx)
+            except ValueError as e:
+                raise ValueError(f"ops[{i}] ({op['op']}): {e}") from None
+            key = states[i][0]
+            self._memo[key] = state
+            out.append(state)
+        if progress is not None and total:
+            progress(total, total, "done")
+        for key, _ in states:
+            if key in self._memo:
+                self._memo.move_to_end(key)
+        while len(self._memo) > _MEMO_SIZE:
+            self._memo.popitem(last=False)
+        return out
+
+    def edited(self, progress: Callable | None = None) -> Motion:
+        """The source motion with every op applied (a Motion; staggered states are evaluated)."""
+        if not self._ops:
+            return self.source
+        key = "motion:" + _canonical(self._ops)
+        hit = self._memo.get(key)
+        if hit is not None:
+            self._memo.move_to_end(key)
+            return hit
+        m = self._convert(self.states(progress)[-1], "motion")
+        self._memo[key] = m
+        return m
+
+    def staggered(self, progress: Callable | None = None):
+        """The last staggered representation of the replay (after the last staggered op), or the
+        extraction of the source when no op is staggered."""
+        for st in reversed(self.states(progress)):
+            if not isinstance(st, Motion):
+                return st
+        return self._ctx.extract(self.source)
+
+    def extraction(self):
+        """The (cached) staggered extraction of the source motion."""
+        return self._ctx.extract(self.source)
+
+    # -- files -------------------------------------------------------------------------------------
+    def to_json(self, embed_source: bool | None = None) -> dict:
+        """The session as a JSON-ready dict. The source is referenced by path (+ SHA-256) when the
+        session has one, otherwise embedded (``embed_source=True`` forces embedding)."""
+        if embed_source is None:
+            embed_source = self.source_path is None
+        if embed_source:
+            source = {"motion": _motion_to_json(self.source)}
+        else:
+            if self.source_path is None:
+                raise ValueError("embed_source: False needs a session with a source_path")
+            source = {"path": self.source_path, "sha256": _sha256(self.source_path)}
+        return {"format": SESSION_FORMAT, "version": SESSION_VERSION, "source": source,
+                "extract_options": copy.deepcopy(self.extract_options), "ops": self.ops}
+
+    def save(self, path, embed_source: bool | None = None) -> None:
+        """Write the session as JSON, atomically (temporary file + rename)."""
+        text = json.dumps(self.to_json(embed_source), indent=1, allow_nan=False)
+        _atomic_write_text(os.fspath(path), text)
+
+    @classmethod
+    def from_json(cls, data: Any, source: Motion | None = None) -> "Session":
+        """Validate ``data`` (a parsed session file) and build the session. ``source`` overrides the
+        stored source (for a moved file)."""
+        if not isinstance(data, dict):
+            _fail("session", "a JSON object", data)
+        for k in data:
+            if k not in ("format", "version", "source", "extract_options", "ops"):
+                raise ValueError(f"{k}: unknown field in a session file")
+        if data.get("format") != SESSION_FORMAT:
+            _fail("format", repr(SESSION_FORMAT), data.get("format"))
+        if data.get("version") != SESSION_VERSION:
+            _fail("version", str(SESSION_VERSION), data.get("version"))
+        opts = data.get("extract_options", {})
+        if not isinstance(opts, dict):
+            _fail("extract_options", "an object", opts)
+        ops = cls._validated(data.get("ops"), "ops")
+        src = data.get("source")
+        path = None
+        if source is None:
+            if not isinstance(src, dict):
+                _fail("source", '{"path": ..., "sha256": ...} or {"motion": {...}}', src)
+            if "path" in src:
+                path = _str(src["path"], "source.path")
+                if not os.path.isfile(path):
+                    raise ValueError(f"source.path: {path} does not exist (pass source= to load anyway)")
+                digest = src.get("sha256")
+                if digest is not None and _str(digest, "source.sha256") != _sha256(path):
+                    raise ValueError(f"source.sha256: {path} changed since the session was saved")
+                source = read_bvh(path)
+            elif "motion" in src:
+                source = _motion_from_json(src["motion"], "source.motion")
+            else:
+                _fail("source", '{"path": ...} or {"motion": {...}}', src)
+        elif isinstance(src, dict) and "path" in src:
+            path = src["path"] if isinstance(src["path"], str) else None
+        return cls(source, ops, source_path=path, extract_options=opts)
+
+    @classmethod
+    def load(cls, path, source: Motion | None = None) -> "Session":
+        """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
+        with open(os.fspath(path), encoding="utf-8") as f:
+            text = f.read()
+
+        def no_constants(c):
+            raise ValueError(f"session: {c} is not allowed in a session file")
+
+        try:
+            data = json.loads(text, parse_constant=no_constants)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"session: {path} is not valid JSON ({e})") from None
+        return cls.from_json(data, source=source)
+
+    def export_bvh(self, path) -> None:
+        """Write the edited motion as BVH, atomically; refuses to overwrite the source file."""
+        path = os.fspath(path)
+        if self.source_path is not None and os.path.exists(path) and (
+                os.path.realpath(path) == os.path.realpath(self.source_path)
+                or os.path.samefile(path, self.source_path)):
+            raise ValueError(f"path: {path} is the session's source file; export to another file")
+        write_bvh(self.edited(), path)
+
+    def __repr__(self) -> str:
+        src = os.path.basename(self.source_path) if self.source_path else repr(self.source)
+        return f"Session({src}, {len(self._ops)} ops: {', '.join(o['op'] for o in self._ops) or '-'})"
+
+
+def _atomic_write_text(path: str, text: str) -> None:
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

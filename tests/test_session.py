@@ -1,0 +1,233 @@
+"""Edit-session model: op validation, replay with memoised prefixes, undo/redo, JSON save/load, BVH export."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import stagger_nb as sn
+from stagger_nb.core.rotations import quat_angle
+from stagger_nb.session import OP_REGISTRY, Session, register_op, validate_op
+
+CLIP = "bandai_run_cycle.bvh"  # 24 frames, small and fast
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def counting_op():
+    """A registered motion op that shifts the root by ``dx`` and counts its calls (removed afterwards)."""
+    calls = []
+
+    def run(m, p, ctx):
+        calls.append(p["dx"])
+        return m.replace(root_positions=m.root_positions + np.array([p["dx"], 0.0, 0.0]))
+
+    register_op("_test_shift", "motion", {"dx": (None, Session.REQUIRED)}, run)
+    yield calls
+    del OP_REGISTRY["_test_shift"]
+
+
+@pytest.fixture
+def session(shared_motion):
+    from conftest import shared_clip_path
+    return Session.from_bvh(shared_clip_path(CLIP))
+
+
+def _joint(m, k=3):
+    return m.skeleton.names[k]
+
+
+# -- validation --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("op, field", [
+    ({"op": "nope"}, "op.op"),
+    ({"op": "succession", "root": "Hips"}, "op.s"),                          # missing required
+    ({"op": "succession", "root": "Hips", "s": "0.1"}, "op.s"),              # wrong type
+    ({"op": "succession", "root": "Hips", "s": 0.1, "speed": 1}, "op.speed"),  # unknown field
+    ({"op": "cull", "percent": 120}, "op.percent"),                           # out of range
+    ({"op": "random_timing", "tau": 0.1, "seed": 1.5}, "op.seed"),           # non-integer seed
+    ({"op": "succession", "root": "Hips", "s": True}, "op.s"),               # bool is not a number
+    ({"op": "edit_frame", "frame": 2, "deltas": {"Hips": [1, 2]}}, "op.deltas.Hips"),
+    ({"op": "guided_warp", "duration": 1.0, "reference": {"segment": [2, 1]}}, "op.reference.segment"),
+    ("succession", "op"),
+])
+def test_validate_op_names_the_bad_field(op, field):
+    with pytest.raises(ValueError, match=rf"^{field.replace('.', '[.]')}\b"):
+        validate_op(op)
+
+
+def test_validate_op_fills_defaults_and_copies():
+    op = {"op": "random_timing", "tau": 0.05, "joints": ["A", "B"]}
+    v = validate_op(op)
+    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"]}
+    v["joints"].append("C")
+    assert op["joints"] == ["A", "B"]  # the caller's dict is not aliased
+
+
+# -- replay ------------------------------------------------------------------------------------------
+def test_edit_frame_rotates_one_joint_at_one_frame(session):
+    m = session.source
+    j = 3
+    session.add({"op": "edit_frame", "frame": 5, "deltas": {_joint(m, j): [0.0, 30.0, 0.0]}})
+    e = session.edited()
+    ang = quat_angle(m.local_quats, e.local_quats)  # (F, J) radians
+    # closed form: post-multiplying by a 30-degree rotation changes that joint by exactly 30 degrees
+    assert ang[5, j] == pytest.approx(np.radians(30.0), abs=1e-9)  # 1e-9: arctan2 round-off
+    ang[5, j] = 0.0
+    assert ang.max() < 1e-7  # every other rotation untouched (1e-7: renormalisation round-off in arccos form)
+    assert np.array_equal(e.root_positions, m.root_positions)
+
+
+def test_unknown_joint_in_replay_names_op_and_field(session):
+    session.add({"op": "edit_frame", "frame": 1, "deltas": {"NoSuchJoint": [1, 0, 0]}})
+    with pytest.raises(ValueError, match=r"ops\[0\] \(edit_frame\): deltas.NoSuchJoint"):
+        session.edited()
+
+
+def test_prefix_memo_replays_only_the_tail(session, counting_op):
+    session.set_ops([{"op": "_test_shift", "dx": 1.0}, {"op": "_test_shift", "dx": 2.0}])
+    e1 = session.edited()
+    assert counting_op == [1.0, 2.0]
+    session.replace(-1, {"op": "_test_shift", "dx": 5.0})
+    e2 = session.edited()
+    assert counting_op == [1.0, 2.0, 5.0]  # the first op came from the memo
+    np.testing.assert_array_equal(e2.root_positions - e1.root_positions,
+                                  np.broadcast_to([3.0, 0.0, 0.0], e1.root_positions.shape))
+    session.undo()
+    assert session.edited() is e1  # the previous result is memoised too
+    assert counting_op == [1.0, 2.0, 5.0]
+
+
+def test_progress_callback_counts_computed_ops(session, counting_op):
+    seen = []
+    session.set_ops([{"op": "_test_shift", "dx": 1.0}, {"op": "_test_shift", "dx": 2.0}])
+    session.edited(progress=lambda d, t, label: seen.append((d, t, label)))
+    assert seen == [(0, 2, "_test_shift"), (1, 2, "_test_shift"), (2, 2, "done")]
+
+
+def test_undo_redo_matches_a_history_list(session, counting_op, rng):
+    """Random edit sequence vs. a brute-force list of snapshots."""
+    history, pos = [[]], 0
+    for step in range(40):
+        action = rng.integers(0, 4)
+        if action == 0 or not session.ops:
+            changed = session.add({"op": "_test_shift", "dx": float(step)})
+        elif action == 1:
+            changed = session.replace(int(rng.integers(0, len(session))), {"op": "_test_shift", "dx": -float(step)})
+        elif action == 2:
+            ok = session.undo()
+            assert ok == (pos > 0)
+            pos -= ok
+            assert session.ops == history[pos]
+            continue
+        else:
+            ok = session.redo()
+            assert ok == (pos < len(history) - 1)
+            pos += ok
+            assert session.ops == history[pos]
+            continue
+        assert changed
+        history = history[: pos + 1] + [session.ops]
+        pos += 1
+        assert session.ops == history[pos]
+    assert session.set_ops(session.ops) is False  # no change, no undo step
+
+
+def test_observers_are_called_on_change(session, counting_op):
+    seen = []
+    session.observe(lambda s: seen.append(len(s)))
+    session.add({"op": "_test_shift", "dx": 1.0})
+    session.add({"op": "_test_shift", "dx": 1.0})
+    session.undo()
+    session.clear()
+    assert seen == [1, 2, 1, 0]
+
+
+# -- files -------------------------------------------------------------------------------------------
+def _edit_ops(m):
+    return [{"op": "edit_frame", "frame": 2, "deltas": {_joint(m, 4): [5.0, -3.0, 12.5]}},
+            {"op": "edit_frame", "frame": 7, "deltas": {_joint(m, 8): [0.1, 0.2, 0.3]}}]
+
+
+@pytest.mark.parametrize("embed", [False, True])
+def test_save_load_round_trip_bit_for_bit(session, tmp_path, embed):
+    session.set_ops(_edit_ops(session.source))
+    p = tmp_path / "s.json"
+    session.save(p, embed_source=embed)
+    data = json.loads(p.read_text())
+    assert ("motion" in data["source"]) == embed
+    s2 = Session.load(p)
+    assert s2.ops == session.ops
+    a, b = session.edited(), s2.edited()
+    assert np.array_equal(a.local_quats, b.local_quats) and np.array_equal(a.root_positions, b.root_positions)
+    assert not list(tmp_path.glob(".tmp-*"))  # the atomic write left no temporary file
+
+
+def test_reload_in_a_new_process_is_bit_for_bit(session, tmp_path):
+    session.set_ops(_edit_ops(session.source))
+    p = tmp_path / "s.json"
+    session.save(p)
+    out = tmp_path / "edited.npz"
+    code = ("import sys, numpy as np; from stagger_nb.session import Session; m = Session.load(sys.argv[1]).edited();"
+            "np.savez(sys.argv[2], q=m.local_quats, r=m.root_positions)")
+    subprocess.run([sys.executable, "-c", code, str(p), str(out)], check=True, cwd=REPO, timeout=60)
+    got = np.load(out)
+    e = session.edited()
+    assert np.array_equal(got["q"], e.local_quats) and np.array_equal(got["r"], e.root_positions)
+
+
+@pytest.mark.parametrize("mutate, field", [
+    (lambda d: d["ops"].append({"op": "rm -rf"}), r"ops\[2\]\.op"),
+    (lambda d: d["ops"][0].update(frame="2"), r"ops\[0\]\.frame"),
+    (lambda d: d.update(format="pickle"), r"format"),
+    (lambda d: d.update(version=99), r"version"),
+    (lambda d: d.update(extra=1), r"extra"),
+    (lambda d: d.update(ops={"op": "cull"}), r"ops"),
+    (lambda d: d["source"].update(sha256="0" * 64), r"source\.sha256"),
+    (lambda d: d["source"].update(path="/nonexistent/x.bvh"), r"source\.path"),
+])
+def test_load_validates_and_names_the_field(session, tmp_path, mutate, field):
+    session.set_ops(_edit_ops(session.source))
+    p = tmp_path / "s.json"
+    session.save(p)
+    d = json.loads(p.read_text())
+    mutate(d)
+    p.write_text(json.dumps(d))
+    with pytest.raises(ValueError, match=rf"^{field}"):
+        Session.load(p)
+
+
+def test_load_rejects_nan_and_garbage(session, tmp_path):
+    session.set_ops([{"op": "edit_frame", "frame": 2, "deltas": {_joint(session.source): [1.0, 0.0, 0.0]}}])
+    p = tmp_path / "s.json"
+    session.save(p)
+    p.write_text(p.read_text().replace("1.0", "NaN", 1))
+    with pytest.raises(ValueError, match="NaN"):
+        Session.load(p)
+    p.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        Session.load(p)
+
+
+def test_export_refuses_the_source_and_writes_atomically(session, tmp_path):
+    src = tmp_path / "src.bvh"
+    sn.write_bvh(session.source, src)
+    s = Session.from_bvh(src, ops=_edit_ops(session.source))
+    before = src.read_bytes()
+    with pytest.raises(ValueError, match="^path: .*source file"):
+        s.export_bvh(src)
+    link = tmp_path / "link.bvh"
+    os.symlink(src, link)
+    with pytest.raises(ValueError, match="^path: .*source file"):
+        s.export_bvh(link)
+    assert src.read_bytes() == before
+    out = tmp_path / "out.bvh"
+    s.export_bvh(out)
+    back = sn.read_bvh(out)
+    # BVH stores Euler degrees as text: compare rotations up to the writer's printed precision
+    assert quat_angle(back.local_quats, s.edited().local_quats).max() < 1e-5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.bvh", "out.bvh", "src.bvh"]
