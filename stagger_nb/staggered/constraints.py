@@ -1,0 +1,284 @@
+"""Constraint layer: a final IK displacement that keeps contacts planted (staggered poses, §3).
+
+"As interpolation does not exactly meet environmental contact constraints, a final displacement map
+represents an inverse kinematic solution that modifies the value to meet any such constraints" (§1, §3).
+The displacement is non-zero only while a constraint is active, plus a smoothly attenuated copy of the
+boundary solution in a short window adjacent in time, so IK is used locally and never spreads
+over-correlated motion through the clip (§3, §6).
+
+Contacts are ``(joint_name, start_frame, stop_frame)`` triples with half-open frame ranges
+``[start, stop)`` (the format of :func:`stagger_nb.staggered.detect_contacts`). A contact on a toe joint
+(name containing ``"toe"``) is enforced through its parent (the ankle): the ankle target is chosen so the
+toe lands on its contact position with the foot's world orientation unchanged.
+
+The solver is a vectorised analytic two-bone IK (upper joint, middle joint, effector: hip-knee-ankle or
+shoulder-elbow-wrist). The effector's world orientation is kept, so the foot does not tilt.
+Up axis: +Y (BVH convention); lengths are in the motion's file units.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..core.rotations import quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
+
+__all__ = ["apply_contact_constraints", "two_bone_ik", "contact_positions", "contact_errors", "foot_skate",
+           "attenuation_weights"]
+
+_EPS_LEN = 1e-6  # keeps the IK triangle strictly non-degenerate (file units; far below any bone length)
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0), n[..., 0]
+
+
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.arccos(np.clip(np.sum(_unit(u)[0] * _unit(v)[0], axis=-1), -1.0, 1.0))
+
+
+def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None):
+    """Analytic two-bone IK, vectorised over N samples.
+
+    Rotates the upper joint ``a`` and the middle joint ``b`` so that the effector ``c`` reaches
+    ``target`` (clamped to the reachable annulus ``|l_ab - l_bc| < d < l_ab + l_bc``). The bend stays in
+    the current a-b-c plane (the knee keeps pointing where it pointed).
+
+    Parameters
+    ----------
+    a, b, c, target : ndarray, shape (N, 3)
+        World positions of the upper joint, middle joint, effector, and the effector's target.
+    a_world, b_world : ndarray, shape (N, 4), (x, y, z, w)
+        World rotations of the upper and middle joints.
+    a_local : ndarray, shape (N, 4)
+        Local rotation of the upper joint (relative to its parent).
+    fallback_axis : ndarray, shape (N, 3), optional
+        Bend axis used where the chain is exactly straight (no bend plane); default: the middle
+        joint's local x axis in world space (the knee/elbow hinge in common BVH rigs).
+
+    Returns
+    -------
+    a_local_new, b_local_new : ndarray, shape (N, 4)
+        New local rotations of the upper and middle joints.
+    b_world_new : ndarray, shape (N, 4)
+        New world rotation of the middle joint (to re-express the effector's local rotation).
+    """
+    a, b, c, t = (np.asarray(x, dtype=float) for x in (a, b, c, target))
+    lab = np.linalg.norm(b - a, axis=-1)
+    lbc = np.linalg.norm(c - b, axis=-1)
+    lat = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lab - lbc) + _EPS_LEN, lab + lbc - _EPS_LEN)
+
+    ac_ab_0 = _angle_between(c - a, b - a)
+    ba_bc_0 = _angle_between(a - b, c - b)
+    ac_at_0 = _angle_between(c - a, t - a)
+    # law of cosines for the wanted triangle
+    ac_ab_1 = np.arccos(np.clip((lbc ** 2 - lab ** 2 - lat ** 2) / (-2.0 * lab * lat), -1.0, 1.0))
+    ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lbc ** 2) / (-2.0 * lab * lbc), -1.0, 1.0))
+
+    axis0, n0 = _unit(np.cross(c - a, b - a))
+    if fallback_axis is None:
+        fallback_axis = quat_rotate(b_world, np.array([1.0, 0.0, 0.0]))
+    straight = n0 < 1e-9
+    if np.any(straight):
+        axis0 = np.where(straight[:, None], _unit(np.asarray(fallback_axis, dtype=float))[0], axis0)
+    axis1, n1 = _unit(np.cross(c - a, t - a))
+    axis1 = np.where((n1 < 1e-12)[:, None], axis0, axis1)  # c-a already points at t: no swing needed
+
+    r0 = rotvec_to_quat(axis0 * (ac_ab_1 - ac_ab_0)[:, None])   # swing the upper bone about a
+    r1 = rotvec_to_quat(axis0 * (ba_bc_1 - ba_bc_0)[:, None])   # open/close the middle joint
+    r2 = rotvec_to_quat(axis1 * ac_at_0[:, None])               # aim a->c at the target
+    r20 = quat_mul(r2, r0)
+    a_world_new = quat_mul(r20, a_world)
+    b_world_new = quat_mul(r20, quat_mul(r1, b_world))
+    a_local_new = quat_mul(a_local, quat_mul(quat_conj(a_world), a_world_new))
+    b_local_new = quat_mul(quat_conj(a_world_new), b_world_new)
+    return a_local_new, b_local_new, b_world_new
+
+
+def _parse_contacts(motion: Motion, contacts) -> list[tuple[int, int, int]]:
+    out = []
+    F = motion.num_frames
+    for item in contacts:
+        try:
+            name, start, stop = item
+        except (TypeError, ValueError):
+            raise ValueError(f"contacts: each entry must be (joint_name, start_frame, stop_frame), got {item!r}") from None
+        try:
+            j = motion.skeleton.index(name) if isinstance(name, str) else int(name)
+        except KeyError as e:
+            raise ValueError(f"contacts: {e.args[0]}") from None
+        start, stop = int(start), int(stop)
+        if not 0 <= start < stop <= F:
+            raise ValueError(f"contacts: frame range [{start}, {stop}) of {name!r} is empty or outside [0, {F})")
+        out.append((j, start, stop))
+    return out
+
+
+def contact_positions(reference: Motion, contacts, mode: str = "mean", positions=None) -> list[np.ndarray]:
+    """Where each contact should stay: world positions of the contact joint in ``reference``.
+
+    Returns one array per contact, shape ``(stop - start, 3)``: the mean position over the active frames
+    repeated (``mode="mean"``, a planted point) or the per-frame positions (``mode="track"``).
+    """
+    if mode not in ("mean", "track"):
+        raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
+    parsed = _parse_contacts(reference, contacts)
+    p = forward_kinematics(reference)[0] if positions is None else positions
+    out = []
+    for j, s, e in parsed:
+        seg = p[s:e, j]
+        out.append(np.broadcast_to(seg.mean(axis=0), seg.shape).copy() if mode == "mean" else seg.copy())
+    return out
+
+
+def attenuation_weights(active: np.ndarray, blend_frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smooth window around active frames.
+
+    Parameters
+    ----------
+    active : ndarray, shape (F,), bool
+    blend_frames : int
+        Width of the attenuation window on each side, frames.
+
+    Returns
+    -------
+    weight : (F,) in [0, 1]; 1 on active frames, ``(1 + cos(pi d / (n + 1))) / 2`` at ``d`` frames from
+        the nearest active frame (``n = blend_frames``), 0 beyond.
+    left, right : (F,) int
+        Index of the nearest active frame at or before / at or after each frame (-1 where none).
+    """
+    F = active.shape[0]
+    idx = np.arange(F)
+    left = np.maximum.accumulate(np.where(active, idx, -1))
+    right = np.minimum.accumulate(np.where(active, idx, F)[::-1])[::-1]
+    right = np.where(right >= F, -1, right)
+
+    def w(d):
+        d = d.astype(float)
+        return np.where(d <= blend_frames, 0.5 * (1.0 + np.cos(np.pi * d / (blend_frames + 1))), 0.0)
+
+    wl = np.where(left >= 0, w(idx - left), 0.0)
+    wr = np.where(right >= 0, w(right - idx), 0.0)
+    weight = np.clip(wl + wr - wl * wr, 0.0, 1.0)
+    weight[active] = 1.0
+    return weight, left, right
+
+
+def _effector_of(skeleton, j: int) -> int:
+    """Ankle/wrist that carries a contact on ``j`` (toe contacts go through the parent)."""
+    if "toe" in skeleton.names[j].lower() and skeleton.parents[j] > 0:
+        return int(skeleton.parents[j])
+    return j
+
+
+def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
+                              mode: str | None = None) -> Motion:
+    """Constraint displacement layer (§3): two-bone IK on legs/arms holding contacts in place.
+
+    Parameters
+    ----------
+    motion : Motion
+        The evaluated (possibly edited) motion, F frames.
+    contacts : list of (joint_name, start_frame, stop_frame)
+        Active frame ranges ``[start, stop)``; JSON-serialisable.
+    reference : Motion, optional
+        Motion whose contact-joint positions are the targets (the unedited source); default ``motion``
+        itself (removes its own foot skate). Must have the same skeleton and frame count.
+    blend : float
+        Seconds of smooth attenuation on each side of an active range (>= 0). The displacement of the
+        nearest active frame is faded with a raised cosine, so it starts and ends with zero slope.
+    mode : {"mean", "track"}, optional
+        Target = the reference position averaged over the contact (a planted point) or followed per frame
+        (keeps the reference's heel-toe roll exactly). Default: ``"track"`` when a ``reference`` is
+        given (an edit must not move the feet), ``"mean"`` otherwise (clean-up of the motion's own skate).
+
+    Returns
+    -------
+    Motion
+        ``motion`` with local rotations of (upper, middle, effector) joints of each constrained chain
+        post-multiplied by the attenuated IK displacement; identical (bit for bit) outside the windows.
+    """
+    if mode is None:
+        mode = "mean" if reference is None else "track"
+    if reference is None:
+        reference = motion
+    if reference.num_frames != motion.num_frames or reference.num_joints != motion.num_joints:
+        raise ValueError("reference must have the same number of frames and joints as motion")
+    blend = float(blend)
+    if not np.isfinite(blend) or blend < 0:
+        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
+    parsed = _parse_contacts(motion, contacts)
+    if not parsed:
+        return motion
+    sk = motion.skeleton
+    F = motion.num_frames
+    nb = int(round(blend / motion.frame_time))
+    ref_pos = forward_kinematics(reference)[0]
+    targets = contact_positions(reference, contacts, mode=mode, positions=ref_pos)
+    pos, wq = forward_kinematics(motion)
+    lq = np.array(motion.local_quats)
+
+    # group contacts by effector; direct (ankle) contacts take precedence over toe contacts
+    groups: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    order = sorted(range(len(parsed)), key=lambda i: _effector_of(sk, parsed[i][0]) == parsed[i][0])
+    for i in order:
+        j, s, e = parsed[i]
+        eff = _effector_of(sk, j)
+        mid = int(sk.parents[eff])
+        up = int(sk.parents[mid]) if mid > 0 else -1
+        if up <= 0:
+            raise ValueError(f"contacts: joint {sk.names[j]!r} has no two-bone chain below the root")
+        act, tgt = groups.setdefault(eff, (np.zeros(F, bool), np.zeros((F, 3))))
+        t = targets[i]
+        if eff != j:  # toe contact: ankle target keeps the foot's world orientation
+            t = t - (pos[s:e, j] - pos[s:e, eff])
+        act[s:e] = True
+        tgt[s:e] = t
+
+    out = lq.copy()
+    for eff, (act, tgt) in groups.items():
+        mid = int(sk.parents[eff])
+        up = int(sk.parents[mid])
+        chain = [up, mid, eff]
+        weight, left, right = attenuation_weights(act, nb)
+        fr = np.flatnonzero(weight > 0)
+        # Window frames aim at the reference trajectory carried by the offset of the nearest active frame
+        # (interpolated across a gap), so the IK solution continues smoothly out of the active range and
+        # the raised-cosine weight (zero slope at both ends) fades it without a velocity kink.
+        win = np.flatnonzero((weight > 0) & ~act)
+        if win.size:
+            off = tgt - ref_pos[:, eff]
+            l, r = left[win], right[win]
+            gl = np.where(l >= 0, win - l, np.inf)
+            gr = np.where(r >= 0, r - win, np.inf)
+            with np.errstate(invalid="ignore"):
+                alpha = np.where(np.isinf(gr), 0.0, np.where(np.isinf(gl), 1.0, gl / (gl + gr)))[:, None]
+            tgt[win] = ref_pos[win, eff] + (1 - alpha) * off[np.maximum(l, 0)] + alpha * off[np.maximum(r, 0)]
+        a_new, b_new, bw_new = two_bone_ik(pos[fr, up], pos[fr, mid], pos[fr, eff], tgt[fr],
+                                           wq[fr, up], wq[fr, mid], lq[fr, up])
+        c_new = quat_mul(quat_conj(bw_new), wq[fr, eff])
+        disp = quat_mul(quat_conj(lq[fr][:, chain]), np.stack([a_new, b_new, c_new], axis=1))
+        ident = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape)
+        disp = slerp(ident, disp, np.broadcast_to(weight[fr][:, None], (fr.size, 3)))
+        out[np.ix_(fr, chain)] = quat_mul(lq[np.ix_(fr, chain)], disp)
+    return motion.replace(local_quats=out)
+
+
+def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:
+    """Largest distance ``(N,)`` (file units) of each contact joint from its contact position over its
+    active frames (targets from ``reference``, default ``motion``; see :func:`contact_positions`)."""
+    reference = motion if reference is None else reference
+    parsed = _parse_contacts(motion, contacts)
+    targets = contact_positions(reference, contacts, mode=mode)
+    p = forward_kinematics(motion)[0]
+    return np.array([np.linalg.norm(p[s:e, j] - t, axis=-1).max() for (j, s, e), t in zip(parsed, targets)])
+
+
+def foot_skate(motion: Motion, contacts, up_axis: int = 1) -> np.ndarray:
+    """Foot skate ``(N,)``: horizontal path length (file units) travelled by each contact joint during its
+    active frames (0 for a perfectly planted contact)."""
+    parsed = _parse_contacts(motion, contacts)
+    p = forward_kinematics(motion)[0]
+    horiz = [k for k in range(3) if k != up_axis]
+    return np.array([np.linalg.norm(np.diff(p[s:e, j][:, horiz], axis=0), axis=-1).sum() for j, s, e in parsed])
