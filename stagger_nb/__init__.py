@@ -4,8 +4,9 @@ Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
 """
 from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
 from .io import BVHError, read_bvh, write_bvh
+from .io import AMCError, read_asf_amc
 
 __version__ = "0.1.0"
 
 __all__ = ["Motion", "Skeleton", "concatenate", "forward_kinematics", "positions_in_root_frame",
-           "BVHError", "read_bvh", "write_bvh", "__version__"]
+           "BVHError", "read_bvh", "write_bvh", "AMCError", "read_asf_amc", "__version__"]

@@ -1,4 +1,5 @@
 """File formats: BVH read/write, CMU ASF/AMC read. Text in, :class:`~stagger_nb.core.Motion` out."""
 from .bvh import BVHError, format_bvh, parse_bvh, read_bvh, write_bvh
+from .asfamc import AMCError, read_asf_amc
 
-__all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
+__all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh", "format_bvh", "AMCError", "read_asf_amc"]

@@ -15,6 +15,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import euler_to_quat, quat_to_euler
 from ..core.skeleton import Skeleton
+from ._common import FormatError
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -23,13 +24,8 @@ _MAX_FRAMES = 10_000_000  # refuse absurd headers before allocating anything
 _MAX_JOINTS = 10_000
 
 
-class BVHError(ValueError):
+class BVHError(FormatError):
     """A malformed BVH file; the message names the file, the line and what was expected."""
-
-    def __init__(self, source: str, line: int | None, message: str):
-        self.source, self.line = source, line
-        where = f"{source}, line {line}" if line is not None else source
-        super().__init__(f"{where}: {message}")
 
 
 class _Tokens:

@@ -1,0 +1,51 @@
+"""Helpers shared by the file readers: the error base class, file reading, checked numbers."""
+from __future__ import annotations
+
+import math
+
+__all__ = ["FormatError", "read_text", "read_bytes", "decode", "finite_number"]
+
+
+class FormatError(ValueError):
+    """Base of the per-format errors; the message names the file, the line and what was expected.
+
+    Attributes ``source`` (file name) and ``line`` (1-based, or ``None`` when no line applies).
+    """
+
+    def __init__(self, source: str, line: int | None, message: str):
+        self.source, self.line = source, line
+        where = f"{source}, line {line}" if line is not None else source
+        super().__init__(f"{where}: {message}")
+
+
+def read_text(path: str, error: type[FormatError]) -> str:
+    """The file's text (UTF-8, falling back to Latin-1); ``error(path, None, ...)`` if unreadable."""
+    return decode(read_bytes(path, error))
+
+
+def read_bytes(path: str, error: type[FormatError]) -> bytes:
+    """The file's bytes; ``error(path, None, ...)`` if it cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as e:
+        raise error(path, None, f"cannot read: {e.strerror or e}") from None
+
+
+def decode(raw: bytes) -> str:
+    """UTF-8 text, or Latin-1 where the bytes are not UTF-8 (old exporters)."""
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
+
+
+def finite_number(tok: str, what: str, source: str, line: int, error: type[FormatError]) -> float:
+    """``float(tok)``, raising ``error`` naming ``what`` was expected if it is not a finite number."""
+    try:
+        v = float(tok)
+    except ValueError:
+        raise error(source, line, f"expected a number for {what}, found {tok!r}") from None
+    if not math.isfinite(v):
+        raise error(source, line, f"expected a finite number for {what}, found {tok!r}")
+    return v
