@@ -1,0 +1,335 @@
+"""Fitting splines and displacement maps to dense motion (Coleman et al. 2008, §4.1.1, Appendix A).
+
+Given pose times and refinements, every (segment, joint) pair gets a quaternion Bézier whose end points are
+the knot values and whose two inner control quaternions ("tangents") minimise the squared angular distance
+to the source samples on SO(3); the root translation gets a cubic Bézier fitted by linear least squares.
+The displacement map is what is left: ``d(t') = s(t') ⊖ v(t')`` (§4.1.1), stored on the normalised segment
+time, so ``evaluate`` reproduces the source exactly at the sample times.
+
+The paper minimises ``w_f f_f + w_c f_c`` with Nelder–Mead per joint and segment (Appendix A). Here all
+pairs are fitted at once: a closed-form initialisation (a Euclidean cubic Bézier fitted by linear least
+squares to the samples' logarithms relative to the first knot) followed by a few damped Gauss–Newton
+(Levenberg–Marquardt) steps on the rotation vectors of the residuals, with the controls parameterised on
+the manifold (``q̂ <- q̂ exp(δ)``) so they stay unit quaternions without a penalty term.
+:func:`fit_rotation_tangents_nelder_mead` is a straight port of Appendix A, kept as a reference.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
+                              quat_bezier, slerp)
+from .representation import (StaggeredMotion, _bezier4, _qexp4, _qmul4, _rotvec_between4, bezier_cubic,
+                             rotation_spline)
+
+__all__ = ["fit_staggered", "fit_rotation_tangents", "fit_translation_tangents",
+           "fit_rotation_tangents_nelder_mead", "sample_segments", "rotation_residuals"]
+
+_RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 interior samples) to the chord
+_FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
+_ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
+
+
+# -- sampling ----------------------------------------------------------------------------------------
+
+def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.0):
+    """Uniform ``t'`` sample grids of every segment of every control variable.
+
+    Parameters
+    ----------
+    knots : (K, C) knot times (seconds), strictly increasing down each column
+    frame_time : seconds between source frames; a segment of length L gets ``round(L / frame_time) + 1``
+        samples (>= 2), so knots on source frames put every grid point on a source frame
+    start_time : time of the source's frame 0
+
+    Returns
+    -------
+    pair : (N,) int, segment-major pair index ``k * C + c`` of each sample
+    m : (N,) int, sample index within its pair
+    counts : (P,) int, samples per pair, ``P = (K - 1) * C``
+    tn : (N,) normalised time ``m / (count - 1)``
+    frames : (N,) fractional source frame of each sample
+    """
+    a = knots[:-1].reshape(-1)
+    b = knots[1:].reshape(-1)
+    counts = np.maximum(np.rint((b - a) / frame_time).astype(np.int64) + 1, 2)
+    pair = np.repeat(np.arange(counts.size), counts)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    m = np.arange(pair.size) - starts[pair]
+    tn = m / (counts[pair] - 1.0)
+    t = a[pair] + tn * (b - a)[pair]
+    return pair, m, counts, tn, (t - start_time) / frame_time
+
+
+def _read(arr: np.ndarray, frames: np.ndarray, cols: np.ndarray | None, quat: bool) -> np.ndarray:
+    """Sample ``arr (F, C, D)`` (or ``(F, D)`` when ``cols`` is None) at fractional frames (clamped)."""
+    F = arr.shape[0]
+    f = np.clip(frames, 0.0, F - 1)
+    r = np.rint(f)
+    if np.all(np.abs(f - r) < _ON_FRAME):
+        i = r.astype(np.int64)
+        return arr[i] if cols is None else arr[i, cols]
+    i0 = np.minimum(np.floor(f).astype(np.int64), F - 1)
+    i1 = np.minimum(i0 + 1, F - 1)
+    w = f - i0
+    x0 = arr[i0] if cols is None else arr[i0, cols]
+    x1 = arr[i1] if cols is None else arr[i1, cols]
+    if quat:
+        return slerp(x0, x1, w)
+    return x0 * (1.0 - w[:, None]) + x1 * w[:, None]
+
+
+# -- Euclidean cubic Bézier inner controls (closed form) ---------------------------------------------
+
+def _fit_inner_controls(tn, y, pair, b0, b3, num_pairs):
+    """Least-squares ``(b1, b2)`` of cubic Béziers with fixed ends ``b0, b3 (P, D)``; samples ``y (N, D)``.
+
+    A tiny ridge toward the straight chord (``b1 = (2 b0 + b3)/3``, ``b2 = (b0 + 2 b3)/3``) decides
+    segments with fewer than two interior samples. Returns ``(P, 2, D)``.
+    """
+    u = 1.0 - tn
+    B1 = 3.0 * u * u * tn
+    B2 = 3.0 * u * tn * tn
+    r = y - (u ** 3)[:, None] * b0[pair] - (tn ** 3)[:, None] * b3[pair]
+    g11 = np.bincount(pair, B1 * B1, num_pairs) + _RIDGE
+    g12 = np.bincount(pair, B1 * B2, num_pairs)
+    g22 = np.bincount(pair, B2 * B2, num_pairs) + _RIDGE
+    c1 = (2.0 * b0 + b3) / 3.0
+    c2 = (b0 + 2.0 * b3) / 3.0
+    D = y.shape[1]
+    h1 = np.stack([np.bincount(pair, B1 * r[:, d], num_pairs) for d in range(D)], axis=1) + _RIDGE * c1
+    h2 = np.stack([np.bincount(pair, B2 * r[:, d], num_pairs) for d in range(D)], axis=1) + _RIDGE * c2
+    det = (g11 * g22 - g12 * g12)[:, None]
+    x1 = (g22[:, None] * h1 - g12[:, None] * h2) / det
+    x2 = (g11[:, None] * h2 - g12[:, None] * h1) / det
+    return np.stack([x1, x2], axis=1)
+
+
+def fit_translation_tangents(tn, y, pair, p0, p3, num_pairs):
+    """Inner control points ``(P, 2, 3)`` of cubic Béziers with ends ``p0, p3 (P, 3)`` fitted to samples
+    ``y (N, 3)`` at normalised times ``tn (N,)`` of pair ``pair (N,)`` (linear least squares, §4.1.1)."""
+    return _fit_inner_controls(tn, y, pair, p0, p3, num_pairs)
+
+
+# -- rotations -------------------------------------------------------------------------------------
+
+def _rotvec_between(a, b):
+    """Rotation vector (radians) of ``a^-1 b``, shortest way; ``(N, 4)`` inputs, ``(N, 3)`` output."""
+    return _rotvec_between4(np.asarray(a, dtype=float).T, np.asarray(b, dtype=float).T).T
+
+
+def rotation_residuals(c0, c1, c2, c3, tn, targets):
+    """Rotation vectors ``(N, 3)`` from each target to the spline, ``log(q^-1 s(t'))``; |r| is the angle."""
+    return _rotvec_between(targets, rotation_spline(c0, c1, c2, c3, tn))
+
+
+def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int = 3):
+    """Inner control quaternions of quaternion Béziers fitted to samples on SO(3) (Appendix A, vectorised).
+
+    Parameters
+    ----------
+    tn : (N,) normalised sample times in [0, 1]
+    targets : (N, 4) (x, y, z, w) sampled rotations, sign-continuous within each pair
+    pair : (N,) pair index of each sample, samples of a pair contiguous, every pair non-empty
+    v0, v3 : (P, 4) end knots of each pair
+    iterations : Levenberg–Marquardt steps after the closed-form start (0: the start only)
+
+    Returns
+    -------
+    tangents : (P, 2, 4) unit quaternions ``(q̂2, q̂3)``
+    cost : (P,) sum of squared residual angles (rad²) of each pair
+    """
+    P = num_pairs
+    T4 = np.ascontiguousarray(targets.T)
+    V0, V3 = np.ascontiguousarray(v0[pair].T), np.ascontiguousarray(v3[pair].T)
+
+    def residual(a1, a2):                      # (3, N) rotation vectors target -> spline
+        return _rotvec_between4(T4, _bezier4(V0, a1[:, pair], a2[:, pair], V3, tn))
+
+    def pair_cost(r):
+        return np.bincount(pair, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], P)
+
+    # Start 1, closed form: Euclidean Bézier on log(v0^-1 q) (exact for a one-axis rotation at a constant
+    # rate; no hemisphere flip, targets are sign-continuous so the log stays continuous past pi).
+    x = quat_log(quat_mul(quat_conj(v0[pair]), targets))
+    b3 = quat_log(quat_mul(quat_conj(v0), v3))
+    inner = _fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
+    c1 = quat_mul(v0, quat_exp(inner[:, 0])).T
+    c2 = quat_mul(v0, quat_exp(inner[:, 1])).T
+    # Start 2, the paper's: the linear rotation spline. Where the Euclidean start puts a control polygon leg
+    # past a half turn, short-arc slerp takes the other way round and start 2 wins.
+    l1 = slerp(v0, v3, 1.0 / 3.0).T
+    l2 = slerp(v0, v3, 2.0 / 3.0).T
+    r = residual(c1, c2)
+    rl = residual(l1, l2)
+    cost, cl = pair_cost(r), pair_cost(rl)
+    use = cl < cost
+    c1 = np.where(use, l1, c1)
+    c2 = np.where(use, l2, c2)
+    cost = np.where(use, cl, cost)
+    r = np.where(use[pair], rl, r)
+
+    lam = np.full(P, 1e-6)
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1])
+    eye = np.eye(6)
+    for _ in range(iterations):
+        Jac = np.empty((6,) + r.shape)
+        for j in range(6):
+            e = np.zeros((3, 1))
+            e[j % 3] = 0.5 * _FD_STEP          # quat_exp takes half the rotation vector
+            step = _qexp4(np.broadcast_to(e, (3, P)))
+            rp = residual(_qmul4(c1, step), c2) if j < 3 else residual(c1, _qmul4(c2, step))
+            Jac[j] = (rp - r) / _FD_STEP
+        JTJ = np.add.reduceat(np.einsum("ian,jan->nij", Jac, Jac), starts, axis=0)
+        JTr = np.add.reduceat(np.einsum("ian,an->ni", Jac, r), starts, axis=0)
+        scale = np.trace(JTJ, axis1=1, axis2=2) / 6.0 + 1e-12
+        A = JTJ + (lam * scale)[:, None, None] * eye
+        delta = -np.linalg.solve(A, JTr[..., None])[..., 0]
+        n1 = _qmul4(c1, _qexp4(0.5 * delta[:, :3].T))
+        n2 = _qmul4(c2, _qexp4(0.5 * delta[:, 3:].T))
+        rn = residual(n1, n2)
+        cn = pair_cost(rn)
+        ok = cn < cost
+        c1 = np.where(ok, n1, c1)
+        c2 = np.where(ok, n2, c2)
+        cost = np.where(ok, cn, cost)
+        r = np.where(ok[pair], rn, r)
+        lam = np.where(ok, lam * 0.1, lam * 10.0)
+    return np.stack([quat_normalize(c1.T), quat_normalize(c2.T)], axis=1), cost
+
+
+def fit_rotation_tangents_nelder_mead(tn, targets, v0, v3, w_f: float = 1000.0, w_c: float = 1.0,
+                                      maxiter: int | None = None):
+    """Straight port of Appendix A for one joint and one segment (reference for benchmarks/tests).
+
+    Minimises ``w_f f_f + w_c f_c`` over the raw 8 numbers of ``(q̂2, q̂3)`` with scipy's Nelder–Mead,
+    starting from the linear rotation spline, then renormalises. ``f_f`` is the mean over interior samples
+    of ``acos(q_k · s(t_k))²`` and ``f_c = | |q̂2|² + |q̂3|² - 2 |``.
+
+    Parameters
+    ----------
+    tn : (n,) normalised times (first 0, last 1); targets : (n, 4); v0, v3 : (4,) end knots
+
+    Returns
+    -------
+    tangents : (2, 4) unit quaternions
+    """
+    from scipy.optimize import minimize
+
+    inner = slice(1, len(tn) - 1)
+    ti, qi = np.asarray(tn)[inner], np.asarray(targets)[inner]
+    x0 = np.concatenate([slerp(v0, v3, 1.0 / 3.0), slerp(v0, v3, 2.0 / 3.0)])
+    if ti.size == 0:
+        return x0.reshape(2, 4)
+
+    def f(x):
+        a, b = x[:4], x[4:]
+        na, nb = np.linalg.norm(a), np.linalg.norm(b)
+        s = quat_bezier(v0, a / max(na, 1e-12), b / max(nb, 1e-12), v3, ti)
+        d = np.clip(np.abs(np.sum(qi * s, axis=-1)), -1.0, 1.0)
+        ff = np.mean(np.arccos(d) ** 2)
+        fc = abs(na * na + nb * nb - 2.0)
+        return w_f * ff + w_c * fc
+
+    res = minimize(f, x0, method="Nelder-Mead", options={"maxiter": maxiter or 400 * 8, "xatol": 1e-10,
+                                                          "fatol": 1e-14})
+    return quat_normalize(res.x.reshape(2, 4))
+
+
+# -- the whole representation ---------------------------------------------------------------------
+
+def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None, *,
+                  pose_probability=None, contacts=(), start_time: float = 0.0, iterations: int = 3,
+                  metadata: dict | None = None) -> StaggeredMotion:
+    """Fit splines and displacement maps for given staggered poses (§4.1.1).
+
+    Parameters
+    ----------
+    source : Motion
+        Dense motion whose frame 0 is at ``start_time`` seconds.
+    pose_times : (K,) seconds, strictly increasing, inside the source's time span
+    refinements : (K, J) seconds; knot times ``pose_times[:, None] + refinements`` strictly increasing
+    root_refinements : (K,) seconds for the root translation (default zeros)
+    pose_probability : (K,) P(t_k), default ones
+    contacts : tuple of (joint_name, start_frame, stop_frame)
+    iterations : Levenberg–Marquardt steps of the rotation fit
+
+    Returns
+    -------
+    StaggeredMotion reproducing ``source`` at every sample time (displacements absorb the fit residual).
+    Fit statistics are in ``metadata["fit"]``: mean residual angle before displacement (rad) and the
+    largest value/tangent jump at segment joins.
+    """
+    J = source.num_joints
+    pose_times = np.asarray(pose_times, dtype=float).reshape(-1)
+    K = pose_times.size
+    refinements = np.asarray(refinements, dtype=float)
+    if K < 2 or not np.all(np.diff(pose_times) > 0):
+        raise ValueError("fit_staggered: pose_times must hold >= 2 strictly increasing times")
+    if refinements.shape != (K, J):
+        raise ValueError(f"fit_staggered: refinements must have shape ({K}, {J}), got {refinements.shape}")
+    rr = np.zeros(K) if root_refinements is None else np.asarray(root_refinements, dtype=float).reshape(K)
+    knots = pose_times[:, None] + refinements
+    if not np.all(np.diff(knots, axis=0) > 0) or not np.all(np.diff(pose_times + rr) > 0):
+        raise ValueError("fit_staggered: refined knot times must be strictly increasing for every joint")
+    ft = source.frame_time
+    lq = source.local_quats
+
+    # rotations: every (segment, joint) pair at once
+    pair, m, counts, tn, frames = sample_segments(knots, ft, start_time)
+    P = counts.size
+    joint = pair % J
+    targets = _read(lq, frames, joint, quat=True)
+    kf = (knots - start_time) / ft
+    values = _read(lq, kf.reshape(-1), np.tile(np.arange(J), K), quat=True).reshape(K, J, 4)
+    v0 = values[:-1].reshape(P, 4)
+    v3 = values[1:].reshape(P, 4)
+    # the first and last sample of each pair are the knots themselves: use them bit-for-bit
+    first = m == 0
+    last = m == counts[pair] - 1
+    targets[first] = v0[pair[first]]
+    targets[last] = v3[pair[last]]
+    tangents, cost = fit_rotation_tangents(tn, targets, pair, v0, v3, P, iterations)
+    s = rotation_spline(v0[pair], tangents[pair, 0], tangents[pair, 1], v3[pair], tn)
+    disp = _rotvec_between(s, targets)
+    M = int(counts.max())
+    table = np.zeros((P, M, 3))
+    table[pair, m] = disp
+
+    # root translation
+    rk = (pose_times + rr)[:, None]
+    rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time)
+    rp = source.root_positions
+    ry = _read(rp, rframes, None, quat=False)
+    root_values = _read(rp, (rk[:, 0] - start_time) / ft, None, quat=False)
+    p0, p3 = root_values[:-1], root_values[1:]
+    ry[rm == 0] = p0[rpair[rm == 0]]
+    ry[rm == rcounts[rpair] - 1] = p3[rpair[rm == rcounts[rpair] - 1]]
+    rtan = fit_translation_tangents(rtn, ry, rpair, p0, p3, K - 1)
+    rs = bezier_cubic(p0[rpair], rtan[rpair, 0], rtan[rpair, 1], p3[rpair], rtn)
+    rtable = np.zeros((K - 1, int(rcounts.max()), 3))
+    rtable[rpair, rm] = ry - rs
+
+    editing = _read(lq, np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K),
+                    quat=True).reshape(K, J, 4)
+    editing = np.where((refinements != 0)[..., None], editing, values)
+
+    # passed through on absolute time (a source not starting at 0 s: the caller passes its own)
+    lt = source.local_translations if start_time == 0.0 else None
+    angles = np.linalg.norm(disp, axis=1)
+    inner_mask = ~(first | last)
+    meta = dict(metadata or {})
+    meta["fit"] = {
+        "mean_residual_rad": float(angles[inner_mask].mean()) if inner_mask.any() else 0.0,
+        "max_residual_rad": float(angles.max()),
+        "iterations": iterations,
+    }
+    return StaggeredMotion(
+        skeleton=source.skeleton, frame_time=ft, pose_times=pose_times, refinements=refinements,
+        values=values, tangents=tangents.reshape(K - 1, J, 2, 4),
+        displacements=table.reshape(K - 1, J, M, 3), displacement_counts=counts.reshape(K - 1, J),
+        root_values=root_values, root_refinements=rr, root_tangents=rtan,
+        root_displacements=rtable, root_displacement_counts=rcounts,
+        editing_knots=editing, pose_probability=np.ones(K) if pose_probability is None else pose_probability,
+        contacts=tuple(contacts), local_translations=lt, metadata=meta)
