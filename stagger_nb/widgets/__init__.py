@@ -1,0 +1,15 @@
+"""Interactive editors for Jupyter: evented controls over a :class:`stagger_nb.session.Session`, a pythreejs
+skeleton view and plotly plots updated in place. No math here: numbers come from the technique packages
+and the session."""
+from .skeleton_view import SkeletonView
+from .plots import FalloffPlot, JointCurvesPlot, ProbabilityPlot, WarpPlot
+
+__all__ = ["SkeletonView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
+           "StaggerEditor", "WandEditor", "WarpEditor"]
+
+
+def __getattr__(name):  # editors import the technique packages: load them on first use
+    if name in ("StaggerEditor", "WandEditor", "WarpEditor"):
+        from . import editors
+        return getattr(editors, name)
+    raise AttributeError(f"module 'stagger_nb.widgets' has no attribute {name!r}")
