@@ -1,0 +1,115 @@
+"""The comparison curves of Dean et al. 2018, §4 and Figure 3: ISOMAP geodesic distance (Tenenbaum et al.
+2000), diffusion-map distance (Coifman & Lafon 2006) and a generic spline (smoothstep) falloff.
+
+All work on the same pose vectors as the Green's function (:mod:`.pose_space`) and return ``(F,)`` arrays
+indexed by frame, so a notebook can overlay them with :func:`.falloff.greens_distance`.  Distances are in
+pose-vector units and 0 at ``frame``; :func:`normalize_distance` scales one to [0, 1] over a range.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
+
+from ..core.motion import Motion
+from .falloff import check_frame_range
+from .laplacian import dense_kernel, default_sigma, knn_graph, normalized_adjacency, pairwise_sq_distances
+from .pose_space import pose_vectors
+
+__all__ = ["isomap_distance", "diffusion_distance", "spline_falloff", "smoothstep", "normalize_distance"]
+
+
+def _frame(frame, F: int) -> int:
+    f = int(frame)
+    if f != frame or not 0 <= f < F:
+        raise ValueError(f"frame must be an integer in [0, {F}), got {frame!r}")
+    return f
+
+
+def isomap_distance(m: Motion, frame: int, k: int = 8, *, joint_weights=None, reference="mean") -> np.ndarray:
+    """ISOMAP geodesic distance from ``frame`` to every frame, shape (F,).
+
+    The graph has an edge of Euclidean pose length between each frame and its ``k`` nearest neighbours
+    (made symmetric) and between consecutive frames (so it is connected); distances are shortest paths
+    (Dijkstra) from ``frame``.  Memory ``O(F k)``.
+    """
+    X = pose_vectors(m, joint_weights=joint_weights, reference=reference)
+    F = X.shape[0]
+    f = _frame(frame, F)
+    k = int(k)
+    if not 1 <= k <= F - 1:
+        raise ValueError(f"k must be in [1, {F - 1}], got {k!r}")
+    g = knn_graph(X, k)
+    rows = np.concatenate([np.repeat(np.arange(F), k), np.arange(F - 1)])
+    cols = np.concatenate([g.indices.reshape(-1), np.arange(1, F)])
+    # tiny floor keeps zero-length edges (repeated poses) as edges: csgraph drops explicit zeros
+    lengths = np.maximum(np.sqrt(np.concatenate([g.sq_distances.reshape(-1), g.chain_sq])), 1e-300)
+    W = sp.coo_matrix((lengths, (rows, cols)), shape=(F, F)).tocsr()
+    W = W.maximum(W.T)
+    return dijkstra(W, directed=False, indices=f)
+
+
+def diffusion_distance(m: Motion, frame: int, steps: int = 10, sigma: float | None = None, *,
+                       joint_weights=None, reference="mean") -> np.ndarray:
+    """Diffusion-map distance after ``steps`` random-walk steps from ``frame`` to every frame, shape (F,).
+
+    With the Gaussian kernel of Eq. 1 (same ``sigma`` default as the Green's function), ``P = D^-1 K`` and
+    stationary distribution ``pi = r / sum(r)``, ``D_t(i, j)^2 = sum_l (P^t_il - P^t_jl)^2 / pi_l``
+    = ``sum_{k>0} mu_k^(2t) (psi_k(i) - psi_k(j))^2`` with ``mu_k`` the eigenvalues of
+    ``A = D^-1/2 K D^-1/2`` and ``psi_k = D^-1/2 phi_k sqrt(sum r)`` (Coifman & Lafon 2006).
+    Dense: ``O(F^2)`` memory, for clips of up to a few thousand frames.
+    """
+    X = pose_vectors(m, joint_weights=joint_weights, reference=reference)
+    F = X.shape[0]
+    f = _frame(frame, F)
+    t = int(steps)
+    if t != steps or t < 1:
+        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
+    s = default_sigma(X) if sigma is None else sigma
+    K = dense_kernel(pairwise_sq_distances(X), s)
+    A, r = normalized_adjacency(K)
+    mu, phi = np.linalg.eigh(A)
+    psi = phi / np.sqrt(r)[:, None] * np.sqrt(r.sum())
+    coords = psi * mu ** t  # diffusion-map coordinates; the top one (mu = 1, psi = 1) cancels in differences
+    return np.linalg.norm(coords - coords[f], axis=1)
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3 x^2 - 2 x^3`` on [0, 1] (clipped outside): C1, 0 -> 0, 1 -> 1, flat at both ends."""
+    x = np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def spline_falloff(F: int, frame: int, extent) -> np.ndarray:
+    """A generic spline falloff (the artist's usual tool, §1 and §4.3), shape (F,).
+
+    ``w_j = smoothstep(1 - |j - frame| / extent)``: 1 at ``frame``, 0 from ``extent`` frames away on.
+    ``extent`` is a number of frames > 0, or a ``(before, after)`` pair for an asymmetric falloff.
+    """
+    F = int(F)
+    if F < 1:
+        raise ValueError(f"F must be >= 1, got {F!r}")
+    f = _frame(frame, F)
+    before, after = (extent, extent) if np.ndim(extent) == 0 else tuple(extent)
+    before, after = float(before), float(after)
+    if not (before > 0 and after > 0 and np.isfinite(before) and np.isfinite(after)):
+        raise ValueError(f"extent must be > 0 frames (or a pair of them), got {extent!r}")
+    j = np.arange(F) - f
+    x = np.where(j < 0, 1.0 + j / before, 1.0 - j / after)
+    return smoothstep(x)
+
+
+def normalize_distance(d: np.ndarray, frame_range=None) -> np.ndarray:
+    """Scale a distance curve ``d (F,)`` to [0, 1] by its maximum over the half-open ``frame_range``
+    (whole clip by default); frames outside the range and unreachable frames (inf) become 1."""
+    d = np.asarray(d, dtype=float)
+    start, stop = check_frame_range(frame_range, d.shape[0])
+    seg = d[start:stop]
+    finite = seg[np.isfinite(seg)]
+    top = finite.max() if finite.size else 0.0
+    out = np.ones_like(d)
+    if top > 0:
+        out[start:stop] = np.clip(np.where(np.isfinite(seg), seg / top, 1.0), 0.0, 1.0)
+    else:
+        out[start:stop] = np.where(np.isfinite(seg), 0.0, 1.0)
+    return out
