@@ -4,6 +4,7 @@ Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
 """
 from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
 from .io import BVHError, read_bvh, write_bvh
+from . import data
 from .io import AMCError, read_asf_amc
 
 __version__ = "0.1.0"

