@@ -1,0 +1,114 @@
+"""Environmental contact constraints (Coleman et al. 2008, Appendix B, after Bindiganavale & Badler 1998).
+
+Search forward in time for end effectors whose world positions stay within a tolerance for at least a
+minimum time (0.25 s); each such window becomes a contact, expanded over the further frames that stay within
+the tolerance. Contacts are ``(joint_name, start_frame, stop_frame)`` with half-open frame ranges.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+from ..core.kinematics import forward_kinematics, skeleton_height
+from ..core.motion import Motion
+
+__all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE"]
+
+DEFAULT_TOLERANCE = 0.02   # fraction of the skeleton height (~3.4 cm for 1.7 m): above marker noise, below a step
+_FOOT = re.compile(r"foot|toe|ankle|heel", re.I)
+_HAND = re.compile(r"hand|wrist", re.I)
+_FINGER = re.compile(r"thumb|index|middle|ring|pinky|finger|end", re.I)
+
+
+def end_effectors(skeleton) -> list[int]:
+    """Feet and hands of a skeleton: joints named like feet/toes/ankles/heels/hands/wrists (finger joints
+    excluded); when no name matches, the leaf joints."""
+    idx = [j for j, n in enumerate(skeleton.names)
+           if (_FOOT.search(n) or _HAND.search(n)) and not _FINGER.search(n)]
+    if not idx:
+        idx = [int(j) for j in np.flatnonzero(skeleton.is_leaf())]
+    return idx
+
+
+def _box_extent(p: np.ndarray, length: int) -> np.ndarray:
+    """Diagonal of the bounding box of ``p[s : s + length]`` for every start ``s`` (F - length + 1,)."""
+    half = length // 2
+    hi = maximum_filter1d(p, length, axis=0, origin=-half, mode="nearest")
+    lo = minimum_filter1d(p, length, axis=0, origin=-half, mode="nearest")
+    return np.linalg.norm(hi - lo, axis=-1)[: p.shape[0] - length + 1]
+
+
+def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration: float = 0.25,
+                    joints=None, positions: np.ndarray | None = None) -> list[tuple[str, int, int]]:
+    """Contact constraints of end effectors that stay still (Appendix B).
+
+    Parameters
+    ----------
+    motion : Motion
+    tolerance : float, file units, optional
+        Largest extent (bounding-box diagonal) of a still effector's positions; default
+        ``DEFAULT_TOLERANCE * skeleton height``.
+    min_duration : float, seconds
+        Minimum time an effector must stay within the tolerance (paper: 0.25 s).
+    joints : iterable of names or indices, optional
+        Effectors to test (default :func:`end_effectors`).
+    positions : (F, J, 3), optional
+        World joint positions if already computed.
+
+    Returns
+    -------
+    list of ``(joint_name, start_frame, stop_frame)``, half-open ``[start, stop)``, sorted by start.
+    """
+    if min_duration <= 0:
+        raise ValueError(f"detect_contacts: min_duration must be > 0 seconds, got {min_duration}")
+    sk = motion.skeleton
+    if tolerance is None:
+        tolerance = DEFAULT_TOLERANCE * skeleton_height(motion)
+    if not tolerance > 0:
+        raise ValueError(f"detect_contacts: tolerance must be > 0, got {tolerance}")
+    if joints is None:
+        joints = end_effectors(sk)
+    joints = [sk.index(j) if isinstance(j, str) else int(j) for j in joints]
+    if positions is None:
+        positions, _ = forward_kinematics(motion)
+    F = motion.num_frames
+    L = max(int(np.ceil(min_duration / motion.frame_time - 1e-9)) + 1, 2)   # frames spanning min_duration
+    out = []
+    if F < L:
+        return out
+    for j in joints:
+        p = positions[:, j]
+        ok = _box_extent(p, L) <= tolerance                    # window [s, s + L) is still
+        s = 0
+        while s <= F - L:
+            if not ok[s]:
+                nxt = np.flatnonzero(ok[s:])
+                if nxt.size == 0:
+                    break
+                s += int(nxt[0])
+                continue
+            lo = p[s:s + L].min(axis=0)
+            hi = p[s:s + L].max(axis=0)
+            e = s + L
+            while e < F:                                       # expand while the box stays within tolerance
+                nlo, nhi = np.minimum(lo, p[e]), np.maximum(hi, p[e])
+                if np.linalg.norm(nhi - nlo) > tolerance:
+                    break
+                lo, hi = nlo, nhi
+                e += 1
+            out.append((sk.names[j], s, e))
+            s = e
+    out.sort(key=lambda c: (c[1], c[0]))
+    return out
+
+
+def contact_events(contacts, num_frames: int) -> np.ndarray:
+    """Binary global evidence (§4.1): 1 at frames where a contact starts or ends (its stop frame, clamped),
+    shape (num_frames,)."""
+    ev = np.zeros(num_frames)
+    for _, a, b in contacts:
+        ev[min(max(int(a), 0), num_frames - 1)] = 1.0
+        ev[min(max(int(b), 0), num_frames - 1)] = 1.0
+    return ev

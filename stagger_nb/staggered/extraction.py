@@ -1,0 +1,257 @@
+"""Locating staggered poses in dense motion (Coleman et al. 2008, §4.1) and culling them.
+
+Pipeline: local evidence ``p_i(t)`` and weights ``w_i`` (:mod:`.features`), contact start/end events as
+global evidence (Appendix B), the pose probability signal ``P(t) = f(Σ w_i p_i(t) / Σ w_i)`` with a tent
+low-pass filter ``f`` (0.15 s), candidate poses at every local maximum of ``P`` plus the first and last
+frame, priorities ``w_k = P(t_k)(t_{k+1} − t_{k−1})``, and timing refinements from the nearest local maximum of
+each joint's own evidence (within ±0.25 s and closer to its pose than to the neighbours). Then
+:func:`~.fitting.fit_staggered` builds the representation.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import convolve1d
+from scipy.signal import find_peaks
+
+from ..core.motion import Motion
+from .contacts import contact_events, detect_contacts
+from .features import local_evidence
+from .fitting import fit_staggered
+from .representation import StaggeredMotion, evaluate
+
+__all__ = ["extract", "cull", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
+           "candidate_poses", "pose_priorities", "timing_refinements", "local_maxima"]
+
+_ROUND = 12   # decimals kept before peak picking, so plateaus of the tent filter stay exactly flat
+
+
+def tent_filter(signal: np.ndarray, frame_time: float, width: float = 0.15) -> np.ndarray:
+    """Low-pass tent filter along axis 0 (§4.1, ``f``).
+
+    The kernel is ``max(0, 1 - |τ| / width)`` (τ in seconds; ``width`` is the half-width at which it reaches
+    zero), normalised to sum 1, with ``nearest`` edges. Two unit impulses closer than ``width`` become one
+    flat-topped peak (a single local maximum); farther apart they stay two peaks.
+    """
+    if not width > 0:
+        raise ValueError(f"tent_filter: width must be > 0 seconds, got {width}")
+    R = width / frame_time
+    n = int(np.floor(R))
+    tau = np.arange(-n, n + 1)
+    k = np.maximum(0.0, 1.0 - np.abs(tau) / R)
+    k /= k.sum()
+    return convolve1d(np.asarray(signal, dtype=float), k, axis=0, mode="nearest")
+
+
+def local_maxima(x: np.ndarray, prominence: float = 0.0) -> np.ndarray:
+    """Frame indices of the interior local maxima of ``x (F,)`` (the middle frame of a flat top), optionally
+    only those with at least ``prominence`` (scipy.signal.find_peaks' topographic prominence)."""
+    x = np.round(np.asarray(x, dtype=float), _ROUND)
+    return find_peaks(x, prominence=prominence if prominence > 0 else None)[0]
+
+
+def pose_probability(evidence: np.ndarray, weights: np.ndarray, frame_time: float,
+                     filter_width: float = 0.15) -> np.ndarray:
+    """Pose probability signal ``P(t) = f(Σ_i w_i p_i(t) / Σ_i w_i)``, shape (F,) (§4.1, "Aggregating").
+
+    ``evidence (F, C)`` in [0, 1], ``weights (C,)`` >= 0. A motion with all weights 0 has ``P = 0``.
+    """
+    w = np.asarray(weights, dtype=float)
+    if np.any(w < 0):
+        raise ValueError("pose_probability: weights must be >= 0")
+    tot = w.sum()
+    if tot <= 0:
+        return np.zeros(evidence.shape[0])
+    return tent_filter(evidence @ (w / tot), frame_time, filter_width)
+
+
+def candidate_poses(P: np.ndarray, min_prominence: float = 0.01) -> np.ndarray:
+    """Candidate pose frames (K,): the local maxima of ``P`` plus the first and last frame (§4.1).
+
+    ``min_prominence`` (a fraction of ``max P``) drops ripples: maxima whose prominence is below it. 0 keeps
+    every local maximum, as in the paper; the default 1 % removes the sub-0.1 % wiggles that nearby contact
+    events leave on a flat-topped peak.
+    """
+    F = P.shape[0]
+    if F < 2:
+        raise ValueError(f"candidate_poses: need at least 2 frames, got {F}")
+    if not min_prominence >= 0:
+        raise ValueError(f"candidate_poses: min_prominence must be >= 0, got {min_prominence}")
+    peaks = local_maxima(P, min_prominence * float(np.max(P)))
+    return np.unique(np.concatenate([[0], peaks, [F - 1]]))
+
+
+def pose_priorities(pose_times: np.ndarray, probability: np.ndarray) -> np.ndarray:
+    """Priorities ``w_k = P(t_k)(t_{k+1} − t_{k−1})`` (§4.1), shape (K,); first and last are ``inf``."""
+    t = np.asarray(pose_times, dtype=float)
+    w = np.full(t.size, np.inf)
+    if t.size > 2:
+        w[1:-1] = np.asarray(probability, dtype=float)[1:-1] * (t[2:] - t[:-2])
+    return w
+
+
+def timing_refinements(evidence: np.ndarray, pose_frames: np.ndarray, frame_time: float,
+                       window: float = 0.25) -> np.ndarray:
+    """Refinements in frames (K, C): nearest local maximum of each column of ``evidence`` (F, C).
+
+    For pose ``k`` at frame ``f_k`` a maximum ``e`` qualifies if ``|e - f_k| <= window`` (seconds) and it is
+    strictly closer to ``f_k`` than to ``f_{k-1}`` and ``f_{k+1}``; the nearest qualifying maximum wins (the
+    earlier on a tie); none gives 0 (§4.1, "Timing refinements"). First and last poses get 0.
+    """
+    f = np.asarray(pose_frames, dtype=np.int64)
+    K = f.size
+    C = evidence.shape[1]
+    W = window / frame_time + 1e-9
+    out = np.zeros((K, C), dtype=np.int64)
+    if K < 3:
+        return out
+    fk, fp, fn = f[1:-1], f[:-2], f[2:]
+    for c in range(C):
+        e = local_maxima(evidence[:, c])
+        if e.size == 0:
+            continue
+        i = np.searchsorted(e, fk, side="right")              # e[i-1] <= f_k < e[i]
+        left = e[np.maximum(i - 1, 0)]
+        right = e[np.minimum(i, e.size - 1)]
+        okl = (i > 0) & (fk - left <= W) & (fk - left < left - fp)
+        okr = (i < e.size) & (right - fk <= W) & (right - fk < fn - right)
+        dl = np.where(okl, fk - left, np.iinfo(np.int64).max)
+        dr = np.where(okr, right - fk, np.iinfo(np.int64).max)
+        r = np.where(dl <= dr, left - fk, right - fk)
+        out[1:-1, c] = np.where(okl | okr, r, 0)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class PoseEvidence:
+    """Everything §4.1 computes before fitting.
+
+    Attributes
+    ----------
+    frames : (K,) int, candidate pose frames (first and last included)
+    probability : (F,) the pose probability signal P(t)
+    evidence : (F, J + 2) columns: joint rotations p_i (J), root translation, contact events
+    weights : (J + 2,) the matching weights w_i
+    refinement_frames : (K, J + 1) int, refinements of the joint rotations and the root translation
+    contacts : list of (joint_name, start_frame, stop_frame)
+    """
+
+    frames: np.ndarray
+    probability: np.ndarray
+    evidence: np.ndarray
+    weights: np.ndarray
+    refinement_frames: np.ndarray
+    contacts: tuple
+
+
+def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_window: float = 0.25,
+                 smoothing_iterations: int | None = None, smoothing_lambda: float = 0.5,
+                 root_translation_weight: float = 1.0, contacts=None, contact_weight: float = 0.25,
+                 contact_tolerance: float | None = None, contact_min_duration: float = 0.25,
+                 min_prominence: float = 0.01) -> PoseEvidence:
+    """Candidate pose frames, the pose probability signal and refinements of ``motion`` (§4.1).
+
+    Parameters
+    ----------
+    filter_width : seconds, tent filter half-width (paper: 0.15 s)
+    refinement_window : seconds, bound on refinements (paper: 0.25 s)
+    smoothing_iterations, smoothing_lambda : Laplacian smoothing of the local evidence
+    root_translation_weight : scales the root-translation weight (its trail's arc length)
+    contacts : list of (joint_name, start, stop), optional; default :func:`detect_contacts`; ``[]`` disables
+    contact_weight : weight of the contact-event signal as a fraction of the summed local weights
+    contact_tolerance, contact_min_duration : passed to :func:`detect_contacts`
+    min_prominence : fraction of max P below which a local maximum of P is a ripple, not a candidate
+    """
+    F, J = motion.num_frames, motion.num_joints
+    if F < 2:
+        raise ValueError(f"locate_poses: motion needs at least 2 frames, got {F}")
+    if not refinement_window >= 0:
+        raise ValueError(f"locate_poses: refinement_window must be >= 0 seconds, got {refinement_window}")
+    if not contact_weight >= 0:
+        raise ValueError(f"locate_poses: contact_weight must be >= 0, got {contact_weight}")
+    p, w = local_evidence(motion, smoothing_iterations, smoothing_lambda, root_translation_weight)
+    if contacts is None:
+        contacts = detect_contacts(motion, contact_tolerance, contact_min_duration)
+    ev = contact_events(contacts, F)
+    evidence = np.concatenate([p, ev[:, None]], axis=1)
+    weights = np.concatenate([w, [contact_weight * w.sum() if len(contacts) else 0.0]])
+    P = pose_probability(evidence, weights, motion.frame_time, filter_width)
+    frames = candidate_poses(P, min_prominence)
+    ref = timing_refinements(p, frames, motion.frame_time, refinement_window)
+    return PoseEvidence(frames, P, evidence, weights, ref, tuple(contacts))
+
+
+def extract(motion: Motion, *, iterations: int = 3, **options) -> StaggeredMotion:
+    """Staggered-pose representation of dense ``motion`` with all candidate poses (§4).
+
+    ``options`` go to :func:`locate_poses`; ``iterations`` to the spline fit. The result reproduces the
+    input exactly at its frames (displacement maps, §4.1.1); ``sm.metadata`` holds ``"probability"``
+    (F,), ``"evidence"`` (F, J + 2), ``"weights"`` (J + 2,) and the fit statistics ``"fit"``.
+    """
+    if not isinstance(motion, Motion):
+        raise ValueError(f"extract: motion must be a Motion, got {type(motion).__name__}")
+    loc = locate_poses(motion, **options)
+    ft = motion.frame_time
+    J = motion.num_joints
+    meta = {"probability": loc.probability, "evidence": loc.evidence, "weights": loc.weights,
+            "candidate_frames": loc.frames}
+    return fit_staggered(motion, loc.frames * ft, loc.refinement_frames[:, :J] * ft,
+                         loc.refinement_frames[:, J] * ft, pose_probability=loc.probability[loc.frames],
+                         contacts=loc.contacts, iterations=iterations, metadata=meta)
+
+
+def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
+         interval=None, iterations: int = 3) -> StaggeredMotion:
+    """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
+
+    Parameters
+    ----------
+    sm : StaggeredMotion
+    percent : float in (0, 100], optional
+        Keep ``ceil(percent / 100 * K)`` poses (at least 2). Default 50 when neither ``count`` nor
+        ``interval`` is given.
+    count : int >= 2, optional
+        Keep this many poses (overrides ``percent``).
+    interval : (start, stop) seconds, optional
+        Choose poses only from this time interval (plus the first and last); without ``percent``/``count``
+        every pose inside is kept.
+    iterations : spline-fit iterations of the refit
+
+    Returns
+    -------
+    A new StaggeredMotion on the kept poses, refitted so that it evaluates to the same motion as ``sm``
+    at ``sm``'s frame grid (splines and displacement maps re-measured over the merged segments, §5.1).
+    """
+    K = sm.num_poses
+    t = sm.pose_times
+    eligible = np.ones(K, dtype=bool)
+    if interval is not None:
+        a, b = (float(x) for x in interval)
+        if not b >= a:
+            raise ValueError(f"cull: interval must be (start, stop) with stop >= start, got {interval!r}")
+        eligible = (t >= a) & (t <= b)
+    if count is not None:
+        if int(count) < 2:
+            raise ValueError(f"cull: count must be >= 2 (first and last pose stay), got {count}")
+        n = int(count)
+    elif percent is not None or interval is None:
+        pc = 50.0 if percent is None else float(percent)
+        if not 0 < pc <= 100:
+            raise ValueError(f"cull: percent must be in (0, 100], got {percent}")
+        n = max(int(np.ceil(pc / 100.0 * K - 1e-9)), 2)
+    else:
+        n = K
+    prio = pose_priorities(t, sm.pose_probability)
+    interior = np.flatnonzero(eligible[1:-1]) + 1
+    order = interior[np.argsort(-prio[interior], kind="stable")]
+    keep = np.sort(np.concatenate([[0, K - 1], order[: max(n - 2, 0)]]))
+    if keep.size == K:
+        return sm
+    source = evaluate(sm)
+    out = fit_staggered(source, t[keep], sm.refinements[keep], sm.root_refinements[keep],
+                        pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
+                        start_time=float(t[0]), iterations=iterations,
+                        metadata={k: v for k, v in sm.metadata.items() if k != "fit"})
+    return dataclasses.replace(out, local_translations=sm.local_translations)

@@ -1,0 +1,169 @@
+"""Local evidence for staggered poses: motion-trail curvature (Coleman et al. 2008, §4.1).
+
+For each rotating joint, two local-space motion trails per child joint: ``m1`` traces the end of the
+normalised axis toward the child, ``m2`` an axis orthogonal to the limb (to catch twist). The root also gets
+the trail of its world position. The modified discrete curvature ``κ̂ = n·e/|e|`` (in [0, 1]) of each trail,
+maxed over a joint's trails and smoothed by iterated Laplacian smoothing, is the joint's local pose
+probability ``p_i(t)``; its weight is ``w_i = Σ_j |x_i − x_j| |m_j|`` (limb length × trail arc length).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import quat_rotate
+
+__all__ = ["motion_trail_curvature", "laplacian_smooth", "limb_axes", "motion_trails", "local_evidence",
+           "default_smoothing_iterations"]
+
+_STILL = 1e-9   # edges shorter than this (trail units) carry no direction: their κ̂ is 0
+
+
+def motion_trail_curvature(trail: np.ndarray) -> np.ndarray:
+    """Modified discrete curvature ``κ̂`` of sampled curves (§4.1).
+
+    At vertex ``t`` with edges ``e+ = x[t+1] - x[t]`` and ``e- = x[t-1] - x[t]`` and the Frenet normal
+    ``n = normalise(ê+ + ê-)`` (pointing to the concave side), ``κ̂ = n·e/|e|`` for each edge, averaged with
+    the edge lengths as weights. Equals ``sin(φ/2)`` for a polygon turning by ``φ`` per vertex (so a
+    uniformly sampled circle has constant κ̂), 0 on a straight line, 1 where the curve reverses.
+    End vertices copy their neighbour; vertices with a zero-length edge get 0.
+
+    Parameters
+    ----------
+    trail : (F, ..., D) points along axis 0
+
+    Returns
+    -------
+    (F, ...) values in [0, 1].
+    """
+    x = np.asarray(trail, dtype=float)
+    F = x.shape[0]
+    out = np.zeros(x.shape[:-1])
+    if F < 3:
+        return out
+    ep = x[2:] - x[1:-1]
+    em = x[:-2] - x[1:-1]
+    lp = np.linalg.norm(ep, axis=-1)
+    lm = np.linalg.norm(em, axis=-1)
+    ok = (lp > _STILL) & (lm > _STILL)
+    up = ep / np.where(ok, lp, 1.0)[..., None]
+    um = em / np.where(ok, lm, 1.0)[..., None]
+    nsum = up + um
+    nn = np.linalg.norm(nsum, axis=-1)
+    n = nsum / np.where(nn > 0, nn, 1.0)[..., None]
+    kp = np.sum(n * up, axis=-1)                 # n·e+/|e+|
+    km = np.sum(n * um, axis=-1)                 # n·e-/|e-|
+    k = (lp * kp + lm * km) / np.where(ok, lp + lm, 1.0)
+    k = np.where(ok & (nn > 0), k, 0.0)         # straight (nn = 0) or still: no turning
+    out[1:-1] = np.clip(k, 0.0, 1.0)
+    out[0] = out[1]
+    out[-1] = out[-2]
+    return out
+
+
+def laplacian_smooth(signal: np.ndarray, iterations: int, lam: float = 0.5) -> np.ndarray:
+    """Iterated Laplacian smoothing along axis 0: ``p <- p + lam/2 (p[t-1] - 2 p[t] + p[t+1])`` (§4.1).
+
+    Each pass is the kernel ``[lam/2, 1 - lam, lam/2]`` (variance ``lam`` frames²); ends are reflected so
+    a constant signal is unchanged. ``iterations`` passes ≈ a Gaussian of std ``sqrt(iterations * lam)``.
+    """
+    if not 0.0 < lam <= 1.0:
+        raise ValueError(f"laplacian_smooth: lam must be in (0, 1], got {lam}")
+    p = np.array(signal, dtype=float)
+    if p.shape[0] < 2:
+        return p
+    for _ in range(int(iterations)):
+        prev = np.concatenate([p[1:2], p[:-1]])
+        nxt = np.concatenate([p[1:], p[-2:-1]])
+        p = p + 0.5 * lam * (prev - 2.0 * p + nxt)
+    return p
+
+
+def default_smoothing_iterations(frame_time: float, sigma: float = 0.02, lam: float = 0.5) -> int:
+    """Passes of :func:`laplacian_smooth` giving a smoothing std of ``sigma`` seconds at this frame rate
+    (so 30 Hz and 120 Hz data are smoothed alike): ``round((sigma / frame_time)² / lam)``."""
+    return int(round((sigma / frame_time) ** 2 / lam))
+
+
+def _orthogonal(u: np.ndarray) -> np.ndarray:
+    """A unit vector orthogonal to each unit ``u (n, 3)``."""
+    e = np.eye(3)[np.argmin(np.abs(u), axis=1)]
+    v = np.cross(u, e)
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def limb_axes(skeleton):
+    """Limb axes of every rotating joint: one entry per (joint, child or end site).
+
+    Returns
+    -------
+    joint : (L,) int, the rotating joint
+    child : (L,) int, the child joint (-1 for an End Site)
+    u1 : (L, 3) unit axis toward the child in the joint's local frame
+    u2 : (L, 3) unit axis orthogonal to ``u1``
+    length : (L,) limb length (file units), ``|x_i - x_j|``
+    Children at zero offset are skipped (they give no direction).
+    """
+    J = skeleton.num_joints
+    joint, child, off = [], [], []
+    for c in range(1, J):
+        joint.append(int(skeleton.parents[c]))
+        child.append(c)
+        off.append(skeleton.offsets[c])
+    for j, o in skeleton.end_sites.items():
+        joint.append(int(j))
+        child.append(-1)
+        off.append(o)
+    off = np.asarray(off, dtype=float).reshape(-1, 3)
+    length = np.linalg.norm(off, axis=1)
+    keep = length > 1e-9
+    joint, child, off, length = np.asarray(joint)[keep], np.asarray(child)[keep], off[keep], length[keep]
+    u1 = off / length[:, None]
+    return joint, child, u1, _orthogonal(u1), length
+
+
+def motion_trails(motion: Motion):
+    """Local-space motion trails ``m1, m2`` of every limb axis (see :func:`limb_axes`).
+
+    Returns ``(axes, m1, m2)`` with ``m1, m2 : (F, L, 3)``: ``q_i(t) u`` for the joint's local rotation.
+    Animated joint translations (``local_translations``) are not used: the rest offsets define the axes.
+    """
+    axes = limb_axes(motion.skeleton)
+    joint, _, u1, u2, _ = axes
+    q = motion.local_quats[:, joint]
+    return axes, quat_rotate(q, u1), quat_rotate(q, u2)
+
+
+def local_evidence(motion: Motion, smoothing_iterations: int | None = None, smoothing_lambda: float = 0.5,
+                   root_translation_weight: float = 1.0):
+    """Per-control-variable pose probabilities and weights (§4.1, "Local evidence measures").
+
+    Parameters
+    ----------
+    motion : Motion
+    smoothing_iterations : passes of Laplacian smoothing (default :func:`default_smoothing_iterations`)
+    smoothing_lambda : Laplacian step in (0, 1]
+    root_translation_weight : multiplier of the root-translation weight (its arc length, file units)
+
+    Returns
+    -------
+    p : (F, J + 1) smoothed probabilities in [0, 1]; columns 0..J-1 the joint rotations, column J the
+        root translation
+    w : (J + 1,) weights: ``Σ_j |x_i − x_j| |m1_j|`` per joint (0 for joints without a limb axis) and the
+        root trail's arc length times ``root_translation_weight``
+    """
+    F, J = motion.num_frames, motion.num_joints
+    if smoothing_iterations is None:
+        smoothing_iterations = default_smoothing_iterations(motion.frame_time, lam=smoothing_lambda)
+    (joint, _, _, _, length), m1, m2 = motion_trails(motion)
+    k = np.maximum(motion_trail_curvature(m1), motion_trail_curvature(m2))      # (F, L)
+    p = np.zeros((F, J + 1))
+    if joint.size:
+        np.maximum.at(p.T, joint, k.T)                                           # max over a joint's trails
+    arc = np.linalg.norm(np.diff(m1, axis=0), axis=-1).sum(axis=0)               # (L,)
+    w = np.zeros(J + 1)
+    np.add.at(w, joint, length * arc)
+    root = motion.root_positions
+    p[:, J] = motion_trail_curvature(root)
+    w[J] = root_translation_weight * float(np.linalg.norm(np.diff(root, axis=0), axis=-1).sum())
+    return laplacian_smooth(p, smoothing_iterations, smoothing_lambda), w
