@@ -1,0 +1,23 @@
+"""Guided time warping (Hsu, da Silva, Popović 2007): retime a motion to keytimes while matching a reference
+motion's local timing. Pure functions on Motions and arrays; see :mod:`.guided` for the pipeline.
+
+Public names::
+
+    out, warp = guided_warp(m, reference, num_frames, skip=8, keytimes=None)   # warp: (num_frames,) input s
+    out, warp = linear_warp(m, num_frames, keytimes=None)                      # the spline-style baseline
+    tables = prepare_warp(m, reference, skip=8, upsample=1)   # expensive head (features + kNN scores), cache it
+    out, warp = guided_warp(m, reference, num_frames, keytimes=..., tables=tables)   # cheap tail
+
+Keytimes are ``[(input_time_s, output_time_s), ...]``; the end points are implied.
+"""
+from .dp import constrained_dp, path_cost, unconstrained_dp, warp_bounds
+from .features import pose_features, reference_features, triple_features
+from .guided import WarpSolution, WarpTables, guided_warp, prepare_warp, required_upsample, reverse_motion, solve_warp
+from .linear import linear_warp, linear_warp_curve
+from .objective import knn_scores
+from .postprocess import apply_warp, parse_keytimes, smooth_warp, warp_speed
+
+__all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
+           "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
+           "unconstrained_dp", "warp_bounds", "path_cost", "pose_features", "reference_features",
+           "triple_features", "apply_warp", "smooth_warp", "warp_speed", "parse_keytimes"]

@@ -1,0 +1,227 @@
+"""Constrained shortest path of guided time warping (Hsu et al. 2007, §3.1 and §3.3).
+
+A discrete compression selects output frames ``y_0 < y_1 < ... < y_{m-1}`` among the input frames
+``0 .. n-1`` with ``y_0 = 0``, ``y_{m-1} = n - 1`` and ``1 <= y_{q+1} - y_q <= s`` (§3.1). Its cost is
+``sum_{q=1}^{m-2} f(y_{q-1}, y_q, y_{q+1})`` (eq. 1). Vertices are frame pairs ``(i, j)``, ``1 <= j - i <= s``;
+edges ``(i, j) -> (j, k)`` weigh ``f(i, j, k)``; the path has exactly ``m - 2`` edges (eqs. 3-4, [Sai68]).
+
+The recurrence runs over output frames ``q`` and is vectorised over the admissible frames of that output
+frame, ``lo[q] <= y_q <= hi[q]``: the bounds follow from the skip limit, the end points, the keytimes
+(vertices the path must pass at given ``q``, "restarting" the recurrence there) and, for the coarse-to-fine
+heuristic, a band around a coarse solution. Backpointers are int8 (``s <= 127``).
+
+Score tables come from :func:`.objective.knn_scores`: ``scores[j, a-1, b-1] = f(j-a, j, j+b)``, shape
+``(n, s, s)``, inf where not admissible.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "constrained_dp_loop", "path_cost",
+           "validate_keys"]
+
+
+def validate_keys(n: int, m: int, skip: int, keys=None) -> list[tuple[int, int]]:
+    """Check ``keys``, a list of ``(output_frame q, input_frame y)`` pairs, and add the end points.
+
+    Raises ``ValueError`` naming ``num_frames`` when ``m`` cannot be reached at all with skip ``s``
+    (``m < (n - 1) / s + 1`` or ``m > n``), and naming ``keytimes`` when the keys are out of range, out of
+    order, or leave a segment that is too short or too long for the skip limit.
+    """
+    if n < 2:
+        raise ValueError(f"the input motion needs at least 2 frames, got {n}")
+    if m < 2:
+        raise ValueError(f"num_frames must be >= 2, got {m}")
+    if m > n:
+        raise ValueError(f"num_frames={m} is more than the {n} input frames: a compression cannot expand "
+                         "time; upsample the input first (upsample=...)")
+    if (m - 1) * skip < n - 1:
+        raise ValueError(f"num_frames={m} is too short for skip={skip}: at most {skip} input frames per "
+                         f"output frame needs num_frames >= {-(-(n - 1) // skip) + 1}")
+    pts = [(0, 0)]
+    for q, y in sorted(keys or [], key=lambda p: p[0]):
+        q, y = int(q), int(y)
+        if not (0 <= q <= m - 1) or not (0 <= y <= n - 1):
+            raise ValueError(f"keytimes: key (output frame {q}, input frame {y}) is outside "
+                             f"[0, {m - 1}] x [0, {n - 1}]")
+        if (q, y) == pts[-1] or (q == m - 1 and y == n - 1):
+            continue
+        pts.append((q, y))
+    pts.append((m - 1, n - 1))
+    for (q0, y0), (q1, y1) in zip(pts[:-1], pts[1:]):
+        if q1 <= q0 or y1 <= y0:
+            raise ValueError(f"keytimes out of order: (output {q0}, input {y0}) then (output {q1}, input {y1}); "
+                             "both times must increase strictly")
+        if not (q1 - q0 <= y1 - y0 <= (q1 - q0) * skip):
+            raise ValueError(f"keytimes: {y1 - y0} input frames between output frames {q0} and {q1} cannot be "
+                             f"covered in {q1 - q0} steps of 1..{skip} frames")
+    return pts
+
+
+def warp_bounds(n: int, m: int, skip: int, keys=None) -> tuple[np.ndarray, np.ndarray]:
+    """Admissible input frames ``lo[q] <= y_q <= hi[q]`` of every output frame, each (m,) int64.
+
+    Every value in the range is reachable from the previous key and can reach the next one.
+    """
+    pts = validate_keys(n, m, skip, keys)
+    q = np.arange(m)
+    lo = np.zeros(m, dtype=np.int64)
+    hi = np.full(m, n - 1, dtype=np.int64)
+    for Q, Y in pts:
+        after = q >= Q
+        lo[after] = np.maximum(lo[after], Y + (q[after] - Q))
+        hi[after] = np.minimum(hi[after], Y + (q[after] - Q) * skip)
+        before = ~after
+        hi[before] = np.minimum(hi[before], Y - (Q - q[before]))
+        lo[before] = np.maximum(lo[before], Y - (Q - q[before]) * skip)
+    return lo, hi
+
+
+def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, progress=None):
+    """Optimal discrete compression with exactly ``m`` output frames (eqs. 3-4).
+
+    Parameters
+    ----------
+    scores : (n, s, s) local scores, ``scores[j, a-1, b-1] = f(j-a, j, j+b)``
+    m : number of output frames
+    keys : list of (output_frame, input_frame) pairs the warp must pass, or None
+    lo, hi : optional (m,) int arrays that further restrict ``y_q`` (the coarse-to-fine band)
+    progress : callable(fraction) or None
+
+    Returns
+    -------
+    frames : (m,) int64, the selected input frames ``y_q`` (0 first, n-1 last, steps in [1, s])
+    cost : float, the summed score of eq. (1); inf if the band leaves no path
+    """
+    scores = np.asarray(scores, dtype=float)
+    n, s, _ = scores.shape
+    blo, bhi = warp_bounds(n, m, s, keys)
+    if lo is not None:
+        blo = np.maximum(blo, np.asarray(lo, dtype=np.int64))
+    if hi is not None:
+        bhi = np.minimum(bhi, np.asarray(hi, dtype=np.int64))
+    if np.any(blo > bhi):
+        return np.round(np.linspace(0, n - 1, m)).astype(np.int64), np.inf
+    if m == 2:
+        return np.array([0, n - 1], dtype=np.int64), 0.0
+    Sa = np.ascontiguousarray(np.transpose(scores, (1, 0, 2)))  # (a, n, b)
+    # c[a-1, k - lo[q]]: best cost of output frames 0..q with y_q = k, y_{q-1} = k - a.
+    # q = 1: y_0 = 0, so the pair (0, k) has a = k and cost 0.
+    k = np.arange(blo[1], bhi[1] + 1)
+    c = np.full((s, k.size), np.inf)
+    ok = (k >= 1) & (k <= s)
+    c[k[ok] - 1, np.nonzero(ok)[0]] = 0.0
+    back = [None, None]
+    step = max(1, (m - 2) // 100)
+    for q in range(1, m - 1):
+        l0, l1 = blo[q], bhi[q]
+        # best[j, b] = min_a c[a, j] + f(j - a, j, j + b) over the middle frames j = l0..l1; arg = a - 1
+        tmp = c[:, :, None] + Sa[:, l0:l1 + 1, :]          # (a, Lq, b)
+        best = tmp.min(axis=0)
+        back.append(tmp.argmin(axis=0).astype(np.int8))
+        n0, n1 = blo[q + 1], bhi[q + 1]
+        c = np.full((s, n1 - n0 + 1), np.inf)
+        for bb in range(1, s + 1):
+            k0, k1 = max(n0, l0 + bb), min(n1, l1 + bb)
+            if k0 <= k1:
+                c[bb - 1, k0 - n0:k1 - n0 + 1] = best[k0 - bb - l0:k1 - bb - l0 + 1, bb - 1]
+        if progress is not None and (q % step == 0 or q == m - 2):
+            progress(q / (m - 2))
+    c = c.T
+    # q = m - 1: y = n - 1 (lo = hi = n - 1)
+    b = int(np.argmin(c[0]))
+    cost = float(c[0, b])
+    frames = np.empty(m, dtype=np.int64)
+    frames[m - 1] = n - 1
+    y, bb = n - 1, b + 1
+    for q in range(m - 1, 1, -1):
+        j = y - bb
+        a = int(back[q][j - blo[q - 1], bb - 1]) + 1
+        frames[q - 1] = j
+        y, bb = j, a
+    frames[0] = 0
+    if not np.isfinite(cost):
+        return np.round(np.linspace(0, n - 1, m)).astype(np.int64), np.inf
+    return frames, cost
+
+
+def unconstrained_dp(scores: np.ndarray):
+    """Shortest path from frame 0 to frame n-1 with any number of output frames (§3.3, used for V8).
+
+    Returns ``(frames (m,) int64, cost)``; ``m`` is whatever the optimum uses.
+    """
+    scores = np.asarray(scores, dtype=float)
+    n, s, _ = scores.shape
+    if n < 2:
+        raise ValueError(f"the input motion needs at least 2 frames, got {n}")
+    c = np.full((n, s), np.inf)       # c[k, b-1]: best cost of a path ending with the pair (k - b, k)
+    arg = np.full((n, s), -1, dtype=np.int8)
+    for k in range(1, n):
+        nb = min(s, k)
+        if k <= s:
+            c[k, k - 1] = 0.0          # the path starts with the pair (0, k)
+        bs = np.arange(1, nb + 1)
+        js = k - bs
+        inner = js >= 1
+        if not np.any(inner):
+            continue
+        bs, js = bs[inner], js[inner]
+        tmp = c[js] + scores[js, :, bs - 1]     # (nb, a)
+        a = tmp.argmin(axis=1)
+        c[k, bs - 1] = tmp[np.arange(bs.size), a]
+        arg[k, bs - 1] = a
+    b = int(np.argmin(c[n - 1])) + 1
+    cost = float(c[n - 1, b - 1])
+    frames = [n - 1]
+    y = n - 1
+    while True:
+        j = y - b
+        frames.append(j)
+        if j == 0:
+            break
+        a = int(arg[y, b - 1]) + 1
+        y, b = j, a
+    return np.array(frames[::-1], dtype=np.int64), cost
+
+
+def path_cost(scores: np.ndarray, frames) -> float:
+    """Objective (eq. 1) of a selection ``frames (m,)``: the sum of ``f`` over its interior frames."""
+    f = np.asarray(frames, dtype=np.int64)
+    if f.size < 3:
+        return 0.0
+    a = f[1:-1] - f[:-2]
+    b = f[2:] - f[1:-1]
+    return float(scores[f[1:-1], a - 1, b - 1].sum())
+
+
+def constrained_dp_loop(scores: np.ndarray, m: int, keys=None):
+    """Straightforward reference implementation of :func:`constrained_dp` (eqs. 3-4 as written: Python
+    loops over steps, vertices and predecessors; no banding beyond the keys). Same return value."""
+    scores = np.asarray(scores, dtype=float)
+    n, s, _ = scores.shape
+    pts = dict(validate_keys(n, m, s, keys))
+    INF = float("inf")
+    # cost[(i, j)] for paths with output frames 0..q ending with y_{q-1} = i, y_q = j
+    cost = {(0, j): 0.0 for j in range(1, min(s, n - 1) + 1) if pts.get(1, j) == j}
+    back = [None, None]
+    for q in range(1, m - 1):
+        new, bp = {}, {}
+        for (i, j), cij in cost.items():
+            for k in range(j + 1, min(j + s, n - 1) + 1):
+                if pts.get(q + 1, k) != k:
+                    continue
+                v = cij + scores[j, j - i - 1, k - j - 1]
+                if v < new.get((j, k), INF):
+                    new[(j, k)] = v
+                    bp[(j, k)] = i
+        cost = new
+        back.append(bp)
+    finals = [(v, key) for key, v in cost.items() if key[1] == n - 1]
+    if not finals:
+        return np.round(np.linspace(0, n - 1, m)).astype(np.int64), INF
+    v, (i, j) = min(finals)
+    frames = [j, i]
+    for q in range(m - 1, 1, -1):
+        i, j = back[q][(i, j)], i
+        frames.append(i)
+    return np.array(frames[::-1], dtype=np.int64), float(v)

@@ -1,0 +1,88 @@
+"""Pose features for guided time warping (Hsu et al. 2007, §3.2).
+
+A frame's *pose* is the vector of its joint positions in the character's torso (root) coordinate frame,
+low-pass prefiltered to limit temporal aliasing of the finite differences (§3.2, last paragraph). The
+feature vector of an output frame is ``[y, ẏ, ÿ]`` where the derivatives are central finite differences
+*over output frames*: if input frames ``i, j, k`` are placed at consecutive output frames,
+
+    y = x_j,    ẏ = (x_k - x_i) / 2,    ÿ = x_k - 2 x_j + x_i          (units: file units per output frame)
+
+Glossary: F frames, J joints, D = 3 J pose dimensions, n input frames, r reference frames.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from ..core.kinematics import positions_in_root_frame
+from ..core.motion import Motion
+
+__all__ = ["pose_features", "prefilter_frames", "feature_weights", "triple_features", "reference_features"]
+
+
+def prefilter_frames(prefilter: float, frame_time: float) -> int:
+    """Odd box-filter width in frames for a prefilter of ``prefilter`` seconds (1 = no filtering)."""
+    if not np.isfinite(prefilter) or prefilter < 0:
+        raise ValueError(f"prefilter must be a non-negative number of seconds, got {prefilter!r}")
+    w = int(round(prefilter / frame_time))
+    return max(1, w | 1)  # make it odd so the filter is centred
+
+
+def pose_features(motion: Motion, joint_weights=None, prefilter: float = 0.1) -> np.ndarray:
+    """Torso-frame joint positions, prefiltered and weighted (§3.2).
+
+    Parameters
+    ----------
+    motion : Motion with F frames, J joints
+    joint_weights : (J,) non-negative weights or None (all 1). A joint's coordinates are multiplied by
+        ``sqrt(weight)`` so squared feature distances weight each joint by ``weight``.
+    prefilter : float, seconds
+        Width of the uniform (box) low-pass filter applied along time; 0 disables it.
+
+    Returns
+    -------
+    X : (F, 3 J) float64, joint positions in the root joint's frame (file units), flattened joint-major.
+    """
+    J = motion.num_joints
+    p = positions_in_root_frame(motion)  # (F, J, 3)
+    if joint_weights is not None:
+        w = np.asarray(joint_weights, dtype=float)
+        if w.shape != (J,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError(f"joint_weights must be {J} non-negative finite numbers, got shape {w.shape}")
+        p = p * np.sqrt(w)[None, :, None]
+    width = prefilter_frames(prefilter, motion.frame_time)
+    if width > 1 and motion.num_frames > 1:
+        p = uniform_filter1d(p, size=width, axis=0, mode="nearest")
+    return np.ascontiguousarray(p.reshape(motion.num_frames, 3 * J))
+
+
+def feature_weights(weights) -> tuple[float, float, float]:
+    """Validate ``weights = (w_pose, w_velocity, w_acceleration)`` (scales of the three feature blocks)."""
+    w = np.asarray(weights, dtype=float).reshape(-1)
+    if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise ValueError(f"weights must be three non-negative numbers (pose, velocity, acceleration), got {weights!r}")
+    return float(w[0]), float(w[1]), float(w[2])
+
+
+def triple_features(X: np.ndarray, i, j, k, weights=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """Feature vectors ``[w_p y, w_v ẏ, w_a ÿ]`` of input frames ``j`` placed between ``i`` and ``k``.
+
+    Parameters
+    ----------
+    X : (n, D) pose features
+    i, j, k : int or (N,) int arrays of input frame indices (consecutive output frames)
+    weights : (w_pose, w_velocity, w_acceleration)
+
+    Returns
+    -------
+    (..., 3 D) feature vectors.
+    """
+    wp, wv, wa = feature_weights(weights)
+    xi, xj, xk = X[i], X[j], X[k]
+    return np.concatenate([wp * xj, wv * 0.5 * (xk - xi), wa * (xk - 2.0 * xj + xi)], axis=-1)
+
+
+def reference_features(R: np.ndarray, weights=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """Features of every interior reference frame ``t = 1 .. r-2`` (frames ``t-1, t, t+1``), shape (r-2, 3 D)."""
+    t = np.arange(1, R.shape[0] - 1)
+    return triple_features(R, t - 1, t, t + 1, weights)

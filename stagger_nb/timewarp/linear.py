@@ -1,0 +1,45 @@
+"""Linear (spline-style) baseline warp through keytimes (Hsu et al. 2007, §4.1: the comparison baseline,
+what motion warping [WP95] gives when only duration keys are set)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.motion import Motion
+from .postprocess import apply_warp, parse_keytimes
+
+__all__ = ["linear_warp", "linear_warp_curve", "validate_num_frames"]
+
+
+def validate_num_frames(num_frames) -> int:
+    if isinstance(num_frames, bool) or not isinstance(num_frames, (int, np.integer)) or num_frames < 2:
+        raise ValueError(f"num_frames must be an integer >= 2, got {num_frames!r}")
+    return int(num_frames)
+
+
+def linear_warp_curve(in_duration: float, num_frames: int, frame_time: float, keytimes=None) -> np.ndarray:
+    """Piecewise-linear warp ``(num_frames,)`` (input seconds of each output frame, ``frame_time`` apart)
+    through the keytimes ``[(input_time_s, output_time_s), ...]`` and the end points."""
+    num_frames = validate_num_frames(num_frames)
+    out_duration = (num_frames - 1) * frame_time
+    keys = parse_keytimes(keytimes, in_duration, out_duration)
+    t_out = np.arange(num_frames) * frame_time
+    return np.interp(t_out, keys[:, 1], keys[:, 0])
+
+
+def linear_warp(m: Motion, num_frames: int, keytimes=None, adaptive: bool = False):
+    """Retime ``m`` to ``num_frames`` frames (same frame time) with a piecewise-linear warp.
+
+    Parameters
+    ----------
+    m : Motion with n frames
+    num_frames : output frame count (any value >= 2: compression or expansion)
+    keytimes : list of (input_time_s, output_time_s) pairs or None; end points implied
+    adaptive : apply the adaptive compression smoothing of §3.4 (off by default: the plain baseline)
+
+    Returns
+    -------
+    out : Motion with ``num_frames`` frames
+    warp : (num_frames,) input time in seconds of each output frame
+    """
+    warp = linear_warp_curve(m.duration, num_frames, m.frame_time, keytimes)
+    return apply_warp(m, warp, m.frame_time, adaptive=adaptive), warp

@@ -1,0 +1,195 @@
+"""The kNN local score of guided time warping (Hsu et al. 2007, §3.2, eq. 2).
+
+``f(i, j, k)`` is the mean Euclidean distance from the feature vector of input frame ``j`` placed between
+``i`` and ``k`` (see :mod:`.features`) to its ``k_nn`` nearest reference feature vectors. It is tabulated for
+every admissible triple (``1 <= j - i <= s``, ``1 <= k - j <= s``) as ``scores[j, a - 1, b - 1] =
+f(j - a, j, j + b)``, shape ``(n, s, s)``, ``inf`` where ``j - a < 0`` or ``j + b > n - 1``.
+
+How it is fast (exact search, no approximation): the features are linear in the input frames, so for a
+reference feature ``z_t = [w_p P_t, w_v V_t, w_a A_t]`` the squared distance splits as
+
+    |phi(i, j, k) - z_t|^2 = |phi(i, j, k)|^2 + U[i, t] + W[j, t] + Y[k, t]
+
+with three ``(n, r)`` matrices from BLAS products of the input poses and the reference blocks. The nearest
+neighbours only depend on ``U[i] + W[j] + Y[k]``; for one skip pair ``(a, b)`` these are contiguous row
+slices, processed in cache-sized chunks of middle frames. Memory is ``O(n r)`` for the matrices plus
+``O(n s^2)`` for the table.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .features import feature_weights, reference_features, triple_features
+
+__all__ = ["knn_scores", "knn_scores_loop", "validate_skip"]
+
+_BLOCK_ELEMS = 1 << 15  # reference rows x middle frames per elementwise block (128 KiB of float32, in L2)
+_CHUNK_BYTES = 1 << 20  # one (r, L) slab of partial sums per chunk of middle frames
+
+
+def validate_skip(skip) -> int:
+    if isinstance(skip, bool) or not isinstance(skip, (int, np.integer)) or skip < 1 or skip > 127:
+        raise ValueError(f"skip must be an integer in [1, 127] (frames; backpointers are int8), got {skip!r}")
+    return int(skip)
+
+
+def _check_inputs(X, R, skip, k):
+    X = np.asarray(X, dtype=float)
+    R = np.asarray(R, dtype=float)
+    if X.ndim != 2 or R.ndim != 2 or X.shape[1] != R.shape[1]:
+        raise ValueError(f"X (n, D) and R (r, D) must share D, got {X.shape} and {R.shape}")
+    skip = validate_skip(skip)
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"k must be a positive integer, got {k!r}")
+    if R.shape[0] - 2 < k:
+        raise ValueError(f"reference must have at least k + 2 = {k + 2} frames, got {R.shape[0]}")
+    return X, R, skip, int(k)
+
+
+def _merge_sorted(A: list, B: list, k: int) -> list:
+    """Elementwise k smallest of the union of two ascending lists of arrays: the r-th smallest is
+    ``min_p max(A_p, B_{r-p})`` (with ``A_0 = B_0 = -inf``)."""
+    out = []
+    for r in range(1, k + 1):
+        best = np.minimum(A[r - 1], B[r - 1])
+        for p in range(1, r):
+            best = np.minimum(best, np.maximum(A[p - 1], B[r - p - 1]))
+        out.append(best)
+    return out
+
+
+def _tree_k_smallest(M: list, k: int) -> list:
+    """Reduce ascending lists ``M[l] (rows, L)`` over the rows to ``(L,)`` arrays, k of them."""
+    while M[0].shape[0] > 1:
+        h = M[0].shape[0] // 2
+        odd = M[0].shape[0] % 2
+        merged = _merge_sorted([m[:h] for m in M], [m[h:2 * h] for m in M], k)
+        if odd:
+            merged = [np.concatenate([mm, m[2 * h:]]) for mm, m in zip(merged, M)]
+        M = merged
+    return [m[0] for m in M]
+
+
+def _gram_bands(X: np.ndarray, dmax: int) -> np.ndarray:
+    """``G[d, j] = X[j] . X[j + d]`` for ``d = 0 .. dmax`` (0 past the end), shape (dmax + 1, n)."""
+    n = X.shape[0]
+    G = np.zeros((dmax + 1, n))
+    for d in range(min(dmax, n - 1) + 1):
+        G[d, :n - d] = np.einsum("nd,nd->n", X[:n - d], X[d:])
+    return G
+
+
+def _phi_norms(G: np.ndarray, s: int, wp: float, wv: float, wa: float) -> np.ndarray:
+    """``|phi(j - a, j, j + b)|^2`` for all middle frames and skips, shape (n, s, s) (garbage where not
+    admissible), from the Gram bands of the centred poses."""
+    n = G.shape[1]
+    out = np.empty((n, s, s))
+    g0 = G[0]
+    j = np.arange(n)
+    for a in range(1, s + 1):
+        i = np.clip(j - a, 0, n - 1)
+        for b in range(1, s + 1):
+            kk = np.clip(j + b, 0, n - 1)
+            vel = g0[kk] + g0[i] - 2.0 * G[a + b, i]
+            acc = g0[kk] + 4.0 * g0 + g0[i] - 4.0 * G[b, j] - 4.0 * G[a, i] + 2.0 * G[a + b, i]
+            out[:, a - 1, b - 1] = wp * wp * g0 + 0.25 * wv * wv * vel + wa * wa * acc
+    return out
+
+
+def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),
+               dtype=np.float32, progress=None) -> np.ndarray:
+    """Tabulate the local score ``f`` of eq. (2) for all admissible triples (exact kNN).
+
+    Parameters
+    ----------
+    X : (n, D) input pose features (:func:`.features.pose_features`), one row per input frame
+    R : (r, D) reference pose features, sampled at the *output* frame time
+    skip : s, the largest allowed step between consecutive selected input frames (§3.1)
+    k : number of nearest neighbours averaged (the paper uses 3)
+    weights : (w_pose, w_velocity, w_acceleration), scales of the feature blocks
+    dtype : float32 (default, ~2x faster) or float64 for the neighbour search. Distances are formed as
+        ``|phi|^2 + |z|^2 - 2 phi.z`` after centring on the mean reference pose; in float32 their squared
+        values carry an absolute error of about ``1e-7 * |features|^2``.
+    progress : callable(fraction in [0, 1]) or None, called after each chunk of middle frames
+
+    Returns
+    -------
+    scores : (n, s, s) float64, ``scores[j, a-1, b-1] = f(j-a, j, j+b)``, inf where not admissible.
+    """
+    X, R, s, k = _check_inputs(X, R, skip, k)
+    wp, wv, wa = feature_weights(weights)
+    n = X.shape[0]
+    mu = R.mean(axis=0)
+    X = X - mu  # distances are unchanged (differences are shift-invariant); norms become small
+    R = R - mu
+    P = R[1:-1]
+    V = 0.5 * (R[2:] - R[:-2])
+    A = R[2:] - 2.0 * R[1:-1] + R[:-2]
+    rr = P.shape[0]
+    Z = reference_features(R, weights)
+    znorm = np.einsum("td,td->t", Z, Z)
+    # phi.z = wp^2 x_j.P + (wv^2 / 2)(x_k - x_i).V + wa^2 (x_k - 2 x_j + x_i).A, split into rows i / j / k;
+    # stored reference-major (rr, s + n + s) with inf columns where i < 0 or k > n - 1.
+    UT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
+    WT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
+    YT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
+    UT[:, s:s + n] = (wv * wv * V - 2.0 * wa * wa * A) @ X.T                          # -2 (i part)
+    WT[:, s:s + n] = znorm[:, None] - (2.0 * wp * wp * P - 4.0 * wa * wa * A) @ X.T   # |z|^2 - 2 (j part)
+    YT[:, s:s + n] = (-wv * wv * V - 2.0 * wa * wa * A) @ X.T                         # -2 (k part)
+    phi2 = _phi_norms(_gram_bands(X, 2 * s), s, wp, wv, wa)
+    scores = np.full((n, s, s), np.inf)
+    itemsize = np.dtype(dtype).itemsize
+    L = int(max(16, min(n, _CHUNK_BYTES // (itemsize * rr))))
+    nb = int(max(1, min(rr, _BLOCK_ELEMS // L)))
+    T = np.empty((rr, L), dtype=dtype)
+    M = [np.empty((nb, L), dtype=dtype) for _ in range(k)]
+    v = np.empty((nb, L), dtype=dtype)
+    tmp = np.empty((nb, L), dtype=dtype)
+    starts = list(range(0, n, L))
+    for c_idx, j0 in enumerate(starts):
+        j1 = min(n, j0 + L)
+        w = j1 - j0
+        for a in range(1, s + 1):
+            np.add(UT[:, s + j0 - a:s + j1 - a], WT[:, s + j0:s + j1], out=T[:, :w])
+            for b in range(1, s + 1):
+                for m in M:
+                    m.fill(np.inf)
+                for t0 in range(0, rr, nb):
+                    h = min(nb, rr - t0)
+                    vv, tt = v[:h, :w], tmp[:h, :w]
+                    np.add(T[t0:t0 + h, :w], YT[t0:t0 + h, s + j0 + b:s + j1 + b], out=vv)
+                    # insert vv into the ascending lists M[0] <= M[1] <= ... (elementwise)
+                    for li, m in enumerate(M):
+                        mm = m[:h, :w]
+                        if li == k - 1:
+                            np.minimum(mm, vv, out=mm)
+                        else:
+                            np.maximum(mm, vv, out=tt)
+                            np.minimum(mm, vv, out=mm)
+                            vv, tt = tt, vv
+                sel = np.stack(_tree_k_smallest([m[:, :w] for m in M], k), axis=1).astype(np.float64)
+                with np.errstate(invalid="ignore"):
+                    d = np.sqrt(np.maximum(sel + phi2[j0:j1, a - 1, b - 1, None], 0.0))
+                scores[j0:j1, a - 1, b - 1] = d.mean(axis=1)
+        if progress is not None:
+            progress((c_idx + 1) / len(starts))
+    return scores
+
+
+def knn_scores_loop(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """Straightforward reference implementation of :func:`knn_scores`: one exact float64 linear search
+    over the reference features per admissible triple (eq. 2 as written). Same return value."""
+    X, R, s, k = _check_inputs(X, R, skip, k)
+    n = X.shape[0]
+    Z = reference_features(R, weights)
+    scores = np.full((n, s, s), np.inf)
+    for j in range(n):
+        for a in range(1, s + 1):
+            for b in range(1, s + 1):
+                i, kk = j - a, j + b
+                if i < 0 or kk > n - 1:
+                    continue
+                phi = triple_features(X, i, j, kk, weights)
+                d = np.sqrt(np.sum((Z - phi) ** 2, axis=1))
+                scores[j, a - 1, b - 1] = np.sort(d)[:k].mean()
+    return scores

@@ -1,0 +1,141 @@
+"""Post-processing of a discrete time warp (Hsu et al. 2007, §3.4) and keytime handling.
+
+A *warp* here is the curve output time -> input time, sampled at the output frames: ``warp (m,)`` holds the
+input time in seconds shown at output frame ``q`` (output frames are ``frame_time`` seconds apart).
+
+Keytimes, at the public API, are a list of ``(input_time_s, output_time_s)`` pairs: "the input pose at
+``input_time_s`` must be shown at ``output_time_s``". The end points ``(0, 0)`` and
+``(input duration, output duration)`` are always implied. Both times must increase strictly from key to key.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from ..core.motion import Motion
+from ..core.rotations import quat_normalize
+
+__all__ = ["parse_keytimes", "smooth_warp", "warp_speed", "apply_warp"]
+
+
+def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float = 1e-9) -> np.ndarray:
+    """Validate keytimes and return all keys including the end points, shape (K, 2) ``(t_in, t_out)``.
+
+    Raises ``ValueError`` naming ``keytimes`` when a pair is malformed, outside ``[0, in_duration] x
+    [0, out_duration]``, or the keys are out of order (either time not strictly increasing).
+    """
+    pts = [(0.0, 0.0)]
+    if keytimes is not None:
+        try:
+            arr = np.asarray(keytimes, dtype=float).reshape(-1, 2) if len(keytimes) else np.zeros((0, 2))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"keytimes must be a list of (input_time_s, output_time_s) pairs, got {keytimes!r}") from exc
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("keytimes must be finite numbers of seconds")
+        for t_in, t_out in arr:
+            if not (-tol <= t_in <= in_duration + tol) or not (-tol <= t_out <= out_duration + tol):
+                raise ValueError(f"keytimes: ({t_in:g} s, {t_out:g} s) is outside the input [0, {in_duration:g}] s "
+                                 f"x output [0, {out_duration:g}] s")
+            pts.append((float(t_in), float(t_out)))
+    pts.append((float(in_duration), float(out_duration)))
+    keys = []
+    for p in pts:  # drop repeats of the implied end points
+        if keys and abs(p[0] - keys[-1][0]) <= tol and abs(p[1] - keys[-1][1]) <= tol:
+            continue
+        keys.append(p)
+    keys = np.array(keys)
+    if np.any(np.diff(keys[:, 0]) <= tol) or np.any(np.diff(keys[:, 1]) <= tol):
+        raise ValueError(f"keytimes out of order: input and output times must both increase strictly, "
+                         f"got (with end points) {keys.tolist()}")
+    return keys
+
+
+def smooth_warp(warp: np.ndarray, window: int, pinned=None) -> np.ndarray:
+    """Moving-average smoothing of a discrete warp (§3.4) that keeps pinned samples exact.
+
+    The increments ``warp[q+1] - warp[q]`` (local speeds) are averaged with a centred box of ``window``
+    output frames inside each segment between pinned output frames, then rescaled so each segment keeps
+    its end values. Positive increments stay positive, so a monotone warp stays monotone.
+
+    Parameters
+    ----------
+    warp : (m,) input times (any unit) of the output frames
+    window : odd number of output frames (1 = no smoothing)
+    pinned : output frame indices that must keep their value (the first and last always do)
+    """
+    w = np.asarray(warp, dtype=float)
+    m = w.size
+    if window <= 1 or m < 3:
+        return w.copy()
+    pins = sorted(set([0, m - 1]) | set(int(p) for p in (pinned if pinned is not None else [])))
+    out = w.copy()
+    for p0, p1 in zip(pins[:-1], pins[1:]):
+        d = np.diff(w[p0:p1 + 1])
+        if d.size < 2:
+            continue
+        ds = uniform_filter1d(d, size=min(window, d.size | 1), mode="nearest")
+        total, stotal = d.sum(), ds.sum()
+        if stotal != 0:
+            ds *= total / stotal
+        out[p0 + 1:p1 + 1] = w[p0] + np.cumsum(ds)
+        out[p1] = w[p1]
+    return out
+
+
+def warp_speed(warp: np.ndarray, frame_time: float) -> np.ndarray:
+    """Local speed (input seconds per output second) of a warp sampled every ``frame_time`` output
+    seconds, shape (m,): central differences inside, one-sided at the ends."""
+    w = np.asarray(warp, dtype=float)
+    if w.size < 2:
+        return np.ones_like(w)
+    return np.gradient(w, frame_time)
+
+
+def _average_motion_samples(motion: Motion, frames: np.ndarray) -> tuple:
+    """Box average of ``motion`` sampled at fractional frames ``(m, K)``: quaternions hemisphere-aligned to
+    the centre sample and renormalised, translations averaged. Returns (root (m,3), quats (m,J,4), lt)."""
+    m, K = frames.shape
+    s = motion.sample(frames.reshape(-1))
+    q = s.local_quats.reshape(m, K, motion.num_joints, 4)
+    ref = q[:, K // 2:K // 2 + 1]
+    sign = np.where(np.sum(q * ref, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    quats = quat_normalize((q * sign).mean(axis=1))
+    root = s.root_positions.reshape(m, K, 3).mean(axis=1)
+    lt = None
+    if s.local_translations is not None:
+        lt = s.local_translations.reshape(m, K, motion.num_joints, 3).mean(axis=1)
+    return root, quats, lt
+
+
+def apply_warp(motion: Motion, warp: np.ndarray, frame_time: float | None = None, adaptive: bool = True) -> Motion:
+    """Resample ``motion`` at the warped times (§3.4): rotations by slerp, translations linearly.
+
+    Parameters
+    ----------
+    motion : the input Motion
+    warp : (m,) input times in seconds of the output frames
+    frame_time : output frame time in seconds (default: the input's)
+    adaptive : average each output frame over a window of input frames as wide as the local compression
+        (``speed`` input frames where the warp plays faster than real time; none where it does not), the
+        paper's adaptive smoothing against jitter under compression.
+
+    Returns
+    -------
+    Motion with m frames.
+    """
+    warp = np.asarray(warp, dtype=float).reshape(-1)
+    ft_out = motion.frame_time if frame_time is None else float(frame_time)
+    frames = warp / motion.frame_time
+    if not adaptive or warp.size < 2:
+        return motion.sample(frames, ft_out)
+    speed = warp_speed(warp, ft_out) * ft_out / motion.frame_time   # input frames per output frame
+    span = np.maximum(speed - 1.0, 0.0)                               # window of `speed` frames: +-(speed-1)/2
+    last = motion.num_frames - 1                                      # keep windows symmetric inside the clip,
+    span = np.minimum(span, 2.0 * np.clip(np.minimum(frames, last - frames), 0.0, None))  # so the ends stay exact
+    if not np.any(span > 0):
+        return motion.sample(frames, ft_out)
+    K = int(np.ceil(span.max())) + 1                                  # samples at most 1 input frame apart
+    K += 1 - K % 2                                                    # odd, so the centre is a sample
+    offs = np.linspace(-0.5, 0.5, K)[None, :] * span[:, None]
+    root, quats, lt = _average_motion_samples(motion, frames[:, None] + offs)
+    return Motion(motion.skeleton, ft_out, root, quats, lt)
