@@ -46,7 +46,8 @@ class WarpTables:
     skip : s, largest step in (upsampled) input frames between consecutive output frames
     upsample : integer factor u; the searched input has ``n_up = (n - 1) u + 1`` frames ``frame_time / u`` apart
     reverse : True for a backward warp (the searched input is the reversed motion)
-    k, weights : kNN count and (pose, velocity, acceleration) feature weights
+    k, weights : kNN count and the effective (pose, velocity, acceleration) weights of the per-output-frame
+        features (the ``time_unit`` scaling included)
     X : (n_up, D) pose features of the searched input; R : (r, D) of the reference
     scores : (n_up, s, s) local scores, ``scores[j, a-1, b-1] = f(j-a, j, j+b)`` (inf if not admissible)
     """
@@ -106,7 +107,7 @@ def _validate_upsample(upsample) -> int:
 
 def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1, *, reverse: bool = False,
                  k: int = 3, weights=(1.0, 1.0, 1.0), joint_weights=None, prefilter: float = 0.1,
-                 dtype=np.float32, progress=None) -> WarpTables:
+                 time_unit: float = 1.0 / 30.0, dtype=np.float32, progress=None) -> WarpTables:
     """Features and the kNN score table (§3.2) for warping ``m`` guided by ``reference``.
 
     Parameters
@@ -120,6 +121,9 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
     weights : (pose, velocity, acceleration) block weights of the feature vector
     joint_weights : (J,) per-joint weights of the squared distances, or None
     prefilter : seconds, width of the box low-pass filter applied to joint positions
+    time_unit : seconds; velocities and accelerations are expressed per ``time_unit`` (default 1/30 s, the
+        paper's 30 Hz), so the balance of pose against timing in the features does not depend on the clip's
+        frame rate (the derivative weights are scaled by ``time_unit / frame_time`` and its square)
     dtype : float32 or float64 for the kNN search (see :func:`.objective.knn_scores`)
     progress : callable(fraction) or None
 
@@ -139,6 +143,10 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
     skip = validate_skip(skip)
     upsample = _validate_upsample(upsample)
     weights = feature_weights(weights)
+    if not np.isfinite(time_unit) or time_unit <= 0:
+        raise ValueError(f"time_unit must be a positive number of seconds, got {time_unit!r}")
+    c = float(time_unit) / m.frame_time
+    weights = (weights[0], weights[1] * c, weights[2] * c * c)   # per-output-frame differences -> per time_unit
     prefilter_frames(prefilter, m.frame_time)  # validates prefilter
     ref = reference
     if abs(ref.frame_time - m.frame_time) > 1e-9 * m.frame_time:
@@ -188,7 +196,8 @@ def _coarse_band(tables: WarpTables, m: int, keys, factor: int, band: float | No
         validate_keys(n_c, m_c, s, ckeys)
     except ValueError:
         return None
-    Sc = knn_scores(Xc, Rc, s, tables.k, tables.weights)
+    wp, wv, wa = tables.weights  # coarse differences span dt_out output frames: rescale to keep the units
+    Sc = knn_scores(Xc, Rc, s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2))
     fc, cost_c = constrained_dp(Sc, m_c, keys=ckeys)
     if not np.isfinite(cost_c):
         return None
@@ -248,7 +257,7 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
 
 def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int = 8, keytimes=None, *,
                 upsample: int | None = None, reverse: bool = False, k: int = 3, weights=(1.0, 1.0, 1.0),
-                joint_weights=None, prefilter: float = 0.1, coarse: int | None = None, band: float | None = None,
+                joint_weights=None, prefilter: float = 0.1, time_unit: float = 1.0 / 30.0, coarse: int | None = None, band: float | None = None,
                 smoothing: float = 0.1, adaptive: bool = True, tables: WarpTables | None = None,
                 progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
@@ -263,7 +272,7 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         ``(m.duration, (num_frames - 1) * frame_time)`` are implied; both times strictly increasing
     upsample : integer upsampling of the input (default :func:`required_upsample`); 1 forbids expansion
     reverse : backward warp (play the input backwards); keytimes stay on the original input clock
-    k, weights, joint_weights, prefilter : objective options, see :func:`prepare_warp`
+    k, weights, joint_weights, prefilter, time_unit : objective options, see :func:`prepare_warp`
     coarse, band : coarse-to-fine heuristic, see :func:`solve_warp`
     smoothing : seconds, moving-average window applied to the discrete warp (§3.4); 0 disables
     adaptive : adaptive smoothing of the resampled motion under compression (§3.4)
@@ -287,7 +296,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                              f"upsample={u} gives only {(m.num_frames - 1) * u + 1}: expansion needs upsampling")
         head = None if progress is None else (lambda f: progress(0.9 * f))
         tables = prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
-                              joint_weights=joint_weights, prefilter=prefilter, progress=head)
+                              joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit,
+                              progress=head)
     elif tables.motion is not m and (tables.motion.num_frames != m.num_frames
                                      or tables.motion.num_joints != m.num_joints):
         raise ValueError("tables were prepared for a different input motion")
