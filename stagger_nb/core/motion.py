@@ -14,6 +14,8 @@ from .skeleton import Skeleton
 
 __all__ = ["Motion", "concatenate"]
 
+_UNIT_TOL = 1e-12  # |norm - 1| above which a quaternion is renormalised on construction
+
 
 def _frozen(a) -> np.ndarray:
     a = np.array(a, dtype=float)
@@ -68,7 +70,10 @@ class Motion:
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(rp))):
             raise ValueError("Motion: local_quats and root_positions must be finite")
         object.__setattr__(self, "frame_time", ft)
-        object.__setattr__(self, "local_quats", _frozen(quat_continuous(quat_normalize(q), axis=0)))
+        # renormalise only what is not unit already, so slicing / replacing keeps values bit for bit
+        n = np.linalg.norm(q, axis=-1, keepdims=True)
+        q = np.where(np.abs(n - 1.0) > _UNIT_TOL, quat_normalize(q), q)
+        object.__setattr__(self, "local_quats", _frozen(quat_continuous(q, axis=0)))
         object.__setattr__(self, "root_positions", _frozen(rp))
         object.__setattr__(self, "local_translations", lt)
 

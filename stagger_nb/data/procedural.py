@@ -210,13 +210,14 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _build(t: np.ndarray, root_xz: np.ndarray, root_y: np.ndarray, pelvis: np.ndarray,
            spine: np.ndarray, head: np.ndarray, arm_swing: np.ndarray, elbow: np.ndarray,
-           plants: tuple, seed: int, noise_deg: float) -> Motion:
+           plants: tuple, seed: int, noise_deg: float, return_contacts: bool = False):
     """Assemble a Motion.
 
     t (F,) s; root_xz (F, 2) cm; root_y (F,) nominal pelvis height cm (lowered softly where a planted
     ankle would be out of reach); pelvis (F, 3) YXZ Euler degrees (yaw, pitch forward, roll);
     spine (F, 3) YXZ degrees shared by LowerBack/Spine/Spine1; head (F, 2) extra (yaw, pitch) degrees;
     arm_swing (F, 2) L/R degrees forward; elbow (F, 2) L/R flexion degrees; plants (left, right) _Plants.
+    Returns the Motion, or ``(motion, {"LeftFoot": (F,) bool, "RightFoot": (F,) bool})`` stance masks.
     """
     skel = cmu_skeleton()
     F, J = len(t), skel.num_joints
@@ -265,7 +266,10 @@ def _build(t: np.ndarray, root_xz: np.ndarray, root_y: np.ndarray, pelvis: np.nd
         q[:, ix(f"{side}ForeArm")] = _axis_quat("y", -sgn * elbow[:, k])
         q[:, ix(f"{side}Hand")] = _axis_quat("z", -sgn * (10.0 + 0.5 * nz[:, 10 + k]))
         q[:, ix(f"{side}FingerBase")] = _axis_quat("z", np.full(F, -sgn * 15.0))
-    return Motion(skel, 1.0 / FPS, root, q)
+    motion = Motion(skel, 1.0 / FPS, root, q)
+    if return_contacts:
+        return motion, {"LeftFoot": feet[0][2].copy(), "RightFoot": feet[1][2].copy()}
+    return motion
 
 
 def _times(duration: float) -> np.ndarray:
@@ -275,7 +279,8 @@ def _times(duration: float) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # the clips
 
-def walk(duration: float = 6.0, speed: float = 100.0, period: float = 1.1, seed: int = 0) -> Motion:
+def walk(duration: float = 6.0, speed: float = 100.0, period: float = 1.1, seed: int = 0,
+         return_contacts: bool = False):
     """A straight walk along +Z.
 
     Parameters
@@ -285,7 +290,11 @@ def walk(duration: float = 6.0, speed: float = 100.0, period: float = 1.1, seed:
     period : seconds per gait cycle (two steps); each foot is planted 60 % of it
     seed : seed of the small upper-body noise
 
+    return_contacts : also return ``{"LeftFoot": (F,) bool, "RightFoot": (F,) bool}``, the frames
+        in which each foot is planted (ground truth for contact detection)
+
     Left foot stance is centred at ``t = i * period``, the right foot's half a cycle later.
+    Returns a Motion (or ``(motion, contacts)``).
     """
     _check(duration=duration, speed=speed, period=period)
     t = _times(duration)
@@ -301,10 +310,11 @@ def walk(duration: float = 6.0, speed: float = 100.0, period: float = 1.1, seed:
     lag = 0.35  # radians: arms lag the legs a little
     arm = np.stack([-22.0 * np.sin(w - lag), 22.0 * np.sin(w - lag)], -1)
     elbow = np.stack([18.0 - 10.0 * np.sin(w - lag), 18.0 + 10.0 * np.sin(w - lag)], -1)
-    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6)
+    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6, return_contacts)
 
 
-def run(duration: float = 5.0, speed: float = 300.0, period: float = 0.72, seed: int = 1) -> Motion:
+def run(duration: float = 5.0, speed: float = 300.0, period: float = 0.72, seed: int = 1,
+        return_contacts: bool = False):
     """A straight run along +Z with flight phases.
 
     Each foot is planted 32 % of the cycle, so twice per cycle neither foot touches the ground for
@@ -327,7 +337,7 @@ def run(duration: float = 5.0, speed: float = 300.0, period: float = 0.72, seed:
     lag = 0.3
     arm = np.stack([-38.0 * np.sin(w - lag), 38.0 * np.sin(w - lag)], -1)
     elbow = np.stack([85.0 - 15.0 * np.sin(w - lag), 85.0 + 15.0 * np.sin(w - lag)], -1)
-    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.8)
+    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.8, return_contacts)
 
 
 def run_height(t: np.ndarray, period: float, duty: float, y0: float = 90.0) -> np.ndarray:
@@ -350,7 +360,7 @@ JUMP_TIMES = {"gather": 1.80, "crouch": 2.10, "takeoff": 2.45, "landing": 2.90, 
 _JUMP_VZ = 220.0  # cm/s forward speed in flight
 
 
-def jump(duration: float = 5.5, seed: int = 2) -> Motion:
+def jump(duration: float = 5.5, seed: int = 2, return_contacts: bool = False):
     """Walk in, gather both feet, crouch, take off, fly, land, walk out (default 331 frames).
 
     In flight (``JUMP_TIMES["takeoff"] <= t <= JUMP_TIMES["landing"]``) the root follows the
@@ -413,7 +423,7 @@ def jump(duration: float = 5.5, seed: int = 2) -> Motion:
     lag = 0.35
     arm = np.stack([-22.0 * walking * np.sin(w - lag) + reach, 22.0 * walking * np.sin(w - lag) + reach], -1)
     elbow = np.stack([18.0 - 10.0 * walking * np.sin(w - lag), 18.0 + 10.0 * walking * np.sin(w - lag)], -1)
-    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6)
+    return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6, return_contacts)
 
 
 def _check(**kw):
@@ -425,9 +435,10 @@ def _check(**kw):
 CLIPS = {"walk": walk, "run": run, "jump": jump}
 
 
-def generate(name: str) -> Motion:
-    """The procedural clip ``name`` (one of :data:`CLIPS`) with its default, deterministic settings."""
+def generate(name: str, return_contacts: bool = False):
+    """The procedural clip ``name`` (one of :data:`CLIPS`) with its default, deterministic settings
+    (and its foot-contact masks if ``return_contacts``)."""
     try:
-        return CLIPS[name]()
+        return CLIPS[name](return_contacts=return_contacts)
     except KeyError:
         raise ValueError(f"name must be one of {sorted(CLIPS)}, got {name!r}") from None
