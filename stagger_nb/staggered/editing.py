@@ -1,0 +1,700 @@
+"""Geometric and temporal editing of staggered poses (Coleman et al. 2008, §5).
+
+Every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
+(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+"s": 0.03, "l": 2.0}`` and replay it. Every tool takes an optional ``joints=`` subset (partial poses, §6).
+
+Notation (as in :mod:`stagger_nb.staggered.representation`): K poses at times ``t_k``, J joints,
+refinements ``r[k, i]``, knot times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing
+knots ``v⁰[k, i]`` (the true pose at ``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in
+the joint's local frame) and ``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale
+``exp(w log q)`` (§5.1 footnote).
+
+Geometric edits (§5.1) change the knots by a per-joint offset ``δ``: ``v̂ = v ⊕ δ`` and ``v̂⁰ = v⁰ ⊕ δ``
+(the mutual constraint of the two knots, both directions of Figure 6a/b). The displacement maps of the two
+segments around the pose are then re-measured so that the evaluated motion is the old one post-multiplied
+by a smooth weight ``w(t) δ``: ``w = 1`` on the plateau between ``t_k`` and ``T[k, i]`` (so both knots get
+exactly ``δ``), a raised-cosine ramp to 0 at the neighbouring poses' plateaus, 0 elsewhere. Because the old
+displacement is kept inside the new one, high-frequency detail is carried through (§3, §5.1), and frames
+outside the two segments around an edited pose do not change at all.
+
+Temporal edits (§5.2) only change ``t_k`` / ``r[k, i]``: splines and displacement maps live on normalised
+segment time, so they follow; editing knots are re-created at ``t_k`` by evaluation (Figure 6c). Refined
+times that come closer to a neighbouring pose than to their own are reported as :class:`TimingWarning`
+objects in ``sm.metadata["warnings"]`` (also available from :func:`timing_warnings`), never printed.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
+from .representation import (StaggeredMotion, bezier_cubic, displacement_at, evaluate_arrays, knot_times,
+                             rotation_spline)
+
+__all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
+           "random_timing", "insert_pose", "delete_pose", "mean_pose"]
+
+_IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
+_TINY_ANGLE = 1e-15  # an offset with |log δ| below this (radians/2) is the identity: nothing to re-measure
+
+
+# -- warnings ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TimingWarning:
+    """A refined knot time closer to a neighbouring pose than to its own pose (§5.2).
+
+    Attributes: ``pose`` (k), ``joint`` (name, or ``"<root translation>"``), ``refined_time`` (s),
+    ``neighbour`` (index of the nearer pose), ``message``. :meth:`to_dict` gives a JSON-ready dict.
+    """
+
+    pose: int
+    joint: str
+    refined_time: float
+    neighbour: int
+    message: str
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def timing_warnings(sm: StaggeredMotion) -> tuple[TimingWarning, ...]:
+    """All knots of ``sm`` whose refined time ``t_k + r[k, i]`` is closer to ``t_{k-1}`` or ``t_{k+1}`` than
+    to ``t_k`` (§5.2: "we warn users when refined times are set large enough to be closer to a neighboring
+    staggered pose than the staggered pose with which the knot is associated")."""
+    t = sm.pose_times
+    names = list(sm.skeleton.names) + ["<root translation>"]
+    r = np.concatenate([sm.refinements, sm.root_refinements[:, None]], axis=1)    # (K, J + 1)
+    T = t[:, None] + r
+    out = []
+    for side, nb in ((-1, "previous"), (1, "next")):
+        n = np.arange(t.size) + side
+        ok = (n >= 0) & (n < t.size)
+        tn = t[np.clip(n, 0, t.size - 1)]
+        bad = ok[:, None] & (np.abs(T - tn[:, None]) < np.abs(r))
+        for k, i in zip(*np.nonzero(bad)):
+            out.append(TimingWarning(int(k), names[i], float(T[k, i]), int(n[k]),
+                                     f"pose {k}, {names[i]}: refined time {T[k, i]:.3f} s is closer to the {nb} "
+                                     f"pose ({tn[k]:.3f} s) than to its own ({t[k]:.3f} s)"))
+    out.sort(key=lambda w: (w.pose, w.joint))
+    return tuple(out)
+
+
+# -- argument helpers ---------------------------------------------------------------------------------------
+
+def _check(sm) -> None:
+    if not isinstance(sm, StaggeredMotion):
+        raise ValueError(f"sm must be a StaggeredMotion, got {type(sm).__name__}")
+
+
+def _joint_mask(sm: StaggeredMotion, joints, default=None) -> np.ndarray:
+    """(J,) bool mask of a joint subset given by names/indices; ``None`` -> ``default`` (all joints)."""
+    J = sm.num_joints
+    if joints is None:
+        return np.ones(J, bool) if default is None else default
+    if isinstance(joints, (str, int, np.integer)):
+        joints = [joints]
+    mask = np.zeros(J, bool)
+    for j in joints:
+        if isinstance(j, str):
+            try:
+                mask[sm.skeleton.index(j)] = True
+            except KeyError as e:
+                raise ValueError(f"joints: {e.args[0]}") from None
+        else:
+            if not 0 <= int(j) < J:
+                raise ValueError(f"joints: index {j} outside [0, {J})")
+            mask[int(j)] = True
+    return mask
+
+
+def _pose_mask(sm: StaggeredMotion, poses, interior_default: bool) -> np.ndarray:
+    K = sm.num_poses
+    if poses is None:
+        mask = np.ones(K, bool)
+        if interior_default:
+            mask[[0, -1]] = False
+        return mask
+    if isinstance(poses, (int, np.integer)):
+        poses = [poses]
+    mask = np.zeros(K, bool)
+    for k in poses:
+        if not -K <= int(k) < K:
+            raise ValueError(f"poses: index {k} outside [0, {K})")
+        mask[int(k)] = True
+    return mask
+
+
+def _pose_index(sm: StaggeredMotion, k, name="k") -> int:
+    K = sm.num_poses
+    if not isinstance(k, (int, np.integer)) or not -K <= int(k) < K:
+        raise ValueError(f"{name} must be a pose index in [0, {K}), got {k!r}")
+    return int(k) % K
+
+
+def _finite(x, name: str) -> float:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {x!r}") from None
+    if not np.isfinite(x):
+        raise ValueError(f"{name} must be finite, got {x!r}")
+    return x
+
+
+def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per-joint rotations from ``{joint: rotvec (3,) | quat (4,)}`` or an array ``(J, 3)``/``(J, 4)``.
+
+    Returns ``quats (J, 4)`` (identity where absent) and the ``(J,)`` mask of given joints."""
+    J = sm.num_joints
+    q = np.tile(_IDENTITY, (J, 1))
+    given = np.zeros(J, bool)
+    if isinstance(spec, dict):
+        items = spec.items()
+    else:
+        arr = np.asarray(spec, dtype=float)
+        if arr.ndim != 2 or arr.shape[0] != J or arr.shape[1] not in (3, 4):
+            raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), got {arr.shape}")
+        items = enumerate(arr)
+    for j, v in items:
+        jj = _joint_mask(sm, [j])
+        v = np.asarray(v, dtype=float).reshape(-1)
+        if v.size == 3:
+            v = quat_exp(0.5 * v)                 # rotation vector, radians
+        elif v.size == 4 and np.linalg.norm(v) > 0:
+            v = v / np.linalg.norm(v)             # quaternion (x, y, z, w)
+        else:
+            raise ValueError(f"{name}[{j!r}] must be a rotation vector (3 numbers) or a quaternion (4), got {v.tolist()}")
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"{name}[{j!r}] must be finite")
+        q[jj] = v
+        given |= jj
+    return q, given
+
+
+# -- evaluation at per-sample (time, joint) pairs -------------------------------------------------------
+
+def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
+    """Segment and normalised time of each ``(times[n], cols[n])`` in the knot columns ``knots (K, C)``."""
+    knots = np.maximum.accumulate(knots, axis=0)
+    K = knots.shape[0]
+    seg = np.empty(times.size, dtype=np.int64)
+    for c in np.unique(cols):
+        sel = cols == c
+        seg[sel] = np.searchsorted(knots[:, c], times[sel], side="right") - 1
+    np.clip(seg, 0, K - 2, out=seg)
+    a, b = knots[seg, cols], knots[seg + 1, cols]
+    L = b - a
+    tn = np.where(L > 0, (times - a) / np.where(L > 0, L, 1.0), 1.0)
+    return seg, np.clip(tn, 0.0, 1.0)
+
+
+def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``)."""
+    seg, tn = _segments(knot_times(sm), times, joints)
+    tg = sm.tangents[seg, joints]
+    s = rotation_spline(sm.values[seg, joints], tg[:, 0], tg[:, 1], sm.values[seg + 1, joints], tn)
+    d = displacement_at(sm.displacements[seg, joints], sm.displacement_counts[seg, joints], tn)
+    return quat_mul(s, quat_exp(0.5 * d))
+
+
+def _eval_root(sm: StaggeredMotion, times: np.ndarray) -> np.ndarray:
+    """Root translation ``(N, 3)`` at ``times (N,)``."""
+    seg, tn = _segments((sm.pose_times + sm.root_refinements)[:, None], times, np.zeros(times.size, np.int64))
+    rt = sm.root_tangents[seg]
+    p = bezier_cubic(sm.root_values[seg], rt[:, 0], rt[:, 1], sm.root_values[seg + 1], tn)
+    return p + displacement_at(sm.root_displacements[seg], sm.root_displacement_counts[seg], tn)
+
+
+# -- re-measuring displacement maps ---------------------------------------------------------------------
+
+def _grid(a: np.ndarray, b: np.ndarray, counts: np.ndarray):
+    """Uniform t' grids of P segments ``[a, b]``: sample's pair index, index within pair, t', time."""
+    pair = np.repeat(np.arange(counts.size), counts)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    m = np.arange(pair.size) - starts[pair]
+    tn = m / (counts[pair] - 1.0)
+    return pair, m, tn, a[pair] + tn * (b - a)[pair]
+
+
+def _counts_for(a, b, frame_time):
+    return np.maximum(np.rint((b - a) / frame_time).astype(np.int64) + 1, 2)
+
+
+def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn):
+    """Displacement rows ``(P, max(counts), 3)`` of the pairs ``(seg[p], joint[p])`` so that the spline of
+    ``values``/``tangents`` plus the displacement equals ``target_fn(times, joints, pair, tn)`` on the grid."""
+    knots = np.maximum.accumulate(knots, axis=0)
+    pair, m, tn, t = _grid(knots[seg, joint], knots[seg + 1, joint], counts)
+    sp, jp = seg[pair], joint[pair]
+    tg = tangents[sp, jp]
+    s = rotation_spline(values[sp, jp], tg[:, 0], tg[:, 1], values[sp + 1, jp], tn)
+    v = target_fn(t, jp, pair, tn)
+    d = 2.0 * quat_log(quat_hemisphere(quat_mul(quat_conj(s), v)))
+    rows = np.zeros((counts.size, int(counts.max()), 3))
+    rows[pair, m] = d
+    return rows
+
+
+def _measure_root(root_values, root_tangents, root_knots, seg, counts, target_fn):
+    pair, m, tn, t = _grid(root_knots[seg], root_knots[seg + 1], counts)
+    sp = seg[pair]
+    s = bezier_cubic(root_values[sp], root_tangents[sp, 0], root_tangents[sp, 1], root_values[sp + 1], tn)
+    rows = np.zeros((counts.size, int(counts.max()), 3))
+    rows[pair, m] = target_fn(t, pair, tn) - s
+    return rows
+
+
+def _put_rows(table: np.ndarray, index: tuple, rows: np.ndarray) -> np.ndarray:
+    """Copy of a displacement table (sample axis -2: ``(K-1, J, M, 3)`` or ``(K-1, M, 3)``) with the rows at
+    ``index`` replaced by ``rows (P, M', 3)``; the sample axis grows if ``M' > M``."""
+    M = max(table.shape[-2], rows.shape[1])
+    out = np.zeros(table.shape[:-2] + (M, 3))
+    out[..., :table.shape[-2], :] = table
+    out[index] = 0.0
+    out[index + (slice(0, rows.shape[1]),)] = rows
+    return out
+
+
+def _refresh(sm: StaggeredMotion, **fields) -> StaggeredMotion:
+    """New StaggeredMotion with ``fields`` replaced, editing knots re-created at ``t_k`` by evaluation
+    (Figure 6c; kept equal to the extreme knots where the refinement is 0) and timing warnings attached
+    as ``metadata["warnings"]``."""
+    new = dataclasses.replace(sm, **fields)
+    q, _ = evaluate_arrays(new, new.pose_times)
+    editing = np.where((new.refinements != 0)[..., None], q, new.values)
+    editing.setflags(write=False)
+    meta = dict(new.metadata)
+    meta["warnings"] = timing_warnings(new)
+    # the object was created above and is not shared yet: set the two derived fields in place (as
+    # __post_init__ does) instead of validating and copying every array a second time
+    object.__setattr__(new, "editing_knots", editing)
+    object.__setattr__(new, "metadata", meta)
+    return new
+
+
+# -- geometric editing (§5.1) ---------------------------------------------------------------------------
+
+def _plateau_weights(sm: StaggeredMotion, k: np.ndarray, joint: np.ndarray, t: np.ndarray, side: np.ndarray):
+    """Weight of pose ``k`` at time ``t`` for ``joint`` on ``side`` (-1: t is before pose k's knot, in
+    segment k-1; +1: after, in segment k): 1 on the plateau between ``t_k`` and ``T[k, i]``, a raised cosine
+    down to 0 at the neighbouring pose's plateau edge."""
+    T = np.maximum.accumulate(knot_times(sm), axis=0)
+    tk = sm.pose_times
+    lo = np.minimum(tk[:, None], T)          # plateau [lo, hi] of every (pose, joint)
+    hi = np.maximum(tk[:, None], T)
+    K = sm.num_poses
+    kn = np.clip(k + side, 0, K - 1)
+    inner = np.where(side < 0, hi[kn, joint], lo[kn, joint])   # where the ramp reaches 0
+    outer = np.where(side < 0, lo[k, joint], hi[k, joint])     # where the ramp reaches 1
+    L = outer - inner
+    u = np.where(np.abs(L) > 0, (t - inner) / np.where(np.abs(L) > 0, L, 1.0), 1.0)
+    u = np.clip(u, 0.0, 1.0)
+    w = 0.5 * (1.0 - np.cos(np.pi * u))
+    on_plateau = (t >= lo[k, joint]) & (t <= hi[k, joint])
+    return np.where(on_plateau, 1.0, w)
+
+
+def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np.ndarray | None = None):
+    """Apply knot offsets ``deltas (K, J, 4)`` (and root translation offsets ``(K, 3)``): ``v̂ = v ⊕ δ``,
+    ``v̂⁰ = v⁰ ⊕ δ``, the adjacent Bézier handles move with their knot, and the displacement maps of the
+    touched segments are re-measured so that ``v̂(t) = v(t) ⊕ w_k(t) δ_k ⊕ w_{k+1}(t) δ_{k+1}``."""
+    K, J = sm.num_poses, sm.num_joints
+    moved = np.linalg.norm(quat_log(quat_hemisphere(deltas)), axis=-1) > _TINY_ANGLE   # (K, J)
+    rmoved = np.zeros(K, bool) if root_deltas is None else np.any(root_deltas != 0, axis=1)
+    if not moved.any() and not rmoved.any():
+        return sm
+    fields = {}
+    if moved.any():
+        values = quat_mul(sm.values, deltas)
+        tangents = np.array(sm.tangents)
+        tangents[:, :, 0] = quat_mul(tangents[:, :, 0], deltas[:-1])   # handle next to v_k (segment k)
+        tangents[:, :, 1] = quat_mul(tangents[:, :, 1], deltas[1:])    # handle next to v_{k+1}
+        touched = moved[:-1] | moved[1:]                                # (K-1, J) segments to re-measure
+        seg, joint = np.nonzero(touched)
+        counts = sm.displacement_counts[seg, joint]
+        logd = quat_log(quat_hemisphere(deltas))                        # (K, J, 3), half-angle axis
+
+        def target(t, jp, pair, tn):
+            sp = seg[pair]
+            old = _eval_rotations(sm, t, jp)
+            wl = _plateau_weights(sm, sp, jp, t, np.ones_like(sp))
+            wr = _plateau_weights(sm, sp + 1, jp, t, -np.ones_like(sp))
+            return quat_mul(quat_mul(old, quat_exp(wl[:, None] * logd[sp, jp])), quat_exp(wr[:, None] * logd[sp + 1, jp]))
+
+        rows = _measure_rotations(values, tangents, knot_times(sm), seg, joint, counts, target)
+        fields.update(values=values, tangents=tangents,
+                      displacements=_put_rows(sm.displacements, (seg, joint), rows))
+    if rmoved.any():
+        rv = sm.root_values + root_deltas
+        rt = np.array(sm.root_tangents)
+        rt[:, 0] += root_deltas[:-1]
+        rt[:, 1] += root_deltas[1:]
+        seg = np.flatnonzero(rmoved[:-1] | rmoved[1:])
+        counts = sm.root_displacement_counts[seg]
+        rk = np.maximum.accumulate(sm.pose_times + sm.root_refinements)
+        # the root translation is one more control variable with its own plateau; reuse the joint-0 weights
+        # on a copy whose joint-0 knots are the root-translation knots
+        r = np.array(sm.refinements)
+        r[:, 0] = sm.root_refinements
+        rsm = dataclasses.replace(sm, refinements=r)
+
+        def rtarget(t, pair, tn):
+            sp = seg[pair]
+            z = np.zeros_like(sp)
+            wl = _plateau_weights(rsm, sp, z, t, np.ones_like(sp))
+            wr = _plateau_weights(rsm, sp + 1, z, t, -np.ones_like(sp))
+            return _eval_root(sm, t) + wl[:, None] * root_deltas[sp] + wr[:, None] * root_deltas[sp + 1]
+
+        rows = _measure_root(rv, rt, rk, seg, counts, rtarget)
+        fields.update(root_values=rv, root_tangents=rt, root_displacements=_put_rows(sm.root_displacements, (seg,), rows))
+    return _refresh(sm, **fields)
+
+
+def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: str = "staggered",
+              joints=None, root_offset=None) -> StaggeredMotion:
+    """Geometric pose edit of pose ``k`` (§5.1, Figure 6a/b).
+
+    Parameters
+    ----------
+    sm : StaggeredMotion
+    k : int
+        Pose index in ``[0, K)``.
+    deltas : dict joint name -> rotation, or ndarray (J, 3) / (J, 4), optional
+        Per-joint change ``δ``: a rotation vector ``[x, y, z]`` (axis * angle, radians, in the joint's
+        local frame) or a quaternion ``[x, y, z, w]``. Applied as ``v̂ = v ⊕ δ`` and ``v̂⁰ = v⁰ ⊕ δ``.
+    target : dict joint name -> quaternion (x, y, z, w), or ndarray (J, 4), optional
+        New value of the edited knot instead of ``deltas``: the true pose at ``t_k`` (``mode="staggered"``,
+        ``δ = v⁰ ⊖ target``... i.e. ``δ = v⁰⁻¹ target``) or the non-staggered pose (``mode="unstaggered"``,
+        ``δ = v⁻¹ target``).
+    mode : {"staggered", "unstaggered"}
+        Which knot the user edits: the editing knot at the staggered pose time (§5.1, first approach) or
+        the extreme value of the non-staggered pose (second approach). The other follows by the same change.
+    joints : list of joint names, optional
+        Partial pose: only these joints are edited (default: every joint named in ``deltas``/``target``).
+    root_offset : [dx, dy, dz], optional
+        Change of the root translation knot (file units), with the same plateau treatment.
+
+    Returns
+    -------
+    StaggeredMotion; motion outside ``(T[k-1, i], T[k+1, i])`` is unchanged for every joint ``i``.
+    """
+    _check(sm)
+    k = _pose_index(sm, k)
+    if mode not in ("staggered", "unstaggered"):
+        raise ValueError(f"mode must be 'staggered' or 'unstaggered', got {mode!r}")
+    if (deltas is None) == (target is None) and root_offset is None:
+        raise ValueError("give exactly one of deltas= or target= (or only root_offset=)")
+    if deltas is not None and target is not None:
+        raise ValueError("give exactly one of deltas= or target=")
+    J = sm.num_joints
+    d = np.tile(_IDENTITY, (J, 1))
+    if deltas is not None:
+        d, given = _rotation_table(sm, deltas, "deltas")
+    elif target is not None:
+        tq, given = _rotation_table(sm, target, "target")
+        base = sm.editing_knots[k] if mode == "staggered" else sm.values[k]
+        d = np.where(given[:, None], quat_mul(quat_conj(base), tq), _IDENTITY)
+    mask = _joint_mask(sm, joints)
+    d = np.where(mask[:, None], d, _IDENTITY)
+    full = np.tile(_IDENTITY, (sm.num_poses, J, 1))
+    full[k] = d
+    rd = None
+    if root_offset is not None:
+        ro = np.asarray(root_offset, dtype=float).reshape(-1)
+        if ro.shape != (3,) or not np.all(np.isfinite(ro)):
+            raise ValueError(f"root_offset must be 3 finite numbers, got {root_offset!r}")
+        rd = np.zeros((sm.num_poses, 3))
+        rd[k] = ro
+    return _apply_pose_offsets(sm, full, rd)
+
+
+def mean_pose(quats: np.ndarray) -> np.ndarray:
+    """Per-joint mean rotation of ``quats (K, J, 4)`` -> ``(J, 4)``: the principal eigenvector of
+    ``Σ q qᵀ`` (sign-invariant, Markley et al. 2007)."""
+    q = np.asarray(quats, dtype=float)
+    M = np.einsum("kja,kjb->jab", q, q)
+    _, vecs = np.linalg.eigh(M)
+    return quat_hemisphere(vecs[..., -1])
+
+
+def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode: str = "staggered",
+               joints=None) -> StaggeredMotion:
+    """Relative exaggeration ``v̂ = v ⊕ w_r (v ⊖ vʳ)`` of pose(s) ``k`` (§5.1).
+
+    Parameters
+    ----------
+    k : int or list of int
+        Pose(s) to exaggerate; several poses are offset together (each against its own reference).
+    w_r : float
+        Weight of the offset: 0 is the identity, 1 doubles the rotation from the reference, -1 collapses
+        onto it. The rotation is scaled (``exp(w_r log(vʳ⁻¹ v))``), not multiplied component-wise.
+    reference : "previous" | "next" | "mean" | int | dict joint -> quaternion
+        The relative pose ``vʳ``: a neighbouring pose (local exaggeration; the first/last pose uses its
+        only neighbour), the mean of all poses (global exaggeration), a pose index, or explicit values.
+    mode : {"staggered", "unstaggered"}
+        Values that are scaled: editing knots (the true pose at ``t_k``) or extreme values (the
+        non-staggered pose); the other knot follows by the same change.
+    joints : list of joint names, optional
+        Partial pose (default all joints).
+    """
+    _check(sm)
+    w_r = _finite(w_r, "w_r")
+    if mode not in ("staggered", "unstaggered"):
+        raise ValueError(f"mode must be 'staggered' or 'unstaggered', got {mode!r}")
+    ks = [k] if isinstance(k, (int, np.integer)) else list(k)
+    ks = [_pose_index(sm, kk) for kk in ks]
+    vals = sm.editing_knots if mode == "staggered" else sm.values
+    K, J = sm.num_poses, sm.num_joints
+    mask = _joint_mask(sm, joints)
+    full = np.tile(_IDENTITY, (K, J, 1))
+    mean = mean_pose(vals) if isinstance(reference, str) and reference == "mean" else None
+    for kk in ks:
+        if isinstance(reference, str):
+            if reference == "previous":
+                ref = vals[kk - 1] if kk > 0 else vals[kk + 1]
+            elif reference == "next":
+                ref = vals[kk + 1] if kk < K - 1 else vals[kk - 1]
+            elif reference == "mean":
+                ref = mean
+            else:
+                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, got {reference!r}")
+        elif isinstance(reference, (int, np.integer)):
+            ref = vals[_pose_index(sm, reference, "reference")]
+        else:
+            rq, given = _rotation_table(sm, reference, "reference")
+            ref = np.where(given[:, None], rq, vals[kk])    # joints without a reference value: no change
+        off = quat_hemisphere(quat_mul(quat_conj(ref), vals[kk]))           # v ⊖ vʳ
+        delta = quat_exp(w_r * quat_log(off))                                # rotation scale
+        full[kk] = np.where(mask[:, None], delta, _IDENTITY)
+    return _apply_pose_offsets(sm, full)
+
+
+# -- temporal editing (§5.2) ----------------------------------------------------------------------------
+
+def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray) -> StaggeredMotion:
+    """Add refinement offsets ``dr (K, J)``; the root translation follows the root rotation if joint 0 is
+    selected (both are the root's timing)."""
+    if not np.any(dr):
+        return sm
+    fields = dict(refinements=sm.refinements + dr)
+    if joint_mask[0] and np.any(dr[:, 0]):
+        fields["root_refinements"] = sm.root_refinements + dr[:, 0]
+    return _refresh(sm, **fields)
+
+
+def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: float = 2.0, *, joints=None,
+               poses=None) -> StaggeredMotion:
+    """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``.
+
+    Parameters
+    ----------
+    root : str or int
+        The user-selected joint; ``d(i)`` is the number of bones between it and joint ``i``.
+    s : float
+        Base timing offset, seconds per unit depth (negative: the extremities lead).
+    l : float
+        Non-linearity (> 0): 1 is Neff–Fiume's linear succession, larger is looser / cartoony.
+    joints : list of joint names, optional
+        Joints to stagger; default: ``root`` and its descendants (the limb below the chosen joint).
+    poses : list of int, optional
+        Poses to stagger; default all interior poses (the first and last poses anchor the clip ends).
+    """
+    _check(sm)
+    s, l = _finite(s, "s"), _finite(l, "l")
+    if l <= 0:
+        raise ValueError(f"l must be > 0, got {l}")
+    try:
+        r = sm.skeleton.index(root) if isinstance(root, str) else int(root)
+    except KeyError as e:
+        raise ValueError(f"root: {e.args[0]}") from None
+    if not 0 <= r < sm.num_joints:
+        raise ValueError(f"root: index {root} outside [0, {sm.num_joints})")
+    d = sm.skeleton.tree_distance(r).astype(float)
+    sub = np.zeros(sm.num_joints, bool)
+    sub[r] = True
+    for j in range(r + 1, sm.num_joints):   # parents precede children
+        sub[j] = sub[sm.skeleton.parents[j]]
+    jm = _joint_mask(sm, joints, default=sub)
+    pm = _pose_mask(sm, poses, interior_default=True)
+    dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
+    return _with_timing(sm, dr, jm)
+
+
+def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
+                  poses=None) -> StaggeredMotion:
+    """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints.
+
+    The offsets are drawn for the whole ``(K, J)`` table from ``numpy.random.default_rng(seed)`` and then
+    masked, so a given seed gives each (pose, joint) the same offset whatever subset is selected.
+
+    Parameters
+    ----------
+    joints : list of joint names, optional (default all joints)
+    tau : float
+        Bound of the offsets, seconds (>= 0).
+    seed : int
+    poses : list of int, optional; default all interior poses.
+    """
+    _check(sm)
+    tau = _finite(tau, "tau")
+    if tau < 0:
+        raise ValueError(f"tau must be >= 0, got {tau}")
+    if not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be an int, got {seed!r}")
+    jm = _joint_mask(sm, joints)
+    pm = _pose_mask(sm, poses, interior_default=True)
+    u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))
+    return _with_timing(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), jm)
+
+
+def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:
+    """Retime staggered poses as units (§5.2): new ``t_k``; refinements, splines and displacement maps are
+    relative to it and follow.
+
+    Parameters
+    ----------
+    pose_times : list of K seconds, or dict {pose index: seconds} (JSON keys may be strings)
+        New times; must stay strictly increasing.
+    """
+    _check(sm)
+    t = np.array(sm.pose_times)
+    if isinstance(pose_times, dict):
+        for k, v in pose_times.items():
+            t[_pose_index(sm, int(k), "pose_times key")] = _finite(v, f"pose_times[{k}]")
+    else:
+        new = np.asarray(pose_times, dtype=float).reshape(-1)
+        if new.shape != t.shape or not np.all(np.isfinite(new)):
+            raise ValueError(f"pose_times must hold {t.size} finite seconds, got {np.shape(pose_times)}")
+        t = new
+    if not np.all(np.diff(t) > 0):
+        raise ValueError("pose_times must be strictly increasing")
+    if np.array_equal(t, sm.pose_times):
+        return sm
+    return _refresh(sm, pose_times=t)
+
+
+# -- pose insertion and deletion (§5.1, last paragraph) ------------------------------------------------------
+
+def _split_rotation_bezier(c0, c1, c2, c3, u):
+    """de Casteljau split by slerp at ``u``: control polygons of the left and right parts."""
+    a, b, c = slerp(c0, c1, u), slerp(c1, c2, u), slerp(c2, c3, u)
+    d, e = slerp(a, b, u), slerp(b, c, u)
+    return (a, d), (e, c)
+
+
+def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
+    """Insert a pose at time ``t`` (seconds, strictly between two poses) without changing the motion.
+
+    The new pose has zero refinements and the current values at ``t``; each joint's segment is split with
+    the de Casteljau construction and the two new displacement maps are re-measured so the evaluated motion
+    is preserved on their sample grids ("we update the displacement map to preserve the global transition
+    values", §5.1). Raises ``ValueError`` if some joint's refined knots do not straddle ``t``.
+    """
+    _check(sm)
+    t = _finite(t, "t")
+    pt = sm.pose_times
+    if not pt[0] < t < pt[-1] or np.any(np.isclose(pt, t, rtol=0, atol=1e-9)):
+        raise ValueError(f"t must lie strictly between two poses in ({pt[0]}, {pt[-1]}), got {t}")
+    k = int(np.searchsorted(pt, t)) - 1      # new pose goes between k and k + 1
+    K, J = sm.num_poses, sm.num_joints
+    T = knot_times(sm)
+    bad = ~((T[k] < t) & (t < T[k + 1]))
+    if bad.any():
+        raise ValueError(f"t = {t} s is not between the refined knots of pose {k} and {k + 1} for joints "
+                         f"{[sm.skeleton.names[i] for i in np.flatnonzero(bad)]}")
+    rk = sm.pose_times + sm.root_refinements
+    if not rk[k] < t < rk[k + 1]:
+        raise ValueError(f"t = {t} s is not between the root translation knots of pose {k} and {k + 1}")
+    cols = np.arange(J)
+    v_t = _eval_rotations(sm, np.full(J, t), cols)
+    p_t = _eval_root(sm, np.array([t]))[0]
+    u = (t - T[k]) / (T[k + 1] - T[k])                 # (J,) where each joint's spline is split
+    tg = sm.tangents[k]
+    (l1, l2), (r1, r2) = _split_rotation_bezier(sm.values[k], tg[:, 0], tg[:, 1], sm.values[k + 1], u)
+    values = np.insert(sm.values, k + 1, v_t, axis=0)
+    tangents = np.concatenate([sm.tangents[:k], np.stack([l1, l2], 1)[None], np.stack([r1, r2], 1)[None],
+                               sm.tangents[k + 1:]])
+    refinements = np.insert(sm.refinements, k + 1, 0.0, axis=0)
+    pose_times = np.insert(sm.pose_times, k + 1, t)
+    knots = pose_times[:, None] + refinements
+    seg = np.repeat([k, k + 1], J)
+    joint = np.tile(cols, 2)
+    counts = _counts_for(knots[seg, joint], knots[seg + 1, joint], sm.frame_time)
+    rows = _measure_rotations(values, tangents, knots, seg, joint, counts,
+                              lambda tt, jp, pair, tn: _eval_rotations(sm, tt, jp))
+    disp = np.insert(sm.displacements, k + 1, 0.0, axis=0)
+    dcounts = np.insert(sm.displacement_counts, k + 1, 2, axis=0)
+    dcounts[seg, joint] = counts
+    disp = _put_rows(disp, (seg, joint), rows)
+
+    ua = (t - rk[k]) / (rk[k + 1] - rk[k])
+    p0, (p1, p2), p3 = sm.root_values[k], sm.root_tangents[k], sm.root_values[k + 1]
+    a, b, c = p0 + ua * (p1 - p0), p1 + ua * (p2 - p1), p2 + ua * (p3 - p2)
+    d, e = a + ua * (b - a), b + ua * (c - b)
+    root_values = np.insert(sm.root_values, k + 1, p_t, axis=0)
+    root_tangents = np.concatenate([sm.root_tangents[:k], [[a, d]], [[e, c]], sm.root_tangents[k + 1:]])
+    root_ref = np.insert(sm.root_refinements, k + 1, 0.0)
+    rknots = pose_times + root_ref
+    rseg = np.array([k, k + 1])
+    rcounts = _counts_for(rknots[rseg], rknots[rseg + 1], sm.frame_time)
+    rrows = _measure_root(root_values, root_tangents, rknots, rseg, rcounts,
+                          lambda tt, pair, tn: _eval_root(sm, tt))
+    rd = _put_rows(np.insert(sm.root_displacements, k + 1, 0.0, axis=0), (rseg,), rrows)
+    rdc = np.insert(sm.root_displacement_counts, k + 1, 2)
+    rdc[rseg] = rcounts
+    prob = np.insert(sm.pose_probability, k + 1, 0.0)
+    return _refresh(sm, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+                    displacements=disp, displacement_counts=dcounts, root_values=root_values,
+                    root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
+                    root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v_t, axis=0),
+                    pose_probability=prob)
+
+
+def delete_pose(sm: StaggeredMotion, k: int) -> StaggeredMotion:
+    """Delete interior pose ``k`` without changing the motion: the two segments around it merge into one
+    whose Bézier keeps the outer handles, and whose displacement map is re-measured from the current motion
+    (§5.1, last paragraph). The first and last poses cannot be deleted (they bound the clip)."""
+    _check(sm)
+    k = _pose_index(sm, k)
+    K, J = sm.num_poses, sm.num_joints
+    if k in (0, K - 1):
+        raise ValueError(f"k: the first and last poses bound the motion and cannot be deleted (got {k})")
+    if K <= 2:
+        raise ValueError("cannot delete a pose of a 2-pose motion")
+    cols = np.arange(J)
+    values = np.delete(sm.values, k, axis=0)
+    tangents = np.delete(sm.tangents, k, axis=0)
+    tangents[k - 1, :, 0] = sm.tangents[k - 1, :, 0]
+    tangents[k - 1, :, 1] = sm.tangents[k, :, 1]
+    refinements = np.delete(sm.refinements, k, axis=0)
+    pose_times = np.delete(sm.pose_times, k)
+    knots = np.maximum.accumulate(pose_times[:, None] + refinements, axis=0)
+    seg = np.full(J, k - 1)
+    counts = _counts_for(knots[seg, cols], knots[seg + 1, cols], sm.frame_time)
+    rows = _measure_rotations(values, tangents, knots, seg, cols, counts,
+                              lambda tt, jp, pair, tn: _eval_rotations(sm, tt, jp))
+    disp = _put_rows(np.delete(sm.displacements, k, axis=0), (seg, cols), rows)
+    dcounts = np.delete(sm.displacement_counts, k, axis=0)
+    dcounts[k - 1] = counts
+
+    root_values = np.delete(sm.root_values, k, axis=0)
+    root_tangents = np.delete(sm.root_tangents, k, axis=0)
+    root_tangents[k - 1] = [sm.root_tangents[k - 1, 0], sm.root_tangents[k, 1]]
+    root_ref = np.delete(sm.root_refinements, k)
+    rknots = np.maximum.accumulate(pose_times + root_ref)
+    rseg = np.array([k - 1])
+    rcounts = _counts_for(rknots[rseg], rknots[rseg + 1], sm.frame_time)
+    rrows = _measure_root(root_values, root_tangents, rknots, rseg, rcounts,
+                          lambda tt, pair, tn: _eval_root(sm, tt))
+    rd = _put_rows(np.delete(sm.root_displacements, k, axis=0), (rseg,), rrows)
+    rdc = np.delete(sm.root_displacement_counts, k)
+    rdc[rseg] = rcounts
+    return _refresh(sm, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+                    displacements=disp, displacement_counts=dcounts, root_values=root_values,
+                    root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
+                    root_displacement_counts=rdc, editing_knots=np.delete(sm.editing_knots, k, axis=0),
+                    pose_probability=np.delete(sm.pose_probability, k))
