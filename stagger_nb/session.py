@@ -27,6 +27,7 @@ import json
 import math
 import os
 import tempfile
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -34,17 +35,19 @@ from typing import Any, Callable
 import numpy as np
 
 from .core.motion import Motion
-from .core.rotations import quat_mul, rotvec_to_quat
+from .core.rotations import quat_mul, quat_to_rotvec, rotvec_to_quat
 from .core.skeleton import Skeleton
 from .io.bvh import read_bvh, write_bvh
 
 __all__ = ["Session", "OpSpec", "OP_REGISTRY", "register_op", "validate_op", "apply_pose_deltas",
+           "joint_rotation_degrees",
            "SESSION_FORMAT", "SESSION_VERSION"]
 
 SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1
 _MEMO_SIZE = 48          # memoised op-list prefixes kept per session (a slider sweep touches a handful)
 _EXTRACT_CACHE_SIZE = 4  # cached staggered extractions (one per distinct input motion)
+_CULL_CACHE_SIZE = 40    # cached cull results: every position of a 2.5 %-step slider on one extraction
 
 
 # --------------------------------------------------------------------------------------------------
@@ -76,9 +79,31 @@ def _positive(value, field):
 
 def _percent(value, field):
     v = _number(value, field)
-    if not 0.0 <= v <= 100.0:
-        _fail(field, "a percentage in [0, 100]", value)
+    if not 0.0 < v <= 100.0:
+        _fail(field, "a percentage in (0, 100]", value)
     return v
+
+
+def _choice(*options):
+    def f(value, field):
+        if value not in options:
+            _fail(field, " or ".join(repr(o) for o in options), value)
+        return value
+    return f
+
+
+def _int_list(value, field):
+    if not isinstance(value, (list, tuple)):
+        _fail(field, "a list of integers", value)
+    return [_nonneg_int(v, f"{field}[{i}]") for i, v in enumerate(value)]
+
+
+def _pose_reference(value, field):
+    if value in ("previous", "next", "mean"):
+        return value
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        return value
+    _fail(field, '"previous", "next", "mean" or a pose index', value)
 
 
 def _int(value, field):
@@ -286,11 +311,11 @@ def _run_extract(st, p, ctx):
 
 
 def _run_cull(sm, p, ctx):
-    return _staggered().cull(sm, percent=p["percent"])
+    return ctx.cull(sm, p["percent"])
 
 
 def _run_succession(sm, p, ctx):
-    return _staggered().succession(sm, root=p["root"], s=p["s"], l=p["l"])
+    return _staggered().succession(sm, root=p["root"], s=p["s"], l=p["l"], joints=p["joints"])
 
 
 def _run_random_timing(sm, p, ctx):
@@ -298,13 +323,14 @@ def _run_random_timing(sm, p, ctx):
 
 
 def _run_exaggerate(sm, p, ctx):
-    st = _staggered()
-    kwargs = {k: v for k, v in p.items() if k not in ("op",) and v is not None}
-    return st.exaggerate(sm, **kwargs)
+    poses = list(range(sm.num_poses)) if p["poses"] is None else p["poses"]
+    return _staggered().exaggerate(sm, poses, p["w_r"], reference=p["reference"], mode=p["mode"],
+                                   joints=p["joints"])
 
 
 def _run_edit_pose(sm, p, ctx):
-    return _staggered().edit_pose(sm, p["pose"], deltas=p["deltas"])
+    deltas = {name: np.radians(np.asarray(rv, dtype=float)) for name, rv in p["deltas"].items()}
+    return _staggered().edit_pose(sm, p["pose"], deltas=deltas, mode=p["mode"])
 
 
 def _run_edit_frame(m, p, ctx):
@@ -322,7 +348,7 @@ def _run_propagate(m, p, ctx):
         raise ValueError(f"frame: {f} is outside the motion's {m.num_frames} frames")
     edited = apply_pose_deltas(m.local_quats[f], m.skeleton, p["deltas"])
     fr = None if p["frame_range"] is None else tuple(p["frame_range"])
-    return _wand().propagate(m, f, edited, sigma=p["sigma"], frame_range=fr)
+    return _wand().propagate(m, f, edited, frame_range=fr, basis=ctx.wand_basis(m, p["sigma"]))
 
 
 def _warp_frames(m, duration):
@@ -330,14 +356,17 @@ def _warp_frames(m, duration):
 
 
 def _run_guided_warp(m, p, ctx):
-    ref = ctx.reference(p["reference"], m)
-    out, _ = _timewarp().guided_warp(m, ref, _warp_frames(m, p["duration"]), skip=p["skip"],
-                                     keytimes=p["keytimes"])
+    tw = _timewarp()
+    n = _warp_frames(m, p["duration"])
+    tables = ctx.warp_tables(m, p["reference"], p["skip"], tw.required_upsample(m.num_frames, n))
+    out, warp = tw.guided_warp(m, tables.reference, n, skip=p["skip"], keytimes=p["keytimes"], tables=tables)
+    ctx.remember_warp(m, p, warp)
     return out
 
 
 def _run_linear_warp(m, p, ctx):
-    out, _ = _timewarp().linear_warp(m, _warp_frames(m, p["duration"]), keytimes=p["keytimes"])
+    out, warp = _timewarp().linear_warp(m, _warp_frames(m, p["duration"]), keytimes=p["keytimes"])
+    ctx.remember_warp(m, p, warp)
     return out
 
 
@@ -348,13 +377,16 @@ def _run_resample(m, p, ctx):
 register_op("extract", "motion", {}, _run_extract)
 register_op("cull", "staggered", {"percent": (_percent, _REQUIRED)}, _run_cull)
 register_op("succession", "staggered", {"root": (_str, _REQUIRED), "s": (_number, _REQUIRED),
-                                        "l": (_positive, 1.0)}, _run_succession)
+                                        "l": (_positive, 1.0), "joints": (_optional(_str_list), None)},
+            _run_succession)
 register_op("random_timing", "staggered", {"tau": (_nonneg, _REQUIRED), "seed": (_nonneg_int, 0),
                                            "joints": (_optional(_str_list), None)}, _run_random_timing)
-register_op("exaggerate", "staggered", {"w_r": (_number, _REQUIRED), "joints": (_optional(_str_list), None),
-                                        "relative_to": (_optional(_str), None)}, _run_exaggerate)
-register_op("edit_pose", "staggered", {"pose": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED)},
-            _run_edit_pose)
+_MODE = _choice("staggered", "unstaggered")
+register_op("exaggerate", "staggered", {"w_r": (_number, _REQUIRED), "poses": (_optional(_int_list), None),
+                                        "reference": (_pose_reference, "previous"), "mode": (_MODE, "staggered"),
+                                        "joints": (_optional(_str_list), None)}, _run_exaggerate)
+register_op("edit_pose", "staggered", {"pose": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED),
+                                       "mode": (_MODE, "staggered")}, _run_edit_pose)
 register_op("edit_frame", "motion", {"frame": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED)},
             _run_edit_frame)
 register_op("propagate", "motion", {"frame": (_nonneg_int, _REQUIRED), "deltas": (_deltas, _REQUIRED),
@@ -411,6 +443,15 @@ def _motion_from_json(d: Any, field: str) -> Motion:
     return m
 
 
+# --------------------------------------------------------------------------------------------------
+# view data (the widgets draw these; they do no math themselves)
+# --------------------------------------------------------------------------------------------------
+def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
+    """Local rotation of ``joint`` (name or index) over time as a rotation vector, shape (F, 3), degrees."""
+    j = motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
+    return np.degrees(quat_to_rotvec(motion.local_quats[:, j]))
+
+
 def _sha256(path: str) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -427,24 +468,71 @@ def _canonical(ops) -> str:
 # the session
 # --------------------------------------------------------------------------------------------------
 class _Context:
-    """What runners may ask of the session: cached extraction and resolved references."""
+    """What runners may ask of the session: cached expensive heads (the staggered extraction, the
+    magic wand's pose graph and per-sigma eigenbases) and resolved references."""
 
     def __init__(self, session: "Session"):
         self._s = session
-        self._extractions: OrderedDict = OrderedDict()
+        self._per_motion: dict[str, OrderedDict] = {"extract": OrderedDict(), "graph": OrderedDict(),
+                                                    "basis": OrderedDict(), "warp": OrderedDict(),
+                                                    "cull": OrderedDict()}
+        self._lock = threading.RLock()  # the caches may be warmed from a background thread
         self._references: dict = {}
+        self._warps: dict = {}
+
+    def _cached(self, kind: str, motion, key, make: Callable, size: int = _EXTRACT_CACHE_SIZE):
+        with self._lock:
+            return self._cached_locked(kind, motion, key, make, size)
+
+    def _cached_locked(self, kind, motion, key, make, size):
+        store = self._per_motion[kind]
+        k = (id(motion), key)
+        hit = store.get(k)
+        if hit is not None and hit[0] is motion:
+            store.move_to_end(k)
+            return hit[1]
+        self._s._busy(kind, True)
+        try:
+            value = make()
+        finally:
+            self._s._busy(kind, False)
+        store[k] = (motion, value)
+        while len(store) > size:
+            store.popitem(last=False)
+        return value
 
     def extract(self, motion: Motion):
-        key = id(motion)
-        hit = self._extractions.get(key)
-        if hit is not None and hit[0] is motion:
-            self._extractions.move_to_end(key)
-            return hit[1]
-        sm = _staggered().extract(motion, **self._s.extract_options)
-        self._extractions[key] = (motion, sm)
-        while len(self._extractions) > _EXTRACT_CACHE_SIZE:
-            self._extractions.popitem(last=False)
-        return sm
+        """``staggered.extract(motion, **extract_options)``, once per motion."""
+        return self._cached("extract", motion, None,
+                            lambda: _staggered().extract(motion, **self._s.extract_options))
+
+    def cull(self, sm, percent: float):
+        """``staggered.cull(sm, percent)`` (a refit of the splines, the slow step of the cull slider), once
+        per (representation, percent)."""
+        return self._cached("cull", sm, float(percent), lambda: _staggered().cull(sm, percent=float(percent)),
+                            size=_CULL_CACHE_SIZE)
+
+    def wand_basis(self, motion: Motion, sigma: float | None):
+        """The magic wand's Green's eigenbasis of ``motion`` for ``sigma``: the sigma-independent pose
+        graph is built once per motion, the basis once per (motion, sigma) (Dean et al. 2018, §3.1-3.2)."""
+        graph = self._cached("graph", motion, None, lambda: _wand().pose_graph(motion))
+        return self._cached("basis", motion, None if sigma is None else float(sigma),
+                            lambda: graph.basis(sigma), size=8)
+
+    def wand_graph(self, motion: Motion):
+        return self._cached("graph", motion, None, lambda: _wand().pose_graph(motion))
+
+    def warp_tables(self, motion: Motion, reference, skip: int, upsample: int):
+        """Guided time warping's precomputed kNN score tables (Hsu et al. 2007, §3.2), once per
+        (input, reference, skip, upsampling)."""
+        ref = self.reference(reference, motion)
+        return self._cached("warp", motion, (_canonical(reference), int(skip), int(upsample)),
+                            lambda: _timewarp().prepare_warp(motion, ref, int(skip), int(upsample)))
+
+    def remember_warp(self, motion: Motion, params: dict, warp: np.ndarray) -> None:
+        self._warps[(id(motion), _canonical(params))] = warp
+        while len(self._warps) > _MEMO_SIZE:
+            self._warps.pop(next(iter(self._warps)))
 
     def reference(self, ref, motion: Motion) -> Motion:
         if ref == "self":
@@ -500,6 +588,8 @@ class Session:
         self._memo: OrderedDict = OrderedDict()
         self._ctx = _Context(self)
         self._listeners: list = []
+        self._busy_listeners: list = []
+        self._curve_cache: dict = {}
 
     @classmethod
     def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
@@ -587,6 +677,15 @@ class Session:
         """Call ``listener(session)`` after every change of the op list."""
         self._listeners.append(listener)
 
+    def observe_busy(self, listener: Callable) -> None:
+        """Call ``listener(kind, started)`` around expensive cached computations (``"extract"``,
+        ``"graph"``, ``"basis"``, ``"reference"``), e.g. to show a progress bar."""
+        self._busy_listeners.append(listener)
+
+    def _busy(self, kind: str, started: bool) -> None:
+        for f in list(self._busy_listeners):
+            f(kind, started)
+
     def _notify(self):
         for f in list(self._listeners):
             f(self)
@@ -665,6 +764,73 @@ class Session:
     def extraction(self):
         """The (cached) staggered extraction of the source motion."""
         return self._ctx.extract(self.source)
+
+    def precompute_cull(self, percents, stop: Callable | None = None) -> int:
+        """Compute and cache ``cull`` of the source's extraction for each of ``percents`` (e.g. every
+        position of a slider, from a background thread); stops early when ``stop()`` is true.
+        Returns how many were computed or already cached."""
+        n = 0
+        sm = self.extraction()
+        for pc in percents:
+            if stop is not None and stop():
+                break
+            self._ctx.cull(sm, _percent(float(pc), "percents[]"))
+            n += 1
+        return n
+
+    def warp_curve(self, index: int = -1):
+        """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
+        (None when that op is not a warp)."""
+        states = self.states()
+        n = len(self._ops)
+        if not -n <= index < n:
+            raise ValueError(f"index: {index} is outside the {n} ops")
+        i = index % n
+        op = self._ops[i]
+        if op["op"] not in ("guided_warp", "linear_warp"):
+            return None
+        prev = self.source if i == 0 else states[i - 1]
+        prev = self._convert(prev, "motion")
+        return self._ctx._warps.get((id(prev), _canonical(op)))
+
+    def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
+        """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
+        return self._ctx.wand_basis(self.source if motion is None else motion, sigma)
+
+    def wand_graph(self, motion: Motion | None = None):
+        """The (cached) sigma-independent pose graph of ``motion`` (default: the source)."""
+        return self._ctx.wand_graph(self.source if motion is None else motion)
+
+    def falloff_curves(self, frame: int, sigma: float | None = None, frame_range=None, compare=(),
+                       spline_extent: float | None = None, motion: Motion | None = None) -> dict:
+        """Falloff weights around ``frame`` (1 there, 0 far away), each (F,), for the views.
+
+        ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
+        basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
+        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6).
+        """
+        m = self.source if motion is None else motion
+        wand = _wand()
+        fr = None if frame_range is None else tuple(frame_range)
+        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), int(frame), fr)}
+        for name in compare:
+            key = (name, id(m), int(frame), None if sigma is None else float(sigma), fr)
+            hit = self._curve_cache.get(key)
+            if hit is None:
+                if name == "isomap":
+                    hit = 1.0 - wand.normalize_distance(wand.isomap_distance(m, int(frame)), fr)
+                elif name == "diffusion":
+                    hit = 1.0 - wand.normalize_distance(wand.diffusion_distance(m, int(frame), sigma=sigma), fr)
+                elif name == "spline":
+                    extent = spline_extent or max(2.0, m.num_frames / 10)
+                    hit = wand.spline_falloff(m.num_frames, int(frame), extent)
+                else:
+                    raise ValueError(f"compare: unknown curve {name!r}; use 'isomap', 'diffusion', 'spline'")
+                self._curve_cache[key] = hit
+                while len(self._curve_cache) > 16:
+                    self._curve_cache.pop(next(iter(self._curve_cache)))
+            out[name] = hit
+        return out
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:
