@@ -40,7 +40,7 @@ ANKLE_HEIGHT = 8.0     # cm, ankle above the ground when the foot is flat
 _HIP = (9.0, -8.0, 0.0)    # cm, left hip joint from the pelvis centre
 _FOOT_X = 10.0             # cm, lateral position of a planted ankle from the travel line
 _REACH = 0.99 * (THIGH + SHIN)  # cm, the farthest a planted ankle may be from its hip
-_SOFT = 1.0                # cm, smoothness of the soft minimum that keeps ankles in reach
+_SOFT = 0.5                # cm, smoothness of the soft minimum that keeps ankles in reach
 _ARM_HANG = 75.0           # degrees, arms from T-pose down to the sides
 
 # (name, parent name, offset cm, end-site offset cm or None), CMU / MotionBuilder-friendly layout
@@ -394,7 +394,7 @@ def jump(duration: float = 5.5, seed: int = 2, return_contacts: bool = False):
         L_on.append(tc - half), L_off.append(tc + half), L_xz.append((_FOOT_X, float(root_z(tc))))
     for tc in (-1.65, -0.55, 0.55):
         R_on.append(tc - half), R_off.append(tc + half), R_xz.append((-_FOOT_X, float(root_z(tc))))
-    z_feet = 168.0
+    z_feet = 172.0
     R_on.append(1.65 - half), R_off.append(t_to), R_xz.append((-_FOOT_X, z_feet))
     L_on.append(J["gather"]), L_off.append(t_to), L_xz.append((_FOOT_X, z_feet))
     z_land = z_ld + 29.0
