@@ -232,8 +232,8 @@ def fit_rotation_tangents_nelder_mead(tn, targets, v0, v3, w_f: float = 1000.0, 
         fc = abs(na * na + nb * nb - 2.0)
         return w_f * ff + w_c * fc
 
-    res = minimize(f, x0, method="Nelder-Mead", options={"maxiter": maxiter or 400 * 8, "xatol": 1e-10,
-                                                          "fatol": 1e-14})
+    # scipy's default Nelder-Mead settings (maxiter 200 * 8, xatol = fatol = 1e-4): a straight port
+    res = minimize(f, x0, method="Nelder-Mead", options={"maxiter": maxiter} if maxiter else None)
     return quat_normalize(res.x.reshape(2, 4))
 
 

@@ -1,0 +1,197 @@
+"""StaggeredMotion, evaluate() and the spline fit (Coleman et al. 2008, §3, §4.1.1, Appendix A)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from conftest import SHARED_CLIPS
+from stagger_nb import staggered
+from stagger_nb.core.kinematics import skeleton_height
+from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
+from stagger_nb.staggered.fitting import (fit_rotation_tangents, fit_rotation_tangents_nelder_mead,
+                                          fit_staggered, fit_translation_tangents)
+from stagger_nb.staggered.representation import bezier_cubic, evaluate_arrays, rotation_spline
+
+CLIPS = ["bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
+         "pymo_walk_turnaround.bvh", "xia_angry_run.bvh", "xia_neutral_walk.bvh"]
+
+
+@pytest.fixture(scope="module")
+def extracted(shared_motion):
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            m = shared_motion(name)
+            cache[name] = (m, staggered.extract(m))
+        return cache[name]
+    return get
+
+
+# -- exact reconstruction (the acceptance check) ---------------------------------------------------
+
+@pytest.mark.parametrize("name", CLIPS)
+def test_evaluate_extract_reproduces_every_real_clip(extracted, name):
+    m, sm = extracted(name)
+    out = staggered.evaluate(sm)
+    assert out.num_frames == m.num_frames and out.frame_time == m.frame_time
+    # displacement maps make this exact by construction; 1e-6 rad / 1e-6 height is the issue's bound
+    assert quat_angle(m.local_quats, out.local_quats).max() <= 1e-6
+    assert np.abs(out.root_positions - m.root_positions).max() <= 1e-6 * skeleton_height(m)
+    if m.local_translations is not None:      # passed through untouched
+        assert np.array_equal(out.local_translations, m.local_translations)
+    # refinements stay inside the paper's +-0.25 s, and knot times increase down every joint
+    assert np.abs(sm.refinements).max() <= 0.25 + 1e-12
+    assert np.all(np.diff(sm.knot_times(), axis=0) > 0)
+    # explicit times give the same as the default grid (bit-for-bit: same code path)
+    again = staggered.evaluate(sm, m.times)
+    assert np.array_equal(again.local_quats, out.local_quats)
+
+
+def test_all_six_shared_clips_are_covered():
+    if not SHARED_CLIPS:
+        pytest.skip("../shared/mocap not present")
+    assert sorted(CLIPS) == sorted(SHARED_CLIPS)
+
+
+def test_editing_knots_are_the_pose_at_the_pose_time(extracted):
+    m, sm = extracted("xia_neutral_walk.bvh")
+    q, _ = evaluate_arrays(sm, sm.pose_times)
+    assert quat_angle(q, sm.editing_knots).max() < 1e-9          # rounding only
+    assert np.array_equal(sm.has_editing_knot, sm.refinements != 0)
+
+
+def test_displacement_follows_the_segment_when_time_is_scaled(extracted):
+    m, sm = extracted("xia_angry_run.bvh")
+    slow = dataclasses.replace(sm, pose_times=2 * sm.pose_times, refinements=2 * sm.refinements,
+                               root_refinements=2 * sm.root_refinements, local_translations=None)
+    out = staggered.evaluate(slow, 2 * m.times)
+    # t' is identical at the doubled times, so the motion is exactly the original (rounding only)
+    assert quat_angle(out.local_quats, m.local_quats).max() < 1e-9
+    assert np.abs(out.root_positions - m.root_positions).max() < 1e-9
+
+
+def test_retiming_one_joint_changes_only_that_joint(extracted):
+    m, sm = extracted("xia_neutral_walk.bvh")
+    j = m.skeleton.index("LeftForeArm") if "LeftForeArm" in m.skeleton.names else 5
+    r = np.array(sm.refinements)
+    r[1:-1, j] += 0.02
+    out = staggered.evaluate(dataclasses.replace(sm, refinements=r))
+    err = quat_angle(out.local_quats, m.local_quats)
+    assert np.delete(err, j, axis=1).max() < 1e-9                # other joints: rounding only
+    assert err[:, j].max() > 1e-4                                # the retimed joint really moves
+
+
+def test_spline_is_continuous_at_segment_joins(extracted):
+    m, sm = extracted("cmu_131_01_walk_startstop.bvh")
+    v0, v3 = sm.values[:-1], sm.values[1:]
+    t = sm.tangents
+    end = rotation_spline(v0.reshape(-1, 4), t[:, :, 0].reshape(-1, 4), t[:, :, 1].reshape(-1, 4),
+                          v3.reshape(-1, 4), np.ones(v0.size // 4))
+    start = rotation_spline(v0.reshape(-1, 4), t[:, :, 0].reshape(-1, 4), t[:, :, 1].reshape(-1, 4),
+                            v3.reshape(-1, 4), np.zeros(v0.size // 4))
+    # each segment spline interpolates its knots, so consecutive segments meet in value (rounding only)
+    assert quat_angle(end, v3.reshape(-1, 4)).max() < 1e-7
+    assert quat_angle(start, v0.reshape(-1, 4)).max() < 1e-7
+    pe = bezier_cubic(sm.root_values[:-1], sm.root_tangents[:, 0], sm.root_tangents[:, 1],
+                      sm.root_values[1:], np.ones(sm.num_poses - 1))
+    assert np.allclose(pe, sm.root_values[1:], atol=1e-9)
+
+
+# -- spline kernels against naive references ------------------------------------------------------
+
+def test_rotation_spline_matches_recursive_slerp_reference(rng):
+    c = Rotation.random(4 * 300, random_state=3).as_quat().reshape(4, 300, 4)
+    t = rng.uniform(0, 1, 300)
+    got = rotation_spline(c[0], c[1], c[2], c[3], t)
+    want = quat_bezier(c[0], c[1], c[2], c[3], t)
+    assert quat_angle(got, want).max() < 1e-7   # same recursion, different arithmetic: arccos rounding
+    ends = rotation_spline(c[0], c[1], c[2], c[3], np.zeros(300))
+    assert quat_angle(ends, c[0]).max() < 1e-7
+
+
+def _random_segments(rng, P, spread=0.6):
+    v0 = Rotation.random(P, random_state=7).as_quat()
+    steps = [rotvec_to_quat(rng.normal(scale=spread, size=(P, 3))) for _ in range(3)]
+    c1 = quat_mul(v0, steps[0])
+    c2 = quat_mul(c1, steps[1])
+    v3 = quat_mul(c2, steps[2])
+    return v0, c1, c2, v3
+
+
+def test_fit_recovers_a_known_quaternion_bezier(rng):
+    P, n = 40, 25
+    v0, c1, c2, v3 = _random_segments(rng, P)
+    tn = np.tile(np.linspace(0, 1, n), P)
+    pair = np.repeat(np.arange(P), n)
+    targets = quat_bezier(v0[pair], c1[pair], c2[pair], v3[pair], tn)
+    from stagger_nb.core.rotations import quat_continuous
+    targets = quat_continuous(targets.reshape(P, n, 4), axis=1).reshape(-1, 4)
+    tang, cost = fit_rotation_tangents(tn, targets, pair, targets[::n], targets[n - 1::n], P, iterations=8)
+    # data lie exactly on a spline of this family: the fit gets there (1e-12 rad^2 = solver tolerance)
+    assert cost.max() < 1e-12
+    assert quat_angle(tang[:, 0], c1).max() < 1e-5 and quat_angle(tang[:, 1], c2).max() < 1e-5
+
+
+def test_fit_translation_recovers_control_points(rng):
+    P, n = 10, 12
+    ctrl = rng.normal(size=(4, P, 3))
+    tn = np.tile(np.linspace(0, 1, n), P)
+    pair = np.repeat(np.arange(P), n)
+    y = bezier_cubic(ctrl[0][pair], ctrl[1][pair], ctrl[2][pair], ctrl[3][pair], tn)
+    got = fit_translation_tangents(tn, y, pair, ctrl[0], ctrl[3], P)
+    assert np.allclose(got[:, 0], ctrl[1], atol=1e-6) and np.allclose(got[:, 1], ctrl[2], atol=1e-6)  # ridge 1e-9
+
+
+def test_fit_is_at_least_as_accurate_as_nelder_mead_port(rng):
+    P, n = 2, 12      # the port costs seconds per segment: two segments keep the test short
+    v0, c1, c2, v3 = _random_segments(rng, P, spread=0.4)
+    tn1 = np.linspace(0, 1, n)
+    noise = rotvec_to_quat(rng.normal(scale=0.02, size=(P, n, 3)))
+    data = quat_mul(quat_bezier(v0[:, None], c1[:, None], c2[:, None], v3[:, None], tn1), noise)
+    from stagger_nb.core.rotations import quat_continuous
+    data = quat_continuous(data, axis=1)
+    pair = np.repeat(np.arange(P), n)
+    tang, cost = fit_rotation_tangents(np.tile(tn1, P), data.reshape(-1, 4), pair, data[:, 0], data[:, -1], P)
+    for p in range(P):
+        nm = fit_rotation_tangents_nelder_mead(tn1, data[p], data[p, 0], data[p, -1])
+        s = quat_bezier(data[p, 0], nm[0], nm[1], data[p, -1], tn1)
+        nm_cost = np.sum(quat_angle(s, data[p]) ** 2)
+        assert cost[p] <= nm_cost * (1 + 1e-6) + 1e-12      # never worse than the paper's optimiser
+
+
+# -- the dataclass --------------------------------------------------------------------------------
+
+def test_staggered_motion_validates_and_is_read_only(extracted):
+    m, sm = extracted("bandai_run_cycle.bvh")
+    with pytest.raises(ValueError, match="refinements"):
+        dataclasses.replace(sm, refinements=sm.refinements[:, :3])
+    with pytest.raises(ValueError, match="pose_times"):
+        dataclasses.replace(sm, pose_times=sm.pose_times[::-1])
+    with pytest.raises(ValueError):
+        sm.values[0, 0, 0] = 2.0
+    with pytest.raises(ValueError, match="sm"):
+        staggered.evaluate(m)
+
+
+def test_evaluate_tolerates_crossing_knots_and_times_outside(extracted):
+    m, sm = extracted("xia_angry_run.bvh")
+    r = np.array(sm.refinements)
+    r[1:-1] += 0.5 * np.sign(np.arange(r.shape[1]) % 2 - 0.5)   # knots pushed past their neighbours
+    out = staggered.evaluate(dataclasses.replace(sm, refinements=r), np.linspace(-1.0, sm.duration + 1.0, 50))
+    assert np.all(np.isfinite(out.local_quats)) and out.num_frames == 50
+
+
+def test_fit_staggered_validates_arguments(extracted):
+    m, sm = extracted("bandai_run_cycle.bvh")
+    with pytest.raises(ValueError, match="pose_times"):
+        fit_staggered(m, [0.1], np.zeros((1, m.num_joints)))
+    with pytest.raises(ValueError, match="refinements"):
+        fit_staggered(m, [0.0, 0.5], np.zeros((2, 3)))
+    bad = np.zeros((3, m.num_joints))
+    bad[1, 0] = 0.3
+    with pytest.raises(ValueError, match="increasing"):
+        fit_staggered(m, [0.0, 0.2, 0.4], bad)
