@@ -133,6 +133,24 @@ def test_toe_contact_goes_through_the_ankle():
     assert np.max(quat_angle(out.local_quats[:, 5], edited.local_quats[:, 5])) < 1e-9
 
 
+def test_zero_length_bones_are_skipped_in_the_chain():
+    """CMU-style arm: Collar - Shoulder - Elbow(0 offset 'ElbowRoll') - Wrist - hand (0 offset)."""
+    names = ["Hips", "Collar", "Shoulder", "Elbow", "ElbowRoll", "Wrist", "hand"]
+    offsets = [[0, 0, 0], [1, 0, 0], [1, 0, 0], [3, 0, 0.3], [0, 0, 0], [3, 0, -0.2], [0, 0, 0]]
+    sk = Skeleton(names, [-1, 0, 1, 2, 3, 4, 5], offsets)
+    rng = np.random.default_rng(2)
+    q = rotvec_to_quat(rng.normal(scale=0.3, size=(20, 7, 3)))
+    m = Motion(sk, 1 / 30, np.zeros((20, 3)), q)
+    rp = np.zeros((20, 3))
+    rp[:, 0], rp[:, 1] = 0.8, -0.3  # towards the hand (the arm points along +x): the target stays reachable
+    edited = m.replace(root_positions=rp)
+    contacts = [("hand", 5, 15)]
+    out = apply_contact_constraints(edited, contacts, reference=m)
+    assert contact_errors(out, contacts, reference=m, mode="track").max() < 1e-9  # exact IK
+    changed = np.flatnonzero(quat_angle(out.local_quats, edited.local_quats).max(axis=0) > 1e-12)
+    assert changed.tolist() == [2, 4, 5]  # Shoulder (upper), ElbowRoll (middle), Wrist (effector)
+
+
 @pytest.mark.parametrize("bad, match", [
     ([("Nope", 0, 5)], "Nope"), ([("LeftFoot", 5, 5)], r"\[5, 5\)"), ([("LeftFoot", 0, 99)], "outside"),
     ([("LeftFoot", 0)], "joint_name"), ([("Pelvis", 0, 4)], "two-bone chain"),

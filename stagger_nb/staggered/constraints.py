@@ -38,7 +38,7 @@ def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip(np.sum(_unit(u)[0] * _unit(v)[0], axis=-1), -1.0, 1.0))
 
 
-def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None):
+def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None, b_parent_world=None):
     """Analytic two-bone IK, vectorised over N samples.
 
     Rotates the upper joint ``a`` and the middle joint ``b`` so that the effector ``c`` reaches
@@ -56,6 +56,9 @@ def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None):
     fallback_axis : ndarray, shape (N, 3), optional
         Bend axis used where the chain is exactly straight (no bend plane); default: the middle
         joint's local x axis in world space (the knee/elbow hinge in common BVH rigs).
+    b_parent_world : ndarray, shape (N, 4), optional
+        World rotation of the middle joint's parent when that is not the upper joint (zero-length bones
+        in between, which move rigidly with the upper joint); default ``a_world``.
 
     Returns
     -------
@@ -92,7 +95,11 @@ def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None):
     a_world_new = quat_mul(r20, a_world)
     b_world_new = quat_mul(r20, quat_mul(r1, b_world))
     a_local_new = quat_mul(a_local, quat_mul(quat_conj(a_world), a_world_new))
-    b_local_new = quat_mul(quat_conj(a_world_new), b_world_new)
+    if b_parent_world is None:
+        b_parent_new = a_world_new
+    else:
+        b_parent_new = quat_mul(a_world_new, quat_mul(quat_conj(a_world), b_parent_world))
+    b_local_new = quat_mul(quat_conj(b_parent_new), b_world_new)
     return a_local_new, b_local_new, b_world_new
 
 
@@ -165,11 +172,21 @@ def attenuation_weights(active: np.ndarray, blend_frames: int) -> tuple[np.ndarr
     return weight, left, right
 
 
-def _effector_of(skeleton, j: int) -> int:
-    """Ankle/wrist that carries a contact on ``j`` (toe contacts go through the parent)."""
-    if "toe" in skeleton.names[j].lower() and skeleton.parents[j] > 0:
-        return int(skeleton.parents[j])
-    return j
+def _chain(skeleton, j: int) -> tuple[int, int, int]:
+    """(upper, middle, effector) joints that carry a contact on ``j``: toe contacts go through the ankle,
+    and zero-length bones are skipped so both IK bones have a length (e.g. CMU's ``lhand`` sits on
+    ``LeftWrist``; ``upper`` is the first ancestor not co-located with ``middle``). ``upper`` is -1 when the
+    chain would reach the root."""
+    par, off = skeleton.parents, np.linalg.norm(skeleton.offsets, axis=1)
+    eff = int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j
+    while eff > 0 and off[eff] < 1e-9:
+        eff = int(par[eff])
+    mid = int(par[eff]) if eff > 0 else -1
+    c = mid
+    while c > 0 and off[c] < 1e-9:
+        c = int(par[c])
+    up = int(par[c]) if c > 0 else -1
+    return up, mid, eff
 
 
 def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
@@ -221,12 +238,11 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
 
     # group contacts by effector; direct (ankle) contacts take precedence over toe contacts
     groups: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    order = sorted(range(len(parsed)), key=lambda i: _effector_of(sk, parsed[i][0]) == parsed[i][0])
+    chains = [_chain(sk, j) for j, _, _ in parsed]
+    order = sorted(range(len(parsed)), key=lambda i: chains[i][2] == parsed[i][0])
     for i in order:
         j, s, e = parsed[i]
-        eff = _effector_of(sk, j)
-        mid = int(sk.parents[eff])
-        up = int(sk.parents[mid]) if mid > 0 else -1
+        up, mid, eff = chains[i]
         if up <= 0:
             raise ValueError(f"contacts: joint {sk.names[j]!r} has no two-bone chain below the root")
         act, tgt = groups.setdefault(eff, (np.zeros(F, bool), np.zeros((F, 3))))
@@ -238,8 +254,7 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
 
     out = lq.copy()
     for eff, (act, tgt) in groups.items():
-        mid = int(sk.parents[eff])
-        up = int(sk.parents[mid])
+        up, mid, _ = _chain(sk, eff)
         chain = [up, mid, eff]
         weight, left, right = attenuation_weights(act, nb)
         fr = np.flatnonzero(weight > 0)
@@ -256,7 +271,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
                 alpha = np.where(np.isinf(gr), 0.0, np.where(np.isinf(gl), 1.0, gl / (gl + gr)))[:, None]
             tgt[win] = ref_pos[win, eff] + (1 - alpha) * off[np.maximum(l, 0)] + alpha * off[np.maximum(r, 0)]
         a_new, b_new, bw_new = two_bone_ik(pos[fr, up], pos[fr, mid], pos[fr, eff], tgt[fr],
-                                           wq[fr, up], wq[fr, mid], lq[fr, up])
+                                           wq[fr, up], wq[fr, mid], lq[fr, up],
+                                           b_parent_world=None if sk.parents[mid] == up else wq[fr, sk.parents[mid]])
         c_new = quat_mul(quat_conj(bw_new), wq[fr, eff])
         disp = quat_mul(quat_conj(lq[fr][:, chain]), np.stack([a_new, b_new, c_new], axis=1))
         ident = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape)

@@ -160,7 +160,10 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
             raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), got {arr.shape}")
         items = enumerate(arr)
     for j, v in items:
-        jj = _joint_mask(sm, [j])
+        try:
+            jj = _joint_mask(sm, [j])
+        except ValueError as e:
+            raise ValueError(f"{name}: {e}") from None
         v = np.asarray(v, dtype=float).reshape(-1)
         if v.size == 3:
             v = quat_exp(0.5 * v)                 # rotation vector, radians
