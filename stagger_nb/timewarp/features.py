@@ -17,7 +17,8 @@ from scipy.ndimage import uniform_filter1d
 from ..core.kinematics import positions_in_root_frame
 from ..core.motion import Motion
 
-__all__ = ["pose_features", "prefilter_frames", "feature_weights", "triple_features", "reference_features"]
+__all__ = ["pose_features", "prefilter_frames", "feature_weights", "triple_features", "reference_blocks",
+           "reference_features"]
 
 
 def prefilter_frames(prefilter: float, frame_time: float) -> int:
@@ -82,7 +83,35 @@ def triple_features(X: np.ndarray, i, j, k, weights=(1.0, 1.0, 1.0)) -> np.ndarr
     return np.concatenate([wp * xj, wv * 0.5 * (xk - xi), wa * (xk - 2.0 * xj + xi)], axis=-1)
 
 
-def reference_features(R: np.ndarray, weights=(1.0, 1.0, 1.0)) -> np.ndarray:
-    """Features of every interior reference frame ``t = 1 .. r-2`` (frames ``t-1, t, t+1``), shape (r-2, 3 D)."""
-    t = np.arange(1, R.shape[0] - 1)
-    return triple_features(R, t - 1, t, t + 1, weights)
+def _at(R: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Rows of ``R`` at fractional indices ``f`` (linear interpolation; exact at integers)."""
+    i0 = np.clip(np.floor(f).astype(int), 0, R.shape[0] - 1)
+    i1 = np.minimum(i0 + 1, R.shape[0] - 1)
+    a = (f - i0)[:, None]
+    return R[i0] * (1.0 - a) + R[i1] * a
+
+
+def reference_blocks(R: np.ndarray, step: float = 1.0):
+    """Pose, velocity and acceleration blocks of the reference, each (r', D), for every frame ``t`` with
+    ``t - step >= 0`` and ``t + step <= r - 1``: ``P = R_t``, ``V = (R_{t+step} - R_{t-step}) / 2``,
+    ``A = R_{t+step} - 2 R_t + R_{t-step}`` (fractional ``step`` interpolates linearly). ``step = 1`` is eq. (2)'s
+    reference; a larger step gives the coarse problem of the coarse-to-fine heuristic differences over the
+    same span as its coarse output frames, from every reference frame."""
+    step = float(step)
+    if not np.isfinite(step) or step < 1.0:
+        raise ValueError(f"step must be >= 1 frame, got {step!r}")
+    t = np.arange(int(np.ceil(step - 1e-9)), int(np.floor(R.shape[0] - 1 - step + 1e-9)) + 1)
+    P = R[t]
+    if step == 1.0:
+        lo, hi = R[t - 1], R[t + 1]
+    else:
+        lo, hi = _at(R, t - step), _at(R, t + step)
+    return P, 0.5 * (hi - lo), hi - 2.0 * P + lo
+
+
+def reference_features(R: np.ndarray, weights=(1.0, 1.0, 1.0), step: float = 1.0) -> np.ndarray:
+    """Features ``[w_p P, w_v V, w_a A]`` of the reference (:func:`reference_blocks`), shape (r', 3 D);
+    for ``step = 1`` these are the frames ``t = 1 .. r-2`` with neighbours ``t - 1, t + 1``."""
+    wp, wv, wa = feature_weights(weights)
+    P, V, A = reference_blocks(R, step)
+    return np.concatenate([wp * P, wv * V, wa * A], axis=1)

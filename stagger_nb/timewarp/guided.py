@@ -187,22 +187,20 @@ def _coarse_band(tables: WarpTables, m: int, keys, factor: int, band: float | No
     dt_out = (m - 1) / (m_c - 1)                     # coarse output spacing, output frames
     fx = np.linspace(0.0, n - 1, n_c)
     Xc = np.stack([np.interp(fx, np.arange(n), col) for col in tables.X.T], axis=1)
-    fr = np.arange(0.0, r - 1 + 1e-9, dt_out)
-    if fr.size < tables.k + 2:
+    if r - 2 * np.ceil(dt_out) < tables.k:
         return None
-    Rc = np.stack([np.interp(fr, np.arange(r), col) for col in tables.R.T], axis=1)
     ckeys = sorted({(int(round(q / dt_out)), int(round(y / dt_in))) for q, y in keys})
     try:
         validate_keys(n_c, m_c, s, ckeys)
     except ValueError:
         return None
     wp, wv, wa = tables.weights  # coarse differences span dt_out output frames: rescale to keep the units
-    Sc = knn_scores(Xc, Rc, s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2))
+    Sc = knn_scores(Xc, tables.R, s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2), ref_step=dt_out)
     fc, cost_c = constrained_dp(Sc, m_c, keys=ckeys)
     if not np.isfinite(cost_c):
         return None
     yhat = np.interp(np.arange(m), np.arange(m_c) * dt_out, fc * dt_in)
-    half = 2.0 * factor if band is None else float(band)
+    half = 4.0 * max(factor, s) if band is None else float(band)
     return np.floor(yhat - half).astype(np.int64), np.ceil(yhat + half).astype(np.int64)
 
 
@@ -216,8 +214,11 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
     num_frames : m, output frame count, or None for the unconstrained shortest path (any length; no keytimes)
     keytimes : list of (input_time_s, output_time_s) pairs or None
     coarse : subsampling factor of the coarse-to-fine heuristic (the paper uses 8), or None for the exact DP.
-        The full-resolution search is restricted to ``band`` searched-input frames (default ``2 * coarse``)
-        around the interpolated coarse solution; it falls back to the exact DP if that band has no path.
+        The full-resolution search is restricted to ``band`` searched-input frames (default
+        ``4 * max(coarse, skip)``; self-referenced compressions have many near-ties, and a narrower band loses
+        a few per cent of the objective) either side of the interpolated coarse solution; it falls back to the
+        exact DP if that band has no path. The coarse problem samples the input every ~``coarse`` frames and
+        takes the reference's differences over the same span from every reference frame.
     progress : callable(fraction) or None
 
     Raises ``ValueError`` naming ``num_frames`` (too short for ``skip``, longer than the searched input) or

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .features import feature_weights, reference_features, triple_features
+from .features import feature_weights, reference_blocks, reference_features, triple_features
 
 __all__ = ["knn_scores", "knn_scores_loop", "validate_skip"]
 
@@ -33,7 +33,7 @@ def validate_skip(skip) -> int:
     return int(skip)
 
 
-def _check_inputs(X, R, skip, k):
+def _check_inputs(X, R, skip, k, ref_step=1.0):
     X = np.asarray(X, dtype=float)
     R = np.asarray(R, dtype=float)
     if X.ndim != 2 or R.ndim != 2 or X.shape[1] != R.shape[1]:
@@ -41,8 +41,8 @@ def _check_inputs(X, R, skip, k):
     skip = validate_skip(skip)
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be a positive integer, got {k!r}")
-    if R.shape[0] - 2 < k:
-        raise ValueError(f"reference must have at least k + 2 = {k + 2} frames, got {R.shape[0]}")
+    if R.shape[0] - 2 * int(np.ceil(ref_step - 1e-9)) < k:
+        raise ValueError(f"reference must have at least k + 2 = {k + 2} frames (k + 2 * ref_step), got {R.shape[0]}")
     return X, R, skip, int(k)
 
 
@@ -97,7 +97,7 @@ def _phi_norms(G: np.ndarray, s: int, wp: float, wv: float, wa: float) -> np.nda
 
 
 def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),
-               dtype=np.float32, progress=None) -> np.ndarray:
+               dtype=np.float32, progress=None, ref_step: float = 1.0) -> np.ndarray:
     """Tabulate the local score ``f`` of eq. (2) for all admissible triples (exact kNN).
 
     Parameters
@@ -111,22 +111,22 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
         ``|phi|^2 + |z|^2 - 2 phi.z`` after centring on the mean reference pose; in float32 their squared
         values carry an absolute error of about ``1e-7 * |features|^2``.
     progress : callable(fraction in [0, 1]) or None, called after each chunk of middle frames
+    ref_step : reference frames spanned by one output frame (1; larger for the coarse problem, see
+        :func:`.features.reference_blocks`)
 
     Returns
     -------
     scores : (n, s, s) float64, ``scores[j, a-1, b-1] = f(j-a, j, j+b)``, inf where not admissible.
     """
-    X, R, s, k = _check_inputs(X, R, skip, k)
+    X, R, s, k = _check_inputs(X, R, skip, k, ref_step)
     wp, wv, wa = feature_weights(weights)
     n = X.shape[0]
     mu = R.mean(axis=0)
     X = X - mu  # distances are unchanged (differences are shift-invariant); norms become small
     R = R - mu
-    P = R[1:-1]
-    V = 0.5 * (R[2:] - R[:-2])
-    A = R[2:] - 2.0 * R[1:-1] + R[:-2]
+    P, V, A = reference_blocks(R, ref_step)
     rr = P.shape[0]
-    Z = reference_features(R, weights)
+    Z = np.concatenate([wp * P, wv * V, wa * A], axis=1)
     znorm = np.einsum("td,td->t", Z, Z)
     # phi.z = wp^2 x_j.P + (wv^2 / 2)(x_k - x_i).V + wa^2 (x_k - 2 x_j + x_i).A, split into rows i / j / k;
     # stored reference-major (rr, s + n + s) with inf columns where i < 0 or k > n - 1.
@@ -176,12 +176,13 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
     return scores
 
 
-def knn_scores_loop(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0)) -> np.ndarray:
+def knn_scores_loop(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),
+                    ref_step: float = 1.0) -> np.ndarray:
     """Straightforward reference implementation of :func:`knn_scores`: one exact float64 linear search
     over the reference features per admissible triple (eq. 2 as written). Same return value."""
-    X, R, s, k = _check_inputs(X, R, skip, k)
+    X, R, s, k = _check_inputs(X, R, skip, k, ref_step)
     n = X.shape[0]
-    Z = reference_features(R, weights)
+    Z = reference_features(R, weights, ref_step)
     scores = np.full((n, s, s), np.inf)
     for j in range(n):
         for a in range(1, s + 1):

@@ -1,0 +1,171 @@
+"""Constrained DP of guided time warping (§3.3) against exhaustive search, bounds, keys and the heuristic."""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from stagger_nb.timewarp import dp
+from stagger_nb.timewarp.objective import knn_scores
+
+
+def _admissible_paths(n, m, s):
+    """Every admissible selection: 0 and n-1 kept, m frames, steps in [1, s] (brute force)."""
+    for mid in itertools.combinations(range(1, n - 1), m - 2):
+        f = (0,) + mid + (n - 1,)
+        if max(np.diff(f)) <= s:
+            yield f
+
+
+def _exhaustive(scores, m, keys=()):
+    n, s, _ = scores.shape
+    best_cost, best = np.inf, None
+    for f in _admissible_paths(n, m, s):
+        if any(f[q] != y for q, y in keys):
+            continue
+        c = dp.path_cost(scores, f)
+        if c < best_cost:
+            best_cost, best = c, f
+    return best_cost, best
+
+
+def _random_table(rng, n, s, kind):
+    if kind == "uniform":
+        sc = rng.random((n, s, s))
+    else:  # a real kNN table: random-walk poses against a random-walk reference
+        X = np.cumsum(rng.standard_normal((n, 6)), axis=0)
+        R = np.cumsum(rng.standard_normal((n + 3, 6)), axis=0)
+        return knn_scores(X, R, s, k=2, dtype=np.float64)
+    j = np.arange(n)[:, None, None]
+    a = np.arange(1, s + 1)[None, :, None]
+    b = np.arange(1, s + 1)[None, None, :]
+    return np.where((j - a >= 0) & (j + b <= n - 1), sc, np.inf)
+
+
+def _cases():
+    rng = np.random.default_rng(7)
+    out = []
+    for n, s in [(5, 1), (6, 2), (8, 3), (10, 2), (11, 4), (12, 3), (12, 8)]:
+        m_min = -(-(n - 1) // s) + 1
+        for m in sorted(set([m_min, (m_min + n) // 2, n - 1, n]) - {1}):
+            if max(2, m_min) <= m <= n:
+                out.append((n, s, m, int(rng.integers(1 << 30))))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["uniform", "knn"])
+@pytest.mark.parametrize("n,s,m,seed", _cases())
+def test_dp_equals_exhaustive_search(n, s, m, seed, kind):
+    scores = _random_table(np.random.default_rng(seed), n, s, kind)
+    best_cost, best = _exhaustive(scores, m)
+    frames, cost = dp.constrained_dp(scores, m)
+    # same sums in another order: float64 round-off only
+    assert cost == pytest.approx(best_cost, rel=1e-12, abs=1e-12)
+    assert tuple(frames) == best  # continuous random scores: the optimum is unique
+    assert dp.path_cost(scores, frames) == pytest.approx(cost, rel=1e-12, abs=1e-12)
+    loop_frames, loop_cost = dp.constrained_dp_loop(scores, m)
+    assert tuple(loop_frames) == best and loop_cost == pytest.approx(best_cost, rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_dp_with_keys_equals_exhaustive_search(seed):
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(7, 13))
+    s = int(rng.integers(2, 5))
+    m_min = -(-(n - 1) // s) + 1
+    m = int(rng.integers(m_min, n + 1))
+    paths = list(_admissible_paths(n, m, s))
+    through = paths[int(rng.integers(len(paths)))]           # keys taken from an admissible path: feasible
+    qs = rng.choice(np.arange(1, m - 1), size=min(2, m - 2), replace=False) if m > 2 else []
+    keys = [(int(q), int(through[q])) for q in qs]
+    scores = _random_table(rng, n, s, "uniform")
+    best_cost, best = _exhaustive(scores, m, keys)
+    frames, cost = dp.constrained_dp(scores, m, keys=keys)
+    assert tuple(frames) == best
+    assert cost == pytest.approx(best_cost, rel=1e-12, abs=1e-12)  # float64 round-off only
+    for q, y in keys:
+        assert frames[q] == y
+
+
+def test_vectorised_dp_equals_loop_dp_on_a_larger_problem():
+    rng = np.random.default_rng(3)
+    n, s, m = 60, 5, 31
+    scores = _random_table(rng, n, s, "uniform")
+    keys = [(10, 17), (20, 42)]
+    f1, c1 = dp.constrained_dp(scores, m, keys=keys)
+    f2, c2 = dp.constrained_dp_loop(scores, m, keys=keys)
+    np.testing.assert_array_equal(f1, f2)
+    assert c1 == pytest.approx(c2, rel=1e-12)  # float64 round-off only
+
+
+@pytest.mark.parametrize("n,s", [(9, 2), (12, 3), (11, 5)])
+def test_bounds_are_exactly_the_frames_some_admissible_path_uses(n, s):
+    for m in range(-(-(n - 1) // s) + 1, n + 1):
+        paths = np.array(list(_admissible_paths(n, m, s)))
+        lo, hi = dp.warp_bounds(n, m, s)
+        np.testing.assert_array_equal(lo, paths.min(axis=0))
+        np.testing.assert_array_equal(hi, paths.max(axis=0))
+        for q in range(m):  # and every value in between is used (the band has no holes)
+            assert set(paths[:, q]) == set(range(lo[q], hi[q] + 1))
+
+
+def test_identity_when_m_equals_n():
+    rng = np.random.default_rng(5)
+    scores = _random_table(rng, 40, 8, "uniform")
+    frames, cost = dp.constrained_dp(scores, 40)
+    np.testing.assert_array_equal(frames, np.arange(40))
+    assert cost == pytest.approx(scores[1:-1, 0, 0].sum(), rel=1e-12)  # round-off only
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_first_and_last_frames_kept_and_skip_respected(seed):
+    rng = np.random.default_rng(200 + seed)
+    n = int(rng.integers(20, 120))
+    s = int(rng.integers(1, 10))
+    m_min = -(-(n - 1) // s) + 1
+    if m_min > n:
+        return
+    m = int(rng.integers(m_min, n + 1))
+    frames, cost = dp.constrained_dp(_random_table(rng, n, s, "uniform"), m)
+    assert frames.size == m and frames[0] == 0 and frames[-1] == n - 1
+    steps = np.diff(frames)
+    assert steps.min() >= 1 and steps.max() <= s
+    assert np.isfinite(cost)
+
+
+@pytest.mark.parametrize("n,s", [(6, 2), (9, 3), (11, 4)])
+def test_unconstrained_equals_exhaustive_over_all_lengths(n, s):
+    scores = _random_table(np.random.default_rng(n * s), n, s, "uniform")
+    best = min((_exhaustive(scores, m) for m in range(2, n + 1) if (m - 1) * s >= n - 1), key=lambda t: t[0])
+    frames, cost = dp.unconstrained_dp(scores)
+    assert tuple(frames) == best[1]
+    assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)  # float64 round-off only
+
+
+def test_progress_is_reported_up_to_one():
+    seen = []
+    dp.constrained_dp(_random_table(np.random.default_rng(0), 300, 4, "uniform"), 200, progress=seen.append)
+    assert seen and seen[-1] == 1.0 and np.all(np.diff(seen) >= 0)
+
+
+def test_band_that_excludes_every_path_gives_inf():
+    scores = _random_table(np.random.default_rng(1), 30, 4, "uniform")
+    lo = np.zeros(20, dtype=int)
+    hi = np.zeros(20, dtype=int)  # y_q <= 0 everywhere: impossible after q = 0
+    frames, cost = dp.constrained_dp(scores, 20, lo=lo, hi=hi)
+    assert cost == np.inf and frames.size == 20
+
+
+@pytest.mark.parametrize("n,m,skip,keys,match", [
+    (100, 10, 8, None, "num_frames"),          # m < (n - 1) / s + 1
+    (100, 101, 8, None, "num_frames"),         # expansion without upsampling
+    (100, 1, 8, None, "num_frames"),
+    (100, 60, 8, [(30, 50), (20, 60)], "keytimes"),   # output order vs input order
+    (100, 60, 8, [(30, 50), (40, 45)], "keytimes"),   # input times decrease
+    (100, 60, 8, [(30, 5)], "keytimes"),              # 5 input frames cannot fill 30 output frames
+    (100, 60, 8, [(70, 5)], "keytimes"),              # outside the output range
+])
+def test_infeasible_requests_raise_naming_the_parameter(n, m, skip, keys, match):
+    with pytest.raises(ValueError, match=match):
+        dp.validate_keys(n, m, skip, keys)
