@@ -223,8 +223,17 @@ def _grid(a: np.ndarray, b: np.ndarray, counts: np.ndarray):
     return pair, m, tn, a[pair] + tn * (b - a)[pair]
 
 
+_OVERSAMPLE = 4  # grid refinement of re-measured maps whose ends are off the frame grid (interpolation error / 4)
+
+
 def _counts_for(a, b, frame_time):
-    return np.maximum(np.rint((b - a) / frame_time).astype(np.int64) + 1, 2)
+    """Samples of re-measured displacement maps on segments ``[a, b]``: one per source frame spanned (+1),
+    so knots on frames put every grid point on a frame (exact there); segments with an end off the frame
+    grid (after timing edits) get ``_OVERSAMPLE`` times more samples to keep the linear interpolation close."""
+    fa, fb = a / frame_time, b / frame_time
+    aligned = (np.abs(fa - np.rint(fa)) < 1e-6) & (np.abs(fb - np.rint(fb)) < 1e-6)
+    per = np.where(aligned, 1, _OVERSAMPLE)
+    return np.maximum(np.rint((b - a) / frame_time * per).astype(np.int64) + 1, 2)
 
 
 def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn):
