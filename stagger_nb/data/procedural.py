@@ -272,6 +272,21 @@ def _build(t: np.ndarray, root_xz: np.ndarray, root_y: np.ndarray, pelvis: np.nd
     return motion
 
 
+def _gait_upper(w: np.ndarray, duty: float, twist: float, roll: float, arm: float, elbow: float,
+                lag: float, weight=1.0):
+    """Periodic upper-body signals (degrees) of a gait whose left stance is centred at ``w = 0 (mod 2 pi)``.
+
+    The pelvis turns the leading leg's hip forward at each heel strike, the thorax counter-rotates,
+    each arm swings forward while the opposite leg leads and lags the legs by ``lag`` radians.
+    Returns pelvis yaw, pelvis roll, spine yaw, spine roll (F,) and arm swing, elbow change (F, 2)."""
+    ph = w - 2.0 * np.pi * (0.5 - 0.5 * duty)      # 0 at the right heel strike
+    c, cl = np.cos(ph), np.cos(ph - lag)
+    g = np.asarray(weight, dtype=float)
+    lr = np.stack([cl, -cl], -1) * (g[..., None] if g.ndim else g)   # +1 left, -1 right
+    return (g * twist * c, g * roll * np.cos(w), -g * 1.6 * twist * np.cos(ph - 0.5 * lag),
+            -g * 0.7 * roll * np.cos(w), arm * lr, elbow * lr)
+
+
 def _times(duration: float) -> np.ndarray:
     return np.arange(int(round(duration * FPS)) + 1) / FPS
 
@@ -304,12 +319,12 @@ def walk(duration: float = 6.0, speed: float = 100.0, period: float = 1.1, seed:
     rp = _Plants(*_cycle_plants(duration, period, 0.6, 0.5, root_z, -_FOOT_X, 9.0))
     root_xz = np.stack([2.0 * np.cos(w), root_z(t)], -1)            # sway over the stance foot
     root_y = 94.0 + 1.5 * np.cos(2.0 * w)                           # highest at mid-stance
-    pelvis = np.stack([-6.0 * np.sin(w), 3.0 + 1.0 * np.cos(2 * w), -3.0 * np.cos(w)], -1)
-    spine = np.stack([9.0 * np.sin(w - 0.3), 2.0 * np.ones_like(t), 2.0 * np.cos(w)], -1)
+    p_yaw, p_roll, s_yaw, s_roll, arm, d_elbow = _gait_upper(w, 0.6, twist=6.0, roll=3.0, arm=22.0,
+                                                              elbow=10.0, lag=0.35)  # lag: radians
+    pelvis = np.stack([p_yaw, 3.0 + 1.0 * np.cos(2 * w), p_roll], -1)
+    spine = np.stack([s_yaw, 2.0 * np.ones_like(t), s_roll], -1)
     head = np.stack([np.zeros_like(t), 1.0 * np.cos(2 * w - 0.5)], -1)
-    lag = 0.35  # radians: arms lag the legs a little
-    arm = np.stack([-22.0 * np.sin(w - lag), 22.0 * np.sin(w - lag)], -1)
-    elbow = np.stack([18.0 - 10.0 * np.sin(w - lag), 18.0 + 10.0 * np.sin(w - lag)], -1)
+    elbow = 18.0 + d_elbow
     return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6, return_contacts)
 
 
@@ -331,12 +346,12 @@ def run(duration: float = 5.0, speed: float = 300.0, period: float = 0.72, seed:
     rp = _Plants(*_cycle_plants(duration, period, duty, 0.5, root_z, -0.6 * _FOOT_X, 22.0))
     root_y = run_height(t, period, duty)
     root_xz = np.stack([1.0 * np.cos(w), root_z(t)], -1)
-    pelvis = np.stack([-8.0 * np.sin(w), 8.0 + np.zeros_like(t), -2.0 * np.cos(w)], -1)
-    spine = np.stack([12.0 * np.sin(w - 0.3), 4.0 + 2.0 * np.cos(2 * w), 2.0 * np.cos(w)], -1)
+    p_yaw, p_roll, s_yaw, s_roll, arm, d_elbow = _gait_upper(w, duty, twist=8.0, roll=2.0, arm=38.0,
+                                                              elbow=15.0, lag=0.3)
+    pelvis = np.stack([p_yaw, 8.0 + np.zeros_like(t), p_roll], -1)
+    spine = np.stack([s_yaw, 4.0 + 2.0 * np.cos(2 * w), s_roll], -1)
     head = np.stack([np.zeros_like(t), -4.0 + 1.5 * np.cos(2 * w - 0.5)], -1)
-    lag = 0.3
-    arm = np.stack([-38.0 * np.sin(w - lag), 38.0 * np.sin(w - lag)], -1)
-    elbow = np.stack([85.0 - 15.0 * np.sin(w - lag), 85.0 + 15.0 * np.sin(w - lag)], -1)
+    elbow = 85.0 + d_elbow
     return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.8, return_contacts)
 
 
@@ -374,7 +389,8 @@ def jump(duration: float = 5.5, seed: int = 2, return_contacts: bool = False):
     J = JUMP_TIMES
     t = _times(duration)
     T, v = 1.1, 100.0
-    w = 2.0 * np.pi * t / T
+    # gait phase: left stance centred at w = 0 (mod 2 pi); the walk out restarts the phase
+    w = 2.0 * np.pi * np.where(t < 3.0, t, t - 3.5) / T
     t_to, t_ld = J["takeoff"], J["landing"]
     tf = t_ld - t_to
     vy0 = 0.5 * GRAVITY * tf
@@ -415,14 +431,15 @@ def jump(duration: float = 5.5, seed: int = 2, return_contacts: bool = False):
     root_xz = np.stack([2.0 * walking * np.cos(w), root_z(t)], -1)
     lean = _hermite([(-2.0, 0, 0), (1.7, 0, 0), (J["crouch"], 25.0, 0), (t_to, 8.0, 0), (t_ld, 6.0, 0),
                      (J["absorb"], 22.0, 0), (3.7, 0, 0), (duration + 3.0, 0, 0)], t)
-    pelvis = np.stack([-6.0 * walking * np.sin(w), 3.0 + 0.6 * lean, -3.0 * walking * np.cos(w)], -1)
-    spine = np.stack([9.0 * walking * np.sin(w - 0.3), 2.0 + lean, 2.0 * walking * np.cos(w)], -1)
+    p_yaw, p_roll, s_yaw, s_roll, arm, d_elbow = _gait_upper(w, 0.6, twist=6.0, roll=3.0, arm=22.0,
+                                                              elbow=10.0, lag=0.35, weight=walking)
+    pelvis = np.stack([p_yaw, 3.0 + 0.6 * lean, p_roll], -1)
+    spine = np.stack([s_yaw, 2.0 + lean, s_roll], -1)
     head = np.stack([np.zeros_like(t), -0.5 * lean], -1)
     reach = _hermite([(-2.0, 0, 0), (1.7, 0, 0), (J["crouch"], -35.0, 0), (t_to, 100.0, 0), (t_ld, 50.0, 0),
                       (3.5, 0, 0), (duration + 3.0, 0, 0)], t)
-    lag = 0.35
-    arm = np.stack([-22.0 * walking * np.sin(w - lag) + reach, 22.0 * walking * np.sin(w - lag) + reach], -1)
-    elbow = np.stack([18.0 - 10.0 * walking * np.sin(w - lag), 18.0 + 10.0 * walking * np.sin(w - lag)], -1)
+    arm = arm + reach[:, None]
+    elbow = 18.0 + d_elbow
     return _build(t, root_xz, root_y, pelvis, spine, head, arm, elbow, (lp, rp), seed, 0.6, return_contacts)
 
 
