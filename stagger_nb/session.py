@@ -47,6 +47,7 @@ SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1
 _MEMO_SIZE = 48          # memoised op-list prefixes kept per session (a slider sweep touches a handful)
 _EXTRACT_CACHE_SIZE = 4  # cached staggered extractions (one per distinct input motion)
+_BASIS_CACHE_SIZE = 64   # magic-wand eigenbases: every position of a sigma slider (F x 50 floats each)
 _CULL_CACHE_SIZE = 40    # cached cull results: every position of a 2.5 %-step slider on one extraction
 
 
@@ -517,7 +518,7 @@ class _Context:
         graph is built once per motion, the basis once per (motion, sigma) (Dean et al. 2018, §3.1-3.2)."""
         graph = self._cached("graph", motion, None, lambda: _wand().pose_graph(motion))
         return self._cached("basis", motion, None if sigma is None else float(sigma),
-                            lambda: graph.basis(sigma), size=8)
+                            lambda: graph.basis(sigma), size=_BASIS_CACHE_SIZE)
 
     def wand_graph(self, motion: Motion):
         return self._cached("graph", motion, None, lambda: _wand().pose_graph(motion))
@@ -792,6 +793,17 @@ class Session:
         prev = self.source if i == 0 else states[i - 1]
         prev = self._convert(prev, "motion")
         return self._ctx._warps.get((id(prev), _canonical(op)))
+
+    def precompute_wand_bases(self, sigmas, stop: Callable | None = None, motion: Motion | None = None) -> int:
+        """Compute and cache the magic-wand eigenbasis for each of ``sigmas`` (e.g. every position of a σ
+        slider, from a background thread); stops early when ``stop()`` is true. Returns how many."""
+        n = 0
+        for sg in sigmas:
+            if stop is not None and stop():
+                break
+            self.wand_basis(_positive(float(sg), "sigmas[]"), motion)
+            n += 1
+        return n
 
     def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
         """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""

@@ -124,7 +124,8 @@ def test_wand_sigma_and_propagate(shared_motion):
         edited_pose = apply_pose_deltas(q, m.skeleton, {m.skeleton.names[2]: [25.0, 0.0, 0.0]})
         for sigma in (e.sigma.value, e.sigma.value * 1.5):
             e.sigma.value = sigma
-            sigma = e.sigma.value
+            sigma = e.session.ops[0]["sigma"]  # the slider snaps to its precomputed grid
+            assert sigma == pytest.approx(e.sigma.value, rel=0.05)  # within half a slider step (10**0.02)
             direct = wand.propagate(m, 40, edited_pose, sigma=sigma)
             # same basis computation via the cached pose graph: equal to round-off
             np.testing.assert_allclose(e.session.edited().local_quats, direct.local_quats, atol=1e-12)

@@ -359,8 +359,11 @@ class WandEditor(_Editor):
         Initial rotation-vector edit of ``joint``.
     """
 
+    _SIGMA_STEP = 0.04   # log10 units between slider positions
+    _SIGMA_STEPS = 15    # positions each side of the default sigma (x 0.25 .. x 4)
+
     def __init__(self, motion, session: Session | None = None, frame: int | None = None, joint: str | None = None,
-                 rotation=(0.0, 0.0, 0.0), source_path=None, **kwargs):
+                 rotation=(0.0, 0.0, 0.0), source_path=None, precompute: bool = True, **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
@@ -368,8 +371,11 @@ class WandEditor(_Editor):
         names = _joint_options(m)
         graph = session.wand_graph()
         s0 = float(graph.default_sigma)
-        self.sigma = widgets.FloatLogSlider(value=s0, base=10, min=np.log10(s0) - 0.6, max=np.log10(s0) + 0.6,
-                                            step=0.02, description="σ", readout_format=".3g", **_SLIDER)
+        # the slider's positions: sigma snaps to this grid, whose bases are precomputed in the background
+        self._sigma_grid = s0 * 10.0 ** (self._SIGMA_STEP * np.arange(-self._SIGMA_STEPS, self._SIGMA_STEPS + 1))
+        self.sigma = widgets.FloatLogSlider(value=s0, base=10, min=np.log10(self._sigma_grid[0]),
+                                            max=np.log10(self._sigma_grid[-1]), step=self._SIGMA_STEP,
+                                            description="σ", readout_format=".3g", **_SLIDER)
         self.frame = widgets.IntSlider(value=F // 2 if frame is None else int(frame), min=0, max=F - 1,
                                        description="edited frame", **_SLIDER)
         self.limit_range = widgets.Checkbox(value=False, description="limit edit range", indent=False)
@@ -403,6 +409,27 @@ class WandEditor(_Editor):
                     op_controls=[self.sigma, self.frame, self.limit_range, self.range, self.propagate],
                     view_controls=list(self.compare.values()) + [self.show_sweep])
         self.view.frame = max(0, min(F - 1, self.frame.value + F // 6))
+        self._closed = False
+        self.warm_thread = None
+        if precompute:
+            self.warm_thread = threading.Thread(target=self._warm_bases, daemon=True)
+            self.warm_thread.start()
+
+    def _snapped_sigma(self, value: float) -> float:
+        return float(self._sigma_grid[np.argmin(np.abs(np.log(self._sigma_grid) - np.log(value)))])
+
+    def _warm_bases(self):
+        """Cache the eigenbasis of every slider position, nearest to the current sigma first."""
+        order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(self.sigma.value)), kind="stable")
+        try:
+            self.session.precompute_wand_bases([float(self._sigma_grid[i]) for i in order],
+                                               stop=lambda: self._closed)
+        except Exception:  # a failed warm-up only means a cache miss later
+            pass
+
+    def close(self):
+        self._closed = True
+        super().close()
 
     def _frame_range(self):
         return list(self.range.value) if self.limit_range.value else None
@@ -411,7 +438,7 @@ class WandEditor(_Editor):
         deltas = {j: list(v) for j, v in self._deltas.items() if any(v)}
         if self.propagate.value:
             return [{"op": "propagate", "frame": int(self.frame.value), "deltas": deltas,
-                     "sigma": float(self.sigma.value), "frame_range": self._frame_range()}]
+                     "sigma": self._snapped_sigma(self.sigma.value), "frame_range": self._frame_range()}]
         return [{"op": "edit_frame", "frame": int(self.frame.value), "deltas": deltas}] if deltas else []
 
     def _controls_from_ops(self, ops: list) -> None:
@@ -450,14 +477,16 @@ class WandEditor(_Editor):
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
         f = int(self.frame.value)
-        sigma = float(self.sigma.value)
+        sigma = self._snapped_sigma(self.sigma.value)
         compare = [n for n, w in self.compare.items() if w.value]
         fr = self._frame_range()
         curves = self.session.falloff_curves(f, sigma, fr, compare=compare)
         sweep = None
         if self.show_sweep.value:
+            i = int(np.argmin(np.abs(self._sigma_grid - sigma)))
+            picks = np.clip(i + np.array([-10, -5, 0, 5, 10]), 0, len(self._sigma_grid) - 1)
             sweep = [(f"σ={s:.3g}", self.session.falloff_curves(f, s, fr)["green"])
-                     for s in sigma * np.array([0.5, 0.7, 1.0, 1.4, 2.0])]
+                     for s in self._sigma_grid[picks]]
         self.falloff_plot.update(m.times, curves, frame=f, sweep=sweep,
                                  title=f"Green's falloff from frame {f} (σ = {sigma:.3g})")
         j = m.skeleton.index(self.joint.value)

@@ -29,14 +29,49 @@ def _layout(title: str, height: int, **kw) -> dict:
                 margin=dict(l=50, r=10, t=35, b=35), legend=dict(orientation="h", y=-0.25), **kw)
 
 
+def _same(a, b) -> bool:
+    if a is b:
+        return True
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and a.dtype.kind == b.dtype.kind and bool(np.array_equal(a, b))
+    return a == b
+
+
 class _ClickablePlot:
-    """Common part: a FigureWidget whose traces report clicked x (seconds) as frame indices."""
+    """Common part: a FigureWidget whose traces report clicked x (seconds) as frame indices, and which sets
+    a property only when its value changed (plotly validates every assignment: skipping the unchanged ones
+    keeps a slider move cheap)."""
 
     def __init__(self, fig: go.FigureWidget, frame_time: float):
         self.figure = fig
         self.frame_time = float(frame_time)
         self._callbacks: list[Callable] = []
+        self._last: dict = {}
         self._wire_clicks()
+
+    def _put(self, i, **props) -> None:
+        """``figure.data[i].<prop> = value`` for the props whose value changed (call inside batch_update)."""
+        tr = self.figure.data[i]
+        for k, v in props.items():
+            if isinstance(v, np.ndarray):
+                v = np.array(v)  # own copy: the caller's array may be a view that changes later
+            key = (i, k)
+            if key in self._last and _same(self._last[key], v):
+                continue
+            self._last[key] = v
+            setattr(tr, k, v)
+
+    def _put_layout(self, **props) -> None:
+        for k, v in props.items():
+            key = ("layout", k)
+            if key in self._last and _same(self._last[key], v):
+                continue
+            self._last[key] = v
+            if k == "title":
+                self.figure.layout.title.text = v
+            else:
+                setattr(self.figure.layout, k, v)
 
     def _wire_clicks(self):
         for tr in self.figure.data:
@@ -91,28 +126,26 @@ class JointCurvesPlot(_ClickablePlot):
         pose_times : (K,) seconds, drawn as vertical lines
         knot_times : (K,) seconds ``t_k + r_{k,j}`` for this joint, drawn on the edited curve
         """
-        d = self.figure.data
         with self.figure.batch_update():
             for i in range(3):
-                d[i].x, d[i].y = times, edited_deg[:, i]
+                self._put(i, x=np.asarray(times, dtype=float), y=np.asarray(edited_deg[:, i], dtype=float))
             for i in range(3):
                 if original_deg is None:
-                    d[3 + i].x, d[3 + i].y = [], []
+                    self._put(3 + i, x=(), y=())
                 else:
-                    d[3 + i].x = np.arange(len(original_deg)) * self.frame_time
-                    d[3 + i].y = original_deg[:, i]
+                    self._put(3 + i, x=np.arange(len(original_deg)) * self.frame_time,
+                              y=np.asarray(original_deg[:, i], dtype=float))
             if knot_times is not None and len(knot_times):
                 kt = np.asarray(knot_times, dtype=float)
                 ys = np.stack([np.interp(kt, times, edited_deg[:, i]) for i in range(3)], axis=1)
-                d[6].x = np.repeat(kt, 3)
-                d[6].y = ys.reshape(-1)
+                self._put(6, x=np.repeat(kt, 3), y=ys.reshape(-1))
             else:
-                d[6].x, d[6].y = [], []
-            self.figure.layout.shapes = [dict(type="line", xref="x", yref="paper", x0=t, x1=t, y0=0, y1=1,
-                                              line=dict(color="#dd6b20", width=1, dash="dash"))
-                                         for t in (pose_times if pose_times is not None else [])]
+                self._put(6, x=(), y=())
+            self._put_layout(shapes=tuple(dict(type="line", xref="x", yref="paper", x0=float(t), x1=float(t), y0=0,
+                                               y1=1, line=dict(color="#dd6b20", width=1, dash="dash"))
+                                          for t in (pose_times if pose_times is not None else [])))
             if title is not None:
-                self.figure.layout.title.text = title
+                self._put_layout(title=title)
 
 
 class ProbabilityPlot(_ClickablePlot):
@@ -132,13 +165,16 @@ class ProbabilityPlot(_ClickablePlot):
                kept_times: np.ndarray, kept_values: np.ndarray) -> None:
         """``times, signal`` (F,) the sampled ``P(t)`` (None when not available); candidates and kept
         poses as (K,) times in seconds and probability values."""
-        d = self.figure.data
+        f = lambda a: np.asarray(a, dtype=float)  # noqa: E731
         with self.figure.batch_update():
-            d[0].x, d[0].y = ([], []) if signal is None else (times, signal)
-            d[1].x, d[1].y = candidate_times, candidate_values
-            d[2].x, d[2].y = kept_times, kept_values
-            self.figure.layout.title.text = (f"pose probability P(t): {len(kept_times)} of "
-                                             f"{len(candidate_times)} candidate poses kept")
+            if signal is None:
+                self._put(0, x=(), y=())
+            else:
+                self._put(0, x=f(times), y=f(signal))
+            self._put(1, x=f(candidate_times), y=f(candidate_values))
+            self._put(2, x=f(kept_times), y=f(kept_values))
+            self._put_layout(title=f"pose probability P(t): {len(kept_times)} of "
+                                   f"{len(candidate_times)} candidate poses kept")
 
 
 class FalloffPlot(_ClickablePlot):
@@ -160,29 +196,33 @@ class FalloffPlot(_ClickablePlot):
                title: str | None = None) -> None:
         """``curves`` maps ``"green" / "isomap" / "diffusion" / "spline"`` to (F,) values in [0, 1]; names
         missing are hidden. ``sweep``: list of ``(label, (F,) values)`` drawn thin (blue = small σ)."""
-        d = self.figure.data
+        times = np.asarray(times, dtype=float)
         with self.figure.batch_update():
             for i, name in enumerate(self._names):
                 y = curves.get(name)
-                d[i].x, d[i].y = ([], []) if y is None else (times, y)
-                if y is not None and name != "green":
-                    d[i].visible = True
+                if y is None:
+                    self._put(i, x=(), y=())
+                else:
+                    self._put(i, x=times, y=np.asarray(y, dtype=float))
+                    if name != "green":
+                        self._put(i, visible=True)
             sweep = sweep or []
-            n_sweep = len(d) - len(self._names)
+            n_sweep = len(self.figure.data) - len(self._names)
             for k in range(n_sweep):
-                tr = d[len(self._names) + k]
+                i = len(self._names) + k
                 if k < len(sweep):
                     label, y = sweep[k]
                     a = k / max(1, n_sweep - 1)
-                    tr.x, tr.y, tr.name = times, y, label
-                    tr.line.color = f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})"
+                    self._put(i, x=times, y=np.asarray(y, dtype=float), name=label,
+                              line=dict(color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})",
+                                        width=1))
                 else:
-                    tr.x, tr.y = [], []
-            self.figure.layout.shapes = [] if frame is None else [
+                    self._put(i, x=(), y=())
+            self._put_layout(shapes=() if frame is None else (
                 dict(type="line", xref="x", yref="paper", x0=frame * self.frame_time, x1=frame * self.frame_time,
-                     y0=0, y1=1, line=dict(color="#d69e2e", width=3))]
+                     y0=0, y1=1, line=dict(color="#d69e2e", width=3)),))
             if title is not None:
-                self.figure.layout.title.text = title
+                self._put_layout(title=title)
 
 
 class WarpPlot(_ClickablePlot):
@@ -206,16 +246,17 @@ class WarpPlot(_ClickablePlot):
                keytimes: np.ndarray | None = None, title: str | None = None) -> None:
         """``out_times, warp`` (N,) seconds; ``speed`` (N,) the warp's derivative (dimensionless,
         drawn on a log axis clipped to [0.1, 10]); ``keytimes`` (M, 2) (input, output) seconds."""
-        d = self.figure.data
+        out_times = np.asarray(out_times, dtype=float)
+        warp = np.asarray(warp, dtype=float)
         with self.figure.batch_update():
             if len(out_times):
-                d[0].x, d[0].y = [float(out_times[0]), float(out_times[-1])], [float(warp[0]), float(warp[-1])]
-            d[1].x, d[1].y = out_times, warp
+                self._put(0, x=(float(out_times[0]), float(out_times[-1])), y=(float(warp[0]), float(warp[-1])))
+            self._put(1, x=out_times, y=warp)
             kt = np.zeros((0, 2)) if keytimes is None else np.asarray(keytimes, dtype=float).reshape(-1, 2)
-            d[2].x, d[2].y = kt[:, 1], kt[:, 0]
-            d[3].x, d[3].y = out_times, np.clip(speed, 0.1, 10.0)
-            self.figure.layout.shapes = [dict(type="line", xref="x2", yref="y2", x0=float(out_times[0]),
-                                              x1=float(out_times[-1]), y0=1, y1=1,
-                                              line=dict(color="#a0aec0", width=1))] if len(out_times) else []
+            self._put(2, x=kt[:, 1], y=kt[:, 0])
+            self._put(3, x=out_times, y=np.clip(np.asarray(speed, dtype=float), 0.1, 10.0))
+            self._put_layout(shapes=(dict(type="line", xref="x2", yref="y2", x0=float(out_times[0]),
+                                          x1=float(out_times[-1]), y0=1, y1=1,
+                                          line=dict(color="#a0aec0", width=1)),) if len(out_times) else ())
             if title is not None:
-                self.figure.layout.title.text = title
+                self._put_layout(title=title)
