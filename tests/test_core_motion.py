@@ -125,6 +125,9 @@ def test_motion_normalises_and_makes_quaternions_continuous(rng):
     ("root_positions", np.zeros((5, 2)), "root_positions"),
     ("local_translations", np.zeros((5, 4, 2)), "local_translations"),
     ("root_positions", np.full((5, 3), np.inf), "root_positions"),
+    ("local_quats", np.full((5, 4, 4), np.nan), "local_quats"),
+    ("local_translations", np.full((5, 4, 3), np.nan), "local_translations"),
+    ("skeleton", "not a skeleton", "skeleton"),
 ])
 def test_motion_validation_names_the_field(field, value, match):
     fields = dict(skeleton=chain_skeleton(), frame_time=0.1, root_positions=np.zeros((5, 3)),

@@ -53,6 +53,8 @@ class Motion:
         ft = float(self.frame_time)
         if not np.isfinite(ft) or ft <= 0:
             raise ValueError(f"Motion: frame_time must be a positive number of seconds, got {self.frame_time!r}")
+        if not isinstance(self.skeleton, Skeleton):
+            raise ValueError(f"Motion: skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
         J = self.skeleton.num_joints
         q = np.asarray(self.local_quats, dtype=float)
         if q.ndim != 3 or q.shape[1:] != (J, 4):
@@ -66,9 +68,12 @@ class Motion:
             lt = np.asarray(lt, dtype=float)
             if lt.shape != (F, J, 3):
                 raise ValueError(f"Motion: local_translations must have shape ({F}, {J}, 3), got {lt.shape}")
+            if not np.all(np.isfinite(lt)):
+                raise ValueError("Motion: local_translations must be finite (no NaN / inf)")
             lt = _frozen(lt)
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(rp))):
-            raise ValueError("Motion: local_quats and root_positions must be finite")
+        for name, a in (("local_quats", q), ("root_positions", rp)):
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"Motion: {name} must be finite (no NaN / inf)")
         object.__setattr__(self, "frame_time", ft)
         # renormalise only what is not unit already, so slicing / replacing keeps values bit for bit
         n = np.linalg.norm(q, axis=-1, keepdims=True)
