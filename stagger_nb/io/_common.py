@@ -3,7 +3,11 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["FormatError", "read_text", "read_bytes", "decode", "finite_number"]
+import numpy as np
+
+from ..core.rotations import quat_mul
+
+__all__ = ["FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat"]
 
 
 class FormatError(ValueError):
@@ -49,3 +53,21 @@ def finite_number(tok: str, what: str, source: str, line: int, error: type[Forma
     if not math.isfinite(v):
         raise error(source, line, f"expected a finite number for {what}, found {tok!r}")
     return v
+
+
+def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
+    """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
+    ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
+    (x, y, z, w). Closed-form products of elementary quaternions (scipy's ``from_euler`` is ~20x slower
+    here); agrees with ``Rotation.from_euler(axes.upper(), ...)`` (checked in tests/test_io_bvh.py)."""
+    a = np.radians(np.asarray(angles_deg, dtype=float)) * 0.5
+    s, c = np.sin(a), np.cos(a)
+    q = np.zeros(a.shape[:-1] + (4,))
+    q[..., 3] = 1.0
+    for i, ax in enumerate(axes.upper()):
+        k = "XYZ".index(ax)
+        e = np.zeros(q.shape)
+        e[..., k] = s[..., i]
+        e[..., 3] = c[..., i]
+        q = quat_mul(q, e)
+    return q

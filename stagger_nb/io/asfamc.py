@@ -33,7 +33,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
-from ._common import FormatError, finite_number, read_text
+from ._common import FormatError, euler_deg_to_quat, finite_number, read_text
 
 __all__ = ["AMCError", "read_asf_amc", "parse_asf", "parse_amc", "AsfSkeleton"]
 
@@ -364,17 +364,9 @@ def _locate_bad_number(lines, frame_lines, source):
 
 
 def _compose(axes: str, angles_deg) -> np.ndarray:
-    """Acclaim composition ``R_axes[-1] ... R_axes[0]`` (first listed axis applied first) of angles in
-    degrees ``(..., len(axes))`` -> quaternions ``(..., 4)`` (x, y, z, w)."""
-    a = np.radians(np.asarray(angles_deg, dtype=float))
-    q = np.zeros(a.shape[:-1] + (4,))
-    q[..., 3] = 1.0
-    for i, ax in enumerate(axes.lower()):
-        e = np.zeros(a.shape[:-1] + (4,))
-        e[..., "xyz".index(ax)] = np.sin(0.5 * a[..., i])
-        e[..., 3] = np.cos(0.5 * a[..., i])
-        q = quat_mul(e, q)
-    return q
+    """Acclaim composition ``R_axes[-1] ... R_axes[0]`` (first listed axis applied first, i.e. extrinsic)
+    of angles in degrees ``(..., len(axes))`` -> quaternions ``(..., 4)`` (x, y, z, w)."""
+    return euler_deg_to_quat(np.asarray(angles_deg, dtype=float)[..., ::-1], axes[::-1])
 
 
 def _conjugate_by(c: np.ndarray, m: np.ndarray) -> np.ndarray:

@@ -1,8 +1,14 @@
 """BVH (Biovision Hierarchy) reader and writer.
 
 Semantics: rotation channels are intrinsic Euler angles in degrees in the order they are listed
-(``Zrotation Xrotation Yrotation`` means ``R = Rz Rx Ry``). Position channels give the joint's
-translation relative to its parent and *replace* its OFFSET (as Blender and MotionBuilder read them).
+(``Zrotation Xrotation Yrotation`` means ``R = Rz Rx Ry``), any order per joint. Position channels give
+the joint's translation relative to its parent and *replace* its OFFSET (as Blender and MotionBuilder
+read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
+separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
+
+Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (vectorised, numpy only,
+bit-identical to ``float``); when that cannot certify the block, a line-by-line parser finds the first bad
+line and raises :class:`BVHError` naming the file, the line and what was expected.
 """
 from __future__ import annotations
 
@@ -13,9 +19,10 @@ import tempfile
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import euler_to_quat, quat_to_euler
+from ..core.rotations import quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import FormatError
+from ._common import FormatError, decode, euler_deg_to_quat, finite_number, read_bytes
+from ._numparse import NUMBER_RE, parse_table
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -52,13 +59,7 @@ class _Tokens:
 
     def number(self, expected: str) -> float:
         tok, ln = self.next(expected)
-        try:
-            v = float(tok)
-        except ValueError:
-            raise BVHError(self.source, ln, f"expected {expected}, found {tok!r}") from None
-        if not np.isfinite(v):
-            raise BVHError(self.source, ln, f"expected a finite number for {expected}, found {tok!r}")
-        return v
+        return finite_number(tok, expected, self.source, ln, BVHError)
 
     def keyword(self, word: str) -> int:
         tok, ln = self.next(repr(word))
@@ -67,23 +68,26 @@ class _Tokens:
         return ln
 
 
-def _parse_hierarchy(tok: _Tokens):
+def _parse_hierarchy(tok: _Tokens) -> Skeleton:
+    """The ``HIERARCHY`` section (iterative: deep chains cannot exhaust Python's recursion limit)."""
     names, parents, offsets, channels, end_sites = [], [], [], [], {}
+    src = tok.source
     tok.keyword("HIERARCHY")
     t, ln = tok.next("'ROOT'")
     if t.upper() != "ROOT":
-        raise BVHError(tok.source, ln, f"expected 'ROOT', found {t!r}")
-
-    def joint(parent: int):
+        raise BVHError(src, ln, f"expected 'ROOT', found {t!r}")
+    stack = []  # open joints
+    parent = -1
+    while True:
+        # a joint: name, '{', OFFSET x y z, CHANNELS n names...
         name_tok, ln = tok.next("a joint name")
         if name_tok == "{":
-            raise BVHError(tok.source, ln, "expected a joint name before '{'")
-        # names may contain spaces in some exporters: join tokens up to '{' on the same line
-        parts = [name_tok]
+            raise BVHError(src, ln, "expected a joint name before '{'")
+        parts = [name_tok]  # some exporters put spaces in names: join tokens up to '{' on the line
         while tok.peek() is not None and tok.peek() != "{" and tok.items[tok.pos][1] == ln:
             parts.append(tok.next("'{'")[0])
         if len(names) >= _MAX_JOINTS:
-            raise BVHError(tok.source, ln, f"more than {_MAX_JOINTS} joints")
+            raise BVHError(src, ln, f"more than {_MAX_JOINTS} joints")
         j = len(names)
         names.append(" ".join(parts))
         parents.append(parent)
@@ -92,169 +96,186 @@ def _parse_hierarchy(tok: _Tokens):
         offsets.append([tok.number("an OFFSET value") for _ in range(3)])
         t, ln = tok.next("'CHANNELS'")
         if t.upper() != "CHANNELS":
-            raise BVHError(tok.source, ln, f"expected 'CHANNELS', found {t!r}")
+            raise BVHError(src, ln, f"expected 'CHANNELS', found {t!r}")
         n = tok.number("a channel count")
         if n != int(n) or not 0 <= n <= 6:
-            raise BVHError(tok.source, ln, f"expected a channel count from 0 to 6, found {n:g}")
+            raise BVHError(src, ln, f"expected a channel count from 0 to 6, found {n:g}")
         chans = []
         for _ in range(int(n)):
             c, cl = tok.next("a channel name")
             if c.lower() not in _VALID_CHANNELS:
-                raise BVHError(tok.source, cl, f"unknown channel {c!r} (expected X/Y/Z position or rotation)")
+                raise BVHError(src, cl, f"unknown channel {c!r} (expected X/Y/Z position or rotation)")
             chans.append(c[0].upper() + c[1:].lower())
         if len({c.lower() for c in chans}) != len(chans):
-            raise BVHError(tok.source, ln, f"repeated channel in {' '.join(chans)}")
+            raise BVHError(src, ln, f"repeated channel in {' '.join(chans)}")
         channels.append(tuple(chans))
+        stack.append(j)
+        # the joint's body: children, end sites, then '}' (which may close several joints)
         while True:
             t, ln = tok.next("'JOINT', 'End Site' or '}'")
             u = t.upper()
-            if u == "}":
-                return
             if u == "JOINT":
-                joint(j)
-            elif u == "END":
+                parent = stack[-1]
+                break
+            if u == "END":
                 tok.keyword("Site")
                 tok.keyword("{")
                 tok.keyword("OFFSET")
-                end_sites[j] = [tok.number("an End Site OFFSET value") for _ in range(3)]
+                end_sites[stack[-1]] = [tok.number("an End Site OFFSET value") for _ in range(3)]
                 tok.keyword("}")
+            elif u == "}":
+                stack.pop()
+                if not stack:
+                    if tok.peek() is not None:
+                        t, ln = tok.items[tok.pos]
+                        raise BVHError(src, ln, f"expected 'MOTION' after the hierarchy, found {t!r}")
+                    return Skeleton(names, parents, np.array(offsets).reshape(-1, 3), tuple(channels), end_sites)
             else:
-                raise BVHError(tok.source, ln, f"expected 'JOINT', 'End Site' or '}}', found {t!r}")
-
-    joint(-1)
-    if tok.peek() is not None:
-        t, ln = tok.items[tok.pos]
-        raise BVHError(tok.source, ln, f"expected 'MOTION' after the hierarchy, found {t!r}")
-    return Skeleton(names, parents, np.array(offsets).reshape(-1, 3), tuple(channels), end_sites)
+                raise BVHError(src, ln, f"expected 'JOINT', 'End Site' or '}}', found {t!r}")
 
 
-def _split_sections(text: str, source: str):
-    lines = text.splitlines()
-    for i, line in enumerate(lines):
-        if line.strip().upper() == "MOTION":
-            return lines[:i], lines[i + 1:], i + 1
-    raise BVHError(source, len(lines) or 1, "no 'MOTION' section found")
+_MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.MULTILINE | re.IGNORECASE)
+_ODD_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
 
 
-def _header_value(line: str, key: str, source: str, ln: int) -> float:
-    m = re.match(rf"\s*{key}\s*:\s*(\S+)\s*$", line, flags=re.IGNORECASE)
+def _normalise_breaks(raw: bytes) -> bytes:
+    """Bytes whose line breaks are all ``\n`` (optionally after ``\r``), numbered as
+    ``str.splitlines`` numbers them; unchanged (no copy) for LF / CRLF / mixed LF-CRLF files."""
+    if raw.count(b"\r") == raw.count(b"\r\n") and not any(o in raw for o in _ODD_BREAKS):
+        return raw
+    return "\n".join(decode(raw).splitlines()).encode("utf-8") + b"\n"
+
+
+def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
+    text = decode(line).strip()
+    m = re.fullmatch(rf"{key}\s*:\s*(\S+)", text, flags=re.IGNORECASE)
     if not m:
-        raise BVHError(source, ln, f"expected '{key}: <number>', found {line.strip()!r}")
-    try:
-        v = float(m.group(1))
-    except ValueError:
-        raise BVHError(source, ln, f"expected a number after '{key}:', found {m.group(1)!r}") from None
-    if not np.isfinite(v):
-        raise BVHError(source, ln, f"expected a finite number after '{key}:', found {m.group(1)!r}")
-    return v
+        raise BVHError(source, ln, f"expected '{key}: <number>', found {text!r}")
+    return finite_number(m.group(1), f"'{key}:'", source, ln, BVHError)
 
 
-def _parse_motion_block(lines: list[str], first_ln: int, num_frames: int, num_channels: int, source: str):
-    """Parse the frame lines into (F, C) floats; errors name the offending line."""
-    data_lines = lines
-    # drop trailing blank lines
-    end = len(data_lines)
-    while end > 0 and not data_lines[end - 1].strip():
+def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str):
+    """Line-by-line parse of the frame lines into ``(F, C)`` floats; raises :class:`BVHError` at the
+    first bad line (the reference for :func:`parse_table`, and its fallback)."""
+    lines = block.split(b"\n")
+    end = len(lines)
+    while end > 0 and not lines[end - 1].strip():
         end -= 1
-    data_lines = data_lines[:end]
-    expected = num_frames * num_channels
-    block = " ".join(data_lines)
-    try:
-        values = np.array(block.split(), dtype=float)
-        ok = values.size == expected and len(data_lines) == num_frames
-    except ValueError:
-        ok = False
-    if ok and np.all(np.isfinite(values)):
-        return values.reshape(num_frames, num_channels)
-    # slow path: find the first bad line and say what is wrong there
-    for k, line in enumerate(data_lines):
+    out = np.empty((min(end, num_frames), num_channels))
+    for k in range(end):
         ln = first_ln + k
-        toks = line.split()
+        toks = lines[k].split()
         if k >= num_frames:
             raise BVHError(source, ln, f"more frame lines than 'Frames: {num_frames}' declares")
         if len(toks) != num_channels:
             raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found {len(toks)}")
-        for t in toks:
-            try:
-                v = float(t)
-            except ValueError:
-                raise BVHError(source, ln, f"expected a number on frame {k}, found {t!r}") from None
+        for c, t in enumerate(toks):
+            if not NUMBER_RE.match(t):
+                raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t)!r}")
+            v = float(t)
             if not np.isfinite(v):
-                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {t!r}")
-    raise BVHError(source, first_ln + len(data_lines),
-                   f"file ends early: 'Frames: {num_frames}' declared, {len(data_lines)} frame lines found")
+                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t)!r}")
+            out[k, c] = v
+    if end < num_frames:
+        raise BVHError(source, first_ln + max(end - 1, 0),
+                       f"file ends early: 'Frames: {num_frames}' declared, {end} frame lines found")
+    return out
 
 
-def parse_bvh(text: str, source: str = "<string>") -> Motion:
-    """Parse BVH text into a :class:`Motion` (``source`` names the file in error messages)."""
-    head, rest, motion_ln = _split_sections(text, source)
-    skel = _parse_hierarchy(_Tokens(head, source))
-    # skip blank lines before Frames
-    k = 0
-    while k < len(rest) and not rest[k].strip():
-        k += 1
-    if k >= len(rest):
-        raise BVHError(source, motion_ln + k, "file ends early: expected 'Frames: <count>'")
-    nf = _header_value(rest[k], "Frames", source, motion_ln + k + 1)
+def _next_line(raw: bytes, pos: int) -> tuple[bytes, int]:
+    """The line starting at ``pos`` and the position after its ``\n``."""
+    nl = raw.find(b"\n", pos)
+    if nl < 0:
+        return raw[pos:], len(raw)
+    return raw[pos:nl], nl + 1
+
+
+def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
+    """Parse BVH text (``str`` or the file's ``bytes``) into a :class:`Motion`; ``source`` names the file
+    in error messages."""
+    raw = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+    raw = _normalise_breaks(raw)
+    m = _MOTION_LINE.search(raw)
+    if m is None:
+        raise BVHError(source, raw.count(b"\n") + 1 if raw else 1, "no 'MOTION' section found")
+    head = decode(raw[:m.start()])
+    skel = _parse_hierarchy(_Tokens(head.split("\n"), source))
+    ln = head.count("\n") + 1  # the MOTION line
+    line, pos = _next_line(raw, m.start())
+    while True:  # blank lines may precede 'Frames:'
+        if pos >= len(raw):
+            raise BVHError(source, ln, "file ends early: expected 'Frames: <count>'")
+        line, pos = _next_line(raw, pos)
+        ln += 1
+        if line.strip():
+            break
+    nf = _header_value(line, "Frames", source, ln)
     if nf != int(nf) or nf < 1:
-        raise BVHError(source, motion_ln + k + 1, f"expected a positive whole number of frames, found {nf:g}")
+        raise BVHError(source, ln, f"expected a positive whole number of frames, found {nf:g}")
     if nf > _MAX_FRAMES:
-        raise BVHError(source, motion_ln + k + 1, f"declared {nf:g} frames, more than the {_MAX_FRAMES} supported")
-    k += 1
-    if k >= len(rest):
-        raise BVHError(source, motion_ln + k, "file ends early: expected 'Frame Time: <seconds>'")
-    ft = _header_value(rest[k], "Frame Time", source, motion_ln + k + 1)
+        raise BVHError(source, ln, f"declared {nf:g} frames, more than the {_MAX_FRAMES} supported")
+    nf = int(nf)
+    if pos >= len(raw):
+        raise BVHError(source, ln, "file ends early: expected 'Frame Time: <seconds>'")
+    line, pos = _next_line(raw, pos)
+    ln += 1
+    ft = _header_value(line, "Frame Time", source, ln)
     if ft <= 0:
-        raise BVHError(source, motion_ln + k + 1, f"frame time must be positive, found {ft:g}")
-    k += 1
+        raise BVHError(source, ln, f"frame time must be positive, found {ft:g}")
     num_channels = sum(len(c) for c in skel.channels)
-    data = _parse_motion_block(rest[k:], motion_ln + k + 1, int(nf), num_channels, source)
+    block = raw[pos:]
+    data = None
+    if num_channels == 0:
+        data = np.zeros((nf, 0)) if not block.strip() else None
+    elif len(block) >= nf * num_channels:  # cannot hold the declared values otherwise
+        data = parse_table(block, nf, num_channels)
+    if data is None:
+        data = _parse_motion_lines(block, ln + 1, nf, num_channels, source)
     return _channels_to_motion(skel, float(ft), data)
 
 
 def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> Motion:
+    """Motion from the ``(F, C)`` channel table: rotations grouped by channel order and converted in one
+    vectorised call per order."""
     F = data.shape[0]
     J = skel.num_joints
     quats = np.zeros((F, J, 4))
     quats[..., 3] = 1.0
-    trans = np.broadcast_to(skel.offsets, (F, J, 3)).copy()
-    animated_translation = False
+    trans = None
+    root_pos = np.broadcast_to(skel.offsets[0], (F, 3)).copy()
+    groups: dict[str, tuple[list, list]] = {}
     col = 0
     for j, chans in enumerate(skel.channels):
-        rot_cols, rot_order = [], ""
+        rot_cols, order = [], ""
         for c in chans:
-            kind = c[1:].lower()
             axis = "XYZ".index(c[0].upper())
-            if kind == "position":
-                trans[:, j, axis] = data[:, col]
-                if j > 0:
-                    animated_translation = True
+            if c[1:].lower() == "position":
+                if j == 0:
+                    root_pos[:, axis] = data[:, col]
+                else:
+                    if trans is None:
+                        trans = np.broadcast_to(skel.offsets, (F, J, 3)).copy()
+                    trans[:, j, axis] = data[:, col]
             else:
                 rot_cols.append(col)
-                rot_order += c[0].upper()
+                order += c[0].upper()
             col += 1
-        if rot_order:
-            if len(rot_order) == 3:
-                quats[:, j] = euler_to_quat(data[:, rot_cols], rot_order)
-            else:  # fewer than three rotation channels: compose the ones present
-                from scipy.spatial.transform import Rotation
-                quats[:, j] = Rotation.from_euler(rot_order, data[:, rot_cols], degrees=True).as_quat()
-    return Motion(skel, frame_time, trans[:, 0], quats, trans if animated_translation else None)
+        if order:
+            joints, cols = groups.setdefault(order, ([], []))
+            joints.append(j)
+            cols.append(rot_cols)
+    for order, (joints, cols) in groups.items():
+        quats[:, joints] = euler_deg_to_quat(data[:, np.array(cols)], order)
+    if trans is not None:
+        trans[:, 0] = root_pos
+    return Motion(skel, frame_time, root_pos, quats, trans)
 
 
 def read_bvh(path) -> Motion:
-    """Read a BVH file; raises :class:`BVHError` (a ``ValueError``) naming file and line on bad input."""
+    """Read a BVH file into a :class:`Motion`; raises :class:`BVHError` (a ``ValueError``) naming the file,
+    the line and what was expected on bad input (see the module docstring for the semantics)."""
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
-    except OSError as e:
-        raise BVHError(path, None, f"cannot read: {e.strerror or e}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    return parse_bvh(text, path)
+    return parse_bvh(read_bytes(path, BVHError), path)
 
 
 def _fmt(a: np.ndarray) -> np.ndarray:

@@ -1,0 +1,190 @@
+"""Vectorised parsing of a whitespace-separated table of decimal numbers (the BVH motion block).
+
+``parse_table(block, rows, cols)`` returns the ``(rows, cols)`` float64 table, bit-identical to
+``float(token)`` for every token, or ``None`` when it cannot certify the block (a token outside the
+grammar ``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``, a line with the wrong number of tokens, a blank
+line before the last data line, a stray control byte): the caller then runs its line-by-line parser,
+which finds and reports the first problem with its line number.
+
+How (numpy only, no Python loop over tokens): token boundaries come from the whitespace mask; the
+digits of each token (its mantissa and, separately, its exponent) are gathered into a fixed-width
+window per token length and turned into an integer by one matrix-vector product with powers of ten
+(exact: at most 15 digits, so every partial sum is an integer below 2**53). The value is then
+``M * 10**k`` or ``M / 10**-k`` with ``|k| <= 22``: both factors are exact doubles, so the single
+IEEE operation rounds correctly and equals ``float(token)`` (Clinger's fast path). Tokens outside that
+range (more than 15 significant digits, huge exponents) are converted with ``float`` one by one.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+__all__ = ["parse_table", "NUMBER_RE"]
+
+NUMBER_RE = re.compile(rb"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
+_POW10 = 10.0 ** np.arange(23)  # exact doubles 1 .. 1e22
+_MAX_DIGITS = 15  # 10**15 < 2**53: integers of up to 15 digits (plus the dot read as a 0) are exact
+
+_ALLOWED = b"0123456789.-+eE \t\r\n"
+
+
+_POW10_U64 = 10 ** np.arange(9, dtype=np.uint64)
+_M8 = np.uint64(0x00FF00FF00FF00FF)
+_M16 = np.uint64(0x0000FFFF0000FFFF)
+_M32 = np.uint64(0x00000000FFFFFFFF)
+
+
+def _swar8(x: np.ndarray) -> np.ndarray:
+    """Eight decimal digits held one per byte of a little-endian ``uint64`` (first digit in the lowest
+    byte) -> their integer value: pairs, then quads, then octets combined in place (SIMD within a word)."""
+    x = (x * np.uint64(10) + (x >> np.uint64(8))) & _M8
+    x = (x * np.uint64(100) + (x >> np.uint64(16))) & _M16
+    return (x * np.uint64(10000) + (x >> np.uint64(32))) & _M32
+
+
+def _span_integers(digits: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Integer value (float64) of the bytes ``digits[s:s+l]`` of each span (bytes are digit values
+    0..9; non-digits must already be 0 so they read as a 0 digit), for ``1 <= l <= 16``; exact while the
+    value is below 2**53. ``digits`` must have 16 spare zero bytes after the last span."""
+    if starts.size == 0:
+        return np.zeros(0)
+    words = np.ndarray((digits.size - 7,), dtype="<u8", buffer=digits, strides=(1,))  # unaligned loads
+    L = np.asarray(lengths, dtype=np.int64)
+    short = L <= 8
+    # bytes past the span sit in the high end of the word: shifting left drops them and feeds zeros in
+    # at the low (most significant decimal) end, i.e. harmless leading zeros
+    a = _swar8(words[starts] << (8 * np.clip(8 - L, 0, 7)).astype(np.uint64))
+    if np.all(short):
+        return a.astype(np.float64)
+    b = _swar8(words[starts + 8] << (8 * np.clip(16 - L, 0, 7)).astype(np.uint64))
+    scale = _POW10_U64[np.clip(L - 8, 0, 8)]
+    return np.where(short, a, a * scale + b).astype(np.float64)  # b unused (and wrong) where short
+
+
+def _with_exponents(b, block, digits, tok_id, starts, ends, dots, dot_tok):
+    """Per-token sign, mantissa body, fraction digits and decimal exponent for blocks with 'e'/'E'/'+';
+    ``None`` if a token breaks the grammar."""
+    n = starts.size
+    signs = np.flatnonzero((b == 45) | (b == 43))
+    exps = np.flatnonzero((b | 32) == 101)
+    sign_tok, exp_tok = tok_id[signs], tok_id[exps]
+    if exp_tok.size > 1 and np.any(exp_tok[1:] == exp_tok[:-1]):
+        return None  # two exponents in a token
+    mant_end = ends.copy()  # mantissa [starts, mant_end), exponent (mant_end, ends)
+    mant_end[exp_tok] = exps
+    if np.any(dots > mant_end[dot_tok]):
+        return None  # a '.' in the exponent
+    lead = signs == starts[sign_tok]  # a sign leads its token or follows its 'e'
+    after_e = ~lead
+    if np.any(signs[after_e] - 1 != mant_end[sign_tok[after_e]]):
+        return None
+    neg = np.zeros(n, dtype=bool)
+    neg[sign_tok[lead]] = b[signs[lead]] == 45
+    has_sign = np.zeros(n, dtype=np.int64)
+    has_sign[sign_tok[lead]] = 1
+    has_dot = np.zeros(n, dtype=bool)
+    has_dot[dot_tok] = True
+    nfrac = np.zeros(n, dtype=np.int64)
+    nfrac[dot_tok] = mant_end[dot_tok] - dots - 1
+    exponent = np.zeros(n, dtype=np.int64)
+    exp_sign = np.zeros(n, dtype=np.int64)
+    exp_neg = np.zeros(n, dtype=bool)
+    exp_sign[sign_tok[after_e]] = 1
+    exp_neg[sign_tok[after_e]] = b[signs[after_e]] == 45
+    e_len = ends[exp_tok] - exps - 1
+    e_digits = e_len - exp_sign[exp_tok]
+    if np.any(e_digits < 1):
+        return None  # 'e' without exponent digits
+    ok_e = e_digits <= 4  # longer exponents go through float()
+    ev = _span_integers(digits, exps[ok_e] + 1, e_len[ok_e]).astype(np.int64)
+    exponent[exp_tok[ok_e]] = np.where(exp_neg[exp_tok[ok_e]], -ev, ev)
+    exponent[exp_tok[~ok_e]] = 10_000  # outside the fast range
+    return neg, has_sign, mant_end - starts - has_sign, nfrac, has_dot, exponent - nfrac
+
+
+def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
+    """``(rows, cols)`` float64 table of the numbers in ``block`` (``cols`` per ``\\n``-separated line,
+    trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it."""
+    if not block or block.translate(None, _ALLOWED):
+        return None  # a byte outside the grammar (or an empty block)
+    b = np.frombuffer(block, dtype=np.uint8)
+    nonws = b > 32
+    # token boundaries: rising / falling edges of the non-whitespace mask
+    edge = np.empty(b.size + 1, dtype=bool)
+    edge[0] = nonws[0]
+    edge[-1] = nonws[-1]
+    np.not_equal(nonws[1:], nonws[:-1], out=edge[1:-1])
+    e = np.flatnonzero(edge)
+    starts, ends = e[0::2], e[1::2]
+    n = starts.size
+    if n != rows * cols:
+        return None
+    # line structure: `cols` tokens on each of the first `rows` lines, nothing after
+    nl = np.flatnonzero(b == 10)
+    per_line = np.diff(np.searchsorted(starts, np.concatenate(([0], nl + 1, [b.size]))))
+    if per_line.size < rows or np.any(per_line[:rows] != cols) or np.any(per_line[rows:]):
+        return None
+
+    digits = np.zeros(b.size + 16, dtype=np.uint8)  # digit values, 0 elsewhere, 16 spare bytes
+    np.subtract(b, np.uint8(48), out=digits[:b.size])
+    digits[:b.size] *= digits[:b.size] < 10
+    tok_id = np.cumsum(edge[:-1] & nonws, dtype=np.int32) - 1  # token of every byte (of tokens)
+    dots = np.flatnonzero(b == 46)
+    dot_tok = tok_id[dots]
+    if dot_tok.size > 1 and np.any(dot_tok[1:] == dot_tok[:-1]):
+        return None  # two dots in a token
+    if b"e" in block or b"E" in block or b"+" in block:
+        found = _with_exponents(b, block, digits, tok_id, starts, ends, dots, dot_tok)
+        if found is None:
+            return None
+        neg, lead, body, nfrac, has_dot, k = found
+    else:  # [-]digits[.digits] only: every '-' must lead its token
+        first = b[starts]
+        neg = first == 45
+        if np.count_nonzero(neg) != np.count_nonzero(b == 45):
+            return None
+        lead = neg
+        nfrac = np.zeros(n, dtype=np.int64)
+        nfrac[dot_tok] = ends[dot_tok] - dots - 1
+        has_dot = np.zeros(n, dtype=bool)
+        has_dot[dot_tok] = True
+        body = ends - starts - lead  # digits and the dot
+        k = -nfrac
+    if np.any(body <= has_dot):
+        return None  # a sign or a dot without digits
+    # Clinger's fast path: at most 15 digits and |k| <= 22; the rest goes through float() below
+    fast = body <= _MAX_DIGITS
+    if k is not None:
+        fast &= np.abs(k) <= 22
+    all_fast = bool(fast.all())
+    sel = slice(None) if all_fast else fast
+    v = _span_integers(digits, (starts + lead)[sel], body[sel])
+    # v = I * 10**(nfrac+1) + R reads the dot as a 0 digit; the mantissa is I * 10**nfrac + R = v - 9 I 10**nfrac.
+    # floor(v / 10**(nfrac+1)) = I exactly: the quotient is I + R / 10**(nfrac+1) with the fraction < 0.1
+    hd = has_dot[sel]
+    p = _POW10[nfrac[sel] + hd]
+    q = np.floor(v / p)
+    q *= p / 10.0
+    q *= 9.0
+    q *= hd
+    v -= q
+    kf = k[sel]
+    if np.all(kf <= 0):
+        v /= _POW10[-kf]
+    else:
+        v = np.where(kf >= 0, v * _POW10[np.clip(kf, 0, 22)], v / _POW10[np.clip(-kf, 0, 22)])
+    np.negative(v, out=v, where=neg[sel])
+    if all_fast:
+        return v.reshape(rows, cols)
+    out = np.empty(n)
+    out[fast] = v
+    slow = np.flatnonzero(~fast)
+    if slow.size:
+        for i in slow.tolist():
+            tok = block[starts[i]:ends[i]]
+            v_i = float(tok)
+            if not np.isfinite(v_i):
+                return None  # the line parser reports it
+            out[i] = v_i
+    return out.reshape(rows, cols)
