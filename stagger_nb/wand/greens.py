@@ -36,7 +36,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..core.motion import Motion
-from .laplacian import (KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
+from .laplacian import (CHAIN_FLOOR, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
                         pairwise_sq_distances, sparse_kernel)
 from .pose_space import pose_vectors
 
@@ -46,8 +46,11 @@ __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_row
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 3000  # method="auto": dense eigendecomposition up to this many frames, sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
-DEFAULT_KNN = 32         # neighbours per frame of the sparse kernel
-_SHIFT = -1e-3           # shift-invert centre for eigsh: L + 1e-3 I is positive definite, so it factorises
+DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
+# Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
+# (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
+# whose transformed values 1/(lambda + 1e-5) are then well separated (faster convergence than 1e-3).
+_SHIFT = -1e-5
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,7 +154,7 @@ class PoseGraph:
         return default_sigma(knn=self.knn)
 
     def basis(self, sigma: float | None = None, num_eigs: int | None = None, self_term: bool = False,
-              normalization: str = "random_walk") -> GreensBasis:
+              normalization: str = "random_walk", chain_floor: float = CHAIN_FLOOR) -> GreensBasis:
         """Eigenpairs for kernel width ``sigma`` (default :attr:`default_sigma`); see :func:`greens_basis`."""
         F = self.num_frames
         if F < 2:
@@ -163,10 +166,10 @@ class PoseGraph:
         if N < 1:
             raise ValueError(f"num_eigs must be >= 1, got {num_eigs!r}")
         if self.method == "dense":
-            K = dense_kernel(self.sq_distances, s)
+            K = dense_kernel(self.sq_distances, s, chain_floor)
             lam, phi, null_dim, r = _dense_eigs(K, N)
         else:
-            K = sparse_kernel(self.knn, s)
+            K = sparse_kernel(self.knn, s, chain_floor)
             lam, phi, null_dim, r = _sparse_eigs(K, N)
         if lam.size == 0:
             raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (the kernel graph has {F} components); "
@@ -257,7 +260,8 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
 
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
-                 joint_weights=None, time_weight: float = 0.0, reference="mean") -> GreensBasis:
+                 chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
+                 reference="mean") -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value.
@@ -270,10 +274,15 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         N, the non-null eigenpairs kept in Eq. 3 (default ``DEFAULT_NUM_EIGS``; capped at F - null_dim).
     self_term, normalization
         See the module docstring.
+    chain_floor : float in [0, 1]
+        Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
+    method, knn, joint_weights, time_weight, reference
+        See :func:`pose_graph`.
     """
     g = pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
                    reference=reference)
-    return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization)
+    return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
+                   chain_floor=chain_floor)
 
 
 def greens_rows(basis: GreensBasis, frames) -> np.ndarray:

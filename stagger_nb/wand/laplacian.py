@@ -13,6 +13,13 @@ Two kernels share these formulas:
   kernels agree to ``exp(-d_k^2 / 2 sigma^2)`` per entry.
 
 Distances between pose vectors are Euclidean (see :mod:`.pose_space`).
+
+**Temporal chain floor** (a choice of ours, not in the paper): consecutive frames ``i, i + 1`` get
+``K = max(exp(-d^2 / 2 sigma^2), chain_floor)`` with default ``CHAIN_FLOOR = exp(-1/2)`` ("consecutive frames
+are never treated as more than one sigma apart").  For normal mocap this changes nothing (consecutive
+poses are far closer than sigma); it matters at glitches, e.g. a thumb whose Euler angles flip by 180
+degrees for a few frames (CMU 131_01), which would otherwise nearly cut the graph, give an eigenvalue
+~1e-9 and a falloff that only separates the glitch from the rest.  ``chain_floor=0`` is the plain Eq. 1.
 """
 from __future__ import annotations
 
@@ -20,15 +27,18 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 __all__ = ["pairwise_sq_distances", "KnnGraph", "knn_graph", "default_sigma", "dense_kernel",
            "sparse_kernel", "normalized_adjacency", "normalized_laplacian", "DEFAULT_SIGMA_NEIGHBOURS",
-           "DEFAULT_SIGMA_PERCENTILE"]
+           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR"]
 
 # Default sigma = this percentile over frames of the distance to the k-th nearest neighbour (see default_sigma).
 DEFAULT_SIGMA_NEIGHBOURS = 8
 DEFAULT_SIGMA_PERCENTILE = 50.0
-_CHUNK_ENTRIES = 4_000_000  # rows x F distance block per chunk of the kNN search (~32 MB of float64)
+KERNEL_CUTOFF = 5.0  # sparse kernel: neighbours farther than this many sigmas are left out (K < 3.8e-6)
+CHAIN_FLOOR = float(np.exp(-0.5))  # minimum kernel value between consecutive frames (see the module docstring)
+_WORKERS = 2  # threads of the k-d tree query
 
 
 def pairwise_sq_distances(X: np.ndarray, Y: np.ndarray | None = None) -> np.ndarray:
@@ -74,28 +84,25 @@ class KnnGraph:
 
 
 def knn_graph(X: np.ndarray, k: int) -> KnnGraph:
-    """Exact k nearest neighbours of each row of ``X (F, D)`` by chunked brute force (BLAS blocks of
-    about ``_CHUNK_ENTRIES`` distances, so peak memory is ``O(F k)`` + one block, never ``O(F^2)``)."""
+    """Exact k nearest neighbours of each row of ``X (F, D)`` (a k-d tree, ``scipy.spatial.cKDTree``;
+    memory ``O(F k)``, never ``O(F^2)``).  Pose data lie near a low-dimensional manifold, where the tree is
+    fast even for D ~ 100.  Ties (repeated poses) are broken by the tree, deterministically."""
     X = np.asarray(X, dtype=float)
     F = X.shape[0]
     k = int(k)
     if k < 1 or k > F - 1:
         raise ValueError(f"k must be in [1, F - 1] = [1, {F - 1}], got {k}")
-    xx = np.einsum("ij,ij->i", X, X)
-    idx = np.empty((F, k), dtype=np.int64)
-    d2 = np.empty((F, k))
-    rows = max(1, _CHUNK_ENTRIES // max(F, 1))
-    for s in range(0, F, rows):
-        e = min(F, s + rows)
-        B = xx[s:e, None] + xx[None, :] - 2.0 * (X[s:e] @ X.T)
-        B[np.arange(e - s), np.arange(s, e)] = np.inf  # exclude self
-        part = np.argpartition(B, k - 1, axis=1)[:, :k]
-        pd = np.take_along_axis(B, part, axis=1)
-        order = np.argsort(pd, axis=1, kind="stable")
-        idx[s:e] = np.take_along_axis(part, order, axis=1)
-        d2[s:e] = np.maximum(np.take_along_axis(pd, order, axis=1), 0.0)
+    d, idx = cKDTree(X).query(X, k + 1, workers=_WORKERS)
+    # drop each frame itself: it is column 0 unless an exact duplicate pose came first
+    self_col = np.argmax(idx == np.arange(F)[:, None], axis=1)
+    has_self = idx[np.arange(F), self_col] == np.arange(F)
+    drop = np.where(has_self, self_col, k)
+    keep = np.ones_like(idx, dtype=bool)
+    keep[np.arange(F), drop] = False
+    idx = idx[keep].reshape(F, k)
+    d = d[keep].reshape(F, k)
     chain = np.sum((X[1:] - X[:-1]) ** 2, axis=1)
-    return KnnGraph(idx, d2, chain)
+    return KnnGraph(idx.astype(np.int64), d * d, chain)
 
 
 def default_sigma(X: np.ndarray | None = None, knn: KnnGraph | None = None,
@@ -127,29 +134,56 @@ def _check_sigma(sigma) -> float:
     return s
 
 
-def dense_kernel(D2: np.ndarray, sigma: float) -> np.ndarray:
-    """Eq. 1 on all pairs: ``K (F, F) = exp(-D2 / (2 sigma^2))`` from squared distances ``D2 (F, F)``."""
+def _check_floor(chain_floor) -> float:
+    f = float(chain_floor)
+    if not 0.0 <= f <= 1.0:
+        raise ValueError(f"chain_floor must be in [0, 1], got {chain_floor!r}")
+    return f
+
+
+def dense_kernel(D2: np.ndarray, sigma: float, chain_floor: float = CHAIN_FLOOR) -> np.ndarray:
+    """Eq. 1 on all pairs: ``K (F, F) = exp(-D2 / (2 sigma^2))`` from squared distances ``D2 (F, F)``,
+    consecutive frames floored at ``chain_floor``."""
     s = _check_sigma(sigma)
-    return np.exp(D2 * (-0.5 / (s * s)))
+    f = _check_floor(chain_floor)
+    K = np.exp(D2 * (-0.5 / (s * s)))
+    if f > 0 and K.shape[0] > 1:
+        i = np.arange(K.shape[0] - 1)
+        K[i, i + 1] = np.maximum(K[i, i + 1], f)
+        K[i + 1, i] = K[i, i + 1]
+    return K
 
 
-def sparse_kernel(knn: KnnGraph, sigma: float) -> sp.csr_matrix:
+def sparse_kernel(knn: KnnGraph, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr_matrix:
     """Eq. 1 on the symmetric kNN + temporal-chain edge set (plus the unit diagonal), ``(F, F)`` CSR.
 
     ``K_ij = exp(-d_ij^2 / 2 sigma^2)`` where ``j`` is among ``i``'s k nearest, or ``i`` among ``j``'s, or
-    ``|i - j| = 1``; the symmetric union uses each edge once (maximum of duplicates, which are equal)."""
+    ``|i - j| = 1`` (floored at ``chain_floor`` there, as in :func:`dense_kernel`); kNN pairs farther than
+    ``KERNEL_CUTOFF * sigma`` are left out.  Memory ``O(F k)``."""
     s = _check_sigma(sigma)
+    fl = _check_floor(chain_floor)
     F, k = knn.indices.shape
     c = -0.5 / (s * s)
-    rows = np.concatenate([np.repeat(np.arange(F), k), np.arange(F - 1)])
-    cols = np.concatenate([knn.indices.reshape(-1), np.arange(1, F)])
-    vals = np.exp(np.concatenate([knn.sq_distances.reshape(-1), knn.chain_sq]) * c)
-    W = sp.coo_matrix((vals, (rows, cols)), shape=(F, F)).tocsr()
-    W.sum_duplicates()
-    # symmetric union: max(W, W^T) (duplicates hold the same value, so max is the value itself)
-    W = W.maximum(W.T)
-    W = W + sp.identity(F, format="csr")
-    return W.tocsr()
+    rows = np.concatenate([np.arange(F - 1), np.repeat(np.arange(F), k)])
+    cols = np.concatenate([np.arange(1, F), knn.indices.reshape(-1)])
+    d2 = np.concatenate([knn.chain_sq, knn.sq_distances.reshape(-1)])
+    # kNN entries beyond KERNEL_CUTOFF sigmas are dropped (K < 4e-6): a sparser L factorises faster
+    keep = np.concatenate([np.ones(F - 1, dtype=bool), knn.sq_distances.reshape(-1) <= (KERNEL_CUTOFF * s) ** 2])
+    rows, cols, d2 = rows[keep], cols[keep], d2[keep]
+    vals = np.exp(d2 * c)
+    vals[:F - 1] = np.maximum(vals[:F - 1], fl)
+    # symmetric union: both directions of every edge, each (row, col) once with the largest of its
+    # duplicates (they hold the same distance; only a floored chain entry is larger), plus K_ii = 1
+    r_all = np.concatenate([rows, cols, np.arange(F)])
+    c_all = np.concatenate([cols, rows, np.arange(F)])
+    v_all = np.concatenate([vals, vals, np.ones(F)])
+    key = r_all * F + c_all
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    first = order[starts]
+    v_all = np.maximum.reduceat(v_all[order], starts)
+    return sp.csr_matrix((v_all, (r_all[first], c_all[first])), shape=(F, F))
 
 
 def normalized_adjacency(K):
