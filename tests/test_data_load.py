@@ -110,7 +110,7 @@ def test_convert_cmu_from_the_real_sdist(tmp_path):
     assert 130 < p_cm[0, :, 1].max() - p_cm[0, :, 1].min() < 200  # toe to head joint of an adult, in cm
 
 
-def test_prepare_main_is_idempotent(tmp_path, capsys):
+def test_prepare_main_is_idempotent(tmp_path, capsys, monkeypatch):
     sd = need_sdist()
     assert prepare.main(["--data-dir", str(tmp_path), "--sdist", str(sd)]) == 0
     first = capsys.readouterr().out.strip().splitlines()
@@ -121,7 +121,9 @@ def test_prepare_main_is_idempotent(tmp_path, capsys):
     second = capsys.readouterr().out.strip().splitlines()
     assert [line.split(": ")[1] for line in second] == ["up to date"] * 3 + ["present"]
     assert (tmp_path / "cmu_01_01.bvh").stat().st_mtime_ns == stamp
-    m = sn.read_bvh(tmp_path / "cmu_01_01.bvh")
+    monkeypatch.setenv(data.ENV_VAR, str(tmp_path))
+    assert data.available() == list(data.NAMES)
+    m = data.load("cmu_01_01")
     assert m.num_frames == 2751 and m.skeleton.names[0] == "Hips"
     assert not list(tmp_path.glob("*.tmp")) and not list(tmp_path.glob(".tmp*"))
 
