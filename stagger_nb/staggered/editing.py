@@ -31,8 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
-from .representation import (StaggeredMotion, bezier_cubic, displacement_at, evaluate_arrays, knot_times,
-                             rotation_spline)
+from .representation import StaggeredMotion, bezier_cubic, evaluate_arrays, knot_times, rotation_spline
 
 __all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
            "random_timing", "insert_pose", "delete_pose", "mean_pose"]
@@ -183,11 +182,12 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
 def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
     """Segment and normalised time of each ``(times[n], cols[n])`` in the knot columns ``knots (K, C)``."""
     knots = np.maximum.accumulate(knots, axis=0)
-    K = knots.shape[0]
-    seg = np.empty(times.size, dtype=np.int64)
-    for c in np.unique(cols):
-        sel = cols == c
-        seg[sel] = np.searchsorted(knots[:, c], times[sel], side="right") - 1
+    K, C = knots.shape
+    # one searchsorted for all columns: shift column c by c * span so the flattened knots stay sorted
+    lo = min(knots.min(), times.min())
+    span = max(knots.max(), times.max()) - lo + 1.0
+    flat = ((knots - lo) + np.arange(C) * span).T.reshape(-1)
+    seg = np.searchsorted(flat, (times - lo) + cols * span, side="right") - 1 - cols * K
     np.clip(seg, 0, K - 2, out=seg)
     a, b = knots[seg, cols], knots[seg + 1, cols]
     L = b - a
@@ -195,12 +195,24 @@ def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
     return seg, np.clip(tn, 0.0, 1.0)
 
 
-def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
-    """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``)."""
-    seg, tn = _segments(knot_times(sm), times, joints)
+def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.ndarray) -> np.ndarray:
+    """Same as :func:`~stagger_nb.staggered.representation.displacement_at` for the rows ``table[index]``,
+    gathering only the two samples each point needs (not whole rows)."""
+    n = counts[index]
+    u = np.clip(tn, 0.0, 1.0) * (n - 1)
+    m0 = np.minimum(np.floor(u).astype(np.int64), n - 2)
+    a = (u - m0)[:, None]
+    return table[index + (m0,)] * (1.0 - a) + table[index + (m0 + 1,)] * a
+
+
+def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray, seg=None, tn=None) -> np.ndarray:
+    """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``);
+    pass ``seg``/``tn`` when the segment and normalised time are already known."""
+    if seg is None:
+        seg, tn = _segments(knot_times(sm), times, joints)
     tg = sm.tangents[seg, joints]
     s = rotation_spline(sm.values[seg, joints], tg[:, 0], tg[:, 1], sm.values[seg + 1, joints], tn)
-    d = displacement_at(sm.displacements[seg, joints], sm.displacement_counts[seg, joints], tn)
+    d = _displacement(sm.displacements, sm.displacement_counts, (seg, joints), tn)
     return quat_mul(s, quat_exp(0.5 * d))
 
 
@@ -209,7 +221,7 @@ def _eval_root(sm: StaggeredMotion, times: np.ndarray) -> np.ndarray:
     seg, tn = _segments((sm.pose_times + sm.root_refinements)[:, None], times, np.zeros(times.size, np.int64))
     rt = sm.root_tangents[seg]
     p = bezier_cubic(sm.root_values[seg], rt[:, 0], rt[:, 1], sm.root_values[seg + 1], tn)
-    return p + displacement_at(sm.root_displacements[seg], sm.root_displacement_counts[seg], tn)
+    return p + _displacement(sm.root_displacements, sm.root_displacement_counts, (seg,), tn)
 
 
 # -- re-measuring displacement maps ---------------------------------------------------------------------
@@ -332,7 +344,7 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
 
         def target(t, jp, pair, tn):
             sp = seg[pair]
-            old = _eval_rotations(sm, t, jp)
+            old = _eval_rotations(sm, t, jp, seg=sp, tn=tn)   # same knots and grid: no search
             wl = _plateau_weights(sm, sp, jp, t, np.ones_like(sp))
             wr = _plateau_weights(sm, sp + 1, jp, t, -np.ones_like(sp))
             return quat_mul(quat_mul(old, quat_exp(wl[:, None] * logd[sp, jp])), quat_exp(wr[:, None] * logd[sp + 1, jp]))
