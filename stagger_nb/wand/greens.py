@@ -103,7 +103,7 @@ class GreensBasis:
 
     def _frames(self, frames) -> np.ndarray:
         f = np.asarray(frames)
-        if f.dtype.kind not in "iu":
+        if f.dtype.kind not in "iu" or f.ndim > 1:
             raise ValueError(f"frame must be an integer frame index, got {frames!r}")
         if np.any(f < 0) or np.any(f >= self.num_frames):
             raise ValueError(f"frame must be in [0, {self.num_frames}), got {frames!r}")
@@ -111,7 +111,7 @@ class GreensBasis:
 
     def row(self, frame: int) -> np.ndarray:
         """Green's row ``G(p_frame, p_j)`` for all ``j``, shape (F,): one ``(F, N) @ (N,)`` product."""
-        i = int(self._frames(np.int64(frame)))
+        i = int(self._frames(frame))
         return self.eigenvectors @ (self.eigenvectors[i] * self._coef)
 
     def rows(self, frames) -> np.ndarray:

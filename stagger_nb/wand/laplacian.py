@@ -36,7 +36,7 @@ __all__ = ["pairwise_sq_distances", "KnnGraph", "knn_graph", "default_sigma", "d
 # Default sigma = this percentile over frames of the distance to the k-th nearest neighbour (see default_sigma).
 DEFAULT_SIGMA_NEIGHBOURS = 8
 DEFAULT_SIGMA_PERCENTILE = 50.0
-KERNEL_CUTOFF = 5.0  # sparse kernel: neighbours farther than this many sigmas are left out (K < 3.8e-6)
+KERNEL_CUTOFF = 6.0  # sparse kernel: neighbours farther than this many sigmas are left out (K < 1.6e-8)
 CHAIN_FLOOR = float(np.exp(-0.5))  # minimum kernel value between consecutive frames (see the module docstring)
 _WORKERS = 2  # threads of the k-d tree query
 
@@ -167,7 +167,7 @@ def sparse_kernel(knn: KnnGraph, sigma: float, chain_floor: float = CHAIN_FLOOR)
     rows = np.concatenate([np.arange(F - 1), np.repeat(np.arange(F), k)])
     cols = np.concatenate([np.arange(1, F), knn.indices.reshape(-1)])
     d2 = np.concatenate([knn.chain_sq, knn.sq_distances.reshape(-1)])
-    # kNN entries beyond KERNEL_CUTOFF sigmas are dropped (K < 4e-6): a sparser L factorises faster
+    # kNN entries beyond KERNEL_CUTOFF sigmas are dropped (K < 1.6e-8): a sparser L factorises faster
     keep = np.concatenate([np.ones(F - 1, dtype=bool), knn.sq_distances.reshape(-1) <= (KERNEL_CUTOFF * s) ** 2])
     rows, cols, d2 = rows[keep], cols[keep], d2[keep]
     vals = np.exp(d2 * c)
