@@ -302,23 +302,22 @@ def _refresh(sm: StaggeredMotion, **fields) -> StaggeredMotion:
 
 # -- geometric editing (§5.1) ---------------------------------------------------------------------------
 
-def _plateau_weights(sm: StaggeredMotion, k: np.ndarray, joint: np.ndarray, t: np.ndarray, side: np.ndarray):
-    """Weight of pose ``k`` at time ``t`` for ``joint`` on ``side`` (-1: t is before pose k's knot, in
-    segment k-1; +1: after, in segment k): 1 on the plateau between ``t_k`` and ``T[k, i]``, a raised cosine
-    down to 0 at the neighbouring pose's plateau edge."""
-    T = np.maximum.accumulate(knot_times(sm), axis=0)
-    tk = sm.pose_times
-    lo = np.minimum(tk[:, None], T)          # plateau [lo, hi] of every (pose, joint)
+def _plateau_weights(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.ndarray, t: np.ndarray,
+                     side: np.ndarray) -> np.ndarray:
+    """Weight ``(N,)`` of pose ``k`` at time ``t`` for control variable ``col`` of ``knots (K, C)`` on
+    ``side`` (-1: t is before pose k's knot, in segment k-1; +1: after, in segment k): 1 on the plateau
+    between ``t_k`` and ``T[k, col]``, a raised cosine down to 0 at the neighbouring pose's plateau edge."""
+    T = np.maximum.accumulate(knots, axis=0)
+    lo = np.minimum(tk[:, None], T)          # plateau [lo, hi] of every (pose, column)
     hi = np.maximum(tk[:, None], T)
-    K = sm.num_poses
-    kn = np.clip(k + side, 0, K - 1)
-    inner = np.where(side < 0, hi[kn, joint], lo[kn, joint])   # where the ramp reaches 0
-    outer = np.where(side < 0, lo[k, joint], hi[k, joint])     # where the ramp reaches 1
+    kn = np.clip(k + side, 0, T.shape[0] - 1)
+    inner = np.where(side < 0, hi[kn, col], lo[kn, col])   # where the ramp reaches 0
+    outer = np.where(side < 0, lo[k, col], hi[k, col])     # where the ramp reaches 1
     L = outer - inner
     u = np.where(np.abs(L) > 0, (t - inner) / np.where(np.abs(L) > 0, L, 1.0), 1.0)
     u = np.clip(u, 0.0, 1.0)
     w = 0.5 * (1.0 - np.cos(np.pi * u))
-    on_plateau = (t >= lo[k, joint]) & (t <= hi[k, joint])
+    on_plateau = (t >= lo[k, col]) & (t <= hi[k, col])
     return np.where(on_plateau, 1.0, w)
 
 
@@ -341,15 +340,16 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
         seg, joint = np.nonzero(touched)
         counts = sm.displacement_counts[seg, joint]
         logd = quat_log(quat_hemisphere(deltas))                        # (K, J, 3), half-angle axis
+        knots = knot_times(sm)
 
         def target(t, jp, pair, tn):
             sp = seg[pair]
             old = _eval_rotations(sm, t, jp, seg=sp, tn=tn)   # same knots and grid: no search
-            wl = _plateau_weights(sm, sp, jp, t, np.ones_like(sp))
-            wr = _plateau_weights(sm, sp + 1, jp, t, -np.ones_like(sp))
+            wl = _plateau_weights(knots, sm.pose_times, sp, jp, t, np.ones_like(sp))
+            wr = _plateau_weights(knots, sm.pose_times, sp + 1, jp, t, -np.ones_like(sp))
             return quat_mul(quat_mul(old, quat_exp(wl[:, None] * logd[sp, jp])), quat_exp(wr[:, None] * logd[sp + 1, jp]))
 
-        rows = _measure_rotations(values, tangents, knot_times(sm), seg, joint, counts, target)
+        rows = _measure_rotations(values, tangents, knots, seg, joint, counts, target)
         fields.update(values=values, tangents=tangents,
                       displacements=_put_rows(sm.displacements, (seg, joint), rows))
     if rmoved.any():
@@ -359,21 +359,16 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
         rt[:, 1] += root_deltas[1:]
         seg = np.flatnonzero(rmoved[:-1] | rmoved[1:])
         counts = sm.root_displacement_counts[seg]
-        rk = np.maximum.accumulate(sm.pose_times + sm.root_refinements)
-        # the root translation is one more control variable with its own plateau; reuse the joint-0 weights
-        # on a copy whose joint-0 knots are the root-translation knots
-        r = np.array(sm.refinements)
-        r[:, 0] = sm.root_refinements
-        rsm = dataclasses.replace(sm, refinements=r)
+        rk = (sm.pose_times + sm.root_refinements)[:, None]   # the root translation's own knot column
 
         def rtarget(t, pair, tn):
             sp = seg[pair]
             z = np.zeros_like(sp)
-            wl = _plateau_weights(rsm, sp, z, t, np.ones_like(sp))
-            wr = _plateau_weights(rsm, sp + 1, z, t, -np.ones_like(sp))
+            wl = _plateau_weights(rk, sm.pose_times, sp, z, t, np.ones_like(sp))
+            wr = _plateau_weights(rk, sm.pose_times, sp + 1, z, t, -np.ones_like(sp))
             return _eval_root(sm, t) + wl[:, None] * root_deltas[sp] + wr[:, None] * root_deltas[sp + 1]
 
-        rows = _measure_root(rv, rt, rk, seg, counts, rtarget)
+        rows = _measure_root(rv, rt, np.maximum.accumulate(rk[:, 0]), seg, counts, rtarget)
         fields.update(root_values=rv, root_tangents=rt, root_displacements=_put_rows(sm.root_displacements, (seg,), rows))
     return _refresh(sm, **fields)
 
@@ -392,8 +387,8 @@ def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: st
         local frame) or a quaternion ``[x, y, z, w]``. Applied as ``v̂ = v ⊕ δ`` and ``v̂⁰ = v⁰ ⊕ δ``.
     target : dict joint name -> quaternion (x, y, z, w), or ndarray (J, 4), optional
         New value of the edited knot instead of ``deltas``: the true pose at ``t_k`` (``mode="staggered"``,
-        ``δ = v⁰ ⊖ target``... i.e. ``δ = v⁰⁻¹ target``) or the non-staggered pose (``mode="unstaggered"``,
-        ``δ = v⁻¹ target``).
+        ``δ = target ⊖ v⁰ = v⁰⁻¹ target``) or the non-staggered pose (``mode="unstaggered"``,
+        ``δ = target ⊖ v = v⁻¹ target``).
     mode : {"staggered", "unstaggered"}
         Which knot the user edits: the editing knot at the staggered pose time (§5.1, first approach) or
         the extreme value of the non-staggered pose (second approach). The other follows by the same change.
