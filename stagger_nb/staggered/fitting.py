@@ -20,8 +20,8 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
                               quat_bezier, slerp)
-from .representation import (StaggeredMotion, _bezier4, _qexp4, _qmul4, _rotvec_between4, bezier_cubic,
-                             rotation_spline)
+from . import _kernels as K
+from .representation import StaggeredMotion, bezier_cubic, rotation_spline
 
 __all__ = ["fit_staggered", "fit_rotation_tangents", "fit_translation_tangents",
            "fit_rotation_tangents_nelder_mead", "sample_segments", "rotation_residuals"]
@@ -116,7 +116,8 @@ def fit_translation_tangents(tn, y, pair, p0, p3, num_pairs):
 
 def _rotvec_between(a, b):
     """Rotation vector (radians) of ``a^-1 b``, shortest way; ``(N, 4)`` inputs, ``(N, 3)`` output."""
-    return _rotvec_between4(np.asarray(a, dtype=float).T, np.asarray(b, dtype=float).T).T
+    return K.rotvec_between(np.ascontiguousarray(np.asarray(a, dtype=float).T),
+                            np.ascontiguousarray(np.asarray(b, dtype=float).T)).T
 
 
 def rotation_residuals(c0, c1, c2, c3, tn, targets):
@@ -145,7 +146,7 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     V0, V3 = np.ascontiguousarray(v0[pair].T), np.ascontiguousarray(v3[pair].T)
 
     def residual(a1, a2):                      # (3, N) rotation vectors target -> spline
-        return _rotvec_between4(T4, _bezier4(V0, a1[:, pair], a2[:, pair], V3, tn))
+        return K.rotvec_between(T4, K.bezier(V0, a1[:, pair], a2[:, pair], V3, tn))
 
     def pair_cost(r):
         return np.bincount(pair, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], P)
@@ -178,16 +179,16 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
         for j in range(6):
             e = np.zeros((3, 1))
             e[j % 3] = 0.5 * _FD_STEP          # quat_exp takes half the rotation vector
-            step = _qexp4(np.broadcast_to(e, (3, P)))
-            rp = residual(_qmul4(c1, step), c2) if j < 3 else residual(c1, _qmul4(c2, step))
+            step = K.qexp(np.ascontiguousarray(np.broadcast_to(e, (3, P))))
+            rp = residual(K.qmul(c1, step), c2) if j < 3 else residual(c1, K.qmul(c2, step))
             Jac[j] = (rp - r) / _FD_STEP
         JTJ = np.add.reduceat(np.einsum("ian,jan->nij", Jac, Jac), starts, axis=0)
         JTr = np.add.reduceat(np.einsum("ian,an->ni", Jac, r), starts, axis=0)
         scale = np.trace(JTJ, axis1=1, axis2=2) / 6.0 + 1e-12
         A = JTJ + (lam * scale)[:, None, None] * eye
         delta = -np.linalg.solve(A, JTr[..., None])[..., 0]
-        n1 = _qmul4(c1, _qexp4(0.5 * delta[:, :3].T))
-        n2 = _qmul4(c2, _qexp4(0.5 * delta[:, 3:].T))
+        n1 = K.qmul(c1, quat_exp(0.5 * delta[:, :3]).T)
+        n2 = K.qmul(c2, quat_exp(0.5 * delta[:, 3:]).T)
         rn = residual(n1, n2)
         cn = pair_cost(rn)
         ok = cn < cost

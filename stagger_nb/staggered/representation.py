@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_exp, quat_mul, slerp
 from ..core.skeleton import Skeleton
+from . import _kernels as K
 
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
            "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic"]
@@ -194,76 +194,6 @@ def bezier_cubic(p0, p1, p2, p3, t) -> np.ndarray:
     return (u * u * u) * p0 + (3.0 * u * u * t) * p1 + (3.0 * u * t * t) * p2 + (t * t * t) * p3
 
 
-# Component-first kernels: quaternions as (4, N) arrays (rows x, y, z, w). Reducing over a length-4 last
-# axis is slow in numpy; whole rows vectorise well. These are the hot loops of evaluate() and the fit.
-
-def _dot4(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-
-
-_MIN_ARC = 1e-8  # arcs below this (radians on S^3) use this angle: slerp weights then equal lerp to ~1e-16
-
-
-def _arc4(a, b):
-    """Short-arc sign, arc angle and 1/sin(angle) of ``a -> b`` for (4, N) unit quaternions."""
-    d = _dot4(a, b)
-    sgn = np.copysign(1.0, d)
-    theta = np.maximum(np.arccos(np.minimum(np.abs(d), 1.0)), _MIN_ARC)
-    return sgn, theta, 1.0 / np.sin(theta)
-
-
-def _slerp4(a, b, t, u, arc=None):
-    """Short-arc slerp of (4, N) quaternions at ``t (N,)`` (``u = 1 - t``); ``arc`` from :func:`_arc4`."""
-    sgn, theta, inv = _arc4(a, b) if arc is None else arc
-    w0 = np.sin(u * theta) * inv
-    w1 = np.sin(t * theta) * (inv * sgn)
-    return a * w0 + b * w1
-
-
-def _bezier4(c0, c1, c2, c3, t, arcs=None):
-    """Recursive-slerp quaternion Bézier on (4, N) controls; ``arcs`` = the three first-level arcs."""
-    if arcs is None:
-        arcs = (_arc4(c0, c1), _arc4(c1, c2), _arc4(c2, c3))
-    u = 1.0 - t
-    a = _slerp4(c0, c1, t, u, arcs[0])
-    b = _slerp4(c1, c2, t, u, arcs[1])
-    c = _slerp4(c2, c3, t, u, arcs[2])
-    d = _slerp4(a, b, t, u)
-    e = _slerp4(b, c, t, u)
-    out = _slerp4(d, e, t, u)
-    return out / np.sqrt(_dot4(out, out))
-
-
-def _qmul4(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz])
-
-
-def _qconj4(a):
-    return np.stack([-a[0], -a[1], -a[2], a[3]])
-
-
-def _qexp4(v):
-    """(3, N) half rotation vectors -> (4, N) unit quaternions."""
-    h = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    sinc = np.where(h > 1e-6, np.sin(h) / np.maximum(h, 1e-6), 1.0 - h * h / 6.0)
-    return np.concatenate([v * sinc, np.cos(h)[None]])
-
-
-def _rotvec_between4(a, b):
-    """(3, N) rotation vectors (radians) of ``a^-1 b`` for (4, N) unit quaternions (short way)."""
-    r = _qmul4(_qconj4(a), b)
-    sgn = np.where(r[3] < 0.0, -1.0, 1.0)
-    v = r[:3] * sgn
-    s = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    ang = 2.0 * np.arctan2(s, r[3] * sgn)
-    return v * np.where(s > 1e-12, ang / np.maximum(s, 1e-12), 2.0)
-
-
 def rotation_spline(c0, c1, c2, c3, t) -> np.ndarray:
     """Quaternion Bézier ``s(c0, c1, c2, c3, t)`` by recursive slerp (Appendix A, [Sho85]).
 
@@ -272,7 +202,7 @@ def rotation_spline(c0, c1, c2, c3, t) -> np.ndarray:
     """
     c = [np.ascontiguousarray(np.asarray(x, dtype=float).reshape(-1, 4).T) for x in (c0, c1, c2, c3)]
     t = np.broadcast_to(np.asarray(t, dtype=float).reshape(-1), c[0].shape[1:])
-    return _bezier4(*c, t).T
+    return K.bezier(*c, t).T
 
 
 def translation_spline(p0, p1, p2, p3, t) -> np.ndarray:
@@ -350,30 +280,66 @@ def _sample_translations(lt: np.ndarray, frame_time: float, times: np.ndarray) -
     return lt[i0] * (1.0 - a) + lt[i1] * a
 
 
+def _gather_rows(table, idx, out):
+    """``out[r] = table[r, idx]`` row by row (1-D gathers are much faster than ``take(axis=1)``)."""
+    for r in range(table.shape[0]):
+        np.take(table[r], idx, out=out[r])
+    return out
+
+
 def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
-    """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds."""
+    """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds.
+
+    Vectorised over all (time, joint) samples; scratch memory is reused between calls (see ``_kernels``).
+    """
+    q, p = _evaluate_arrays(sm, times)
+    return np.array(q), p
+
+
+def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
+    """:func:`evaluate_arrays` returning a view of workspace memory for ``q`` (valid until the next call)."""
+    W = K.WORK
     times = np.asarray(times, dtype=float).reshape(-1)
     J = sm.num_joints
     seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
-    idx = (seg * J + np.arange(J)).reshape(-1)                     # pair index (segment-major)
+    idx = seg.reshape(-1) * J + np.tile(np.arange(J), times.size)   # pair index (segment-major)
     t = tn.reshape(-1)
+    n = t.size
     P = sm.tangents.shape[0] * J
-    # per-pair control polygons (4 controls, 4 components, P) and their fixed first-level arcs
-    c = np.concatenate([sm.values[:-1, :, None], sm.tangents, sm.values[1:, :, None]], axis=2)
-    c = c.reshape(P, 16).T                                        # (16, P): control j, component r at 4j + r
-    arc = np.concatenate([np.stack(_arc4(c[4 * j:4 * j + 4], c[4 * j + 4:4 * j + 8])) for j in range(3)])
-    c = c[:, idx]
-    arc = arc[:, idx]
-    s = _bezier4(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]))
+    # per-pair control polygons (4 controls x 4 components, P) and their three fixed first-level arcs
+    ctrl = W.get("ev_ctrl", (16, P))
+    ctrl[0:4] = sm.values[:-1].reshape(P, 4).T
+    ctrl[4:8] = sm.tangents[:, :, 0].reshape(P, 4).T
+    ctrl[8:12] = sm.tangents[:, :, 1].reshape(P, 4).T
+    ctrl[12:16] = sm.values[1:].reshape(P, 4).T
+    arcp = W.get("ev_arcp", (9, P))
+    for j in range(3):
+        K.arc_into(ctrl[4 * j:4 * j + 4], ctrl[4 * j + 4:4 * j + 8], arcp[3 * j:3 * j + 3],
+                   W.get("ev_ptmp", P), W.get("ev_ptmp2", P))
+    c = _gather_rows(ctrl, idx, W.get("ev_c", (16, n)))
+    arc = _gather_rows(arcp, idx, W.get("ev_arc", (9, n)))
+    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
+    # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
     M = sm.displacements.shape[2]
-    n = sm.displacement_counts.reshape(-1)[idx]
-    u = t * (n - 1)
-    m0 = np.minimum(u.astype(np.int64), n - 2)
-    a = u - m0
-    table = sm.displacements.reshape(-1, 3)
-    row = idx * M + m0
-    d = (table[row].T * (1.0 - a) + table[row + 1].T * a)
-    q = _qmul4(s, _qexp4(0.5 * d)).T.reshape(times.size, J, 4)
+    cnt = sm.displacement_counts.reshape(-1)[idx]
+    u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
+    m0 = np.minimum(u.astype(np.int64), cnt - 2)
+    a = u
+    a -= m0                                                         # fractional position
+    row = m0
+    row += idx * M
+    table = W.get("ev_table", (3, P * M))
+    table[...] = sm.displacements.reshape(P * M, 3).T
+    d0 = _gather_rows(table, row, W.get("ev_d0", (3, n)))
+    row += 1
+    d1 = _gather_rows(table, row, W.get("ev_d1", (3, n)))
+    d1 -= d0
+    d1 *= a
+    d0 += d1
+    d0 *= 0.5                                                       # half rotation vectors for exp
+    e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
+    q = K.qmul_into(s, e, W.get("ev_q", (4, n)), W.get("ev_tmp", n))
+    q = q.T.reshape(times.size, J, 4)
 
     rk = (sm.pose_times + sm.root_refinements)[:, None]
     rseg, rtn = segment_coordinates(rk, times)
@@ -410,7 +376,7 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
             raise ValueError("evaluate: times must be a non-empty array of finite seconds")
         dt = np.diff(times)
         ft = float(dt[0]) if dt.size and dt[0] > 0 and np.allclose(dt, dt[0]) else sm.frame_time
-    q, p = evaluate_arrays(sm, times)
+    q, p = _evaluate_arrays(sm, times)        # Motion() normalises q into a new array: no copy needed
     lt = None
     if sm.local_translations is not None:
         lt = _sample_translations(sm.local_translations, sm.frame_time, times)

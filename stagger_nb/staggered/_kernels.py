@@ -1,0 +1,219 @@
+"""Component-first quaternion kernels for the hot loops of ``evaluate()`` and the spline fit.
+
+Quaternions here are ``(4, N)`` arrays (rows x, y, z, w): whole rows vectorise, while reducing over a
+length-4 last axis does not. Two measured costs shape the code:
+
+* numpy's float64 ``sin`` runs scalar libm on this platform, ~15x slower than the degree-19 Horner
+  polynomial :func:`sin_poly` (exact to double rounding on [0, pi/2], the only range slerp needs);
+* every fresh array of more than ~128 KiB is mmap-ed and page-faulted in on first touch, which in a VM costs
+  more than the arithmetic. The ``*_into`` kernels therefore write into buffers of a thread-local,
+  grow-only :class:`Workspace` that is reused from call to call (one slider move to the next).
+"""
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+MIN_ARC = 1e-8  # arcs below this (radians on S^3) use this angle: slerp weights then equal lerp to ~1e-16
+# Taylor coefficients of sin up to x^19: on [0, pi/2] the first omitted term is < 3e-16 (double rounding).
+_SIN_COEF = tuple((-1.0) ** k / float(np.prod(np.arange(1, 2 * k + 2, dtype=float))) for k in range(9, -1, -1))
+
+
+class Workspace(threading.local):
+    """Named, grow-only scratch buffers (one set per thread)."""
+
+    def __init__(self):
+        self.bufs: dict[str, np.ndarray] = {}
+
+    def get(self, key: str, shape) -> np.ndarray:
+        shape = (int(shape),) if np.isscalar(shape) else tuple(int(s) for s in shape)
+        size = math.prod(shape)
+        b = self.bufs.get(key)
+        if b is None or b.size < size:
+            b = np.empty(max(size, 1))
+            self.bufs[key] = b
+        return b[:size].reshape(shape)
+
+
+WORK = Workspace()
+
+
+def sin_poly(x: np.ndarray, out: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``out = sin(x)`` for ``x`` in [0, pi/2]; ``z`` is scratch of the same shape. Returns ``out``."""
+    np.multiply(x, x, out=z)
+    out.fill(_SIN_COEF[0])
+    for c in _SIN_COEF[1:]:
+        out *= z
+        out += c
+    out *= x
+    return out
+
+
+def dot_into(a, b, out, tmp):
+    np.multiply(a[0], b[0], out=out)
+    for r in (1, 2, 3):
+        np.multiply(a[r], b[r], out=tmp)
+        out += tmp
+    return out
+
+
+def arc_into(a, b, out, tmp, tmp2):
+    """First-level arc data of ``a -> b`` (4, N), shortest way, into ``out (3, N)``:
+    rows ``sgn/sin θ``, ``θ``, ``cos θ / sin θ`` with θ in [MIN_ARC, pi/2]."""
+    d = dot_into(a, b, tmp, tmp2)
+    sgn_inv, theta, cot = out
+    np.abs(d, out=cot)
+    np.minimum(cot, 1.0, out=cot)
+    np.arccos(cot, out=theta)
+    np.maximum(theta, MIN_ARC, out=theta)
+    sin_poly(theta, sgn_inv, tmp2)
+    np.divide(1.0, sgn_inv, out=sgn_inv)
+    cot *= sgn_inv
+    np.copysign(sgn_inv, d, out=sgn_inv)
+    return out
+
+
+def slerp_into(a, b, t, arc, out, s, w0, z):
+    """``out (4, N) = slerp(a, b, t)`` along the short arc, given ``arc`` from :func:`arc_into`.
+
+    Uses ``sin(uθ)/sin θ = cos(tθ) - cos θ sin(tθ)/sin θ`` (one sine), with ``cos(tθ) = sqrt(1 - sin²)``
+    (tθ <= pi/2). ``s, w0, z`` are (N,) scratch. ``out`` must not alias ``a`` or ``b``.
+    """
+    sgn_inv, theta, cot = arc
+    np.multiply(t, theta, out=w0)
+    sin_poly(w0, s, z)
+    np.multiply(s, s, out=w0)
+    np.subtract(1.0, w0, out=w0)
+    np.maximum(w0, 0.0, out=w0)
+    np.sqrt(w0, out=w0)
+    np.multiply(cot, s, out=z)
+    w0 -= z
+    s *= sgn_inv
+    np.multiply(a, w0, out=out)
+    for r in range(4):
+        np.multiply(b[r], s, out=z)
+        out[r] += z
+    return out
+
+
+def bezier_into(c0, c1, c2, c3, t, arcs, work: Workspace = WORK, tag: str = "") -> np.ndarray:
+    """Recursive-slerp quaternion Bézier (Appendix A) of (4, N) controls at ``t (N,)`` into a workspace
+    buffer (valid until the next call with the same ``tag``). ``arcs``: three (3, N) first-level arcs or
+    None to compute them."""
+    N = t.shape[0]
+    g = lambda k, sh: work.get(tag + k, sh)  # noqa: E731
+    s, w0, z, tmp = g("s", N), g("w0", N), g("z", N), g("tmp", N)
+    if arcs is None:
+        arcs = [arc_into(x, y, g(f"arc{i}", (3, N)), tmp, z) for i, (x, y) in enumerate(((c0, c1), (c1, c2), (c2, c3)))]
+    A = slerp_into(c0, c1, t, arcs[0], g("A", (4, N)), s, w0, z)
+    B = slerp_into(c1, c2, t, arcs[1], g("B", (4, N)), s, w0, z)
+    C = slerp_into(c2, c3, t, arcs[2], g("C", (4, N)), s, w0, z)
+    arc = g("arcL", (3, N))
+    D = slerp_into(A, B, t, arc_into(A, B, arc, tmp, z), g("D", (4, N)), s, w0, z)
+    E = slerp_into(B, C, t, arc_into(B, C, arc, tmp, z), A, s, w0, z)         # A is free again
+    out = slerp_into(D, E, t, arc_into(D, E, arc, tmp, z), C, s, w0, z)       # C is free again
+    dot_into(out, out, tmp, z)
+    np.sqrt(tmp, out=tmp)
+    out /= tmp
+    return out
+
+
+def qexp_into(v, out, h, tmp):
+    """``out (4, N) = exp(v)`` for half rotation vectors ``v (3, N)`` (``axis * angle / 2``) with
+    ``|v| <= pi/2`` (rotations up to a half turn, as stored displacements are). ``h, tmp``: (N,) scratch."""
+    np.multiply(v[0], v[0], out=h)
+    for r in (1, 2):
+        np.multiply(v[r], v[r], out=tmp)
+        h += tmp
+    np.sqrt(h, out=h)
+    np.minimum(h, np.pi / 2, out=h)
+    np.subtract(np.pi / 2, h, out=out[0])
+    sin_poly(out[0], out[3], tmp)                    # cos h = sin(pi/2 - h)
+    sinc = out[0]
+    sin_poly(h, sinc, tmp)
+    np.maximum(h, 1e-6, out=tmp)
+    sinc /= tmp                                      # sin(h)/h; below 1e-6 use the Taylor value
+    small = h < 1e-6
+    if small.any():
+        sinc[small] = 1.0 - h[small] ** 2 / 6.0
+    np.multiply(v[1], sinc, out=out[1])
+    np.multiply(v[2], sinc, out=out[2])
+    np.multiply(v[0], sinc, out=out[0])
+    return out
+
+
+def qmul_into(a, b, out, tmp):
+    """Hamilton product of (4, N) quaternions into ``out`` (must not alias ``a`` or ``b``); ``tmp`` (N,)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    terms = (((aw, bx, 1), (ax, bw, 1), (ay, bz, 1), (az, by, -1)),
+             ((aw, by, 1), (ax, bz, -1), (ay, bw, 1), (az, bx, 1)),
+             ((aw, bz, 1), (ax, by, 1), (ay, bx, -1), (az, bw, 1)),
+             ((aw, bw, 1), (ax, bx, -1), (ay, by, -1), (az, bz, -1)))
+    for r, row in enumerate(terms):
+        np.multiply(row[0][0], row[0][1], out=out[r])
+        for x, y, sg in row[1:]:
+            np.multiply(x, y, out=tmp)
+            if sg > 0:
+                out[r] += tmp
+            else:
+                out[r] -= tmp
+    return out
+
+
+def rotvec_between_into(a, b, out, work: Workspace = WORK, tag: str = "rv") -> np.ndarray:
+    """``out (3, N)``: rotation vectors (radians, the short way) of ``a^-1 b`` for (4, N) unit quaternions."""
+    N = a.shape[1]
+    r = work.get(tag + "r", (4, N))
+    tmp = work.get(tag + "tmp", N)
+    ac = work.get(tag + "ac", (4, N))
+    np.negative(a[:3], out=ac[:3])
+    ac[3] = a[3]
+    qmul_into(ac, b, r, tmp)
+    sgn = np.copysign(1.0, r[3], out=work.get(tag + "sgn", N))
+    s = work.get(tag + "s", N)
+    np.multiply(r[0], r[0], out=s)
+    for k in (1, 2):
+        np.multiply(r[k], r[k], out=tmp)
+        s += tmp
+    np.sqrt(s, out=s)
+    np.multiply(r[3], sgn, out=tmp)
+    np.arctan2(s, tmp, out=tmp)                       # half angle in [0, pi/2]
+    tmp *= 2.0
+    small = s <= 1e-12
+    np.maximum(s, 1e-12, out=s)
+    np.divide(tmp, s, out=tmp)
+    if small.any():
+        tmp[small] = 2.0                               # angle/|v| -> 2/w, w -> 1
+    tmp *= sgn
+    np.multiply(r[:3], tmp, out=out)
+    return out
+
+
+def bezier(c0, c1, c2, c3, t, arcs=None) -> np.ndarray:
+    """Allocating :func:`bezier_into` on (4, N) controls; returns a fresh (4, N) array."""
+    return bezier_into(c0, c1, c2, c3, np.ascontiguousarray(t, dtype=float), arcs, tag="bz").copy()
+
+
+def rotvec_between(a, b) -> np.ndarray:
+    """Allocating :func:`rotvec_between_into`: (3, N) rotation vectors of ``a^-1 b``."""
+    return rotvec_between_into(a, b, np.empty((3, a.shape[1])))
+
+
+def qmul(a, b) -> np.ndarray:
+    return qmul_into(a, b, np.empty((4,) + a.shape[1:]), np.empty(a.shape[1:]))
+
+
+def qexp(v) -> np.ndarray:
+    """(3, N) half rotation vectors with |v| <= pi/2 -> (4, N) unit quaternions."""
+    N = v.shape[1]
+    return qexp_into(v, np.empty((4, N)), np.empty(N), np.empty(N))
+
+
+def arcs_of(c0, c1, c2, c3) -> list:
+    """The three first-level arcs (3, N) of control polygons (4, N)."""
+    N = c0.shape[1]
+    tmp, z = np.empty(N), np.empty(N)
+    return [arc_into(a, b, np.empty((3, N)), tmp, z) for a, b in ((c0, c1), (c1, c2), (c2, c3))]
