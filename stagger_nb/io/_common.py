@@ -58,16 +58,31 @@ def finite_number(tok: str, what: str, source: str, line: int, error: type[Forma
 def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
     ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
-    (x, y, z, w). Closed-form products of elementary quaternions (scipy's ``from_euler`` is ~20x slower
-    here); agrees with ``Rotation.from_euler(axes.upper(), ...)`` (checked in tests/test_io_bvh.py)."""
-    a = np.radians(np.asarray(angles_deg, dtype=float)) * 0.5
+    (x, y, z, w). Three distinct axes use the closed-form product of the elementary quaternions
+    (scipy's ``from_euler`` is ~20x slower here); agrees with ``Rotation.from_euler(axes.upper(), ...)``
+    (checked in tests/test_io_bvh.py)."""
+    a = np.radians(np.asarray(angles_deg, dtype=float))
+    a *= 0.5
     s, c = np.sin(a), np.cos(a)
+    axes = axes.upper()
+    idx = ["XYZ".index(ax) for ax in axes]
+    if len(axes) == 3 and len(set(axes)) == 3:
+        i, j, k = idx
+        eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
+        s1, s2, s3 = s[..., 0], s[..., 1], s[..., 2]
+        c1, c2, c3 = c[..., 0], c[..., 1], c[..., 2]
+        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+        q = np.empty(a.shape[:-1] + (4,))
+        q[..., i] = s1c2 * c3 + eps * c1s2 * s3
+        q[..., j] = c1s2 * c3 - eps * s1c2 * s3
+        q[..., k] = c1c2 * s3 + eps * s1s2 * c3
+        q[..., 3] = c1c2 * c3 - eps * s1s2 * s3
+        return q
     q = np.zeros(a.shape[:-1] + (4,))
     q[..., 3] = 1.0
-    for i, ax in enumerate(axes.upper()):
-        k = "XYZ".index(ax)
+    for n, k in enumerate(idx):
         e = np.zeros(q.shape)
-        e[..., k] = s[..., i]
-        e[..., 3] = c[..., i]
+        e[..., k] = s[..., n]
+        e[..., 3] = c[..., n]
         q = quat_mul(q, e)
     return q

@@ -135,20 +135,21 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
 
 
 _MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.MULTILINE | re.IGNORECASE)
-_ODD_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
 
 
 def _normalise_breaks(raw: bytes) -> bytes:
-    """Bytes whose line breaks are all ``\n`` (optionally after ``\r``), numbered as
-    ``str.splitlines`` numbers them; unchanged (no copy) for LF / CRLF / mixed LF-CRLF files."""
-    if raw.count(b"\r") == raw.count(b"\r\n") and not any(o in raw for o in _ODD_BREAKS):
+    """Bytes whose line breaks are all ``\n`` (optionally after ``\r``): a lone ``\r`` (classic Mac)
+    becomes ``\n``. Unchanged (no copy) for LF / CRLF / mixed LF-CRLF files. Line numbers in errors
+    count ``\n``, ``\r\n`` and lone ``\r`` as one break each."""
+    if b"\r" not in raw or raw.count(b"\r") == raw.count(b"\r\n"):
         return raw
-    return "\n".join(decode(raw).splitlines()).encode("utf-8") + b"\n"
+    return raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
 
 
 def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
     text = decode(line).strip()
-    m = re.fullmatch(rf"{key}\s*:\s*(\S+)", text, flags=re.IGNORECASE)
+    pattern = key.replace(" ", r"\s+")  # 'Frame Time' may be split by a tab
+    m = re.fullmatch(rf"{pattern}\s*:\s*(\S+)", text, flags=re.IGNORECASE)
     if not m:
         raise BVHError(source, ln, f"expected '{key}: <number>', found {text!r}")
     return finite_number(m.group(1), f"'{key}:'", source, ln, BVHError)

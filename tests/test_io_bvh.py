@@ -1,0 +1,325 @@
+"""BVH reader/writer: a hand-computed tiny file, the format quirks of issue 2 item 3, round trips and an
+independent scipy evaluation on every real clip, the vectorised number parser against float(), the
+closed-form Euler conversion against scipy, and atomic writing."""
+from __future__ import annotations
+
+import itertools
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+import stagger_nb as sn
+from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
+from stagger_nb.core.rotations import quat_rotate
+from stagger_nb.io._common import euler_deg_to_quat
+from stagger_nb.io._numparse import parse_table
+from stagger_nb.io.bvh import BVHError, _parse_motion_lines, format_bvh, parse_bvh
+
+from conftest import SHARED_CLIPS, shared_clip_path
+
+TINY = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Chest
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 5 0
+    }
+  }
+  JOINT Leg
+  {
+    OFFSET 3 0 0
+    CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation
+    End Site
+    {
+      OFFSET 0 -8 0
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.5
+1 2 3 90 0 0 0 0 0 4 0 0 0 0 0
+0 0 0 0 0 0 0 90 0 0 0 0 0 0 0
+"""
+
+
+def _end_sites_world(m, pos, wq):
+    return {j: pos[:, j] + quat_rotate(wq[:, j], e) for j, e in m.skeleton.end_sites.items()}
+
+
+def test_tiny_file_matches_hand_computation():
+    m = parse_bvh(TINY)
+    assert m.skeleton.names == ("Hips", "Chest", "Leg")
+    assert m.num_frames == 2 and m.frame_time == 0.5
+    pos, wq = forward_kinematics(m)
+    # frame 0: root at (1,2,3) turned Rz(90): Chest = root + Rz(90)(0,10,0) = (-9,2,3); Leg's position
+    # channels (4,0,0) *replace* its OFFSET (3,0,0): Leg = root + Rz(90)(4,0,0) = (1,6,3)
+    # (three.js would add them: (1,9,3)). Tolerance: a few ulps of trigonometry.
+    np.testing.assert_allclose(pos[0], [[1, 2, 3], [-9, 2, 3], [1, 6, 3]], atol=1e-12)
+    # frame 1: Chest turned Rx(90) (ZXY order, X = 90): its end site (0,5,0) -> (0,0,5)
+    ends = _end_sites_world(m, pos, wq)
+    np.testing.assert_allclose(ends[1][1], [0, 10, 5], atol=1e-12)
+    np.testing.assert_allclose(pos[1, 2], [0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(ends[2][0], [1, 6, 3] + np.array([8, 0, 0]), atol=1e-12)
+
+
+def _variant(text: str, **kw) -> str:
+    if kw.get("tabs"):
+        text = text.replace("  ", "\t").replace(" ", "\t")
+    if kw.get("numbers"):
+        text = text.replace(" 90 ", " 9.0e1 ").replace(" 0.5", " .5").replace(" 4 ", " 4.0E+00 ").replace(
+            " 3 ", " +3. ")
+    if kw.get("colons"):
+        text = text.replace("Hips", "mixamorig:Hips").replace("Chest", "mixamorig:Chest")
+    if kw.get("eol") == "crlf":
+        text = text.replace("\n", "\r\n")
+    elif kw.get("eol") == "cr":
+        text = text.replace("\n", "\r")
+    elif kw.get("eol") == "mixed":
+        lines = text.split("\n")
+        text = "".join(line + ("\r\n" if i % 3 == 0 else "\n") for i, line in enumerate(lines[:-1]))
+    return text
+
+
+@pytest.mark.parametrize("kw", [dict(tabs=True), dict(numbers=True), dict(colons=True), dict(eol="crlf"),
+                                dict(eol="cr"), dict(eol="mixed"),
+                                dict(tabs=True, numbers=True, colons=True, eol="mixed")],
+                         ids=lambda kw: "-".join(f"{k}={v}" for k, v in kw.items()))
+def test_format_quirks_read_like_the_plain_file(kw):
+    plain = parse_bvh(TINY)
+    m = parse_bvh(_variant(TINY, **kw))
+    if kw.get("colons"):
+        assert m.skeleton.names[:2] == ("mixamorig:Hips", "mixamorig:Chest")
+    assert m.num_frames == plain.num_frames and m.frame_time == plain.frame_time
+    # same numbers written differently parse to the same doubles: exact equality
+    np.testing.assert_array_equal(m.local_quats, plain.local_quats)
+    np.testing.assert_array_equal(m.translations(), plain.translations())
+
+
+def test_rotation_orders_partial_channels_and_root_without_positions():
+    text = """HIERARCHY
+ROOT r
+{
+\tOFFSET 1 2 3
+\tCHANNELS 3 Yrotation Xrotation Zrotation
+\tJOINT a
+\t{
+\t\tOFFSET 0 1 0
+\t\tCHANNELS 2 Xrotation Zrotation
+\t\tJOINT b
+\t\t{
+\t\t\tOFFSET 0 1 0
+\t\t\tCHANNELS 0
+\t\t\tEnd Site
+\t\t\t{
+\t\t\t\tOFFSET 0 1 0
+\t\t\t}
+\t\t}
+\t}
+}
+MOTION
+Frames: 1
+Frame Time: 0.01
+10 20 30 40 50
+"""
+    m = parse_bvh(text)
+    np.testing.assert_array_equal(m.root_positions, [[1, 2, 3]])  # no position channels: the OFFSET
+    # scipy's intrinsic Euler, composed independently (1e-12: float rounding of two conversions)
+    r0 = Rotation.from_euler("YXZ", [10, 20, 30], degrees=True)
+    r1 = Rotation.from_euler("XZ", [40, 50], degrees=True)
+    assert np.abs(np.abs(np.dot(m.local_quats[0, 0], r0.as_quat())) - 1) < 1e-12
+    assert np.abs(np.abs(np.dot(m.local_quats[0, 1], r1.as_quat())) - 1) < 1e-12
+    np.testing.assert_array_equal(m.local_quats[0, 2], [0, 0, 0, 1])
+    back = parse_bvh(format_bvh(m))
+    assert back.skeleton.channels == m.skeleton.channels
+    assert 2 in back.skeleton.end_sites
+    # 1e-9 rad: the text keeps 9 significant digits
+    assert np.max(2 * np.arccos(np.clip(np.abs(np.sum(back.local_quats * m.local_quats, -1)), 0, 1))) < 1e-6
+
+
+# ---------------------------------------------------------------- real clips
+def _independent_positions(path):
+    """World joint positions of a BVH file straight from its text: tokens, scipy intrinsic Euler
+    matrices, position channels replacing offsets; nothing from stagger_nb."""
+    text = open(path, encoding="latin-1").read()
+    head, motion = text.split("MOTION", 1)
+    toks = head.split()
+    parents, offsets, chans, stack, i = [], [], [], [], 0
+    while i < len(toks):
+        t = toks[i]
+        if t in ("ROOT", "JOINT"):
+            parents.append(stack[-1] if stack else -1)
+            j = len(offsets)
+            i += 3  # name, '{'
+            offsets.append(np.array(toks[i + 1:i + 4], float))
+            n = int(toks[i + 5])
+            chans.append(toks[i + 6:i + 6 + n])
+            stack.append(j)
+            i += 6 + n
+            continue
+        if t == "End":
+            i += 7  # End Site { OFFSET x y z }
+            i += 1
+            continue
+        if t == "}":
+            stack.pop()
+        i += 1
+    lines = [ln for ln in motion.splitlines()[3:] if ln.strip()]
+    data = np.array([ln.split() for ln in lines], float)
+    F, J = data.shape[0], len(parents)
+    pos, rot = np.zeros((F, J, 3)), np.zeros((F, J, 3, 3))
+    col = 0
+    for j in range(J):
+        t = np.tile(offsets[j], (F, 1))
+        order, rc = "", []
+        for c in chans[j]:
+            if c.lower().endswith("position"):
+                t[:, "XYZ".index(c[0].upper())] = data[:, col]
+            else:
+                order += c[0].upper()
+                rc.append(col)
+            col += 1
+        R = Rotation.from_euler(order, data[:, rc], degrees=True).as_matrix() if order else np.eye(3)
+        if parents[j] < 0:
+            pos[:, j], rot[:, j] = t, R
+        else:
+            p = parents[j]
+            pos[:, j] = pos[:, p] + np.einsum("fij,fj->fi", rot[:, p], t)
+            rot[:, j] = rot[:, p] @ R
+    return pos
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize("name", SHARED_CLIPS or ["xia_angry_run.bvh"])
+def test_real_clip_positions_match_independent_scipy_evaluation(name, shared_motion):
+    path = shared_clip_path(name)
+    m = shared_motion(name)
+    pos, _ = forward_kinematics(m)
+    ref = _independent_positions(path)
+    # 1e-9 of the skeleton height: both are double-precision evaluations of the same file
+    assert np.max(np.abs(pos - ref)) <= 1e-9 * skeleton_height(m)
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize("name", SHARED_CLIPS or ["xia_angry_run.bvh"])
+def test_real_clip_round_trip(name, shared_motion, tmp_path):
+    m = shared_motion(name)
+    out = tmp_path / name
+    sn.write_bvh(m, out)
+    m2 = sn.read_bvh(out)
+    assert m2.skeleton.names == m.skeleton.names
+    assert m2.skeleton.channels == m.skeleton.channels  # each joint's channel order kept
+    assert m2.skeleton.end_sites.keys() == m.skeleton.end_sites.keys()
+    for j, e in m.skeleton.end_sites.items():
+        np.testing.assert_allclose(m2.skeleton.end_sites[j], e, rtol=1e-8, atol=1e-12)  # 9 digits kept
+    assert m2.num_frames == m.num_frames and m2.frame_time == pytest.approx(m.frame_time, rel=1e-8)
+    p1, q1 = forward_kinematics(m)
+    p2, q2 = forward_kinematics(m2)
+    # the issue's criterion: world positions to 1e-6 of the height, rotations to 1e-6 rad
+    assert np.max(np.abs(p1 - p2)) <= 1e-6 * skeleton_height(m)
+    assert np.max(2 * np.arccos(np.clip(np.abs(np.sum(q1 * q2, -1)), 0, 1))) <= 1e-6
+
+
+@pytest.mark.shared
+def test_bandai_position_channels_replace_offsets(shared_motion):
+    m = shared_motion("bandai_walk.bvh")
+    assert m.local_translations is not None  # 6 channels on every joint
+    j = m.skeleton.index("Spine")  # Hips (joint 1) carries the walk; Spine only repeats its offset
+    # the Bandai files repeat each joint's OFFSET in its position channels: replacing keeps the bone
+    # length, adding (three.js) would double it. 1e-4: the file's printed precision
+    assert np.linalg.norm(m.skeleton.offsets[j]) > 1
+    np.testing.assert_allclose(np.linalg.norm(m.local_translations[:, j], axis=-1),
+                               np.linalg.norm(m.skeleton.offsets[j]), rtol=1e-4)
+
+
+# ---------------------------------------------------------------- the number parser
+_FORMATS = ["%.9g", "%.6f", "repr", "%.3e", "%.17g", "%.0f", "%.12f", "%+.4E", "%.2g"]
+
+
+def _render(values, fmts, seps):
+    out = []
+    for r, row in enumerate(values):
+        toks = []
+        for c, v in enumerate(row):
+            f = fmts[(r * len(row) + c) % len(fmts)]
+            toks.append(repr(float(v)) if f == "repr" else f % v)
+        out.append(seps[r % len(seps)].join(toks))
+    return ("\n".join(out) + "\n").encode()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 7), st.data())
+def test_vectorised_parser_is_bit_identical_to_float(rows, cols, data):
+    finite = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e30, max_value=1e30) | st.sampled_from(
+        [0.0, -0.0, 1e-300, 123456789012345.0, 0.1, -0.5, 5e-324])
+    vals = data.draw(st.lists(st.lists(finite, min_size=cols, max_size=cols), min_size=rows, max_size=rows))
+    fmts = data.draw(st.lists(st.sampled_from(_FORMATS), min_size=1, max_size=4))
+    seps = data.draw(st.lists(st.sampled_from([" ", "\t", "  ", " \t "]), min_size=1, max_size=3))
+    block = _render(vals, fmts, seps)
+    ref = _parse_motion_lines(block, 1, rows, cols, "x")
+    got = parse_table(block, rows, cols)
+    assert got is not None
+    assert np.array_equal(got.view(np.int64), ref.view(np.int64)), (block, got, ref)  # bits, incl. -0.0
+
+
+@pytest.mark.parametrize("block", [b"1 2\n3\n", b"1 2 3 4\n", b"1 2\n\n3 4\n", b"1 2\n3 x\n", b"1 2\n3 --4\n",
+                                   b"1 2\n3 4.5.6\n", b"1 2\n3 4e\n", b"1 2\n3 .\n", b"1 2\n3 1e5.5\n",
+                                   b"1 2\n3 nan\n", b"1 2\n3 inf\n", b"1 2\n3 1_0\n", b"1 2\n3 4-\n",
+                                   b"1 2\n3 1e999\n", b"1 2\n3 \x004\n", b"", b"1 2\n3 e5\n"])
+def test_vectorised_parser_refuses_what_it_cannot_certify(block):
+    assert parse_table(block, 2, 2) is None
+
+
+def test_vectorised_parser_takes_long_tokens_through_float():
+    block = b"0.12345678901234567890 -1.5e-400 1e308\n-98765432109876543210 7 .5\n"
+    got = parse_table(block, 2, 3)
+    ref = np.array(block.split(), float).reshape(2, 3)
+    assert np.array_equal(got, ref)
+
+
+@pytest.mark.parametrize("order", ["".join(p) for p in itertools.permutations("XYZ")] + ["X", "ZY", "YXY"])
+def test_euler_closed_form_matches_scipy(order, rng):
+    a = rng.uniform(-720, 720, size=(200, len(order)))
+    q = euler_deg_to_quat(a, order)
+    r = Rotation.from_euler(order, a, degrees=True).as_quat()
+    assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
+
+
+# ---------------------------------------------------------------- writing
+def test_write_is_atomic(tmp_path, monkeypatch):
+    m = parse_bvh(TINY)
+    out = tmp_path / "x.bvh"
+    out.write_text("previous contents")
+
+    def boom(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError):
+        sn.write_bvh(m, out)
+    monkeypatch.undo()
+    assert out.read_text() == "previous contents"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.bvh"]  # no temporary left behind
+    sn.write_bvh(m, out)
+    assert sn.read_bvh(out).num_frames == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.bvh"]
+
+
+def test_read_bytes_and_str_agree():
+    a, b = parse_bvh(TINY), parse_bvh(TINY.encode())
+    np.testing.assert_array_equal(a.local_quats, b.local_quats)
+
+
+def test_missing_file_is_bvh_error(tmp_path):
+    with pytest.raises(BVHError, match="cannot read"):
+        sn.read_bvh(tmp_path / "nope.bvh")
