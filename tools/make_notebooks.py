@@ -116,7 +116,9 @@ def quickstart() -> Book:
     import plotly.graph_objects as go
 
     import stagger_nb as sn
+    import stagger_nb.data
     from stagger_nb import staggered, wand, timewarp
+    from stagger_nb.core.rotations import quat_angle
 
     walk = sn.data.load("walk")            # a sample clip from data/ (made by `make lab` / `make test`)
     print(walk.num_frames, "frames at", round(1 / walk.frame_time), "Hz;", walk.skeleton.num_joints, "joints")
@@ -151,6 +153,90 @@ def quickstart() -> Book:
     b.code("""
     from stagger_nb.widgets import SkeletonView
     SkeletonView(walk)
+    """)
+    b.md("""
+    ## One edit with each technique, recorded in a session
+
+    A `Session` is the source motion plus an ordered list of JSON operations; replaying them gives the
+    edited motion, so every edit is reproducible, undoable and saveable. The same operations are plain
+    functions in `staggered`, `wand` and `timewarp` (notebooks 01–03 use them directly).
+
+    **Staggered poses** — nonlinear succession down the left arm: the hand's extremes now trail the
+    shoulder's by $s\\,d^l$ seconds ($d$ = bones from the shoulder).
+    """)
+    b.code("""
+    from stagger_nb.session import Session
+
+    session = Session.from_bvh(sn.data.path("walk"))
+    session.add({"op": "succession", "root": "LeftShoulder", "s": 0.03, "l": 2.0})
+    step1 = session.edited()
+
+    # the same edit with the plain functions
+    direct = staggered.evaluate(staggered.succession(staggered.extract(session.source), root="LeftShoulder",
+                                                     s=0.03, l=2.0))
+    assert np.allclose(step1.local_quats, direct.local_quats)
+    elbow = walk.skeleton.index("LeftForeArm")
+    lag = np.degrees(quat_angle(step1.local_quats[:, elbow], walk.local_quats[:, elbow]))
+    print(f"the left elbow's rotation now differs by up to {lag.max():.1f} degrees (it moves later)")
+    assert lag.max() > 1.0
+    """)
+    b.md("""
+    **Magic wand** — rotate the left upper arm by 25° at one frame; the Green's-function falloff carries the
+    edit to every similar pose of the walk.
+    """)
+    b.code("""
+    frame = 120
+    session.add({"op": "propagate", "frame": frame, "deltas": {"LeftArm": [0.0, 0.0, -25.0]}})
+    step2 = session.edited()
+    weight = wand.falloff(step1, frame)
+    arm = walk.skeleton.index("LeftArm")
+    change = np.degrees(quat_angle(step2.local_quats[:, arm], step1.local_quats[:, arm]))
+    print(f"change at the edited frame {change[frame]:.1f} deg; frames with weight > 0.9: {np.sum(weight > 0.9)}")
+    assert abs(change[frame] - 25.0) < 1e-6          # the edited frame gets the whole edit
+    assert np.sum(weight > 0.9) > 3 * np.sum(np.abs(np.arange(walk.num_frames) - frame) <= 2)   # non-local
+    """)
+    b.md("""
+    **Guided time warping** — make the clip 25 % shorter, with the motion as its own timing reference.
+    """)
+    b.code("""
+    session.add({"op": "guided_warp", "duration": 0.75 * walk.duration})
+    result = session.edited()
+    warp = session.warp_curve()
+    print(f"{walk.duration:.2f} s -> {result.duration:.2f} s; warp from {warp[0]:.2f} s to {warp[-1]:.2f} s")
+    assert abs(result.duration - 0.75 * walk.duration) <= walk.frame_time
+    assert np.all(np.diff(warp) > 0) and np.isclose(warp[-1], walk.duration)   # monotonic and complete
+    print(session.ops)
+    """)
+    b.md("""
+    ## Export and save
+
+    `export_bvh` writes the edited motion (it refuses to overwrite the source file); `save` writes the session
+    as JSON — the source by path and checksum, plus the op list. Loading and replaying gives the same motion.
+    """)
+    b.code("""
+    out_dir = Path(tempfile.mkdtemp(prefix="stagger_nb_quickstart_"))
+    session.export_bvh(out_dir / "walk_edited.bvh")
+    session.save(out_dir / "walk_edited.session.json")
+
+    back = sn.read_bvh(out_dir / "walk_edited.bvh")
+    replayed = Session.load(out_dir / "walk_edited.session.json").edited()
+    print(sorted(p.name for p in out_dir.iterdir()))
+    assert back.num_frames == result.num_frames
+    assert np.allclose(sn.forward_kinematics(back)[0], sn.forward_kinematics(result)[0], atol=1e-3)  # BVH text: 6 decimals
+    assert np.allclose(replayed.local_quats, result.local_quats)
+    """)
+    b.md("""
+    ## Interactive editing
+
+    Each technique has an editor with sliders, the 3D view (the original as a grey ghost) and its plots; it
+    edits the same kind of session, so what you do there can be saved and replayed the same way. Notebooks
+    01–03 end with `StaggerEditor`, `WandEditor` and `WarpEditor`; here is the staggered-pose editor on the
+    session above (drag the sliders, then `editor.session.save(...)`).
+    """)
+    b.code("""
+    from stagger_nb.widgets import StaggerEditor
+    editor = StaggerEditor(session)
+    editor
     """)
     return b
 
