@@ -9,7 +9,9 @@ pose distance of Figure 1 is ``1 - w``.
 
 "The artist ... can choose to include such repetition or discard it": with ``repetitions=False`` the range
 shrinks to the valley on either side of ``i`` (walking outward from ``i`` until ``w`` has risen
-``VALLEY_RISE`` above its running minimum) and ``w`` is normalised again over that range.
+``VALLEY_RISE`` above its running minimum) and each side is normalised again between ``g_i`` and its
+own valley bottom, so ``w`` falls continuously from 1 at ``i`` to 0 at both valley bottoms and stays 0
+beyond them.
 
 Frame indices are 0-based; ranges are half-open ``[start, stop)``.
 """
@@ -79,8 +81,9 @@ def normalize_row(g: np.ndarray, frame: int, frame_range=None, repetitions: bool
     if not repetitions:
         lo = _valley(w, frame, start, stop, -1)
         hi = _valley(w, frame, start, stop, +1)
-        if hi - lo >= 1:
-            w = _scale(g, frame, lo, hi + 1)
+        left = _scale(g, frame, lo, frame + 1)    # 0 at the left valley bottom
+        right = _scale(g, frame, frame, hi + 1)   # 0 at the right valley bottom
+        w = np.concatenate([left[:frame], right[frame:]])
     return w
 
 

@@ -1,0 +1,76 @@
+"""Falloff weights of §3.3: [0, 1], 1 at the edited frame, 0 at the most dissimilar frame of the range."""
+import numpy as np
+import pytest
+from test_wand_synth import cyclic_motion
+
+from stagger_nb import wand
+from stagger_nb.wand import normalize_row
+
+
+def test_normalize_row_closed_form():
+    g = np.array([0.0, 1.0, 3.0, 2.0, 5.0, 4.0])
+    # (g - min) / (g[2] - min), clipped: frames above the edited one saturate at 1
+    assert np.allclose(normalize_row(g, 2), [0, 1 / 3, 1, 2 / 3, 1, 1], atol=1e-15)
+    # range [1, 4): min over the range is g[1] = 1; outside the range 0
+    assert np.allclose(normalize_row(g, 2, (1, 4)), [0, 0, 1, 0.5, 0, 0], atol=1e-15)
+    # a constant row selects only the frame itself
+    assert np.array_equal(normalize_row(np.ones(4), 1), [0, 1, 0, 0])
+
+
+def test_valley_without_repetitions():
+    # two bumps: repetitions=False keeps the bump of frame 2 only, zero at its valley ends
+    g = np.array([0.0, 2.0, 3.0, 2.0, 0.5, 1.0, 2.9, 1.0, 0.2])
+    keep = normalize_row(g, 2)
+    assert keep[6] > 0.9
+    w = normalize_row(g, 2, repetitions=False)
+    assert w[2] == 1.0 and w[4] == 0.0 and w[0] == 0.0
+    assert np.all(w[5:] == 0.0)
+    # left side scaled between g[0] = 0 and g[2] = 3, right side between g[4] = 0.5 and 3
+    assert np.allclose(w[:5], [0, 2 / 3, 1, 1.5 / 2.5, 0], atol=1e-15)
+
+
+@pytest.mark.shared
+def test_falloff_properties_on_a_real_clip(shared_motion, rng):
+    m = shared_motion("xia_angry_run.bvh")
+    basis = wand.greens_basis(m)
+    for f in rng.choice(m.num_frames, size=12, replace=False):
+        for rng_ in (None, (max(0, f - 30), min(m.num_frames, f + 25))):
+            w = wand.greens_falloff(basis, int(f), rng_)
+            start, stop = rng_ or (0, m.num_frames)
+            assert w.shape == (m.num_frames,)
+            assert w[f] == 1.0
+            assert np.all((w >= 0) & (w <= 1))
+            assert w[start:stop].min() == 0.0   # the most dissimilar frame of the range
+            assert np.all(w[:start] == 0) and np.all(w[stop:] == 0)
+    # the one-call public form gives the same numbers as the cached basis
+    assert np.array_equal(wand.falloff(m, 20), wand.greens_falloff(basis, 20))
+    assert np.array_equal(wand.falloff(m, 20, basis=basis, frame_range=(0, 60)),
+                          wand.greens_falloff(basis, 20, (0, 60)))
+    assert np.array_equal(wand.greens_distance(basis, 20), 1.0 - wand.greens_falloff(basis, 20))
+
+
+def test_falloff_rejects_bad_ranges():
+    m = cyclic_motion(F=40, period=13)
+    with pytest.raises(ValueError, match="frame_range"):
+        wand.falloff(m, 5, frame_range=(10, 5))
+    with pytest.raises(ValueError, match="frame_range"):
+        wand.falloff(m, 5, frame_range=(0, 41))
+    with pytest.raises(ValueError, match="outside frame_range"):
+        wand.falloff(m, 5, frame_range=(10, 20))
+    with pytest.raises(ValueError, match="frame"):
+        wand.falloff(m, 40)
+    with pytest.raises(ValueError, match="sigma"):
+        wand.falloff(m, 4, sigma=0.0)
+    with pytest.raises(ValueError, match="basis"):
+        wand.falloff(m, 4, basis=wand.greens_basis(cyclic_motion(F=30)))
+
+
+def test_repetitions_switch_on_a_periodic_motion():
+    m = cyclic_motion(F=120, period=40, noise=0.01, seed=7)
+    b = wand.greens_basis(m)
+    w = wand.greens_falloff(b, 20)
+    assert w[60] > 0.8 and w[100] > 0.8          # the same phase one and two periods later
+    w1 = wand.greens_falloff(b, 20, repetitions=False)
+    assert w1[20] == 1.0 and np.all(w1[60:] == 0)  # only the movement around frame 20
+    nz = np.flatnonzero(w1)
+    assert np.all(np.diff(nz) == 1)                # one contiguous piece
