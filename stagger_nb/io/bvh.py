@@ -36,11 +36,13 @@ class BVHError(FormatError):
 
 
 class _Tokens:
-    """Whitespace tokens of the header with their 1-based line numbers."""
+    """Whitespace tokens of the header with their 1-based line numbers; ``end_line`` is the line of the
+    ``MOTION`` keyword that ends the header."""
 
-    def __init__(self, lines: list[str], source: str):
+    def __init__(self, lines: list[str], source: str, end_line: int):
         self.items = []
         self.source = source
+        self.end_line = end_line
         for ln, line in enumerate(lines, 1):
             for tok in line.split():
                 self.items.append((tok, ln))
@@ -48,8 +50,7 @@ class _Tokens:
 
     def next(self, expected: str) -> tuple[str, int]:
         if self.pos >= len(self.items):
-            last = self.items[-1][1] if self.items else 1
-            raise BVHError(self.source, last, f"file ends early: expected {expected}")
+            raise BVHError(self.source, self.end_line, f"hierarchy ends early: expected {expected} before 'MOTION'")
         tok = self.items[self.pos]
         self.pos += 1
         return tok
@@ -198,10 +199,11 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     raw = _normalise_breaks(raw)
     m = _MOTION_LINE.search(raw)
     if m is None:
-        raise BVHError(source, raw.count(b"\n") + 1 if raw else 1, "no 'MOTION' section found")
+        last = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
+        raise BVHError(source, max(last, 1), "no 'MOTION' section found")
     head = decode(raw[:m.start()])
-    skel = _parse_hierarchy(_Tokens(head.split("\n"), source))
     ln = head.count("\n") + 1  # the MOTION line
+    skel = _parse_hierarchy(_Tokens(head.split("\n"), source, ln))
     line, pos = _next_line(raw, m.start())
     while True:  # blank lines may precede 'Frames:'
         if pos >= len(raw):
