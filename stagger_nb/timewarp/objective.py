@@ -17,6 +17,10 @@ slices, processed in cache-sized chunks of middle frames. Memory is ``O(n r)`` f
 """
 from __future__ import annotations
 
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor, as_completed
+
 import numpy as np
 
 from .features import feature_weights, reference_blocks, reference_features, triple_features
@@ -24,7 +28,8 @@ from .features import feature_weights, reference_blocks, reference_features, tri
 __all__ = ["knn_scores", "knn_scores_loop", "validate_skip"]
 
 _BLOCK_ELEMS = 1 << 15  # reference rows x middle frames per elementwise block (128 KiB of float32, in L2)
-_CHUNK_BYTES = 1 << 20  # one (r, L) slab of partial sums per chunk of middle frames
+_CHUNK_BYTES = 1 << 20  # one (r, L) slab of partial sums per chunk of middle frames ...
+_MIN_CHUNK = 256        # ... but at least this many middle frames, or per-call overhead dominates for large r
 
 
 def validate_skip(skip) -> int:
@@ -97,7 +102,7 @@ def _phi_norms(G: np.ndarray, s: int, wp: float, wv: float, wa: float) -> np.nda
 
 
 def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),
-               dtype=np.float32, progress=None, ref_step: float = 1.0) -> np.ndarray:
+               dtype=np.float32, progress=None, ref_step: float = 1.0, workers: int | None = None) -> np.ndarray:
     """Tabulate the local score ``f`` of eq. (2) for all admissible triples (exact kNN).
 
     Parameters
@@ -110,7 +115,8 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
     dtype : float32 (default, ~2x faster) or float64 for the neighbour search. Distances are formed as
         ``|phi|^2 + |z|^2 - 2 phi.z`` after centring on the mean reference pose; in float32 their squared
         values carry an absolute error of about ``1e-7 * |features|^2``.
-    progress : callable(fraction in [0, 1]) or None, called after each chunk of middle frames
+    progress : callable(fraction in [0, 1]) or None, called (from the calling thread) as work units finish
+    workers : threads sharing the work units (chunk of middle frames x skip a); None = min(4, CPUs)
     ref_step : reference frames spanned by one output frame (1; larger for the coarse problem, see
         :func:`.features.reference_blocks`)
 
@@ -133,47 +139,84 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
     UT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
     WT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
     YT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
-    UT[:, s:s + n] = (wv * wv * V - 2.0 * wa * wa * A) @ X.T                          # -2 (i part)
-    WT[:, s:s + n] = znorm[:, None] - (2.0 * wp * wp * P - 4.0 * wa * wa * A) @ X.T   # |z|^2 - 2 (j part)
-    YT[:, s:s + n] = (-wv * wv * V - 2.0 * wa * wa * A) @ X.T                         # -2 (k part)
+    Xt = X.T.astype(dtype)   # products in the search precision: no (r, n) float64 temporaries
+    UT[:, s:s + n] = (wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt                          # -2 (i part)
+    WT[:, s:s + n] = znorm[:, None] - (2.0 * wp * wp * P - 4.0 * wa * wa * A).astype(dtype) @ Xt   # |z|^2 - 2 (j)
+    YT[:, s:s + n] = (-wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt                         # -2 (k part)
     phi2 = _phi_norms(_gram_bands(X, 2 * s), s, wp, wv, wa)
     scores = np.full((n, s, s), np.inf)
     itemsize = np.dtype(dtype).itemsize
-    L = int(max(16, min(n, _CHUNK_BYTES // (itemsize * rr))))
+    L = int(min(n, max(_MIN_CHUNK, _CHUNK_BYTES // (itemsize * rr))))
     nb = int(max(1, min(rr, _BLOCK_ELEMS // L)))
-    T = np.empty((rr, L), dtype=dtype)
-    M = [np.empty((nb, L), dtype=dtype) for _ in range(k)]
-    v = np.empty((nb, L), dtype=dtype)
-    tmp = np.empty((nb, L), dtype=dtype)
-    starts = list(range(0, n, L))
-    for c_idx, j0 in enumerate(starts):
+    local = threading.local()
+    kl = max(1, k - 1)   # sorted values kept per lane (row of a reference block); exactness is checked below
+
+    def work(j0: int, a: int) -> None:
+        """All b for middle frames [j0, j0 + L) and skip a (numpy releases the GIL inside each ufunc)."""
+        if not hasattr(local, "T"):
+            local.T = np.empty((rr, L), dtype=dtype)
+            local.M = [np.empty((nb, L), dtype=dtype) for _ in range(kl)]
+            local.pad = [np.full((nb, L), np.inf, dtype=dtype) for _ in range(k - kl)]
+            local.v = np.empty((nb, L), dtype=dtype)
+            local.tmp = np.empty((nb, L), dtype=dtype)
+        T, M = local.T, local.M
         j1 = min(n, j0 + L)
         w = j1 - j0
-        for a in range(1, s + 1):
-            np.add(UT[:, s + j0 - a:s + j1 - a], WT[:, s + j0:s + j1], out=T[:, :w])
-            for b in range(1, s + 1):
-                for m in M:
-                    m.fill(np.inf)
-                for t0 in range(0, rr, nb):
-                    h = min(nb, rr - t0)
-                    vv, tt = v[:h, :w], tmp[:h, :w]
-                    np.add(T[t0:t0 + h, :w], YT[t0:t0 + h, s + j0 + b:s + j1 + b], out=vv)
-                    # insert vv into the ascending lists M[0] <= M[1] <= ... (elementwise)
-                    for li, m in enumerate(M):
-                        mm = m[:h, :w]
-                        if li == k - 1:
-                            np.minimum(mm, vv, out=mm)
-                        else:
-                            np.maximum(mm, vv, out=tt)
-                            np.minimum(mm, vv, out=mm)
-                            vv, tt = tt, vv
-                sel = np.stack(_tree_k_smallest([m[:, :w] for m in M], k), axis=1).astype(np.float64)
-                with np.errstate(invalid="ignore"):
-                    d = np.sqrt(np.maximum(sel + phi2[j0:j1, a - 1, b - 1, None], 0.0))
-                scores[j0:j1, a - 1, b - 1] = d.mean(axis=1)
-        if progress is not None:
-            progress((c_idx + 1) / len(starts))
+        np.add(UT[:, s + j0 - a:s + j1 - a], WT[:, s + j0:s + j1], out=T[:, :w])
+        for b in range(1, s + 1):
+            for m in M:
+                m.fill(np.inf)
+            for t0 in range(0, rr, nb):
+                h = min(nb, rr - t0)
+                vv, tt = local.v[:h, :w], local.tmp[:h, :w]
+                np.add(T[t0:t0 + h, :w], YT[t0:t0 + h, s + j0 + b:s + j1 + b], out=vv)
+                # insert vv into the ascending lists M[0] <= M[1] <= ... (elementwise, per lane)
+                for li, m in enumerate(M):
+                    mm = m[:h, :w]
+                    if li == kl - 1:
+                        np.minimum(mm, vv, out=mm)
+                    else:
+                        np.maximum(mm, vv, out=tt)
+                        np.minimum(mm, vv, out=mm)
+                        vv, tt = tt, vv
+            lanes = [m[:, :w] for m in M] + [p[:, :w] for p in local.pad]
+            best = _tree_k_smallest(lanes, k)
+            sel = np.stack(best, axis=1).astype(np.float64)
+            if kl < k:
+                # The k smallest of the lanes' kept values are the true k smallest unless some lane has all
+                # its kl kept values below the k-th: then its next value may belong too. Redo those exactly.
+                bad = np.nonzero(np.any(M[kl - 1][:, :w] < best[k - 1][None, :], axis=0))[0]
+                if bad.size:
+                    jj = j0 + bad
+                    full = UT[:, s + jj - a] + WT[:, s + jj] + YT[:, s + jj + b]          # (rr, nbad)
+                    sel[bad] = np.partition(full, k - 1, axis=0)[:k].T.astype(np.float64)
+            with np.errstate(invalid="ignore"):
+                d = np.sqrt(np.maximum(sel + phi2[j0:j1, a - 1, b - 1, None], 0.0))
+            scores[j0:j1, a - 1, b - 1] = d.mean(axis=1)
+
+    units = [(j0, a) for j0 in range(0, n, L) for a in range(1, s + 1)]
+    nw = _workers(workers, len(units))
+    if nw == 1:
+        for i, u in enumerate(units):
+            work(*u)
+            if progress is not None:
+                progress((i + 1) / len(units))
+    else:
+        with ThreadPoolExecutor(max_workers=nw) as pool:
+            futures = [pool.submit(work, *u) for u in units]
+            for i, f in enumerate(as_completed(futures)):
+                f.result()
+                if progress is not None:
+                    progress((i + 1) / len(units))
     return scores
+
+
+def _workers(workers, units: int) -> int:
+    if workers is None:
+        workers = min(4, os.cpu_count() or 1)
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
+    return int(max(1, min(workers, units)))
 
 
 def knn_scores_loop(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),

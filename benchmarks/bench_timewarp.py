@@ -1,0 +1,131 @@
+"""Guided time warping speed (issue 6), on real 31-joint poses (93-dim positions, 279-dim features).
+
+Targets: Table-1 size (n = 493, m = 280, r = 493, s = 8) objective + optimisation <= 0.1 s;
+n = 2,000, m = 1,200 <= 1 s; n = 5,000, m = 3,000 <= 10 s with < 2 GB peak memory (r = n: self reference).
+Printed beside them, measured in this process: the straightforward loop implementation (one linear kNN search
+per triple + the DP of eqs. 3-4 as Python loops) on the Table-1 size, the coarse-to-fine heuristic, and
+dtw-python aligning the same two feature sequences.
+
+Run: ``.venv/bin/python benchmarks/bench_timewarp.py [--no-loop]`` (the loop baseline takes ~20-60 s).
+Poses come from ``data/cmu_01_01.bvh`` (resampled so the clip has n frames) when prepared, else from the
+procedural jump.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+# The objective runs its own worker threads over the elementwise work; its few small GEMMs do not need
+# OpenBLAS threads, which on a busy shared machine spin and cost 10-50x (measured: a 491x93x493 product took
+# 40-60 ms with OpenBLAS threads under load, 1.3 ms single-threaded). Set before numpy loads OpenBLAS.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from stagger_nb import data  # noqa: E402
+from stagger_nb.timewarp.dp import constrained_dp, constrained_dp_loop  # noqa: E402
+from stagger_nb.timewarp.features import pose_features  # noqa: E402
+from stagger_nb.timewarp.guided import prepare_warp, solve_warp  # noqa: E402
+from stagger_nb.timewarp.objective import knn_scores, knn_scores_loop  # noqa: E402
+
+S = 8
+K = 3
+CASES = [(493, 280, 0.1), (2000, 1200, 1.0), (5000, 3000, 10.0)]
+TIME_UNIT_WEIGHTS = (1.0, 1.0, 1.0)  # features per output frame; the pose/timing balance is not timed
+
+
+def clip():
+    name = "cmu_01_01" if data.path("cmu_01_01").is_file() else "jump"
+    return name, data.load(name)
+
+
+def features(motion, n):
+    """Pose features (n, 93) of the whole clip resampled to n frames."""
+    m = motion.resample(motion.duration / (n - 1))
+    m = m.slice(0, n) if m.num_frames >= n else m.sample(np.linspace(0, m.num_frames - 1, n))
+    return pose_features(m)
+
+
+def best_of(fn, repeat):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--no-loop", action="store_true", help="skip the straightforward loop baseline")
+    args = ap.parse_args(argv)
+    name, motion = clip()
+    print(f"poses: {name} ({motion.num_joints} joints -> {3 * motion.num_joints}-dim positions, "
+          f"{9 * motion.num_joints}-dim features), k = {K}, s = {S}")
+    print(f"{'n':>6} {'m':>6} {'r':>6}  {'objective':>10} {'DP':>9} {'total':>9} {'target':>7}  "
+          f"{'coarse8 DP':>10}  {'peak MB':>8}")
+    table1 = None
+    for n, m, target in CASES:
+        X = features(motion, n)
+        R = X
+        repeat = 5 if n < 1000 else (3 if n < 3000 else 1)
+        t_obj, scores = best_of(lambda: knn_scores(X, R, S, K), repeat)
+        t_dp, (frames, cost) = best_of(lambda: constrained_dp(scores, m), repeat)
+        peak = ""
+        if n >= 5000:  # peak traced memory of one objective + DP run
+            tracemalloc.start()
+            sc = knn_scores(X, R, S, K)
+            constrained_dp(sc, m)
+            peak = f"{tracemalloc.get_traced_memory()[1] / 2 ** 20:8.0f}"
+            tracemalloc.stop()
+            del sc
+        # coarse-to-fine (paper: factor 8): the coarse problem + the banded full DP, objective table reused
+        tables = _tables_from(motion, n, scores, X)
+        t_c2f, sol = best_of(lambda: solve_warp(tables, m, coarse=8), repeat)
+        total = t_obj + t_dp
+        flag = "ok" if total <= target else "MISSED"
+        print(f"{n:6d} {m:6d} {n:6d}  {t_obj:9.3f}s {t_dp:8.3f}s {total:8.3f}s {target:6.1f}s {flag:6s} "
+              f"{t_c2f:8.3f}s (cost x{sol.cost / cost:.4f})  {peak}")
+        if table1 is None:
+            table1 = (X, R, scores, frames, cost, total, t_obj, t_dp, m)
+    X, R, scores, frames, cost, total, t_obj, t_dp, m = table1
+    print("paper, Table 1 (V1, 2.4 GHz Pentium 4, C++ objective + MATLAB DP): 1.3 s + 2.7 s; heuristic 0.17 s")
+    try:
+        from dtw import dtw
+        t_dtw, al = best_of(lambda: dtw(X, R, dist_method="euclidean"), 3)
+        print(f"dtw-python 1.x aligning the same two {X.shape[0]} x {X.shape[1]} pose sequences "
+              f"(euclidean, symmetric2): {t_dtw:.3f} s  (guided objective + DP: {total:.3f} s)")
+    except ImportError:
+        print("dtw-python not installed (pip install dtw-python): reference point skipped")
+    if not args.no_loop:
+        t0 = time.perf_counter()
+        slow = knn_scores_loop(X, R, S, K)
+        t_lobj = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        lframes, lcost = constrained_dp_loop(slow, m)
+        t_ldp = time.perf_counter() - t0
+        fin = np.isfinite(slow)
+        err = np.abs(slow[fin] - scores[fin]).max()
+        print(f"straightforward loops (Table-1 size): objective {t_lobj:.2f} s, DP {t_ldp:.2f} s, total "
+              f"{t_lobj + t_ldp:.2f} s -> vectorised is {(t_lobj + t_ldp) / total:.0f}x faster "
+              f"(objective {t_lobj / t_obj:.0f}x, DP {t_ldp / t_dp:.0f}x); max |score diff| {err:.2e} "
+              f"(float32 search), same frames: {bool(np.array_equal(lframes, frames))}, "
+              f"cost ratio {lcost / cost:.6f}")
+    return 0
+
+
+def _tables_from(motion, n, scores, X):
+    """WarpTables around an already computed score table (so the heuristic's time excludes the objective)."""
+    from stagger_nb.timewarp.guided import WarpTables
+    m = motion.resample(motion.duration / (n - 1))
+    return WarpTables(m, m, S, 1, False, K, TIME_UNIT_WEIGHTS, X, X, scores)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
