@@ -13,7 +13,8 @@ from scipy.sparse.csgraph import dijkstra
 
 from ..core.motion import Motion
 from .falloff import check_frame_range
-from .laplacian import dense_kernel, default_sigma, knn_graph, normalized_adjacency, pairwise_sq_distances
+from .laplacian import (dense_kernel, default_sigma, knn_graph, normalized_adjacency, pairwise_sq_distances,
+                        symmetric_edges)
 from .pose_space import pose_vectors
 
 __all__ = ["isomap_distance", "diffusion_distance", "spline_falloff", "smoothstep", "normalize_distance"]
@@ -39,14 +40,10 @@ def isomap_distance(m: Motion, frame: int, k: int = 8, *, joint_weights=None, re
     k = int(k)
     if not 1 <= k <= F - 1:
         raise ValueError(f"k must be in [1, {F - 1}], got {k!r}")
-    g = knn_graph(X, k)
-    rows = np.concatenate([np.repeat(np.arange(F), k), np.arange(F - 1)])
-    cols = np.concatenate([g.indices.reshape(-1), np.arange(1, F)])
+    rows, cols, d2, _ = symmetric_edges(knn_graph(X, k))
     # tiny floor keeps zero-length edges (repeated poses) as edges: csgraph drops explicit zeros
-    lengths = np.maximum(np.sqrt(np.concatenate([g.sq_distances.reshape(-1), g.chain_sq])), 1e-300)
-    W = sp.coo_matrix((lengths, (rows, cols)), shape=(F, F)).tocsr()
-    W = W.maximum(W.T)
-    return dijkstra(W, directed=False, indices=f)
+    W = sp.csr_matrix((np.maximum(np.sqrt(d2), 1e-300), (rows, cols)), shape=(F, F))
+    return dijkstra(W, directed=True, indices=f)
 
 
 def diffusion_distance(m: Motion, frame: int, steps: int = 10, sigma: float | None = None, *,

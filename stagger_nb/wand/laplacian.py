@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["pairwise_sq_distances", "KnnGraph", "knn_graph", "default_sigma", "dense_kernel",
            "sparse_kernel", "normalized_adjacency", "normalized_laplacian", "DEFAULT_SIGMA_NEIGHBOURS",
-           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR"]
+           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges"]
 
 # Default sigma = this percentile over frames of the distance to the k-th nearest neighbour (see default_sigma).
 DEFAULT_SIGMA_NEIGHBOURS = 8
@@ -154,6 +154,29 @@ def dense_kernel(D2: np.ndarray, sigma: float, chain_floor: float = CHAIN_FLOOR)
     return K
 
 
+def symmetric_edges(knn: KnnGraph):
+    """The edge set of the sparse kernel: kNN pairs in both directions plus the temporal chain, each
+    ordered pair ``(row, col)`` once (no self pairs).
+
+    Returns
+    -------
+    rows, cols : ndarray, shape (E,), int
+    sq_distances : ndarray, shape (E,)
+    is_chain : ndarray, shape (E,), bool
+        True where ``|row - col| = 1``.
+    """
+    F, k = knn.indices.shape
+    rows = np.concatenate([np.arange(F - 1), np.repeat(np.arange(F), k)])
+    cols = np.concatenate([np.arange(1, F), knn.indices.reshape(-1)])
+    d2 = np.concatenate([knn.chain_sq, knn.sq_distances.reshape(-1)])
+    # each unordered pair once (the first of its duplicates), then both directions with the same value
+    lo, hi = np.minimum(rows, cols), np.maximum(rows, cols)
+    _, first = np.unique(lo * F + hi, return_index=True)
+    lo, hi, d2 = lo[first], hi[first], d2[first]
+    r, c, d_all = np.concatenate([lo, hi]), np.concatenate([hi, lo]), np.concatenate([d2, d2])
+    return r, c, d_all, np.abs(r - c) == 1
+
+
 def sparse_kernel(knn: KnnGraph, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr_matrix:
     """Eq. 1 on the symmetric kNN + temporal-chain edge set (plus the unit diagonal), ``(F, F)`` CSR.
 
@@ -162,28 +185,16 @@ def sparse_kernel(knn: KnnGraph, sigma: float, chain_floor: float = CHAIN_FLOOR)
     ``KERNEL_CUTOFF * sigma`` are left out.  Memory ``O(F k)``."""
     s = _check_sigma(sigma)
     fl = _check_floor(chain_floor)
-    F, k = knn.indices.shape
-    c = -0.5 / (s * s)
-    rows = np.concatenate([np.arange(F - 1), np.repeat(np.arange(F), k)])
-    cols = np.concatenate([np.arange(1, F), knn.indices.reshape(-1)])
-    d2 = np.concatenate([knn.chain_sq, knn.sq_distances.reshape(-1)])
-    # kNN entries beyond KERNEL_CUTOFF sigmas are dropped (K < 1.6e-8): a sparser L factorises faster
-    keep = np.concatenate([np.ones(F - 1, dtype=bool), knn.sq_distances.reshape(-1) <= (KERNEL_CUTOFF * s) ** 2])
-    rows, cols, d2 = rows[keep], cols[keep], d2[keep]
-    vals = np.exp(d2 * c)
-    vals[:F - 1] = np.maximum(vals[:F - 1], fl)
-    # symmetric union: both directions of every edge, each (row, col) once with the largest of its
-    # duplicates (they hold the same distance; only a floored chain entry is larger), plus K_ii = 1
-    r_all = np.concatenate([rows, cols, np.arange(F)])
-    c_all = np.concatenate([cols, rows, np.arange(F)])
-    v_all = np.concatenate([vals, vals, np.ones(F)])
-    key = r_all * F + c_all
-    order = np.argsort(key, kind="stable")
-    key = key[order]
-    starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
-    first = order[starts]
-    v_all = np.maximum.reduceat(v_all[order], starts)
-    return sp.csr_matrix((v_all, (r_all[first], c_all[first])), shape=(F, F))
+    F = knn.num_frames
+    rows, cols, d2, chain = symmetric_edges(knn)
+    # entries beyond KERNEL_CUTOFF sigmas are dropped (K < 1.6e-8): a sparser L factorises faster
+    keep = chain | (d2 <= (KERNEL_CUTOFF * s) ** 2)
+    rows, cols, d2, chain = rows[keep], cols[keep], d2[keep], chain[keep]
+    vals = np.exp(d2 * (-0.5 / (s * s)))
+    vals[chain] = np.maximum(vals[chain], fl)
+    diag = np.arange(F)
+    return sp.csr_matrix((np.concatenate([vals, np.ones(F)]), (np.concatenate([rows, diag]),
+                                                                np.concatenate([cols, diag]))), shape=(F, F))
 
 
 def normalized_adjacency(K):
