@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
-from .representation import StaggeredMotion, bezier_cubic, evaluate_arrays, knot_times, rotation_spline
+from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline
 
 __all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
            "random_timing", "insert_pose", "delete_pose", "mean_pose"]
@@ -288,7 +288,10 @@ def _refresh(sm: StaggeredMotion, **fields) -> StaggeredMotion:
     (Figure 6c; kept equal to the extreme knots where the refinement is 0) and timing warnings attached
     as ``metadata["warnings"]``."""
     new = dataclasses.replace(sm, **fields)
-    q, _ = evaluate_arrays(new, new.pose_times)
+    K, J = new.num_poses, new.num_joints
+    # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
+    # for whole clips; alternating tiny calls with full evaluations would make it re-allocate them)
+    q = _eval_rotations(new, np.repeat(new.pose_times, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
     editing = np.where((new.refinements != 0)[..., None], q, new.values)
     editing.setflags(write=False)
     meta = dict(new.metadata)
