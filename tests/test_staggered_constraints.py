@@ -243,3 +243,18 @@ def test_mean_mode_removes_own_skate(shared_motion):
     before, after = foot_skate(m, contacts), foot_skate(out, contacts)
     # not exactly zero: at heel strike the straight leg cannot reach the mean point (the IK clamps)
     assert after.sum() < 0.5 * before.sum()
+
+
+def test_pipeline_contacts_from_detect_contacts(shared_motion):
+    """The same check with the package's own detector (Appendix B) instead of the test's simple labels."""
+    from stagger_nb.staggered import detect_contacts
+
+    m = shared_motion("xia_neutral_walk.bvh")
+    feet = ("LeftFoot", "RightFoot", "LeftToeBase", "RightToeBase")
+    contacts = [c for c in detect_contacts(m) if c[0] in feet]
+    assert len(contacts) >= 4  # both feet plant at least twice in 2.7 s of walking
+    cm_per_unit = 2.54 / 0.45
+    rp = np.array(m.root_positions)
+    rp[:, 1] -= 5.0 / cm_per_unit
+    out = apply_contact_constraints(m.replace(root_positions=rp), contacts, reference=m)
+    assert contact_errors(out, contacts, reference=m, mode="track").max() * cm_per_unit < 1.0  # issue's bound
