@@ -214,7 +214,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     -------
     Motion
         ``motion`` with local rotations of (upper, middle, effector) joints of each constrained chain
-        post-multiplied by the attenuated IK displacement; identical (bit for bit) outside the windows.
+        post-multiplied by the attenuated IK displacement; unchanged outside the windows (up to
+        the round-off of re-normalisation, < 1e-15).
     """
     if mode is None:
         mode = "mean" if reference is None else "track"
