@@ -195,3 +195,72 @@ def test_fit_staggered_validates_arguments(extracted):
     bad[1, 0] = 0.3
     with pytest.raises(ValueError, match="increasing"):
         fit_staggered(m, [0.0, 0.2, 0.4], bad)
+
+
+# -- C1 continuity --------------------------------------------------------------------------------
+
+def _velocity_jumps(sm):
+    """|w_out - w_in| (rad/s) at every interior join: body angular velocities of the two spline ends."""
+    from stagger_nb.core.rotations import quat_conj, quat_to_rotvec
+    d = np.diff(sm.knot_times(), axis=0)[..., None]
+    v, tg = sm.values, sm.tangents
+    w_in = 3 * quat_to_rotvec(quat_mul(quat_conj(tg[:-1, :, 1]), v[1:-1])) / d[:-1]
+    w_out = 3 * quat_to_rotvec(quat_mul(quat_conj(v[1:-1]), tg[1:, :, 0])) / d[1:]
+    return np.linalg.norm(w_out - w_in, axis=-1), np.maximum(np.linalg.norm(w_in, axis=-1),
+                                                             np.linalg.norm(w_out, axis=-1))
+
+
+def test_default_fit_is_c1_and_c0_is_not(extracted):
+    m, sm = extracted("xia_neutral_walk.bvh")
+    assert sm.metadata["fit"]["continuity"] == "C1"
+    jump, mag = _velocity_jumps(sm)
+    assert jump.max() < 1e-9 * max(1.0, mag.max())       # equal by construction: rounding only
+    c0 = fit_staggered(m, sm.pose_times, sm.refinements, sm.root_refinements, continuity="C0")
+    jump0, mag0 = _velocity_jumps(c0)
+    assert np.median(jump0[mag0 > 0.1] / mag0[mag0 > 0.1]) > 0.1   # independent segments do jump
+    # C0 has the smaller residual (it is the unconstrained optimum); both reconstruct exactly
+    assert c0.metadata["fit"]["mean_residual_rad"] < sm.metadata["fit"]["mean_residual_rad"]
+    out = staggered.evaluate(c0)
+    assert quat_angle(out.local_quats, m.local_quats).max() <= 1e-6
+    # root translation: matching velocities at interior knots too
+    d = np.diff(sm.pose_times + sm.root_refinements)[:, None]
+    u_in = 3 * (sm.root_values[1:-1] - sm.root_tangents[:-1, 1]) / d[:-1]
+    u_out = 3 * (sm.root_tangents[1:, 0] - sm.root_values[1:-1]) / d[1:]
+    assert np.allclose(u_in, u_out, atol=1e-9 * np.abs(u_in).max())  # rounding only
+
+
+def test_c1_fit_recovers_a_known_c1_spline(rng):
+    from stagger_nb.staggered.fitting import _tangents_from_velocities, fit_rotation_tangents_c1
+    from stagger_nb.staggered.fitting import sample_segments
+    from stagger_nb.core.rotations import quat_continuous
+    K, C, ft = 6, 3, 0.01
+    knots = np.cumsum(rng.uniform(0.2, 0.4, size=(K, C)), axis=0)
+    knots = np.round(knots / ft) * ft
+    values = quat_continuous(rotvec_to_quat(np.cumsum(rng.normal(scale=0.5, size=(K, C, 3)), axis=0)), axis=0)
+    omega = rng.normal(scale=1.0, size=(K, C, 3))
+    a, b = _tangents_from_velocities(values, omega, np.diff(knots, axis=0))
+    pair, mm, counts, tn, frames = sample_segments(knots, ft, 0.0)
+    P = counts.size
+    v0 = values[:-1].reshape(P, 4)
+    v3 = values[1:].reshape(P, 4)
+    targets = quat_bezier(v0[pair], a.T[pair], b.T[pair], v3[pair], tn)
+    # sign-continuous within each pair, starting on v0's sign
+    targets *= np.sign(np.sum(targets * v0[pair], axis=1))[:, None]
+    om, tang, cost = fit_rotation_tangents_c1(tn, targets, pair, values, knots, np.zeros_like(omega), 8)
+    # data lie on a C1 spline of this family: the fit reaches it (1e-12 rad^2: solver tolerance)
+    assert cost.max() < 1e-12
+    assert np.allclose(om, omega, atol=1e-5)
+
+
+def test_reconstruction_on_cmu_01_01():
+    from pathlib import Path
+    from stagger_nb import read_bvh
+    p = Path(__file__).resolve().parents[1] / "data" / "cmu_01_01.bvh"
+    if not p.is_file():
+        pytest.skip("data/cmu_01_01.bvh not prepared (python -m stagger_nb.data.prepare writes it)")
+    m = read_bvh(p)
+    sm = staggered.extract(m)
+    out = staggered.evaluate(sm)
+    assert quat_angle(m.local_quats, out.local_quats).max() <= 1e-6            # the issue's bound
+    assert np.abs(out.root_positions - m.root_positions).max() <= 1e-6 * skeleton_height(m)
+    assert np.abs(sm.refinements).max() <= 0.25 + 1e-12

@@ -183,10 +183,11 @@ def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_windo
     return PoseEvidence(frames, P, evidence, weights, ref, tuple(contacts))
 
 
-def extract(motion: Motion, *, iterations: int = 3, **options) -> StaggeredMotion:
+def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", **options) -> StaggeredMotion:
     """Staggered-pose representation of dense ``motion`` with all candidate poses (§4).
 
-    ``options`` go to :func:`locate_poses`; ``iterations`` to the spline fit. The result reproduces the
+    ``options`` go to :func:`locate_poses`; ``iterations`` and ``continuity`` ("C1" or "C0") to
+    :func:`~.fitting.fit_staggered`. The result reproduces the
     input exactly at its frames (displacement maps, §4.1.1); ``sm.metadata`` holds ``"probability"``
     (F,), ``"evidence"`` (F, J + 2), ``"weights"`` (J + 2,) and the fit statistics ``"fit"``.
     """
@@ -199,11 +200,11 @@ def extract(motion: Motion, *, iterations: int = 3, **options) -> StaggeredMotio
             "candidate_frames": loc.frames}
     return fit_staggered(motion, loc.frames * ft, loc.refinement_frames[:, :J] * ft,
                          loc.refinement_frames[:, J] * ft, pose_probability=loc.probability[loc.frames],
-                         contacts=loc.contacts, iterations=iterations, metadata=meta)
+                         contacts=loc.contacts, iterations=iterations, continuity=continuity, metadata=meta)
 
 
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
-         interval=None, iterations: int = 3) -> StaggeredMotion:
+         interval=None, iterations: int = 2, continuity: str = "C1") -> StaggeredMotion:
     """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
 
     Parameters
@@ -217,7 +218,7 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     interval : (start, stop) seconds, optional
         Choose poses only from this time interval (plus the first and last); without ``percent``/``count``
         every pose inside is kept.
-    iterations : spline-fit iterations of the refit
+    iterations, continuity : passed to the refit (:func:`~.fitting.fit_staggered`)
 
     Returns
     -------
@@ -252,6 +253,6 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     source = evaluate(sm)
     out = fit_staggered(source, t[keep], sm.refinements[keep], sm.root_refinements[keep],
                         pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
-                        start_time=float(t[0]), iterations=iterations,
+                        start_time=float(t[0]), iterations=iterations, continuity=continuity,
                         metadata={k: v for k, v in sm.metadata.items() if k != "fit"})
     return dataclasses.replace(out, local_translations=sm.local_translations)
