@@ -10,18 +10,15 @@ from __future__ import annotations
 import importlib
 import importlib.util
 
+from .contacts import detect_contacts, end_effectors
+from .extraction import PoseEvidence, cull, extract, locate_poses, pose_priorities
+from .features import motion_trail_curvature
 from .fitting import fit_staggered
-from .representation import StaggeredMotion, evaluate, knot_times
+from .representation import StaggeredMotion, evaluate, evaluate_arrays, knot_times
 
-__all__ = ["StaggeredMotion", "evaluate", "fit_staggered", "knot_times"]
-
-try:
-    from .extraction import cull, extract  # noqa: F401
-    from .contacts import detect_contacts  # noqa: F401
-    __all__ += ["extract", "cull", "detect_contacts"]
-except ModuleNotFoundError as _e:  # pragma: no cover - only while extraction is being written
-    if _e.name not in (f"{__name__}.extraction", f"{__name__}.contacts"):
-        raise
+__all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "detect_contacts", "end_effectors", "locate_poses",
+           "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
+           "knot_times"]
 
 for _name in ("editing", "constraints"):
     if importlib.util.find_spec(f"{__name__}.{_name}") is not None:

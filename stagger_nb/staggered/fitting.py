@@ -7,7 +7,9 @@ The displacement map is what is left: ``d(t') = s(t') ⊖ v(t')`` (§4.1.1), sto
 time, so ``evaluate`` reproduces the source exactly at the sample times.
 
 The paper minimises ``w_f f_f + w_c f_c`` with Nelder–Mead per joint and segment (Appendix A). Here all
-pairs are fitted at once: a closed-form initialisation (a Euclidean cubic Bézier fitted by linear least
+pairs are fitted at once. By default the splines are C1 (:func:`fit_rotation_tangents_c1`: one angular
+velocity per knot, shared by both segments); the per-segment (C0) problem of the paper is
+:func:`fit_rotation_tangents`: a closed-form initialisation (a Euclidean cubic Bézier fitted by linear least
 squares to the samples' logarithms relative to the first knot) followed by a few damped Gauss–Newton
 (Levenberg–Marquardt) steps on the rotation vectors of the residuals, with the controls parameterised on
 the manifold (``q̂ <- q̂ exp(δ)``) so they stay unit quaternions without a penalty term.
@@ -426,8 +428,8 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
     Returns
     -------
     StaggeredMotion reproducing ``source`` at every sample time (displacements absorb the fit residual).
-    Fit statistics are in ``metadata["fit"]``: mean residual angle before displacement (rad) and the
-    largest value/tangent jump at segment joins.
+    Fit statistics are in ``metadata["fit"]``: mean and max residual angle of the spline before
+    displacement over interior samples (rad), the iterations and the continuity used.
     """
     J = source.num_joints
     pose_times = np.asarray(pose_times, dtype=float).reshape(-1)

@@ -61,7 +61,11 @@ class StaggeredMotion:
         segment ``k`` interpolates ``values[k]`` at ``t' = 0`` and ``values[k + 1]`` at ``t' = 1``.
     tangents : ndarray, shape (K - 1, J, 2, 4), (x, y, z, w)
         Inner control quaternions ``(q̂2, q̂3)`` of each segment's Bézier ``s(v_k, q̂2, q̂3, v_{k+1}, t')``
-        (Appendix A). Unit norm. Editing a knot value without refitting leaves them as they are.
+        (Appendix A). Unit norm. The default fit is C1: at every interior knot the body angular velocities
+        ``3 log(q̂3_{k-1}^-1 v_k) / Δ_{k-1}`` and ``3 log(v_k^-1 q̂2_k) / Δ_k`` (Δ = knot-time spacing) agree.
+        An edit ``v_k <- v_k ⊕ δ`` that also applies ``⊕ δ`` to the two adjacent controls ``q̂3_{k-1}`` and
+        ``q̂2_k`` keeps that equality (both velocities are conjugated by δ); changing refinements rescales
+        Δ and so changes the velocities, not the values.
     displacements : ndarray, shape (K - 1, J, M, 3), rotation vectors (axis * angle, radians)
         Displacement map ``d_i(t')`` of each segment and joint, sampled on the uniform grid
         ``t'_m = m / (n - 1)``, ``m = 0 .. n - 1`` with ``n = displacement_counts[k, i]``; entries
