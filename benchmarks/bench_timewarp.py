@@ -53,12 +53,18 @@ def features(motion, n):
 
 
 def best_of(fn, repeat):
+    """Best wall time of ``repeat`` runs (and that run's CPU time over all threads in ``CPU[fn]``)."""
     best, out = np.inf, None
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = fn()
-        best = min(best, time.perf_counter() - t0)
+        wall = time.perf_counter() - t0
+        if wall < best:
+            best, CPU[fn.__name__ if hasattr(fn, "__name__") else "fn"] = wall, time.process_time() - c0
     return best, out
+
+
+CPU: dict = {}
 
 
 def main(argv=None) -> int:
@@ -67,16 +73,23 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     name, motion = clip()
     print(f"poses: {name} ({motion.num_joints} joints -> {3 * motion.num_joints}-dim positions, "
-          f"{9 * motion.num_joints}-dim features), k = {K}, s = {S}")
+          f"{9 * motion.num_joints}-dim features), k = {K}, s = {S}; {os.cpu_count()} CPUs, load average "
+          f"{os.getloadavg()[0]:.1f} (times are wall clock, best of a few runs; CPU = process time, all threads)")
     print(f"{'n':>6} {'m':>6} {'r':>6}  {'objective':>10} {'DP':>9} {'total':>9} {'target':>7}  "
-          f"{'coarse8 DP':>10}  {'peak MB':>8}")
+          f"{'coarse8 DP':>10}  {'peak MB (objective+DP, tracemalloc)':>8}")
     table1 = None
     for n, m, target in CASES:
         X = features(motion, n)
         R = X
         repeat = 5 if n < 1000 else (3 if n < 3000 else 1)
-        t_obj, scores = best_of(lambda: knn_scores(X, R, S, K), repeat)
-        t_dp, (frames, cost) = best_of(lambda: constrained_dp(scores, m), repeat)
+        def objective():
+            return knn_scores(X, R, S, K)
+
+        def optimisation():
+            return constrained_dp(scores, m)
+
+        t_obj, scores = best_of(objective, repeat)
+        t_dp, (frames, cost) = best_of(optimisation, repeat)
         peak = ""
         if n >= 5000:  # peak traced memory of one objective + DP run
             tracemalloc.start()
@@ -91,7 +104,8 @@ def main(argv=None) -> int:
         total = t_obj + t_dp
         flag = "ok" if total <= target else "MISSED"
         print(f"{n:6d} {m:6d} {n:6d}  {t_obj:9.3f}s {t_dp:8.3f}s {total:8.3f}s {target:6.1f}s {flag:6s} "
-              f"{t_c2f:8.3f}s (cost x{sol.cost / cost:.4f})  {peak}")
+              f"{t_c2f:8.3f}s (cost x{sol.cost / cost:.4f})  {peak}   [CPU: objective "
+              f"{CPU['objective']:.3f}s, DP {CPU['optimisation']:.3f}s]")
         if table1 is None:
             table1 = (X, R, scores, frames, cost, total, t_obj, t_dp, m)
     X, R, scores, frames, cost, total, t_obj, t_dp, m = table1

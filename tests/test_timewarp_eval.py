@@ -11,15 +11,6 @@ from stagger_nb import data, positions_in_root_frame, timewarp
 from stagger_nb.core.kinematics import forward_kinematics
 
 
-def _speed_per_input_frame(warp, frame_time, input_times):
-    """Local speed (input s per output s) at which each input frame is played: the warp's derivative at the
-    output time where the warp reaches that input time."""
-    q = np.arange(warp.size)
-    speed = timewarp.warp_speed(warp, frame_time)
-    q_at = np.interp(input_times, warp, q)
-    return np.interp(q_at, q, speed)
-
-
 def _airborne(m):
     """Frames where both toes are more than 5 cm above the ground level (5th percentile of the lower toe)."""
     p, _ = forward_kinematics(m)
@@ -38,8 +29,8 @@ def test_self_reference_preserves_ballistic_timing_cmu_01_01():
     num = int(round(0.65 * (m.num_frames - 1))) + 1
     out, warp = timewarp.guided_warp(m, m, num)
     _, lin = timewarp.linear_warp(m, num)
-    g = _speed_per_input_frame(warp, m.frame_time, m.times)
-    li = _speed_per_input_frame(lin, m.frame_time, m.times)
+    g = timewarp.speed_at_input_times(warp, m.frame_time, m.times)
+    li = timewarp.speed_at_input_times(lin, m.frame_time, m.times)
     g_air, g_ground = np.median(g[air]), np.median(g[~air])
     print(f"\n[§4.1 CMU 01_01 @30Hz, {m.num_frames} -> {num} frames] median speed over airborne input frames: "
           f"guided {g_air:.3f}, linear {np.median(li[air]):.3f}; over walking/standing frames: guided "

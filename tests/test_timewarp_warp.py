@@ -57,6 +57,24 @@ def test_keytimes_between_frames_round_to_the_nearest_frame(walk30, walk_tables)
     assert sol.frames[10] == 40
 
 
+def test_keytimes_repeating_the_end_points_are_accepted(walk30, walk_tables):
+    end_out = 99 * walk30.frame_time
+    plain = timewarp.solve_warp(walk_tables, 100)
+    for keys in ([(0.0, 0.0)], [(walk30.duration, end_out)], [(walk30.duration + 1e-7, end_out - 1e-7)]):
+        np.testing.assert_array_equal(timewarp.solve_warp(walk_tables, 100, keytimes=keys).frames, plain.frames)
+    with pytest.raises(ValueError, match="keytimes"):       # the last pose before the end: not increasing
+        timewarp.solve_warp(walk_tables, 100, keytimes=[(walk30.duration, 1.0)])
+
+
+def test_derivative_weights_follow_the_frame_rate(walk30):
+    t30 = timewarp.prepare_warp(walk30, walk30)
+    fast = walk30.resample(walk30.frame_time / 2)
+    t60 = timewarp.prepare_warp(fast, fast)
+    # per-frame differences at 60 Hz are half those at 30 Hz: velocity weight x2, acceleration weight x4
+    assert t60.weights[1] == pytest.approx(2 * t30.weights[1]) and t60.weights[2] == pytest.approx(4 * t30.weights[2])
+    assert t30.weights == pytest.approx((1.0, 1.0, 1.0), rel=1e-5)  # 30 Hz time unit; the file rounds 1/30 s
+
+
 def test_cached_tables_give_the_same_result(walk30, walk_tables):
     ref = walk30.slice(20, 120)
     a_out, a_warp = timewarp.guided_warp(walk30, ref, 120)
@@ -82,6 +100,11 @@ def test_expansion_upsamples_and_reverse_plays_backwards(walk30):
     out, warp = timewarp.guided_warp(walk30, walk30, n, reverse=True)
     np.testing.assert_allclose(warp, walk30.duration - walk30.times, atol=1e-9)  # m = n: the reversed identity
     assert quat_angle(out.local_quats[0], walk30.local_quats[-1]).max() < 1e-6
+    out, warp = timewarp.guided_warp(walk30, walk30, 60, reverse=True, adaptive=False)
+    assert warp[0] == pytest.approx(walk30.duration) and warp[-1] == pytest.approx(0.0, abs=1e-12)
+    assert np.all(np.diff(warp) < 0)
+    smoothed = timewarp.apply_warp(walk30, warp, adaptive=True)   # compression backwards is smoothed too
+    assert quat_angle(smoothed.local_quats[1:-1], out.local_quats[1:-1]).max() > 1e-3
 
 
 def test_unconstrained_length(walk30, walk_tables):
@@ -169,6 +192,13 @@ def test_smooth_warp_keeps_pins_and_monotonicity():
     np.testing.assert_array_equal(timewarp.smooth_warp(w, 1), w)
     line = 3.0 * np.arange(30)
     np.testing.assert_allclose(timewarp.smooth_warp(line, 7), line, atol=1e-9)  # constant speed is kept
+
+
+def test_speed_at_input_times_is_the_inverse_view_of_warp_speed():
+    ft = 0.1
+    warp = np.concatenate([np.arange(10) * 0.1, 0.9 + np.arange(1, 11) * 0.3])   # speed 1, then 3
+    sp = timewarp.speed_at_input_times(warp, ft, np.array([0.35, 2.0, 3.5]))
+    np.testing.assert_allclose(sp, [1.0, 3.0, 3.0], atol=1e-12)   # piecewise-constant slopes: exact
 
 
 def test_adaptive_smoothing_only_acts_under_compression(walk30):

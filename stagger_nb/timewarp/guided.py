@@ -258,7 +258,8 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
 
 def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int = 8, keytimes=None, *,
                 upsample: int | None = None, reverse: bool = False, k: int = 3, weights=(1.0, 1.0, 1.0),
-                joint_weights=None, prefilter: float = 0.1, time_unit: float = 1.0 / 30.0, coarse: int | None = None, band: float | None = None,
+                joint_weights=None, prefilter: float = 0.1, time_unit: float = 1.0 / 30.0,
+                coarse: int | None = None, band: float | None = None,
                 smoothing: float = 0.1, adaptive: bool = True, tables: WarpTables | None = None,
                 progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
@@ -277,8 +278,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     coarse, band : coarse-to-fine heuristic, see :func:`solve_warp`
     smoothing : seconds, moving-average window applied to the discrete warp (§3.4); 0 disables
     adaptive : adaptive smoothing of the resampled motion under compression (§3.4)
-    tables : precomputed :func:`prepare_warp` result to reuse (then ``reference`` and the objective options
-        are taken from it); the editor's cheap tail
+    tables : precomputed :func:`prepare_warp` result to reuse; then ``reference``, ``skip``, ``upsample``,
+        ``reverse`` and the objective options are the ones the tables were prepared with (the editor's cheap
+        tail: cache one table per upsampling factor, :func:`required_upsample` says which one a length needs)
     progress : callable(fraction in [0, 1]) or None
 
     Returns

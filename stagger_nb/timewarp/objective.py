@@ -140,9 +140,10 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
     WT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
     YT = np.full((rr, n + 2 * s), np.inf, dtype=dtype)
     Xt = X.T.astype(dtype)   # products in the search precision: no (r, n) float64 temporaries
-    UT[:, s:s + n] = (wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt                          # -2 (i part)
-    WT[:, s:s + n] = znorm[:, None] - (2.0 * wp * wp * P - 4.0 * wa * wa * A).astype(dtype) @ Xt   # |z|^2 - 2 (j)
-    YT[:, s:s + n] = (-wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt                         # -2 (k part)
+    UT[:, s:s + n] = (wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt               # -2 (i part)
+    WT[:, s:s + n] = (2.0 * wp * wp * P - 4.0 * wa * wa * A).astype(dtype) @ Xt
+    np.subtract(znorm.astype(dtype)[:, None], WT[:, s:s + n], out=WT[:, s:s + n])      # |z|^2 - 2 (j part)
+    YT[:, s:s + n] = (-wv * wv * V - 2.0 * wa * wa * A).astype(dtype) @ Xt              # -2 (k part)
     phi2 = _phi_norms(_gram_bands(X, 2 * s), s, wp, wv, wa)
     scores = np.full((n, s, s), np.inf)
     itemsize = np.dtype(dtype).itemsize

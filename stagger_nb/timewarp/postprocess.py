@@ -15,10 +15,10 @@ from scipy.ndimage import uniform_filter1d
 from ..core.motion import Motion
 from ..core.rotations import quat_normalize
 
-__all__ = ["parse_keytimes", "smooth_warp", "warp_speed", "apply_warp"]
+__all__ = ["parse_keytimes", "smooth_warp", "warp_speed", "speed_at_input_times", "apply_warp"]
 
 
-def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float = 1e-9) -> np.ndarray:
+def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float = 1e-6) -> np.ndarray:
     """Validate keytimes and return all keys including the end points, shape (K, 2) ``(t_in, t_out)``.
 
     Raises ``ValueError`` naming ``keytimes`` when a pair is malformed, outside ``[0, in_duration] x
@@ -29,7 +29,8 @@ def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float
         try:
             arr = np.asarray(keytimes, dtype=float).reshape(-1, 2) if len(keytimes) else np.zeros((0, 2))
         except (TypeError, ValueError) as exc:
-            raise ValueError(f"keytimes must be a list of (input_time_s, output_time_s) pairs, got {keytimes!r}") from exc
+            raise ValueError("keytimes must be a list of (input_time_s, output_time_s) pairs, "
+                             f"got {keytimes!r}") from exc
         if not np.all(np.isfinite(arr)):
             raise ValueError("keytimes must be finite numbers of seconds")
         for t_in, t_out in arr:
@@ -38,11 +39,12 @@ def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float
                                  f"x output [0, {out_duration:g}] s")
             pts.append((float(t_in), float(t_out)))
     pts.append((float(in_duration), float(out_duration)))
-    keys = []
-    for p in pts:  # drop repeats of the implied end points
-        if keys and abs(p[0] - keys[-1][0]) <= tol and abs(p[1] - keys[-1][1]) <= tol:
+    keys = [pts[0]]
+    for p in pts[1:-1]:  # drop user keys that repeat an implied end point (within tol seconds)
+        if any(abs(p[0] - e[0]) <= tol and abs(p[1] - e[1]) <= tol for e in (pts[0], pts[-1])):
             continue
         keys.append(p)
+    keys.append(pts[-1])
     keys = np.array(keys)
     if np.any(np.diff(keys[:, 0]) <= tol) or np.any(np.diff(keys[:, 1]) <= tol):
         raise ValueError(f"keytimes out of order: input and output times must both increase strictly, "
@@ -91,6 +93,15 @@ def warp_speed(warp: np.ndarray, frame_time: float) -> np.ndarray:
     return np.gradient(w, frame_time)
 
 
+def speed_at_input_times(warp: np.ndarray, frame_time: float, input_times: np.ndarray) -> np.ndarray:
+    """Local speed at which each input time is played, shape like ``input_times``: the derivative of a
+    monotone increasing warp (sampled every ``frame_time`` output seconds) at the output time where the warp
+    reaches that input time. Useful to plot speed along the input clip (the paper's Fig. 5 on the input axis)."""
+    w = np.asarray(warp, dtype=float)
+    q = np.arange(w.size)
+    return np.interp(np.interp(np.asarray(input_times, dtype=float), w, q), q, warp_speed(w, frame_time))
+
+
 def _average_motion_samples(motion: Motion, frames: np.ndarray) -> tuple:
     """Box average of ``motion`` sampled at fractional frames ``(m, K)``: quaternions hemisphere-aligned to
     the centre sample and renormalised, translations averaged. Returns (root (m,3), quats (m,J,4), lt)."""
@@ -128,7 +139,7 @@ def apply_warp(motion: Motion, warp: np.ndarray, frame_time: float | None = None
     frames = warp / motion.frame_time
     if not adaptive or warp.size < 2:
         return motion.sample(frames, ft_out)
-    speed = warp_speed(warp, ft_out) * ft_out / motion.frame_time   # input frames per output frame
+    speed = np.abs(warp_speed(warp, ft_out)) * ft_out / motion.frame_time   # input frames per output frame
     span = np.maximum(speed - 1.0, 0.0)                               # window of `speed` frames: +-(speed-1)/2
     last = motion.num_frames - 1                                      # keep windows symmetric inside the clip,
     span = np.minimum(span, 2.0 * np.clip(np.minimum(frames, last - frames), 0.0, None))  # so the ends stay exact
