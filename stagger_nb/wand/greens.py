@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..core.motion import Motion
@@ -44,7 +45,7 @@ __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_row
            "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
-DENSE_MAX_FRAMES = 3000  # method="auto": dense eigendecomposition up to this many frames, sparse above
+DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
 DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
 # Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
@@ -200,9 +201,17 @@ def _dense_eigs(K: np.ndarray, N: int):
     return lam[keep], phi[:, keep], null_dim, r
 
 
-def _eigsh_smallest(L, k: int, v0: np.ndarray):
+def _shift_invert(L) -> spla.LinearOperator:
+    """``(L - _SHIFT I)^-1`` as an operator: one sparse LU with a minimum-degree ordering on ``L + L^T``
+    (L is symmetric; on kNN pose graphs this ordering fills in about 40 % less than COLAMD)."""
+    F = L.shape[0]
+    lu = spla.splu((L - _SHIFT * sp.identity(F, format="csc")).tocsc(), permc_spec="MMD_AT_PLUS_A")
+    return spla.LinearOperator(L.shape, matvec=lu.solve, dtype=float)
+
+
+def _eigsh_smallest(L, k: int, v0: np.ndarray, op=None):
     """``k`` eigenpairs of sparse ``L`` nearest ``_SHIFT`` (shift-invert Lanczos), ascending, + null mask."""
-    lam, phi = spla.eigsh(L, k=k, sigma=_SHIFT, which="LM", v0=v0)
+    lam, phi = spla.eigsh(L, k=k, sigma=_SHIFT, which="LM", v0=v0, OPinv=op or _shift_invert(L))
     order = np.argsort(lam)
     lam, phi = lam[order], phi[:, order]
     return lam, phi, lam < NULL_TOL
@@ -217,10 +226,11 @@ def _sparse_eigs(K, N: int):
         return _dense_eigs(K.toarray(), N)
     L = normalized_laplacian(K).tocsc()
     v0 = np.sqrt(r) / np.linalg.norm(np.sqrt(r))  # a deterministic start vector (the null vector itself)
-    lam, phi, null = _eigsh_smallest(L, k, v0)
+    op = _shift_invert(L)
+    lam, phi, null = _eigsh_smallest(L, k, v0, op)
     null_dim = int(np.count_nonzero(null))
     if null_dim > 1 and k < F - 2:  # several components: fetch enough eigenpairs to keep N non-null ones
-        lam, phi, null = _eigsh_smallest(L, min(N + null_dim, F - 2), v0)
+        lam, phi, null = _eigsh_smallest(L, min(N + null_dim, F - 2), v0, op)
         null_dim = int(np.count_nonzero(null))
     keep = np.flatnonzero(~null)[:N]
     return lam[keep], phi[:, keep], null_dim, r

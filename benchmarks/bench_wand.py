@@ -1,0 +1,185 @@
+"""Magic-wand speed and memory (issue 5), each against a naive full-matrix baseline in the same process.
+
+    .venv/bin/python benchmarks/bench_wand.py           # everything (~1-2 min on 2 cores)
+    .venv/bin/python benchmarks/bench_wand.py --quick   # skip the slow dense baselines on long clips
+
+Cases
+  A  600 frames, dense path: sigma change (kernel + eigenpairs + falloff row), new-frame falloff.
+     Baseline: dense pseudo-inverse of L (numpy.linalg.pinv, hermitian) + the same row normalisation.
+  B  ~2,750 frames (CMU 01_01 if prepared, else a real clip looped), sparse path: sigma change.
+     Baseline: the same dense pseudo-inverse.
+  C  5,000 and 20,000 frames (real xia clips resampled at varied speeds and concatenated), sparse path:
+     head (pose vectors + kNN), sigma change, row; peak RSS of a fresh child process.  The dense baseline
+     is extrapolated from case B as O(F^3) time and 3 F^2 doubles of memory (running it would need 9.6 GB
+     at 20,000 frames).
+Targets (issue 5): A <= 50 ms, B <= 0.3 s, 20,000 frames <= 10 s and < 2 GB.
+
+BLAS runs single-threaded unless OPENBLAS_NUM_THREADS / OMP_NUM_THREADS are set: the machine's two cores
+are shared with other jobs, where multithreaded BLAS on small matrices is slower and erratic.
+"""
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import json  # noqa: E402
+import resource  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+SHARED = REPO.parent / "shared" / "mocap"
+
+import stagger_nb as sn  # noqa: E402
+from stagger_nb import wand  # noqa: E402
+from stagger_nb.wand.laplacian import dense_kernel, normalized_laplacian  # noqa: E402
+
+
+def _median_time(fn, repeat=5):
+    ts = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return float(np.median(ts))
+
+
+def _baseline_pinv(graph, sigma, frame):
+    """Naive: the whole F x F pseudo-inverse of L (random-walk scaled as the basis), then one row."""
+    K = dense_kernel(graph.sq_distances, sigma)
+    r = K.sum(axis=1)
+    G = np.linalg.pinv(normalized_laplacian(K), hermitian=True) / np.sqrt(np.outer(r, r))
+    return wand.normalize_row(G[frame] - np.diag(1 / r)[frame], frame)
+
+
+def case_a():
+    m = sn.read_bvh(SHARED / "pymo_walk_turnaround.bvh").slice(0, 600)
+    t = time.perf_counter()
+    g = wand.pose_graph(m, method="dense")
+    head = time.perf_counter() - t
+    s0 = g.default_sigma
+    sigmas = iter(s0 * np.linspace(0.7, 1.4, 50))
+    sig_change = _median_time(lambda: wand.greens_falloff(g.basis(next(sigmas)), 300), repeat=7)
+    b = g.basis(s0)
+    frames = iter(range(0, 600, 7))
+    new_frame = _median_time(lambda: wand.greens_falloff(b, next(frames)), repeat=50)
+    base = _median_time(lambda: _baseline_pinv(g, s0, 300), repeat=3)
+    print(f"A  600 frames dense (N={b.num_eigs}): head (pose vectors + distances) {head * 1e3:.1f} ms")
+    print(f"   sigma change -> falloff: {sig_change * 1e3:.1f} ms (target <= 50 ms)   "
+          f"baseline dense pinv: {base * 1e3:.1f} ms   ratio baseline/ours {base / sig_change:.1f}x")
+    print(f"   new frame -> falloff:    {new_frame * 1e6:.0f} us   ratio baseline/ours {base / new_frame:.0f}x")
+    return base / 600 ** 3
+
+
+def case_b(quick):
+    try:
+        m = sn.data.load("cmu_01_01")
+        label = "CMU 01_01"
+    except (FileNotFoundError, ValueError):
+        m = sn.read_bvh(SHARED / "pymo_walk_turnaround.bvh")
+        m = sn.concatenate([m, m, m]).slice(0, 2752)
+        label = "pymo walk x3"
+    F = m.num_frames
+    t = time.perf_counter()
+    g = wand.pose_graph(m)
+    head = time.perf_counter() - t
+    s0 = g.default_sigma
+    sigmas = iter(s0 * np.linspace(0.7, 1.4, 20))
+    sig_change = _median_time(lambda: wand.greens_falloff(g.basis(next(sigmas)), F // 2), repeat=5)
+    b = g.basis(s0)
+    frames = iter(range(0, F, 13))
+    new_frame = _median_time(lambda: wand.greens_falloff(b, next(frames)), repeat=50)
+    print(f"B  {F} frames ({label}), {g.method} path (N={b.num_eigs}, k={g.knn.k}): head {head:.2f} s")
+    line = f"   sigma change -> falloff: {sig_change:.3f} s (target <= 0.3 s);  new frame {new_frame * 1e6:.0f} us"
+    per_f3 = None
+    if not quick:
+        gd = wand.pose_graph(m, method="dense")
+        base = _median_time(lambda: _baseline_pinv(gd, s0, F // 2), repeat=1)
+        per_f3 = base / F ** 3
+        line += f"\n   baseline dense pinv: {base:.2f} s   ratio baseline/ours {base / sig_change:.1f}x"
+    print(line)
+    return per_f3
+
+
+def _long_clip(F):
+    a = sn.read_bvh(SHARED / "xia_neutral_walk.bvh")
+    b = sn.read_bvh(SHARED / "xia_angry_run.bvh")
+    parts, n, i = [], 0, 0
+    while n < F:
+        src = (a, b)[i % 2]
+        speed = 0.8 + 0.4 * ((i * 0.618) % 1.0)   # varied playback speeds: no two copies alike
+        p = src.sample(np.arange(0, src.num_frames - 1, speed))
+        parts.append(p)
+        n += p.num_frames
+        i += 1
+    return sn.concatenate(parts).slice(0, F)
+
+
+def _peak_rss_mb():
+    """This process's peak resident set (VmHWM; unlike ru_maxrss it is not inherited across exec)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def child(F):
+    """Run in a fresh process: times of the sparse path and this process's peak RSS."""
+    m = _long_clip(F)
+    rss0 = _peak_rss_mb()
+    t = time.perf_counter()
+    g = wand.pose_graph(m, method="sparse")
+    head = time.perf_counter() - t
+    t = time.perf_counter()
+    b = g.basis()
+    eig = time.perf_counter() - t
+    t = time.perf_counter()
+    wand.greens_falloff(b, F // 3)
+    row = time.perf_counter() - t
+    rss = _peak_rss_mb()
+    print(json.dumps(dict(F=F, head=head, eig=eig, row=row, rss_mb=rss, rss_before_mb=rss0,
+                          N=b.num_eigs, k=g.knn.k, null_dim=b.null_dim)))
+
+
+def case_c(per_f3):
+    for F in (5000, 20000):
+        out = subprocess.run([sys.executable, __file__, "--child", str(F)], capture_output=True, text=True,
+                             env=os.environ.copy())
+        if out.returncode != 0:
+            print(f"C  {F} frames: FAILED\n{out.stderr[-2000:]}")
+            continue
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+        total = r["head"] + r["eig"] + r["row"]
+        print(f"C  {F} frames sparse (N={r['N']}, k={r['k']}): head {r['head']:.2f} s, eigenpairs {r['eig']:.2f} s, "
+              f"row {r['row'] * 1e3:.1f} ms, total {total:.2f} s; peak RSS {r['rss_mb']:.0f} MB "
+              f"(clip loaded: {r['rss_before_mb']:.0f} MB)" + ("  (target <= 10 s, < 2 GB)" if F == 20000 else ""))
+        if per_f3 is not None:
+            base = per_f3 * F ** 3
+            print(f"   dense pinv baseline, extrapolated O(F^3): {base:.0f} s and {3 * 8 * F * F / 2 ** 30:.1f} GB"
+                  f"   ratio baseline/ours {base / total:.0f}x (time)")
+
+
+def main():
+    if "--child" in sys.argv:
+        child(int(sys.argv[sys.argv.index("--child") + 1]))
+        return
+    quick = "--quick" in sys.argv
+    print(f"bench_wand: BLAS threads {os.environ.get('OPENBLAS_NUM_THREADS')}, load average "
+          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    per_f3 = case_a()
+    per_f3_b = case_b(quick)
+    case_c(per_f3_b if per_f3_b is not None else (None if quick else per_f3))
+
+
+if __name__ == "__main__":
+    main()
