@@ -17,8 +17,6 @@ import threading
 import numpy as np
 
 MIN_ARC = 1e-8  # arcs below this (radians on S^3) use this angle: slerp weights then equal lerp to ~1e-16
-# Taylor coefficients of sin up to x^19: on [0, pi/2] the first omitted term is < 3e-16 (double rounding).
-_SIN_COEF = tuple((-1.0) ** k / float(np.prod(np.arange(1, 2 * k + 2, dtype=float))) for k in range(9, -1, -1))
 
 
 class Workspace(threading.local):
@@ -40,11 +38,26 @@ class Workspace(threading.local):
 WORK = Workspace()
 
 
+_TAYLOR = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(10)]   # x, x^3, ..., x^19
+
+
+def _terms_for(xmax: float) -> int:
+    """Fewest Taylor terms of sin whose first omitted term is below 1e-16 for |x| <= xmax (<= 10)."""
+    for n in range(1, 10):
+        if xmax ** (2 * n + 1) / math.factorial(2 * n + 1) < 1e-16:
+            return n
+    return 10
+
+
 def sin_poly(x: np.ndarray, out: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """``out = sin(x)`` for ``x`` in [0, pi/2]; ``z`` is scratch of the same shape. Returns ``out``."""
+    """``out = sin(x)`` for ``x`` in [0, pi/2] (error < 3e-16); ``z`` is scratch of the same shape.
+
+    A Horner scheme on ``x²`` whose degree adapts to ``max(x)``: small arcs (the usual case between a
+    segment's control quaternions) need 5-7 terms instead of 10."""
+    n = _terms_for(float(x.max())) if x.size else 1
     np.multiply(x, x, out=z)
-    out.fill(_SIN_COEF[0])
-    for c in _SIN_COEF[1:]:
+    out.fill(_TAYLOR[n - 1])
+    for c in _TAYLOR[n - 2::-1]:
         out *= z
         out += c
     out *= x
