@@ -13,8 +13,10 @@ def test_normalize_row_closed_form():
     assert np.allclose(normalize_row(g, 2), [0, 1 / 3, 1, 2 / 3, 1, 1], atol=1e-15)
     # range [1, 4): min over the range is g[1] = 1; outside the range 0
     assert np.allclose(normalize_row(g, 2, (1, 4)), [0, 0, 1, 0.5, 0, 0], atol=1e-15)
-    # a constant row selects only the frame itself
-    assert np.array_equal(normalize_row(np.ones(4), 1), [0, 1, 0, 0])
+    # a constant row: every frame of the range is as similar as the frame itself
+    assert np.array_equal(normalize_row(np.ones(4), 1, (1, 3)), [0, 1, 1, 0])
+    # the frame at the bottom of the range selects only itself
+    assert np.array_equal(normalize_row(np.array([1.0, 0.0, 2.0]), 1), [0, 1, 0])
 
 
 def test_valley_without_repetitions():
@@ -63,6 +65,22 @@ def test_falloff_rejects_bad_ranges():
         wand.falloff(m, 4, sigma=0.0)
     with pytest.raises(ValueError, match="basis"):
         wand.falloff(m, 4, basis=wand.greens_basis(cyclic_motion(F=30)))
+
+
+def test_static_clip_and_tiny_clips():
+    from test_wand_synth import chain_skeleton
+
+    from stagger_nb import Motion
+    static = Motion(chain_skeleton(3), 0.1, np.zeros((10, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (10, 3, 1)))
+    # all poses alike: the wand selects them all (no eigenpair carries weight, the row is exactly 0)
+    assert np.array_equal(wand.falloff(static, 4), np.ones(10))
+    m = cyclic_motion(F=5, period=9)
+    for F in (2, 3):
+        for method in ("dense", "sparse"):
+            w = wand.falloff(m.slice(0, F), 0, method=method)
+            assert w[0] == 1.0 and w[F - 1] == 0.0
+    with pytest.raises(ValueError, match="2 frames"):
+        wand.falloff(m.slice(0, 1), 0)
 
 
 def test_repetitions_switch_on_a_periodic_motion():

@@ -3,7 +3,8 @@
 "Let w denote a copy of the i-th row of P that has been scaled to lie between 0 and 1 across the edited
 region of the timeline": ``w_j = clip((g_j - min g) / (g_i - min g), 0, 1)`` over the frame range, with
 ``min`` taken over the range, so ``w = 1`` at the edited frame ``i`` and ``0`` at the most dissimilar
-frame of the range; frames outside the range get 0.  The clip matters only where a truncated row
+frame of the range; frames outside the range get 0 (a constant row, e.g. a static clip, gives 1 on the
+whole range).  The clip matters only where a truncated row
 peaks slightly off its frame (§4.2's "offset of 2-3 frames"); such frames get weight 1.  The normalised
 pose distance of Figure 1 is ``1 - w``.
 
@@ -48,8 +49,10 @@ def _scale(g: np.ndarray, frame: int, start: int, stop: int) -> np.ndarray:
     seg = g[start:stop]
     lo = seg.min()
     den = g[frame] - lo
-    if not den > 0:  # constant row or the frame is the minimum: only the frame itself is selected
-        w[frame] = 1.0
+    if not den > 0:
+        if np.all(seg == lo):  # a constant row: no frame of the range is less similar than another
+            w[start:stop] = 1.0
+        w[frame] = 1.0         # (else the frame is the range's minimum: only the frame itself)
         return w
     w[start:stop] = np.clip((seg - lo) / den, 0.0, 1.0)
     w[frame] = 1.0

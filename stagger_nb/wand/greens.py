@@ -52,6 +52,7 @@ DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of
 # (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
 # whose transformed values 1/(lambda + 1e-5) are then well separated (faster convergence than 1e-3).
 _SHIFT = -1e-5
+_COEF_TOL = 1e-10  # spectral weights below this are rounding noise of lambda = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,6 +93,8 @@ class GreensBasis:
     def __post_init__(self):
         lam = np.asarray(self.eigenvalues, dtype=float)
         coef = 1.0 / lam if self.self_term else 1.0 / lam - 1.0
+        # lambda = 1 to rounding (e.g. every pose of a static clip alike) carries no weight: make it exactly 0
+        coef[np.abs(coef) < _COEF_TOL] = 0.0
         object.__setattr__(self, "_coef", coef)
 
     @property
@@ -173,7 +176,7 @@ class PoseGraph:
             K = sparse_kernel(self.knn, s, chain_floor)
             lam, phi, null_dim, r = _sparse_eigs(K, N)
         if lam.size == 0:
-            raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (the kernel graph has {F} components); "
+            raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (every frame is its own component); "
                              "increase sigma")
         vecs = phi / np.sqrt(r)[:, None] if normalization == "random_walk" else phi
         return GreensBasis(lam, np.ascontiguousarray(vecs), r, float(s), bool(self_term), normalization,
@@ -221,9 +224,9 @@ def _sparse_eigs(K, N: int):
     """Smallest non-null eigenpairs of the sparse normalised Laplacian by shift-invert Lanczos."""
     F = K.shape[0]
     r = np.asarray(K.sum(axis=1)).reshape(-1)
-    k = min(N + 1, F - 2)
-    if k < 1:
+    if F <= 2 * N + 16:  # ARPACK needs k < F - 1 and room for its Krylov space; tiny graphs go dense
         return _dense_eigs(K.toarray(), N)
+    k = N + 1
     L = normalized_laplacian(K).tocsc()
     v0 = np.sqrt(r) / np.linalg.norm(np.sqrt(r))  # a deterministic start vector (the null vector itself)
     op = _shift_invert(L)
