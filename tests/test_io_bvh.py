@@ -16,6 +16,7 @@ import stagger_nb as sn
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
 from stagger_nb.core.rotations import quat_rotate
 from stagger_nb.io._common import euler_deg_to_quat
+from stagger_nb.io._numformat import format_table
 from stagger_nb.io._numparse import parse_table
 from stagger_nb.io.bvh import BVHError, _parse_motion_lines, format_bvh, parse_bvh
 
@@ -323,3 +324,49 @@ def test_read_bytes_and_str_agree():
 def test_missing_file_is_bvh_error(tmp_path):
     with pytest.raises(BVHError, match="cannot read"):
         sn.read_bvh(tmp_path / "nope.bvh")
+
+
+def _fixed_reference(v: float, d: int) -> str:
+    """Python's own rendering of round(v * 10**d) / 10**d without trailing zeros."""
+    x = round(v * 10.0 ** d)
+    s = str(abs(x)).rjust(d + 1, "0")
+    s = (s[:-d] + "." + s[-d:]).rstrip("0").rstrip(".") if d else s
+    return ("-" if x < 0 else "") + s
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 5), st.integers(1, 6), st.data())
+def test_fixed_point_formatter_matches_python(rows, cols, data):
+    vals = np.array(data.draw(st.lists(st.floats(-1e6, 1e6, allow_nan=False) | st.sampled_from(
+        [0.0, -0.0, 1e-15, -0.5e-6, 0.5e-6, 179.9999995, -180.0, 1e6 - 1e-7]), min_size=rows * cols,
+        max_size=rows * cols))).reshape(rows, cols)
+    dec = np.array(data.draw(st.lists(st.integers(0, 8), min_size=cols, max_size=cols)))
+    text = format_table(vals, dec).decode()
+    lines = text.split("\n")
+    assert lines[-1] == "" and len(lines) == rows + 1
+    for r in range(rows):
+        assert lines[r].split(" ") == [_fixed_reference(vals[r, c], int(dec[c])) for c in range(cols)]
+
+
+def test_fixed_point_formatter_refuses_huge_values():
+    assert format_table(np.array([[1e12]]), np.array([6])) is None  # 1e18 > 2**53
+
+
+def test_writer_handles_deep_hierarchies():
+    depth = 3000  # deeper than Python's recursion limit
+    text = ("HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+            + "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 0\n" for k in range(1, depth))
+            + "}\n" * depth + "MOTION\nFrames: 1\nFrame Time: 0.1\n1 2 3\n")
+    m = parse_bvh(text)
+    m2 = parse_bvh(format_bvh(m))
+    assert m2.skeleton == m.skeleton
+    # 6 decimals of a degree: each angle within 5e-7 deg = 8.7e-9 rad, so the rotation within 3e-8 rad
+    assert np.max(2 * np.arccos(np.clip(np.abs(np.sum(m2.local_quats * m.local_quats, -1)), 0, 1))) < 3e-8
+
+
+def test_written_file_gets_ordinary_permissions(tmp_path):
+    out = tmp_path / "p.bvh"
+    sn.write_bvh(parse_bvh(TINY), out)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask

@@ -62,10 +62,19 @@ def _span_integers(digits: np.ndarray, starts: np.ndarray, lengths: np.ndarray) 
     return np.where(short, a, a * scale + b).astype(np.float64)  # b unused (and wrong) where short
 
 
-def _with_exponents(b, block, digits, tok_id, starts, ends, dots, dot_tok):
-    """Per-token sign, mantissa body, fraction digits and decimal exponent for blocks with 'e'/'E'/'+';
-    ``None`` if a token breaks the grammar."""
+def _with_exponents(b, block, starts, ends, edge, nonws):
+    """Tokens of a block with 'e'/'E'/'+': per token (negative, mantissa body length, fraction digits, has
+    a dot, decimal exponent ``k``, mantissa read with the dot as a 0 digit); ``None`` if a token breaks
+    the grammar."""
     n = starts.size
+    digits = np.zeros(b.size + 16, dtype=np.uint8)  # digit values, 0 elsewhere, 16 spare bytes
+    np.subtract(b, np.uint8(48), out=digits[:b.size])
+    digits[:b.size] *= digits[:b.size] < 10
+    tok_id = np.cumsum(edge[:-1] & nonws, dtype=np.int32) - 1  # token of every byte (of tokens)
+    dots = np.flatnonzero(b == 46)
+    dot_tok = tok_id[dots]
+    if dot_tok.size > 1 and np.any(dot_tok[1:] == dot_tok[:-1]):
+        return None  # two dots in a token
     signs = np.flatnonzero((b == 45) | (b == 43))
     exps = np.flatnonzero((b | 32) == 101)
     sign_tok, exp_tok = tok_id[signs], tok_id[exps]
@@ -100,12 +109,98 @@ def _with_exponents(b, block, digits, tok_id, starts, ends, dots, dot_tok):
     ev = _span_integers(digits, exps[ok_e] + 1, e_len[ok_e]).astype(np.int64)
     exponent[exp_tok[ok_e]] = np.where(exp_neg[exp_tok[ok_e]], -ev, ev)
     exponent[exp_tok[~ok_e]] = 10_000  # outside the fast range
-    return neg, has_sign, mant_end - starts - has_sign, nfrac, has_dot, exponent - nfrac
+    body = mant_end - starts - has_sign  # digits and the dot
+    v = _span_integers(digits, starts + has_sign, np.clip(body, 1, 16))
+    return neg, body, nfrac, has_dot, exponent - nfrac, v
+
+
+_FILL = np.uint64(0x3030303030303030)  # eight ASCII '0'
+_DOTS = np.uint64(0x2E2E2E2E2E2E2E2E)
+_LOW7 = np.uint64(0x7F7F7F7F7F7F7F7F)
+_U7 = np.uint64(7)
+
+
+def _zero_bytes(x: np.ndarray) -> np.ndarray:
+    """0x80 in each byte of ``x`` that is zero, 0 elsewhere (exact SWAR test, no false positives)."""
+    return ~(((x & _LOW7) + _LOW7) | x | _LOW7)
+
+
+def _plain(b, block, starts, ends):
+    """Tokens of a block of ``[-]digits[.digits]`` numbers, all per token on two little-endian 8-byte
+    words (SIMD within a register): find the dot, turn it and the padding into '0', then pack the
+    digits. Same results as :func:`_with_exponents` (``k = None``: no exponents)."""
+    neg = b[starts] == 45
+    if np.count_nonzero(neg) != block.count(b"-"):
+        return None  # a '-' inside a token
+    s0 = starts + neg
+    body = ends - s0  # digits and the dot
+    L = np.clip(body, 1, 16)
+    raw = np.empty(b.size + 16, dtype=np.uint8)
+    raw[:b.size] = b
+    raw[b.size:] = 32
+    words = np.ndarray((raw.size - 7,), dtype="<u8", buffer=raw, strides=(1,))  # unaligned loads
+    long = L > 8
+    # first word: the token's first min(L, 8) bytes, right-aligned, '0'-filled on the left (low bytes)
+    sh_a = (8 * np.where(long, 0, 8 - L)).astype(np.uint64)
+    a = (words[s0] << sh_a) | (_FILL >> (np.uint64(64) - sh_a))
+    # second word: bytes 8..L-1 right-aligned (all '0' for short tokens)
+    sh_b = (8 * np.where(long, 16 - L, 8)).astype(np.uint64)
+    wb = np.where(long, words[s0 + 8], _FILL)
+    bb = (wb << sh_b) | (_FILL >> (np.uint64(64) - sh_b))
+    bb = np.where(long, bb, _FILL)
+    da, db = _zero_bytes(a ^ _DOTS), _zero_bytes(bb ^ _DOTS)
+    nd = np.bitwise_count(da) + np.bitwise_count(db)
+    if np.any(nd > 1):
+        return None  # two dots in a token
+    has_dot = nd == 1
+    # byte index j of a dot = (popcount(t - 1) - 7) / 8 for t = 0x80 << 8j; bytes after it = 7 - j
+    after_a = _U7 - ((np.bitwise_count(da - np.uint64(1)).astype(np.uint64) - _U7) >> np.uint64(3))
+    after_b = _U7 - ((np.bitwise_count(db - np.uint64(1)).astype(np.uint64) - _U7) >> np.uint64(3))
+    nfrac = np.where(da != 0, after_a.astype(np.int64) + np.where(long, L - 8, 0),
+                     np.where(db != 0, after_b.astype(np.int64), 0))
+    # the dot reads as '0'; then every byte is an ASCII digit and subtracting '0' borrows nowhere
+    a ^= (da >> _U7) * np.uint64(0x1E)  # '.' ^ 0x1E = '0'
+    bb ^= (db >> _U7) * np.uint64(0x1E)
+    v = _swar8(a - _FILL).astype(np.float64)
+    if long.any():
+        v = np.where(long, v * _POW10[np.maximum(L - 8, 0)] + _swar8(bb - _FILL), v)
+    return neg, body, nfrac, has_dot, None, v
+
+
+_CHUNK_BYTES = 1 << 17  # work on ~128 KB of text at a time: the temporaries then stay in cache
 
 
 def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     """``(rows, cols)`` float64 table of the numbers in ``block`` (``cols`` per ``\\n``-separated line,
-    trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it."""
+    trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it.
+
+    The block is cut at line breaks into pieces of about ``_CHUNK_BYTES`` holding whole rows, parsed one
+    after the other (the many array passes are memory-bound; in cache they are several times faster)."""
+    if rows < 1 or cols < 1 or not block:
+        return None
+    per_row = max(1, len(block) // rows)
+    step = max(1, _CHUNK_BYTES // per_row)  # rows per piece
+    if step >= rows:
+        return _parse_rows(block, rows, cols)
+    b = np.frombuffer(block, dtype=np.uint8)
+    nl = np.flatnonzero(b == 10)
+    if nl.size < rows - 1:
+        return None
+    out = np.empty((rows, cols))
+    begin = 0
+    for r0 in range(0, rows, step):
+        r1 = min(r0 + step, rows)
+        end = int(nl[r1 - 1]) + 1 if r1 < rows else len(block)
+        part = _parse_rows(block[begin:end], r1 - r0, cols)
+        if part is None:
+            return None
+        out[r0:r1] = part
+        begin = end
+    return out
+
+
+def _parse_rows(block: bytes, rows: int, cols: int) -> np.ndarray | None:
+    """:func:`parse_table` on one piece."""
     if not block or block.translate(None, _ALLOWED):
         return None  # a byte outside the grammar (or an empty block)
     b = np.frombuffer(block, dtype=np.uint8)
@@ -126,65 +221,42 @@ def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     if per_line.size < rows or np.any(per_line[:rows] != cols) or np.any(per_line[rows:]):
         return None
 
-    digits = np.zeros(b.size + 16, dtype=np.uint8)  # digit values, 0 elsewhere, 16 spare bytes
-    np.subtract(b, np.uint8(48), out=digits[:b.size])
-    digits[:b.size] *= digits[:b.size] < 10
-    tok_id = np.cumsum(edge[:-1] & nonws, dtype=np.int32) - 1  # token of every byte (of tokens)
-    dots = np.flatnonzero(b == 46)
-    dot_tok = tok_id[dots]
-    if dot_tok.size > 1 and np.any(dot_tok[1:] == dot_tok[:-1]):
-        return None  # two dots in a token
     if b"e" in block or b"E" in block or b"+" in block:
-        found = _with_exponents(b, block, digits, tok_id, starts, ends, dots, dot_tok)
-        if found is None:
-            return None
-        neg, lead, body, nfrac, has_dot, k = found
-    else:  # [-]digits[.digits] only: every '-' must lead its token
-        first = b[starts]
-        neg = first == 45
-        if np.count_nonzero(neg) != np.count_nonzero(b == 45):
-            return None
-        lead = neg
-        nfrac = np.zeros(n, dtype=np.int64)
-        nfrac[dot_tok] = ends[dot_tok] - dots - 1
-        has_dot = np.zeros(n, dtype=bool)
-        has_dot[dot_tok] = True
-        body = ends - starts - lead  # digits and the dot
-        k = -nfrac
+        found = _with_exponents(b, block, starts, ends, edge, nonws)
+    else:
+        found = _plain(b, block, starts, ends)
+    if found is None:
+        return None
+    neg, body, nfrac, has_dot, k, v = found
     if np.any(body <= has_dot):
         return None  # a sign or a dot without digits
     # Clinger's fast path: at most 15 digits and |k| <= 22; the rest goes through float() below
     fast = body <= _MAX_DIGITS
     if k is not None:
         fast &= np.abs(k) <= 22
-    all_fast = bool(fast.all())
-    sel = slice(None) if all_fast else fast
-    v = _span_integers(digits, (starts + lead)[sel], body[sel])
     # v = I * 10**(nfrac+1) + R reads the dot as a 0 digit; the mantissa is I * 10**nfrac + R = v - 9 I 10**nfrac.
     # floor(v / 10**(nfrac+1)) = I exactly: the quotient is I + R / 10**(nfrac+1) with the fraction < 0.1
-    hd = has_dot[sel]
-    p = _POW10[nfrac[sel] + hd]
+    p = _POW10[np.minimum(nfrac + has_dot, 22)]
     q = np.floor(v / p)
     q *= p / 10.0
     q *= 9.0
-    q *= hd
+    q *= has_dot
     v -= q
-    kf = k[sel]
-    if np.all(kf <= 0):
-        v /= _POW10[-kf]
+    if k is None:  # no exponents: divide by 10**nfrac
+        v /= _POW10[np.minimum(nfrac, 22)]
     else:
-        v = np.where(kf >= 0, v * _POW10[np.clip(kf, 0, 22)], v / _POW10[np.clip(-kf, 0, 22)])
-    np.negative(v, out=v, where=neg[sel])
-    if all_fast:
+        kc = np.clip(k, -22, 22)
+        v = np.where(kc >= 0, v * _POW10[np.maximum(kc, 0)], v / _POW10[np.maximum(-kc, 0)])
+    np.negative(v, out=v, where=neg)
+    if fast.all():
         return v.reshape(rows, cols)
-    out = np.empty(n)
-    out[fast] = v
-    slow = np.flatnonzero(~fast)
-    if slow.size:
-        for i in slow.tolist():
-            tok = block[starts[i]:ends[i]]
-            v_i = float(tok)
-            if not np.isfinite(v_i):
-                return None  # the line parser reports it
-            out[i] = v_i
+    out = v
+    for i in np.flatnonzero(~fast).tolist():
+        tok = block[starts[i]:ends[i]]
+        if not NUMBER_RE.match(tok):
+            return None
+        v_i = float(tok)
+        if not np.isfinite(v_i):
+            return None  # the line parser reports it
+        out[i] = v_i
     return out.reshape(rows, cols)

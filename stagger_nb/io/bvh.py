@@ -22,6 +22,7 @@ from ..core.motion import Motion
 from ..core.rotations import quat_to_euler
 from ..core.skeleton import Skeleton
 from ._common import FormatError, decode, euler_deg_to_quat, finite_number, read_bytes
+from ._numformat import format_table
 from ._numparse import NUMBER_RE, parse_table
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
@@ -281,68 +282,105 @@ def read_bvh(path) -> Motion:
     return parse_bvh(read_bytes(path, BVHError), path)
 
 
-def _fmt(a: np.ndarray) -> np.ndarray:
-    return np.char.mod("%.9g", a)
+_ROT_DECIMALS = 6  # degrees: 5e-7 deg = 9e-9 rad worst-case rounding
+
+
+def _position_decimals(motion: Motion) -> int:
+    """Decimal places for position channels: 1e-8 of the largest translation (at least 6, at most 12),
+    so the written file reproduces world positions well within 1e-6 of the skeleton's size."""
+    scale = max(float(np.max(np.abs(motion.root_positions))), float(np.max(np.abs(motion.skeleton.offsets))),
+                0.0 if motion.local_translations is None else float(np.max(np.abs(motion.local_translations))),
+                1e-12)
+    return int(np.clip(8 - np.floor(np.log10(scale)), 6, 12))
+
+
+def _hierarchy_lines(skel: Skeleton) -> list[str]:
+    """The HIERARCHY section (iterative depth-first walk; children in index order)."""
+    kids = [[] for _ in range(skel.num_joints)]
+    for j in range(1, skel.num_joints):
+        kids[int(skel.parents[j])].append(j)
+    out = ["HIERARCHY"]
+    stack = [(0, 0, False)]
+    while stack:
+        j, depth, closing = stack.pop()
+        ind = "\t" * depth
+        if closing:
+            if j in skel.end_sites:
+                e = skel.end_sites[j]
+                out += [f"{ind}\tEnd Site", f"{ind}\t{{", f"{ind}\t\tOFFSET {e[0]:.9g} {e[1]:.9g} {e[2]:.9g}",
+                        f"{ind}\t}}"]
+            out.append(f"{ind}}}")
+            continue
+        o = skel.offsets[j]
+        out += [f"{ind}{'ROOT' if j == 0 else 'JOINT'} {skel.names[j]}", f"{ind}{{",
+                f"{ind}\tOFFSET {o[0]:.9g} {o[1]:.9g} {o[2]:.9g}",
+                f"{ind}\tCHANNELS {len(skel.channels[j])}" + "".join(" " + c for c in skel.channels[j])]
+        stack.append((j, depth, True))
+        stack.extend((c, depth + 1, False) for c in reversed(kids[j]))
+    return out
+
+
+def _channel_table(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(F, C)`` channel values in file order and the decimals for each column."""
+    skel = motion.skeleton
+    trans = motion.translations()
+    pos_dec = _position_decimals(motion)
+    cols, dec = [], []
+    for j, chans in enumerate(skel.channels):
+        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
+        eul = None
+        if len(order) == 3:
+            eul = quat_to_euler(motion.local_quats[:, j], order)
+        elif order:  # fewer than three rotation channels: the listed angles of a completed sequence
+            full = order + "".join(a for a in "XYZ" if a not in order)[: 3 - len(order)]
+            eul = quat_to_euler(motion.local_quats[:, j], full)
+        r = 0
+        for c in chans:
+            if c.lower().endswith("position"):
+                cols.append(trans[:, j, "XYZ".index(c[0].upper())])
+                dec.append(pos_dec)
+            else:
+                cols.append(eul[:, r])
+                dec.append(_ROT_DECIMALS)
+                r += 1
+    table = np.stack(cols, axis=1) if cols else np.zeros((motion.num_frames, 0))
+    return table, np.array(dec, dtype=np.int64)
+
+
+def _format_bytes(motion: Motion) -> bytes:
+    head = _hierarchy_lines(motion.skeleton)
+    head += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {motion.frame_time:.9g}"]
+    table, dec = _channel_table(motion)
+    body = format_table(table, dec)
+    if body is None:  # a value too large for fixed point: 9 significant digits instead
+        body = "".join(" ".join(f"{v:.9g}" for v in row) + "\n" for row in table).encode()
+    return ("\n".join(head) + "\n").encode("utf-8") + body
 
 
 def format_bvh(motion: Motion) -> str:
-    """BVH text of ``motion``, keeping each joint's channel order and the end-site offsets."""
-    skel = motion.skeleton
-    out = ["HIERARCHY"]
-
-    def write_joint(j: int, depth: int):
-        ind = "\t" * depth
-        kw = "ROOT" if j == 0 else "JOINT"
-        out.append(f"{ind}{kw} {skel.names[j]}")
-        out.append(f"{ind}{{")
-        o = skel.offsets[j]
-        out.append(f"{ind}\tOFFSET {o[0]:.9g} {o[1]:.9g} {o[2]:.9g}")
-        out.append(f"{ind}\tCHANNELS {len(skel.channels[j])}" + "".join(" " + c for c in skel.channels[j]))
-        for c in skel.children(j):
-            write_joint(c, depth + 1)
-        if j in skel.end_sites:
-            e = skel.end_sites[j]
-            out.extend([f"{ind}\tEnd Site", f"{ind}\t{{", f"{ind}\t\tOFFSET {e[0]:.9g} {e[1]:.9g} {e[2]:.9g}",
-                        f"{ind}\t}}"])
-        out.append(f"{ind}}}")
-
-    write_joint(0, 0)
-    F = motion.num_frames
-    trans = motion.translations()
-    cols = []
-    for j, chans in enumerate(skel.channels):
-        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
-        eul = quat_to_euler(motion.local_quats[:, j], order) if len(order) == 3 else None
-        if order and len(order) != 3:
-            from scipy.spatial.transform import Rotation
-            eul = Rotation.from_quat(motion.local_quats[:, j]).as_euler(order.upper() + "".join(
-                a for a in "XYZ" if a not in order.upper())[: 3 - len(order)], degrees=True)
-        r = 0
-        for c in chans:
-            axis = "XYZ".index(c[0].upper())
-            if c.lower().endswith("position"):
-                cols.append(trans[:, j, axis])
-            else:
-                cols.append(eul[:, r])
-                r += 1
-    out += ["MOTION", f"Frames: {F}", f"Frame Time: {motion.frame_time:.9g}"]
-    if cols:
-        table = _fmt(np.stack(cols, axis=1))
-        out += [" ".join(row) for row in table]
-    else:
-        out += [""] * F
-    return "\n".join(out) + "\n"
+    """BVH text of ``motion``: each joint's channel order and the end-site offsets kept; rotations with
+    6 decimals (degrees), positions with 6-12 decimals by their size (see :func:`_position_decimals`)."""
+    return _format_bytes(motion).decode("utf-8")
 
 
 def write_bvh(motion: Motion, path) -> None:
-    """Write ``motion`` as BVH atomically (a temporary file in the same folder, then rename)."""
+    """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: a temporary file in the same folder,
+    then a rename, so readers never see half a file; the file gets the usual permissions (umask, or the
+    mode of the file it replaces)."""
     path = os.fspath(path)
-    text = format_bvh(motion)
+    data = _format_bytes(motion)
     folder = os.path.dirname(os.path.abspath(path))
+    try:
+        mode = os.stat(path).st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".bvh", dir=folder)
     try:
-        with os.fdopen(fd, "w", newline="\n") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

