@@ -218,3 +218,24 @@ def test_locate_poses_uses_contact_events_as_evidence():
     m = chain_motion([1.0, 1.0, 1.0])
     loc = locate_poses(m, contacts=[("J2", 60, 180)], contact_weight=2.0)
     assert {60, 120, 180} <= set(loc.frames.tolist())
+
+
+@pytest.mark.parametrize("fps,seed", [(30.0, 0), (120.0, 1), (60.0, 2)])
+def test_random_smooth_motion_round_trips(fps, seed):
+    rng = np.random.default_rng(seed)
+    m = chain_motion([1.0] * 5, duration=3.0, fps=fps)
+    F = m.num_frames
+    # random smooth rotations (cumulative noise, smoothed) and a wandering root
+    rv = np.cumsum(rng.normal(scale=0.05, size=(F, 5, 3)), axis=0)
+    rv = laplacian_smooth(rv, 20)
+    root = np.cumsum(rng.normal(scale=0.02, size=(F, 3)), axis=0)
+    m = m.replace(local_quats=rotvec_to_quat(rv), root_positions=root)
+    sm = staggered.extract(m)
+    out = staggered.evaluate(sm)
+    assert quat_angle(out.local_quats, m.local_quats).max() <= 1e-9      # exact up to rounding
+    assert np.abs(out.root_positions - m.root_positions).max() <= 1e-9
+    assert np.abs(sm.refinements).max() <= 0.25 + 1e-12 and np.abs(sm.root_refinements).max() <= 0.25 + 1e-12
+    assert np.all(np.diff(sm.knot_times(), axis=0) > 0)
+    half = staggered.cull(sm, 50)
+    out2 = staggered.evaluate(half)
+    assert quat_angle(out2.local_quats, m.local_quats).max() <= 1e-9
