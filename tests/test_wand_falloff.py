@@ -92,3 +92,31 @@ def test_repetitions_switch_on_a_periodic_motion():
     assert w1[20] == 1.0 and np.all(w1[60:] == 0)  # only the movement around frame 20
     nz = np.flatnonzero(w1)
     assert np.all(np.diff(nz) == 1)                # one contiguous piece
+
+
+def test_normalize_row_invariants_property():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=2, max_size=40), st.data())
+    def check(values, data):
+        g = np.array(values)
+        F = len(g)
+        start = data.draw(st.integers(0, F - 1))
+        stop = data.draw(st.integers(start + 1, F))
+        frame = data.draw(st.integers(start, stop - 1))
+        reps = data.draw(st.booleans())
+        w = normalize_row(g, frame, (start, stop), repetitions=reps)
+        assert w[frame] == 1.0
+        assert np.all((w >= 0) & (w <= 1))
+        assert np.all(w[:start] == 0) and np.all(w[stop:] == 0)
+        seg = g[start:stop]
+        if reps and np.ptp(seg) > 0 and g[frame] > seg.min():
+            assert w[start:stop].min() == 0.0        # 0 at the most dissimilar frame of the range
+            # order-preserving below the frame's value: a larger g never gets a smaller weight
+            below = np.flatnonzero((g <= g[frame]) & (np.arange(F) >= start) & (np.arange(F) < stop))
+            o = below[np.argsort(g[below], kind="stable")]
+            assert np.all(np.diff(w[o]) >= -1e-15)   # rounding of (g - min) / den only
+
+    check()
