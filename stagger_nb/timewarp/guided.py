@@ -187,7 +187,7 @@ def _coarse_band(tables: WarpTables, m: int, keys, factor: int, band: float | No
     dt_out = (m - 1) / (m_c - 1)                     # coarse output spacing, output frames
     fx = np.linspace(0.0, n - 1, n_c)
     Xc = np.stack([np.interp(fx, np.arange(n), col) for col in tables.X.T], axis=1)
-    if r - 2 * np.ceil(dt_out) < tables.k * max(1, int(dt_out // 2)):
+    if r - 2 * np.ceil(dt_out) < tables.k:
         return None
     ckeys = sorted({(int(round(q / dt_out)), int(round(y / dt_in))) for q, y in keys})
     try:
@@ -195,8 +195,7 @@ def _coarse_band(tables: WarpTables, m: int, keys, factor: int, band: float | No
     except ValueError:
         return None
     wp, wv, wa = tables.weights  # coarse differences span dt_out output frames: rescale to keep the units
-    g = max(1, int(dt_out // 2))                     # reference frames every dt_out / 2: cheap, still dense
-    Sc = knn_scores(Xc, tables.R[::g], s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2), ref_step=dt_out / g)
+    Sc = knn_scores(Xc, tables.R, s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2), ref_step=dt_out)
     fc, cost_c = constrained_dp(Sc, m_c, keys=ckeys)
     if not np.isfinite(cost_c):
         return None
