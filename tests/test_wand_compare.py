@@ -63,10 +63,10 @@ def test_normalize_distance():
 
 
 # Figure 3b, measured on the normalised curves (0 at the frame, 1 at the farthest frame) with defaults:
-# second difference d[i-1] - 2 d[i] + d[i+1] at the edited frame
-#   xia_angry_run   i=10: Green 0.0023, ISOMAP 0.0198, diffusion(10 steps) 0.0035
-#                   i=20: Green 0.0047, ISOMAP 0.0322, diffusion 0.0334
-#   xia_neutral     i=50: 0.0054 / 0.0490 / 0.1079;  i=100: 0.0138 / 0.0605 / 0.1009;  i=150: 0.0014 / 0.0369 / 0.0149
+# second difference d[i-1] - 2 d[i] + d[i+1] at the edited frame, Green / ISOMAP (k=8) / diffusion (10 steps)
+#   xia_angry_run   i=10: 0.0023 / 0.0099 / 0.0035      i=20: 0.0047 / 0.0161 / 0.0334
+#   xia_neutral     i=50: 0.0054 / 0.0245 / 0.1079      i=100: 0.0138 / 0.0306 / 0.1009 (ratio 0.45: the
+#                   closest case)                       i=150: 0.0014 / 0.0184 / 0.0149
 # (Eq. 3 with its self term would give 0.04-0.08 on angry_run: the spike the default drops.)
 @pytest.mark.shared
 @pytest.mark.parametrize("name,frames", [("xia_angry_run.bvh", (10, 20)), ("xia_neutral_walk.bvh", (50, 100, 150))])
