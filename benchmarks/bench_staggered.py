@@ -25,13 +25,12 @@ sys.path.insert(0, str(REPO))
 from stagger_nb import read_bvh  # noqa: E402
 from stagger_nb.core.motion import concatenate  # noqa: E402
 from stagger_nb.core.kinematics import skeleton_height  # noqa: E402
-from stagger_nb.core.rotations import (quat_angle, quat_bezier, quat_conj, quat_mul, quat_to_rotvec,  # noqa: E402
-                                       rotvec_to_quat)
+from stagger_nb.core.rotations import quat_angle, quat_bezier  # noqa: E402
 from stagger_nb import staggered  # noqa: E402
 from stagger_nb.staggered.extraction import locate_poses  # noqa: E402
 from stagger_nb.staggered.fitting import (fit_rotation_tangents_nelder_mead, fit_staggered,  # noqa: E402
-                                          sample_segments)
-from stagger_nb.staggered.representation import knot_times  # noqa: E402
+                                          sample_segments, velocity_jumps)
+from stagger_nb.staggered.representation import evaluate_reference, knot_times  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "mocap"
 
@@ -56,35 +55,12 @@ def long_clip():
     return concatenate([m] * reps).slice(0, 2752), "cmu_131_01 looped to 2752 frames (cmu_01_01 absent)"
 
 
-def naive_evaluate(sm, times):
-    """The most straightforward evaluation: per joint, find the segment, core quat_bezier, exp, multiply."""
-    J = sm.num_joints
-    T = knot_times(sm)
-    out = np.empty((times.size, J, 4))
-    for i in range(J):
-        seg = np.clip(np.searchsorted(T[:, i], times, side="right") - 1, 0, sm.num_poses - 2)
-        a, b = T[seg, i], T[seg + 1, i]
-        tn = np.clip((times - a) / (b - a), 0, 1)
-        s = quat_bezier(sm.values[seg, i], sm.tangents[seg, i, 0], sm.tangents[seg, i, 1], sm.values[seg + 1, i], tn)
-        n = sm.displacement_counts[seg, i]
-        u = tn * (n - 1)
-        m0 = np.minimum(np.floor(u).astype(int), n - 2)
-        f = (u - m0)[:, None]
-        d = sm.displacements[seg, i, m0] * (1 - f) + sm.displacements[seg, i, m0 + 1] * f
-        out[:, i] = quat_mul(s, rotvec_to_quat(d))
-    return out
-
-
 def tangent_jumps(sm):
-    """Angular-velocity jump at each interior join of the spline (before displacement), relative to the
-    larger of the two sides: |w_out - w_in| / max(|w_in|, |w_out|), per (join, joint) with motion."""
-    d = np.diff(knot_times(sm), axis=0)                                        # (K-1, J) seconds
-    v, tg = sm.values, sm.tangents
-    w_in = 3 * quat_to_rotvec(quat_mul(quat_conj(tg[:-1, :, 1]), v[1:-1])) / d[:-1, :, None]
-    w_out = 3 * quat_to_rotvec(quat_mul(quat_conj(v[1:-1]), tg[1:, :, 0])) / d[1:, :, None]
-    mag = np.maximum(np.linalg.norm(w_in, axis=-1), np.linalg.norm(w_out, axis=-1))
-    ok = mag > 0.1                                                             # rad/s: ignore still joints
-    return np.linalg.norm(w_out - w_in, axis=-1)[ok] / mag[ok]
+    """Relative angular-velocity jumps |w_out - w_in| / max(|w_in|, |w_out|) at interior joins, for
+    (join, joint) pairs moving faster than 0.1 rad/s."""
+    jump, speed = velocity_jumps(sm)
+    ok = speed > 0.1
+    return jump[ok] / speed[ok]
 
 
 def foot_event_distance(sm, m):
@@ -158,9 +134,9 @@ def main(quick=False):
     sm9 = staggered.extract(m9)
     ts = m9.times
     t_ev, t_ev_med = best(lambda: staggered.evaluate(sm9), 30)
-    t_naive, _ = best(lambda: naive_evaluate(sm9, ts), 3)
+    t_naive, _ = best(lambda: evaluate_reference(sm9, ts), 3)
     t_sample, _ = best(lambda: m9.sample(np.arange(900) * 0.999), 30)
-    diff = quat_angle(naive_evaluate(sm9, ts), staggered.evaluate(sm9).local_quats).max()
+    diff = quat_angle(evaluate_reference(sm9, ts), staggered.evaluate(sm9).local_quats).max()
     print(f"evaluate() 900 frames x {J} joints, K = {sm9.num_poses}: {1e3 * t_ev:.2f} ms (median "
           f"{1e3 * t_ev_med:.2f} ms) [target <= 10 ms]")
     print(f"  baselines: naive per-joint core.quat_bezier {1e3 * t_naive:.1f} ms (ratio {t_naive / t_ev:.1f}x, "

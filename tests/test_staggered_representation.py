@@ -12,8 +12,9 @@ from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
 from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
 from stagger_nb.staggered.fitting import (fit_rotation_tangents, fit_rotation_tangents_nelder_mead,
-                                          fit_staggered, fit_translation_tangents)
-from stagger_nb.staggered.representation import bezier_cubic, evaluate_arrays, rotation_spline
+                                          fit_staggered, fit_translation_tangents, velocity_jumps)
+from stagger_nb.staggered.representation import (bezier_cubic, evaluate_arrays, evaluate_reference,
+                                                  rotation_spline)
 
 CLIPS = ["bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
          "pymo_walk_turnaround.bvh", "xia_angry_run.bvh", "xia_neutral_walk.bvh"]
@@ -199,24 +200,13 @@ def test_fit_staggered_validates_arguments(extracted):
 
 # -- C1 continuity --------------------------------------------------------------------------------
 
-def _velocity_jumps(sm):
-    """|w_out - w_in| (rad/s) at every interior join: body angular velocities of the two spline ends."""
-    from stagger_nb.core.rotations import quat_conj, quat_to_rotvec
-    d = np.diff(sm.knot_times(), axis=0)[..., None]
-    v, tg = sm.values, sm.tangents
-    w_in = 3 * quat_to_rotvec(quat_mul(quat_conj(tg[:-1, :, 1]), v[1:-1])) / d[:-1]
-    w_out = 3 * quat_to_rotvec(quat_mul(quat_conj(v[1:-1]), tg[1:, :, 0])) / d[1:]
-    return np.linalg.norm(w_out - w_in, axis=-1), np.maximum(np.linalg.norm(w_in, axis=-1),
-                                                             np.linalg.norm(w_out, axis=-1))
-
-
 def test_default_fit_is_c1_and_c0_is_not(extracted):
     m, sm = extracted("xia_neutral_walk.bvh")
     assert sm.metadata["fit"]["continuity"] == "C1"
-    jump, mag = _velocity_jumps(sm)
+    jump, mag = velocity_jumps(sm)
     assert jump.max() < 1e-9 * max(1.0, mag.max())       # equal by construction: rounding only
     c0 = fit_staggered(m, sm.pose_times, sm.refinements, sm.root_refinements, continuity="C0")
-    jump0, mag0 = _velocity_jumps(c0)
+    jump0, mag0 = velocity_jumps(c0)
     assert np.median(jump0[mag0 > 0.1] / mag0[mag0 > 0.1]) > 0.1   # independent segments do jump
     # C0 has the smaller residual (it is the unconstrained optimum); both reconstruct exactly
     assert c0.metadata["fit"]["mean_residual_rad"] < sm.metadata["fit"]["mean_residual_rad"]
@@ -266,26 +256,6 @@ def test_reconstruction_on_cmu_01_01():
     assert np.abs(sm.refinements).max() <= 0.25 + 1e-12
 
 
-def _naive_evaluate(sm, times):
-    """evaluate() in the most straightforward manner: per joint, the segment by searchsorted, core
-    quat_bezier, linear rotation-vector displacement, quat_mul."""
-    J = sm.num_joints
-    T = np.maximum.accumulate(sm.knot_times(), axis=0)
-    out = np.empty((times.size, J, 4))
-    for i in range(J):
-        seg = np.clip(np.searchsorted(T[:, i], times, side="right") - 1, 0, sm.num_poses - 2)
-        a, b = T[seg, i], T[seg + 1, i]
-        tn = np.clip((times - a) / (b - a), 0, 1)
-        s = quat_bezier(sm.values[seg, i], sm.tangents[seg, i, 0], sm.tangents[seg, i, 1], sm.values[seg + 1, i], tn)
-        n = sm.displacement_counts[seg, i]
-        u = tn * (n - 1)
-        m0 = np.minimum(np.floor(u).astype(int), n - 2)
-        f = (u - m0)[:, None]
-        d = sm.displacements[seg, i, m0] * (1 - f) + sm.displacements[seg, i, m0 + 1] * f
-        out[:, i] = quat_mul(s, rotvec_to_quat(d))
-    return out
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_evaluate_matches_naive_reference_after_random_edits(extracted, seed):
     m, sm = extracted("xia_angry_run.bvh")
@@ -298,7 +268,7 @@ def test_evaluate_matches_naive_reference_after_random_edits(extracted, seed):
                                  pose_times=sm.pose_times * rng.uniform(0.8, 1.2))
     times = np.sort(rng.uniform(-0.05, edited.pose_times[-1] + 0.05, 300))
     got = staggered.evaluate(edited, times).local_quats
-    want = _naive_evaluate(edited, times)
+    want = evaluate_reference(edited, times)
     # same formulas, different arithmetic (polynomial sine, component-first slerp): 1e-9 rad is far
     # below anything visible and far above the ~1e-15 rounding seen in practice
     assert quat_angle(got, want).max() < 1e-9

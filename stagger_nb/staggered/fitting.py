@@ -25,7 +25,7 @@ from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, qu
 from . import _kernels as K
 from .representation import StaggeredMotion, bezier_cubic, rotation_spline
 
-__all__ = ["fit_staggered", "match_tangents", "match_translation_tangents", "fit_rotation_tangents_c1",
+__all__ = ["fit_staggered", "velocity_jumps", "match_tangents", "match_translation_tangents", "fit_rotation_tangents_c1",
            "velocities_from_tangents", "fit_rotation_tangents", "fit_translation_tangents",
            "fit_rotation_tangents_nelder_mead", "sample_segments", "rotation_residuals"]
 
@@ -401,6 +401,22 @@ def velocities_from_tangents(values, tangents, knots):
     a2, b2 = d[:-1] ** 2, d[1:] ** 2
     om[1:-1] = (a2 * w_in[:-1] + b2 * w_out[1:]) / (a2 + b2)
     return om
+
+
+def velocity_jumps(sm: StaggeredMotion):
+    """Angular-velocity jump of the splines (before displacement) at every interior knot.
+
+    Returns ``jump, speed`` of shape (K - 2, J): ``|w_out - w_in|`` and ``max(|w_in|, |w_out|)`` in rad/s,
+    with the body angular velocities ``w_in = 3 log(q̂3_{k-1}^-1 v_k) / Δ_{k-1}``,
+    ``w_out = 3 log(v_k^-1 q̂2_k) / Δ_k``. Zero jumps mean C1 splines.
+    """
+    d = np.diff(sm.pose_times[:, None] + sm.refinements, axis=0)[..., None]
+    v, tg = sm.values, sm.tangents
+    sh = v[1:-1].shape[:-1] + (3,)
+    w_in = 3.0 * _rotvec_between(tg[:-1, :, 1].reshape(-1, 4), v[1:-1].reshape(-1, 4)).reshape(sh) / d[:-1]
+    w_out = 3.0 * _rotvec_between(v[1:-1].reshape(-1, 4), tg[1:, :, 0].reshape(-1, 4)).reshape(sh) / d[1:]
+    return (np.linalg.norm(w_out - w_in, axis=-1),
+            np.maximum(np.linalg.norm(w_in, axis=-1), np.linalg.norm(w_out, axis=-1)))
 
 
 def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None, *,

@@ -25,7 +25,7 @@ from ..core.skeleton import Skeleton
 from . import _kernels as K
 
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
-           "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic"]
+           "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference"]
 
 
 def _ro(a, dtype=float) -> np.ndarray:
@@ -352,6 +352,29 @@ def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     p = translation_spline(sm.root_values[rseg], rt[:, 0], rt[:, 1], sm.root_values[rseg + 1], rtn)
     p = p + displacement_at(sm.root_displacements[rseg], sm.root_displacement_counts[rseg], rtn)
     return q, p
+
+
+def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
+    """:func:`evaluate_arrays`' rotations computed in the most straightforward manner (per joint: segment by
+    searchsorted, :func:`~stagger_nb.core.rotations.quat_bezier`, linear rotation-vector displacement,
+    ``quat_mul``). Slow; a reference for tests and benchmarks. Returns ``(N, J, 4)``."""
+    from ..core.rotations import quat_bezier, quat_mul, rotvec_to_quat
+    times = np.asarray(times, dtype=float).reshape(-1)
+    J = sm.num_joints
+    T = np.maximum.accumulate(knot_times(sm), axis=0)
+    out = np.empty((times.size, J, 4))
+    for i in range(J):
+        seg = np.clip(np.searchsorted(T[:, i], times, side="right") - 1, 0, sm.num_poses - 2)
+        a, b = T[seg, i], T[seg + 1, i]
+        tn = np.clip((times - a) / np.where(b > a, b - a, 1.0), 0, 1)
+        s = quat_bezier(sm.values[seg, i], sm.tangents[seg, i, 0], sm.tangents[seg, i, 1], sm.values[seg + 1, i], tn)
+        n = sm.displacement_counts[seg, i]
+        u = tn * (n - 1)
+        m0 = np.minimum(np.floor(u).astype(int), n - 2)
+        f = (u - m0)[:, None]
+        d = sm.displacements[seg, i, m0] * (1 - f) + sm.displacements[seg, i, m0 + 1] * f
+        out[:, i] = quat_mul(s, rotvec_to_quat(d))
+    return out
 
 
 def evaluate(sm: StaggeredMotion, times=None) -> Motion:
