@@ -4,8 +4,10 @@
 region of the timeline": ``w_j = clip((g_j - min g) / (g_i - min g), 0, 1)`` over the frame range, with
 ``min`` taken over the range, so ``w = 1`` at the edited frame ``i`` and ``0`` at the most dissimilar
 frame of the range; frames outside the range get 0 (a constant row, e.g. a static clip, gives 1 on the
-whole range).  The clip matters only where a truncated row
-peaks slightly off its frame (§4.2's "offset of 2-3 frames"); such frames get weight 1.  The normalised
+whole range).  The clip matters where a row
+peaks off its frame: a few frames off (§4.2's "offset of 2-3 frames", from truncating Eq. 3 and dropping
+its self term), or at a repetition of the pose in a denser part of the clip (seen on bandai_walk and CMU
+131_01 / 01_01 for some frames); such frames get weight 1, i.e. the full edit.  The normalised
 pose distance of Figure 1 is ``1 - w``.
 
 "The artist ... can choose to include such repetition or discard it": with ``repetitions=False`` the range
