@@ -79,3 +79,19 @@ def test_greens_falloff_is_rounded_where_isomap_has_a_corner(shared_motion, name
         d2 = lambda d: d[i - 1] - 2 * d[i] + d[i + 1]   # noqa: E731
         # a corner: ISOMAP's one-frame slopes on both sides add up; the Green's curve is flat-bottomed
         assert d2(g) <= 0.5 * d2(iso), (i, d2(g), d2(iso))
+
+
+def test_figure3_curves_overlay():
+    m = cyclic_motion(F=90, period=30, noise=0.01, seed=23)
+    basis = wand.greens_basis(m)
+    c = wand.figure3_curves(m, 40, basis=basis)
+    assert set(c) == {"green", "isomap", "diffusion", "spline"}
+    for name, d in c.items():
+        assert d.shape == (90,) and d[40] == 0.0 and np.all((d >= 0) & (d <= 1)), name
+    assert np.array_equal(c["green"], wand.greens_distance(basis, 40))
+    before, after = wand.falloff_extent(wand.greens_falloff(basis, 40), 40)
+    # the spline reaches 1 exactly where the Green's curve has its valley bottoms
+    assert c["spline"][40 - before] == 1.0 and c["spline"][40 + after] == 1.0
+    assert c["spline"][40 - before + 1] < 1.0 and c["spline"][40 + after - 1] < 1.0
+    # a periodic motion with period 30: the valleys are about half a period away on each side
+    assert 10 <= before <= 20 and 10 <= after <= 20

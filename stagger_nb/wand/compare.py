@@ -12,12 +12,14 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
 from ..core.motion import Motion
-from .falloff import check_frame_range
+from .falloff import check_frame_range, falloff_extent, greens_falloff
+from .greens import GreensBasis, greens_basis
 from .laplacian import (dense_kernel, default_sigma, knn_graph, normalized_adjacency, pairwise_sq_distances,
                         symmetric_edges)
 from .pose_space import pose_vectors
 
-__all__ = ["isomap_distance", "diffusion_distance", "spline_falloff", "smoothstep", "normalize_distance"]
+__all__ = ["isomap_distance", "diffusion_distance", "spline_falloff", "smoothstep", "normalize_distance",
+           "figure3_curves"]
 
 
 def _frame(frame, F: int) -> int:
@@ -110,3 +112,19 @@ def normalize_distance(d: np.ndarray, frame_range=None) -> np.ndarray:
     else:
         out[start:stop] = np.where(np.isfinite(seg), 0.0, 1.0)
     return out
+
+
+def figure3_curves(m: Motion, frame: int, sigma: float | None = None, *, k: int = 8, steps: int = 10,
+                   extent=None, basis: GreensBasis | None = None) -> dict:
+    """The four normalised distance curves of Figure 3, each ``(F,)`` in [0, 1] and 0 at ``frame``:
+    ``"green"`` (1 - the §3.3 falloff), ``"isomap"`` (k neighbours), ``"diffusion"`` (``steps`` steps, the same
+    sigma) and ``"spline"`` (1 - smoothstep falloff; ``extent`` defaults to the Green's valley on each side,
+    :func:`.falloff.falloff_extent`).  Pass ``basis`` to reuse a precomputed Green's basis of ``m``."""
+    if basis is None:
+        basis = greens_basis(m, sigma=sigma)
+    w = greens_falloff(basis, frame)
+    ext = falloff_extent(w, frame) if extent is None else extent
+    return {"green": 1.0 - w,
+            "isomap": normalize_distance(isomap_distance(m, frame, k=k)),
+            "diffusion": normalize_distance(diffusion_distance(m, frame, steps=steps, sigma=basis.sigma)),
+            "spline": 1.0 - spline_falloff(m.num_frames, frame, ext)}

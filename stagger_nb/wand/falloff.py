@@ -25,7 +25,8 @@ import numpy as np
 from ..core.motion import Motion
 from .greens import GreensBasis, greens_basis
 
-__all__ = ["normalize_row", "falloff", "greens_falloff", "greens_distance", "check_frame_range", "VALLEY_RISE"]
+__all__ = ["normalize_row", "falloff", "greens_falloff", "greens_distance", "falloff_extent", "check_frame_range",
+           "VALLEY_RISE"]
 
 VALLEY_RISE = 0.02  # a rise of w by this much (of the [0, 1] scale) past its running minimum ends a valley
 
@@ -90,6 +91,16 @@ def normalize_row(g: np.ndarray, frame: int, frame_range=None, repetitions: bool
         right = _scale(g, frame, frame, hi + 1)   # 0 at the right valley bottom
         w = np.concatenate([left[:frame], right[frame:]])
     return w
+
+
+def falloff_extent(w: np.ndarray, frame: int) -> tuple[int, int]:
+    """Frames ``(before, after)`` from ``frame`` to the valley bottom on each side of a falloff ``w (F,)``
+    (the walk of ``repetitions=False``); at least 1 each, for :func:`.compare.spline_falloff`."""
+    w = np.asarray(w, dtype=float)
+    F = w.shape[0]
+    lo = _valley(w, int(frame), 0, F, -1)
+    hi = _valley(w, int(frame), 0, F, +1)
+    return max(int(frame) - lo, 1), max(hi - int(frame), 1)
 
 
 def greens_falloff(basis: GreensBasis, frame: int, frame_range=None, repetitions: bool = True) -> np.ndarray:
