@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 from conftest import SHARED_CLIPS
 from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
-from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
+from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat
 from stagger_nb.staggered.fitting import (fit_rotation_tangents, fit_rotation_tangents_nelder_mead,
                                           fit_staggered, fit_translation_tangents, velocity_jumps)
 from stagger_nb.staggered.representation import (bezier_cubic, evaluate_arrays, evaluate_reference,
