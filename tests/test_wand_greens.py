@@ -142,3 +142,14 @@ def test_dense_and_sparse_agree_on_a_1000_frame_clip(shared_motion):
     diff = max(np.abs(wand.greens_falloff(bd, f) - wand.greens_falloff(bs, f)).max()
                for f in range(0, m.num_frames, 37))
     assert diff <= 1e-3
+
+
+def test_basis_cache_returns_the_same_object():
+    m = cyclic_motion(F=40, period=13, seed=6)
+    g = wand.pose_graph(m)
+    b1 = g.basis(0.3)
+    assert g.basis(0.3) is b1 and g.basis(0.4) is not b1
+    for s in np.linspace(0.5, 1.5, wand.greens.BASIS_CACHE):
+        g.basis(float(s))
+    assert g.basis(0.3) is not b1                       # evicted after BASIS_CACHE newer values
+    assert np.array_equal(g.basis(0.3).eigenvalues, b1.eigenvalues)  # ... and recomputed identically

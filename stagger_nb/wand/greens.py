@@ -41,12 +41,13 @@ from .laplacian import (CHAIN_FLOOR, KnnGraph, default_sigma, dense_kernel, knn_
                         pairwise_sq_distances, sparse_kernel)
 from .pose_space import pose_vectors
 
-__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL",
+__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "BASIS_CACHE",
            "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
+BASIS_CACHE = 8          # GreensBasis objects each PoseGraph keeps (O(F N) each)
 DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
 # Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
 # (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
@@ -138,16 +139,19 @@ class PoseGraph:
     ----------
     pose_vectors : ndarray, shape (F, D)
     sq_distances : ndarray, shape (F, F), or None (sparse)
-    knn : KnnGraph or None
-        Present on the sparse path; on the dense path a small table (k = 8) backs ``default_sigma``.
+    knn : KnnGraph
+        The sparse kernel's neighbours; on the dense path a small table (k = 8) backs ``default_sigma``.
     method : str
         ``"dense"`` or ``"sparse"``.
+
+    ``basis()`` remembers its last ``BASIS_CACHE`` results (a slider moved back to a value costs nothing).
     """
 
     pose_vectors: np.ndarray
     sq_distances: np.ndarray | None
     knn: KnnGraph
     method: str
+    _cache: dict = field(default_factory=dict, init=False, repr=False)
 
     @property
     def num_frames(self) -> int:
@@ -161,6 +165,16 @@ class PoseGraph:
     def basis(self, sigma: float | None = None, num_eigs: int | None = None, self_term: bool = False,
               normalization: str = "random_walk", chain_floor: float = CHAIN_FLOOR) -> GreensBasis:
         """Eigenpairs for kernel width ``sigma`` (default :attr:`default_sigma`); see :func:`greens_basis`."""
+        key = (None if sigma is None else float(sigma), num_eigs, bool(self_term), normalization, float(chain_floor))
+        hit = self._cache.pop(key, None)
+        if hit is None:
+            hit = self._basis(sigma, num_eigs, self_term, normalization, chain_floor)
+        self._cache[key] = hit                 # most recent last
+        while len(self._cache) > BASIS_CACHE:
+            self._cache.pop(next(iter(self._cache)))
+        return hit
+
+    def _basis(self, sigma, num_eigs, self_term, normalization, chain_floor) -> GreensBasis:
         F = self.num_frames
         if F < 2:
             raise ValueError("the magic wand needs at least 2 frames")
