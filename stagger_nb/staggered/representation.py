@@ -70,7 +70,7 @@ class StaggeredMotion:
         Displacement map ``d_i(t')`` of each segment and joint, sampled on the uniform grid
         ``t'_m = m / (n - 1)``, ``m = 0 .. n - 1`` with ``n = displacement_counts[k, i]``; entries
         ``m >= n`` are padding (zeros). Between grid points the rotation vector is interpolated linearly.
-        ``d = s ⊖ v``-style factor: ``v = quat_mul(s, rotvec_to_quat(d))``.
+        ``d = v ⊖ s`` (§4.1.1), i.e. ``v = quat_mul(s, rotvec_to_quat(d))``; rotation angles up to pi.
     displacement_counts : ndarray, shape (K - 1, J), int >= 2
         Number of valid samples ``n`` of each displacement map (at extraction: source frames spanned + 1,
         so the grid points fall exactly on source frames).
