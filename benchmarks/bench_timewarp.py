@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from stagger_nb import data  # noqa: E402
 from stagger_nb.timewarp.dp import constrained_dp, constrained_dp_loop  # noqa: E402
 from stagger_nb.timewarp.features import pose_features  # noqa: E402
-from stagger_nb.timewarp.guided import prepare_warp, solve_warp  # noqa: E402
+from stagger_nb.timewarp.guided import solve_warp  # noqa: E402
 from stagger_nb.timewarp.objective import knn_scores, knn_scores_loop  # noqa: E402
 
 S = 8
