@@ -140,3 +140,14 @@ def test_reference_too_short_raises():
     X, R = _walks(np.random.default_rng(7), 10, 4, 3)
     with pytest.raises(ValueError, match="reference"):
         knn_scores(X, R, 3, k=3)
+
+
+def test_threads_give_the_same_table_and_report_progress():
+    X, R = _walks(np.random.default_rng(10), 60, 40, 6)
+    seen = []
+    one = knn_scores(X, R, 5, 3, workers=1)
+    two = knn_scores(X, R, 5, 3, workers=2, progress=seen.append)
+    np.testing.assert_array_equal(one, two)            # the same arithmetic per work unit, in any order
+    assert seen[-1] == 1.0 and np.all(np.diff(seen) > 0)
+    with pytest.raises(ValueError, match="workers"):
+        knn_scores(X, R, 5, 3, workers=0)
