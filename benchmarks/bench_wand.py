@@ -10,8 +10,8 @@ Cases
      Baseline: the same dense pseudo-inverse.
   C  5,000 and 20,000 frames (real xia clips resampled at varied speeds and concatenated), sparse path:
      head (pose vectors + kNN), sigma change, row; peak RSS of a fresh child process.  The dense baseline
-     is extrapolated from case B as O(F^3) time and 3 F^2 doubles of memory (running it would need 9.6 GB
-     at 20,000 frames).
+     runs in that process at 5,000 frames (after the sparse figures; skipped by --quick) and is
+     extrapolated from case B at 20,000 frames as O(F^3) time and 3 F^2 doubles (it would need ~9 GB).
 Targets (issue 5): A <= 50 ms, B <= 0.3 s, 20,000 frames <= 10 s and < 2 GB.
 
 BLAS runs single-threaded unless OPENBLAS_NUM_THREADS / OMP_NUM_THREADS are set: the machine's two cores
@@ -158,13 +158,21 @@ def child(F):
     row = time.perf_counter() - t
     cpu = time.process_time() - c0
     rss = _peak_rss_mb()
+    base = None
+    if "--baseline" in sys.argv:   # after the sparse figures, so its memory does not count there
+        gd = wand.pose_graph(m, method="dense")
+        t = time.perf_counter()
+        _baseline_pinv(gd, g.default_sigma, F // 3)
+        base = time.perf_counter() - t
     print(json.dumps(dict(F=F, head=head, eig=eig, row=row, cpu=cpu, rss_mb=rss, rss_before_mb=rss0,
-                          N=b.num_eigs, k=g.knn.k, null_dim=b.null_dim)))
+                          N=b.num_eigs, k=g.knn.k, null_dim=b.null_dim, base=base,
+                          base_rss_mb=_peak_rss_mb() if base is not None else None)))
 
 
-def case_c(per_f3):
+def case_c(per_f3, quick):
     for F in (5000, 20000):
-        out = subprocess.run([sys.executable, __file__, "--child", str(F)], capture_output=True, text=True,
+        extra = ["--baseline"] if (F == 5000 and not quick) else []
+        out = subprocess.run([sys.executable, __file__, "--child", str(F)] + extra, capture_output=True, text=True,
                              env=os.environ.copy())
         if out.returncode != 0:
             print(f"C  {F} frames: FAILED\n{out.stderr[-2000:]}")
@@ -174,7 +182,10 @@ def case_c(per_f3):
         print(f"C  {F} frames sparse (N={r['N']}, k={r['k']}): head {r['head']:.2f} s, eigenpairs {r['eig']:.2f} s, "
               f"row {r['row'] * 1e3:.1f} ms, total {total:.2f} s wall ({r['cpu']:.2f} s CPU, k-d tree on 2 threads); peak RSS {r['rss_mb']:.0f} MB "
               f"(clip loaded: {r['rss_before_mb']:.0f} MB)" + ("  (target <= 10 s, < 2 GB)" if F == 20000 else ""))
-        if per_f3 is not None:
+        if r.get("base") is not None:
+            print(f"   dense pinv baseline, same process: {r['base']:.1f} s, peak RSS {r['base_rss_mb']:.0f} MB   "
+                  f"ratio baseline/ours {r['base'] / total:.0f}x (time)")
+        elif per_f3 is not None:
             base = per_f3 * F ** 3
             print(f"   dense pinv baseline, extrapolated O(F^3): {base:.0f} s and {3 * 8 * F * F / 2 ** 30:.1f} GB"
                   f"   ratio baseline/ours {base / total:.0f}x (time)")
@@ -189,7 +200,7 @@ def main():
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     per_f3 = case_a()
     per_f3_b = case_b(quick)
-    case_c(per_f3_b if per_f3_b is not None else (None if quick else per_f3))
+    case_c(per_f3_b if per_f3_b is not None else (None if quick else per_f3), quick)
 
 
 if __name__ == "__main__":
