@@ -120,3 +120,16 @@ def test_normalize_row_invariants_property():
             assert np.all(np.diff(w[o]) >= -1e-15)   # rounding of (g - min) / den only
 
     check()
+
+
+def test_temporal_term_suppresses_repetitions():
+    # §3.1: "it may be desirable to include the temporal distance between poses": with a strong temporal
+    # term the later cycles are far away in the augmented pose space, and the falloff no longer rises
+    # again there; it decays along the timeline like the Green's function of a chain (linearly, so not
+    # to 0 at once: w[60] = 0.36, w[100] = 0.04 measured, vs 1.00 and 1.00 without the term)
+    m = cyclic_motion(F=120, period=40, noise=0.01, seed=7)
+    w0 = wand.falloff(m, 20)
+    wt = wand.falloff(m, 20, time_weight=5.0)   # 5 units per second: one period (1.33 s) = 6.7 units
+    assert w0[60] > 0.8 and w0[100] > 0.8
+    assert wt[20] == 1.0 and wt[60] < 0.5 and wt[100] < 0.1
+    assert np.all(np.diff(wt[25:]) <= 1e-3)     # no second peak after the edited frame (rounding slack)
