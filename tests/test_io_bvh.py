@@ -8,17 +8,17 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
-from stagger_nb.core.rotations import quat_rotate
+from stagger_nb.core.rotations import quat_angle, quat_rotate
 from stagger_nb.io._common import euler_deg_to_quat
 from stagger_nb.io._numformat import format_table
 from stagger_nb.io._numparse import parse_table
-from stagger_nb.io.bvh import BVHError, _parse_motion_lines, format_bvh, parse_bvh
+from stagger_nb.io.bvh import BVHError, _normalise_breaks, _parse_motion_lines, format_bvh, parse_bvh
 
 from conftest import SHARED_CLIPS, shared_clip_path
 
@@ -220,6 +220,12 @@ def test_real_clip_round_trip(name, shared_motion, tmp_path):
     m2 = sn.read_bvh(out)
     assert m2.skeleton.names == m.skeleton.names
     assert m2.skeleton.channels == m.skeleton.channels  # each joint's channel order kept
+    # both the original and the written file go through the vectorised parser, not the slow fallback
+    C = sum(len(c) for c in m.skeleton.channels)
+    for path in (shared_clip_path(name), out):
+        raw = _normalise_breaks(path.read_bytes())
+        block = raw[raw.index(b"\n", raw.upper().index(b"FRAME TIME")) + 1:]
+        assert parse_table(block, m.num_frames, C) is not None
     assert m2.skeleton.end_sites.keys() == m.skeleton.end_sites.keys()
     for j, e in m.skeleton.end_sites.items():
         np.testing.assert_allclose(m2.skeleton.end_sites[j], e, rtol=1e-8, atol=1e-12)  # 9 digits kept
@@ -258,9 +264,9 @@ def _render(values, fmts, seps):
     return ("\n".join(out) + "\n").encode()
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.integers(1, 6), st.integers(1, 7), st.data())
-def test_vectorised_parser_is_bit_identical_to_float(rows, cols, data):
+def test_vectorised_parser_is_bit_identical_to_float(route, rows, cols, data):
     finite = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e30, max_value=1e30) | st.sampled_from(
         [0.0, -0.0, 1e-300, 123456789012345.0, 0.1, -0.5, 5e-324])
     vals = data.draw(st.lists(st.lists(finite, min_size=cols, max_size=cols), min_size=rows, max_size=rows))
@@ -279,6 +285,39 @@ def test_vectorised_parser_is_bit_identical_to_float(rows, cols, data):
                                    b"1 2\n3 1e999\n", b"1 2\n3 \x004\n", b"", b"1 2\n3 e5\n"])
 def test_vectorised_parser_refuses_what_it_cannot_certify(block):
     assert parse_table(block, 2, 2) is None
+
+
+@pytest.fixture(params=["numpy", "pyarrow"])
+def route(request, monkeypatch):
+    """Run a test through the pure-numpy parser and through the optional pyarrow accelerator."""
+    from stagger_nb.io import _numparse
+    if request.param == "numpy":
+        monkeypatch.setattr(_numparse, "_ARROW", None)
+    elif _numparse._ARROW is None:
+        pytest.skip("pyarrow is not installed (optional accelerator, in the 'bench' extra)")
+    return request.param
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize("name", SHARED_CLIPS or ["xia_angry_run.bvh"])
+def test_both_routes_read_real_clips_bit_identically(name, route):
+    path = shared_clip_path(name)
+    raw = _normalise_breaks(path.read_bytes())
+    block = raw[raw.index(b"\n", raw.upper().index(b"FRAME TIME")) + 1:]
+    m = sn.read_bvh(path)
+    C = sum(len(c) for c in m.skeleton.channels)
+    got = parse_table(block, m.num_frames, C)
+    assert got is not None
+    assert np.array_equal(got, np.array(block.split(), dtype=float).reshape(m.num_frames, C))
+
+
+@pytest.mark.parametrize("block,expect", [
+    (b"1 2\n3 4\n", [[1, 2], [3, 4]]), (b"1 2 \n3 4 \n", [[1, 2], [3, 4]]), (b"1  2\n3\t4\n", [[1, 2], [3, 4]]),
+    (b" 1 2\n3 4\n\n\n", [[1, 2], [3, 4]]), (b"1 2\n3 \"4\"\n", None), (b"1 2\n3 nan\n", None),
+    (b"1 2\n\n3 4\n", None), (b"1 2\n3 4 5\n", None), (b"1 2\n3 1_0\n", None), (b"1 2\n3 0x1\n", None)])
+def test_both_routes_accept_and_refuse_the_same_blocks(block, expect, route):
+    got = parse_table(block, 2, 2)
+    assert (got is None) if expect is None else np.array_equal(got, expect)
 
 
 def test_vectorised_parser_takes_long_tokens_through_float():
@@ -361,7 +400,7 @@ def test_writer_handles_deep_hierarchies():
     m2 = parse_bvh(format_bvh(m))
     assert m2.skeleton == m.skeleton
     # 6 decimals of a degree: each angle within 5e-7 deg = 8.7e-9 rad, so the rotation within 3e-8 rad
-    assert np.max(2 * np.arccos(np.clip(np.abs(np.sum(m2.local_quats * m.local_quats, -1)), 0, 1))) < 3e-8
+    assert np.max(quat_angle(m2.local_quats, m.local_quats)) < 3e-8
 
 
 def test_written_file_gets_ordinary_permissions(tmp_path):

@@ -55,29 +55,54 @@ def finite_number(tok: str, what: str, source: str, line: int, error: type[Forma
     return v
 
 
+def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
+    """``sin`` and ``cos`` of half of each angle (degrees), through one tangent: with ``t = tan(a/4)``,
+    ``sin(a/2) = 2t / (1 + t^2)`` and ``cos(a/2) = (1 - t^2) / (1 + t^2)``. numpy vectorises ``tan`` but
+    evaluates float64 ``sin``/``cos`` one value at a time (~15x slower here). Angles are first wrapped
+    to [-180, 180] so ``|t| <= 1``; wrapping by 360 degrees negates the half-angle pair, i.e. the
+    quaternion, which is the same rotation."""
+    # in place (``angles_deg`` is overwritten) on two buffers: every fresh large temporary costs page
+    # faults, which are expensive in VMs
+    a = angles_deg
+    tmp = np.divide(a, 360.0)
+    np.rint(tmp, out=tmp)
+    tmp *= 360.0
+    a -= tmp
+    a *= np.pi / 720.0  # a/4 in radians
+    t = np.tan(a, out=a)
+    den = np.multiply(t, t, out=tmp)
+    den += 1.0  # 1 + t^2
+    np.divide(t, den, out=t)
+    t *= 2.0  # sin(a/2) = 2t / (1 + t^2)
+    np.divide(2.0, den, out=den)
+    den -= 1.0  # cos(a/2) = (1 - t^2) / (1 + t^2) = 2 / (1 + t^2) - 1
+    return t, den
+
+
 def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
     ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
     (x, y, z, w). Three distinct axes use the closed-form product of the elementary quaternions
     (scipy's ``from_euler`` is ~20x slower here); agrees with ``Rotation.from_euler(axes.upper(), ...)``
     (checked in tests/test_io_bvh.py)."""
-    a = np.radians(np.asarray(angles_deg, dtype=float))
-    a *= 0.5
-    s, c = np.sin(a), np.cos(a)
     axes = axes.upper()
     idx = ["XYZ".index(ax) for ax in axes]
     if len(axes) == 3 and len(set(axes)) == 3:
         i, j, k = idx
         eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
-        s1, s2, s3 = s[..., 0], s[..., 1], s[..., 2]
-        c1, c2, c3 = c[..., 0], c[..., 1], c[..., 2]
+        # angle index first, so each component below is a contiguous array
+        a = np.array(np.moveaxis(np.asarray(angles_deg, dtype=float), -1, 0), order="C")
+        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
         c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-        q = np.empty(a.shape[:-1] + (4,))
+        q = np.empty(a.shape[1:] + (4,))
         q[..., i] = s1c2 * c3 + eps * c1s2 * s3
         q[..., j] = c1s2 * c3 - eps * s1c2 * s3
         q[..., k] = c1c2 * s3 + eps * s1s2 * c3
         q[..., 3] = c1c2 * c3 - eps * s1s2 * s3
         return q
+    a = np.radians(np.asarray(angles_deg, dtype=float))
+    a *= 0.5
+    s, c = np.sin(a), np.cos(a)
     q = np.zeros(a.shape[:-1] + (4,))
     q[..., 3] = 1.0
     for n, k in enumerate(idx):

@@ -167,6 +167,42 @@ def _plain(b, block, starts, ends):
     return neg, body, nfrac, has_dot, None, v
 
 
+try:  # optional accelerator: pyarrow's C++ CSV reader (not a dependency; used when installed)
+    import pyarrow as _ARROW
+    import pyarrow.csv as _ARROW_CSV
+except ImportError:  # pragma: no cover - depends on the environment
+    _ARROW = _ARROW_CSV = None
+
+
+def _parse_with_arrow(block: bytes, rows: int, cols: int) -> np.ndarray | None:
+    """The table through pyarrow's CSV reader (single spaces between values; a trailing space per line is
+    tolerated); ``None`` (use the numpy route) for anything else. Its float parsing rounds correctly
+    (fast_float), so the values equal ``float``'s (checked in tests/test_io_bvh.py)."""
+    try:
+        t = _ARROW_CSV.read_csv(
+            _ARROW.py_buffer(block),
+            read_options=_ARROW_CSV.ReadOptions(autogenerate_column_names=True),
+            parse_options=_ARROW_CSV.ParseOptions(delimiter=" ", quote_char=False, ignore_empty_lines=False),
+            convert_options=_ARROW_CSV.ConvertOptions(
+                column_types={f"f{k}": _ARROW.float64() for k in range(cols)}, strings_can_be_null=True,
+                null_values=[""]))
+    except Exception:  # noqa: BLE001 - any refusal means "not certified": the numpy route decides
+        return None
+    if t.num_rows != rows or t.num_columns not in (cols, cols + 1):
+        return None
+    if t.num_columns == cols + 1 and t.column(cols).null_count != rows:  # only a trailing space allowed
+        return None
+    out = np.empty((rows, cols))
+    for k in range(cols):
+        c = t.column(k)
+        if c.null_count or c.type != _ARROW.float64():
+            return None
+        out[:, k] = c.to_numpy()
+    if not np.all(np.isfinite(out)):
+        return None
+    return out
+
+
 _CHUNK_BYTES = 1 << 17  # work on ~128 KB of text at a time: the temporaries then stay in cache
 
 
@@ -178,6 +214,10 @@ def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     after the other (the many array passes are memory-bound; in cache they are several times faster)."""
     if rows < 1 or cols < 1 or not block:
         return None
+    if _ARROW is not None:
+        table = _parse_with_arrow(block, rows, cols)
+        if table is not None:
+            return table
     per_row = max(1, len(block) // rows)
     step = max(1, _CHUNK_BYTES // per_row)  # rows per piece
     if step >= rows:
