@@ -50,11 +50,11 @@ def _terms_for(xmax: float) -> int:
 
 
 def sin_poly(x: np.ndarray, out: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """``out = sin(x)`` for ``x`` in [0, pi/2] (error < 3e-16); ``z`` is scratch of the same shape.
+    """``out = sin(x)`` for ``x`` in [-pi/2, pi/2] (error < 3e-16); ``z`` is scratch of the same shape.
 
-    A Horner scheme on ``x²`` whose degree adapts to ``max(x)``: small arcs (the usual case between a
+    A Horner scheme on ``x²`` whose degree adapts to ``max |x|``: small arcs (the usual case between a
     segment's control quaternions) need 5-7 terms instead of 10."""
-    n = _terms_for(float(x.max())) if x.size else 1
+    n = _terms_for(max(float(x.max()), -float(x.min()))) if x.size else 1
     np.multiply(x, x, out=z)
     out.fill(_TAYLOR[n - 1])
     for c in _TAYLOR[n - 2::-1]:
@@ -135,19 +135,22 @@ def bezier_into(c0, c1, c2, c3, t, arcs, work: Workspace = WORK, tag: str = "") 
 
 def qexp_into(v, out, h, tmp):
     """``out (4, N) = exp(v)`` for half rotation vectors ``v (3, N)`` (``axis * angle / 2``) with
-    ``|v| <= pi/2`` (rotations up to a half turn, as stored displacements are). ``h, tmp``: (N,) scratch."""
+    ``|v| <= pi`` (rotations up to a full turn: displacement maps are unwrapped, see ``fitting``).
+    ``h, tmp``: (N,) scratch."""
     np.multiply(v[0], v[0], out=h)
     for r in (1, 2):
         np.multiply(v[r], v[r], out=tmp)
         h += tmp
     np.sqrt(h, out=h)
-    np.minimum(h, np.pi / 2, out=h)
+    np.minimum(h, np.pi, out=h)
     np.subtract(np.pi / 2, h, out=out[0])
-    sin_poly(out[0], out[3], tmp)                    # cos h = sin(pi/2 - h)
+    sin_poly(out[0], out[3], tmp)                    # cos h = sin(pi/2 - h), argument in [-pi/2, pi/2]
     sinc = out[0]
-    sin_poly(h, sinc, tmp)
+    np.subtract(np.pi, h, out=tmp)
+    np.minimum(tmp, h, out=sinc)                     # sin h = sin(min(h, pi - h))
+    sin_poly(sinc, out[1], tmp)
     np.maximum(h, 1e-6, out=tmp)
-    sinc /= tmp                                      # sin(h)/h; below 1e-6 use the Taylor value
+    np.divide(out[1], tmp, out=sinc)                 # sin(h)/h; below 1e-6 use the Taylor value
     small = h < 1e-6
     if small.any():
         sinc[small] = 1.0 - h[small] ** 2 / 6.0

@@ -20,12 +20,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import (quat_conj, quat_exp, quat_log, quat_mul, quat_normalize,
+from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
                               quat_bezier, slerp)
 from . import _kernels as K
-from .representation import StaggeredMotion, bezier_cubic, rotation_spline
+from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
+                             rotation_spline)
 
-__all__ = ["fit_staggered", "velocity_jumps", "match_tangents", "match_translation_tangents", "fit_rotation_tangents_c1",
+__all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tangents", "match_translation_tangents", "fit_rotation_tangents_c1",
            "velocities_from_tangents", "fit_rotation_tangents", "fit_translation_tangents",
            "fit_rotation_tangents_nelder_mead", "sample_segments", "rotation_residuals"]
 
@@ -36,7 +37,7 @@ _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read 
 
 # -- sampling ----------------------------------------------------------------------------------------
 
-def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.0):
+def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.0, oversample: int = 1):
     """Uniform ``t'`` sample grids of every segment of every control variable.
 
     Parameters
@@ -45,6 +46,7 @@ def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.
     frame_time : seconds between source frames; a segment of length L gets ``round(L / frame_time) + 1``
         samples (>= 2), so knots on source frames put every grid point on a source frame
     start_time : time of the source's frame 0
+    oversample : samples per frame (``round(oversample * L / frame_time) + 1`` per segment)
 
     Returns
     -------
@@ -56,7 +58,7 @@ def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.
     """
     a = knots[:-1].reshape(-1)
     b = knots[1:].reshape(-1)
-    counts = np.maximum(np.rint((b - a) / frame_time).astype(np.int64) + 1, 2)
+    counts = np.maximum(np.rint(oversample * (b - a) / frame_time).astype(np.int64) + 1, 2)
     pair = np.repeat(np.arange(counts.size), counts)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     m = np.arange(pair.size) - starts[pair]
@@ -419,16 +421,51 @@ def velocity_jumps(sm: StaggeredMotion):
             np.maximum(np.linalg.norm(w_in, axis=-1), np.linalg.norm(w_out, axis=-1)))
 
 
-def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None, *,
+def displacement_rotvecs(s, targets, pair):
+    """Displacement samples ``d = v ⊖ s`` as rotation vectors (N, 3), unwrapped along each pair.
+
+    The quaternions ``s^-1 v`` are made sign-continuous along each pair's samples (starting on the
+    ``w >= 0`` side), then mapped by the logarithm without hemisphere folding, so angles run continuously
+    in [0, 2 pi): linear interpolation between neighbouring samples then never jumps across the pi
+    ambiguity (large residuals occur on long merged segments)."""
+    e = quat_mul(quat_conj(s), targets)
+    first = np.concatenate([[True], pair[1:] != pair[:-1]])
+    e[first] = quat_hemisphere(e[first])
+    d = np.sum(e[1:] * e[:-1], axis=1)
+    neg = np.concatenate([[0], np.cumsum((d < 0) & ~first[1:])])
+    start = np.flatnonzero(first)
+    base = np.repeat(neg[start], np.diff(np.concatenate([start, [pair.size]])))
+    e = np.where(((neg - base) % 2 == 1)[:, None], -e, e)
+    return 2.0 * quat_log(e)
+
+
+def _continuous_per_joint(q, joint, seg, m):
+    """Flip signs of samples ``q (N, 4)`` so each joint's samples, taken in time order (segment, then
+    sample index), have non-negative consecutive dot products."""
+    order = np.lexsort((m, seg, joint))
+    seq = q[order]
+    js = joint[order]
+    d = np.sum(seq[1:] * seq[:-1], axis=1)
+    neg = np.concatenate([[0], np.cumsum((d < 0) & (js[1:] == js[:-1]))])
+    start = np.concatenate([[0], np.flatnonzero(np.diff(js)) + 1])
+    base = np.repeat(neg[start], np.diff(np.concatenate([start, [js.size]])))
+    out = np.empty_like(q)
+    out[order] = np.where(((neg - base) % 2 == 1)[:, None], -seq, seq)
+    return out
+
+
+def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
                   pose_probability=None, contacts=(), start_time: float = 0.0, iterations: int = 2,
-                  continuity: str = "C1",
+                  continuity: str = "C1", oversample: int = 1,
                   metadata: dict | None = None) -> StaggeredMotion:
     """Fit splines and displacement maps for given staggered poses (§4.1.1).
 
     Parameters
     ----------
-    source : Motion
-        Dense motion whose frame 0 is at ``start_time`` seconds.
+    source : Motion or StaggeredMotion
+        Dense motion whose frame 0 is at ``start_time`` seconds, or a staggered-pose motion (possibly
+        edited) that is resampled exactly at the new segments' sample times (absolute times; used by
+        :func:`~.extraction.cull` to re-measure splines and displacements over merged segments, §5.1).
     pose_times : (K,) seconds, strictly increasing, inside the source's time span
     refinements : (K, J) seconds; knot times ``pose_times[:, None] + refinements`` strictly increasing
     root_refinements : (K,) seconds for the root translation (default zeros)
@@ -440,6 +477,7 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
         "C0" fits every segment independently (:func:`fit_rotation_tangents`: smaller residual, velocity
         jumps at joins). Values are continuous either way, and the displacement map absorbs the residual,
         so the reconstruction is exact in both cases.
+    oversample : int >= 1, displacement samples per source frame (1: grid points on source frames)
 
     Returns
     -------
@@ -460,15 +498,36 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
     if not np.all(np.diff(knots, axis=0) > 0) or not np.all(np.diff(pose_times + rr) > 0):
         raise ValueError("fit_staggered: refined knot times must be strictly increasing for every joint")
     ft = source.frame_time
-    lq = source.local_quats
+    from_sm = isinstance(source, StaggeredMotion)
+    if from_sm:                     # resample the representation itself (exact after any edit), §5.1
+        start_time = 0.0
+
+        def rot_at(frames, joints):
+            return evaluate_samples(source, frames * ft, joints)
+
+        def root_at(frames):
+            return root_positions_at(source, frames * ft)
+    else:
+        lq, rp = source.local_quats, source.root_positions
+
+        def rot_at(frames, joints):
+            return _read(lq, frames, joints, quat=True)
+
+        def root_at(frames):
+            return _read(rp, frames, None, quat=False)
 
     # rotations: every (segment, joint) pair at once
-    pair, m, counts, tn, frames = sample_segments(knots, ft, start_time)
+    pair, m, counts, tn, frames = sample_segments(knots, ft, start_time, oversample)
     P = counts.size
     joint = pair % J
-    targets = _read(lq, frames, joint, quat=True)
-    kf = (knots - start_time) / ft
-    values = _read(lq, kf.reshape(-1), np.tile(np.arange(J), K), quat=True).reshape(K, J, 4)
+    targets = rot_at(frames, joint)
+    if from_sm:
+        targets = _continuous_per_joint(targets, joint, pair // J, m)
+        ends = np.concatenate([np.flatnonzero(m == 0), [np.flatnonzero(pair == P - J + j)[-1] for j in range(J)]])
+        values = targets[ends].reshape(K, J, 4)
+    else:
+        kf = (knots - start_time) / ft
+        values = rot_at(kf.reshape(-1), np.tile(np.arange(J), K)).reshape(K, J, 4)
     v0 = values[:-1].reshape(P, 4)
     v3 = values[1:].reshape(P, 4)
     # the first and last sample of each pair are the knots themselves: use them bit-for-bit
@@ -476,6 +535,8 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
     last = m == counts[pair] - 1
     targets[first] = v0[pair[first]]
     targets[last] = v3[pair[last]]
+    if int(oversample) < 1:
+        raise ValueError(f"fit_staggered: oversample must be an integer >= 1, got {oversample!r}")
     if continuity not in ("C0", "C1"):
         raise ValueError(f"fit_staggered: continuity must be 'C0' or 'C1', got {continuity!r}")
     if continuity == "C1":
@@ -485,17 +546,16 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
     else:
         tangents, cost = fit_rotation_tangents(tn, targets, pair, v0, v3, P, iterations)
     s = rotation_spline(v0[pair], tangents[pair, 0], tangents[pair, 1], v3[pair], tn)
-    disp = _rotvec_between(s, targets)
+    disp = displacement_rotvecs(s, targets, pair)
     M = int(counts.max())
     table = np.zeros((P, M, 3))
     table[pair, m] = disp
 
     # root translation
     rk = (pose_times + rr)[:, None]
-    rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time)
-    rp = source.root_positions
-    ry = _read(rp, rframes, None, quat=False)
-    root_values = _read(rp, (rk[:, 0] - start_time) / ft, None, quat=False)
+    rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time, oversample)
+    ry = root_at(rframes)
+    root_values = root_at((rk[:, 0] - start_time) / ft)
     p0, p3 = root_values[:-1], root_values[1:]
     ry[rm == 0] = p0[rpair[rm == 0]]
     ry[rm == rcounts[rpair] - 1] = p3[rpair[rm == rcounts[rpair] - 1]]
@@ -506,13 +566,13 @@ def fit_staggered(source: Motion, pose_times, refinements, root_refinements=None
     rtable = np.zeros((K - 1, int(rcounts.max()), 3))
     rtable[rpair, rm] = ry - rs
 
-    editing = _read(lq, np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K),
-                    quat=True).reshape(K, J, 4)
+    editing = rot_at(np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
     editing = np.where((refinements != 0)[..., None], editing, values)
 
     # passed through on absolute time (a source not starting at 0 s: the caller passes its own)
-    lt = source.local_translations if start_time == 0.0 else None
+    lt = source.local_translations if (from_sm or start_time == 0.0) else None
     angles = np.linalg.norm(disp, axis=1)
+    angles = np.minimum(angles, 2.0 * np.pi - angles)             # unwrapped rotvecs: the rotation's angle
     inner_mask = ~(first | last)
     meta = dict(metadata or {})
     meta["fit"] = {

@@ -25,7 +25,8 @@ from ..core.skeleton import Skeleton
 from . import _kernels as K
 
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
-           "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference"]
+           "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference",
+           "evaluate_samples", "root_positions_at", "evaluate_arrays"]
 
 
 def _ro(a, dtype=float) -> np.ndarray:
@@ -70,7 +71,8 @@ class StaggeredMotion:
         Displacement map ``d_i(t')`` of each segment and joint, sampled on the uniform grid
         ``t'_m = m / (n - 1)``, ``m = 0 .. n - 1`` with ``n = displacement_counts[k, i]``; entries
         ``m >= n`` are padding (zeros). Between grid points the rotation vector is interpolated linearly.
-        ``d = v ⊖ s`` (§4.1.1), i.e. ``v = quat_mul(s, rotvec_to_quat(d))``; rotation angles up to pi.
+        ``d = v ⊖ s`` (§4.1.1), i.e. ``v = quat_mul(s, rotvec_to_quat(d))``. Unwrapped along each grid:
+        angles run continuously in [0, 2 pi) (not folded to <= pi), so interpolation never jumps.
     displacement_counts : ndarray, shape (K - 1, J), int >= 2
         Number of valid samples ``n`` of each displacement map (at extraction: source frames spanned + 1,
         so the grid points fall exactly on source frames).
@@ -300,14 +302,11 @@ def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     return np.array(q), p
 
 
-def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
-    """:func:`evaluate_arrays` returning a view of workspace memory for ``q`` (valid until the next call)."""
+def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rotations ``s(t') ⊕ d(t')`` of (segment, joint) pairs ``idx (n,)`` (segment-major ``k * J + i``) at
+    normalised times ``t (n,)``, as a (4, n) view of workspace memory (valid until the next call)."""
     W = K.WORK
-    times = np.asarray(times, dtype=float).reshape(-1)
     J = sm.num_joints
-    seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
-    idx = seg.reshape(-1) * J + np.tile(np.arange(J), times.size)   # pair index (segment-major)
-    t = tn.reshape(-1)
     n = t.size
     P = sm.tangents.shape[0] * J
     # per-pair control polygons (4 controls x 4 components, P) and their three fixed first-level arcs
@@ -342,16 +341,46 @@ def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     d0 += d1
     d0 *= 0.5                                                       # half rotation vectors for exp
     e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
-    q = K.qmul_into(s, e, W.get("ev_q", (4, n)), W.get("ev_tmp", n))
-    q = q.T.reshape(times.size, J, 4)
+    return K.qmul_into(s, e, W.get("ev_q", (4, n)), W.get("ev_tmp", n))
 
+
+def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
+    """Root translation ``s(t') + d(t')`` at ``times (N,)`` seconds, shape (N, 3)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
     rk = (sm.pose_times + sm.root_refinements)[:, None]
     rseg, rtn = segment_coordinates(rk, times)
     rseg, rtn = rseg[:, 0], rtn[:, 0]
     rt = sm.root_tangents[rseg]
     p = translation_spline(sm.root_values[rseg], rt[:, 0], rt[:, 1], sm.root_values[rseg + 1], rtn)
-    p = p + displacement_at(sm.root_displacements[rseg], sm.root_displacement_counts[rseg], rtn)
-    return q, p
+    return p + displacement_at(sm.root_displacements[rseg], sm.root_displacement_counts[rseg], rtn)
+
+
+def evaluate_samples(sm: StaggeredMotion, times, joints) -> np.ndarray:
+    """Local rotation of joint ``joints[n]`` at ``times[n]`` seconds for every n: ``(N, 4)`` (x, y, z, w).
+
+    The same formula as :func:`evaluate`, for scattered (time, joint) samples (used to refit after edits)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    joints = np.asarray(joints, dtype=np.int64).reshape(-1)
+    J = sm.num_joints
+    T = np.maximum.accumulate(knot_times(sm), axis=0)
+    seg = np.empty(times.size, dtype=np.int64)
+    for j in np.unique(joints):
+        sel = joints == j
+        seg[sel] = np.searchsorted(T[:, j], times[sel], side="right") - 1
+    np.clip(seg, 0, sm.num_poses - 2, out=seg)
+    a, b = T[seg, joints], T[seg + 1, joints]
+    tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
+    return np.array(_rotations_at(sm, seg * J + joints, tn).T)
+
+
+def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
+    """:func:`evaluate_arrays` returning a view of workspace memory for ``q`` (valid until the next call)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    J = sm.num_joints
+    seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
+    idx = seg.reshape(-1) * J + np.tile(np.arange(J), times.size)   # pair index (segment-major)
+    q = _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(times.size, J, 4)
+    return q, root_positions_at(sm, times)
 
 
 def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
