@@ -272,3 +272,17 @@ def test_evaluate_matches_naive_reference_after_random_edits(extracted, seed):
     # same formulas, different arithmetic (polynomial sine, component-first slerp): 1e-9 rad is far
     # below anything visible and far above the ~1e-15 rounding seen in practice
     assert quat_angle(got, want).max() < 1e-9
+
+
+def test_displacement_rotvecs_unwrap_past_half_turn():
+    from stagger_nb.staggered.fitting import displacement_rotvecs
+    ang = np.linspace(0, 1.6 * np.pi, 50)                     # one pair whose residual passes pi
+    targets = rotvec_to_quat(ang[:, None] * np.array([0.0, 0.0, 1.0]))
+    from stagger_nb.core.rotations import quat_continuous
+    targets = quat_continuous(targets)
+    d = displacement_rotvecs(np.tile([0.0, 0.0, 0.0, 1.0], (50, 1)), targets, np.zeros(50, dtype=int))
+    # continuous angles 0 .. 1.6 pi about +z, not folded back below pi (rounding only)
+    assert np.allclose(d[:, 2], ang, atol=1e-12) and np.allclose(d[:, :2], 0.0, atol=1e-12)
+    from stagger_nb.staggered import _kernels as K
+    back = K.qexp(np.ascontiguousarray(0.5 * d.T)).T
+    assert quat_angle(back, targets).max() < 1e-12
