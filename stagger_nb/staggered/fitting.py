@@ -26,9 +26,10 @@ from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
                              rotation_spline)
 
-__all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tangents", "match_translation_tangents", "fit_rotation_tangents_c1",
-           "velocities_from_tangents", "fit_rotation_tangents", "fit_translation_tangents",
-           "fit_rotation_tangents_nelder_mead", "sample_segments", "rotation_residuals"]
+__all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tangents",
+           "match_translation_tangents", "fit_rotation_tangents_c1", "velocities_from_tangents",
+           "fit_rotation_tangents", "fit_translation_tangents", "fit_rotation_tangents_nelder_mead",
+           "sample_segments", "rotation_residuals"]
 
 _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 interior samples) to the chord
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
@@ -371,7 +372,8 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
                                (base_b[:, None, None] + jj).ravel(), (base_a[:, None, None] + jj).ravel()])
         vals = np.concatenate([Saa.ravel(), Sbb.ravel(), Sab.ravel(), Sab.transpose(0, 2, 1).ravel()])
         A = coo_matrix((vals, (rows, cols)), shape=(n_unk, n_unk)).tocsr()
-        g = np.bincount(np.concatenate([(base_a[:, None] + np.arange(3)).ravel(), (base_b[:, None] + np.arange(3)).ravel()]),
+        g_idx = np.concatenate([(base_a[:, None] + np.arange(3)).ravel(), (base_b[:, None] + np.arange(3)).ravel()])
+        g = np.bincount(g_idx,
                         np.concatenate([ga.ravel(), gb.ravel()]), n_unk)
         diag = A.diagonal()
         lam_u = np.repeat(lam, Kn * 3)
@@ -395,8 +397,9 @@ def velocities_from_tangents(values, tangents, knots):
     """Per-knot body angular velocities (K, C, 3) rad/s of C0 splines, averaged as in :func:`match_tangents`
     (the first and last knot take their single side)."""
     d = np.diff(knots, axis=0)[..., None]
-    w_out = 3.0 * _rotvec_between(values[:-1].reshape(-1, 4), tangents[:, :, 0].reshape(-1, 4)).reshape(d.shape[:-1] + (3,)) / d
-    w_in = 3.0 * _rotvec_between(tangents[:, :, 1].reshape(-1, 4), values[1:].reshape(-1, 4)).reshape(d.shape[:-1] + (3,)) / d
+    sh = d.shape[:-1] + (3,)
+    w_out = 3.0 * _rotvec_between(values[:-1].reshape(-1, 4), tangents[:, :, 0].reshape(-1, 4)).reshape(sh) / d
+    w_in = 3.0 * _rotvec_between(tangents[:, :, 1].reshape(-1, 4), values[1:].reshape(-1, 4)).reshape(sh) / d
     om = np.empty(values.shape[:-1] + (3,))
     om[0] = w_out[0]
     om[-1] = w_in[-1]
