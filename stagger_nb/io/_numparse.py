@@ -6,13 +6,15 @@ grammar ``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``, a line with the wrong n
 line before the last data line, a stray control byte): the caller then runs its line-by-line parser,
 which finds and reports the first problem with its line number.
 
-How (numpy only, no Python loop over tokens): token boundaries come from the whitespace mask; the
-digits of each token (its mantissa and, separately, its exponent) are gathered into a fixed-width
-window per token length and turned into an integer by one matrix-vector product with powers of ten
-(exact: at most 15 digits, so every partial sum is an integer below 2**53). The value is then
-``M * 10**k`` or ``M / 10**-k`` with ``|k| <= 22``: both factors are exact doubles, so the single
-IEEE operation rounds correctly and equals ``float(token)`` (Clinger's fast path). Tokens outside that
-range (more than 15 significant digits, huge exponents) are converted with ``float`` one by one.
+How (numpy only, no Python loop over tokens): token boundaries come from the whitespace mask. For plain
+``[-]digits[.digits]`` tokens, each token's bytes are loaded as two little-endian 8-byte words, the dot
+is found and turned into '0' with SWAR byte tests, and the digits are packed into an integer with three
+multiply-shift steps per word (exact below 2**53). Blocks with exponents map every '.', sign and 'e' to
+its token through a running token index and pack the mantissa and exponent digits the same way. The
+value is then ``M * 10**k`` or ``M / 10**-k`` with ``|k| <= 22``: both factors are exact doubles, so the
+single IEEE operation rounds correctly and equals ``float(token)`` (Clinger's fast path). Tokens outside
+that range (more than 15 significant digits, huge exponents) are converted with ``float`` one by one.
+When pyarrow is installed its CSV reader (correctly rounded as well) is tried first.
 """
 from __future__ import annotations
 
@@ -203,15 +205,16 @@ def _parse_with_arrow(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     return out
 
 
-_CHUNK_BYTES = 1 << 17  # work on ~128 KB of text at a time: the temporaries then stay in cache
+_CHUNK_BYTES = 1 << 16  # ~64 KB of text at a time: temporaries stay in cache and below glibc's mmap threshold
 
 
 def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     """``(rows, cols)`` float64 table of the numbers in ``block`` (``cols`` per ``\\n``-separated line,
     trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it.
 
-    The block is cut at line breaks into pieces of about ``_CHUNK_BYTES`` holding whole rows, parsed one
-    after the other (the many array passes are memory-bound; in cache they are several times faster)."""
+    With pyarrow installed its CSV reader is tried first (single-space separated blocks). Otherwise, or
+    if it declines, the block is cut at line breaks into pieces of about ``_CHUNK_BYTES`` holding whole
+    rows, parsed one after the other (the many array passes are memory-bound; in cache they are faster)."""
     if rows < 1 or cols < 1 or not block:
         return None
     if _ARROW is not None:

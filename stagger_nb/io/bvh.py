@@ -6,9 +6,11 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (vectorised, numpy only,
-bit-identical to ``float``); when that cannot certify the block, a line-by-line parser finds the first bad
-line and raises :class:`BVHError` naming the file, the line and what was expected.
+Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (pyarrow's CSV reader when
+installed, else a vectorised numpy parser; both bit-identical to ``float``); when that cannot certify the
+block, a line-by-line parser finds the first bad line and raises :class:`BVHError` naming the file, the
+line and what was expected. Writing formats the channel table with a vectorised fixed-point formatter
+(rotations to 1e-6 degree, positions to 1e-8 of the largest translation) and replaces the file atomically.
 """
 from __future__ import annotations
 
@@ -276,8 +278,16 @@ def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> 
 
 
 def read_bvh(path) -> Motion:
-    """Read a BVH file into a :class:`Motion`; raises :class:`BVHError` (a ``ValueError``) naming the file,
-    the line and what was expected on bad input (see the module docstring for the semantics)."""
+    """Read a BVH file into a :class:`Motion` (see the module docstring for the semantics).
+
+    Returns a Motion with ``root_positions (F, 3)`` (file units), ``local_quats (F, J, 4)`` (x, y, z, w),
+    ``local_translations (F, J, 3)`` when non-root joints have position channels (else ``None``),
+    ``frame_time`` in seconds, and a Skeleton keeping each joint's channel layout and end sites.
+
+    Raises :class:`BVHError` (a ``ValueError``) naming the file, the line and what was expected: bad
+    numbers, NaN/inf, wrong value counts, unknown channels, unbalanced braces, ``Frames:`` disagreeing
+    with the data, a frame time <= 0, absurd declared sizes (nothing is allocated from them).
+    """
     path = os.fspath(path)
     return parse_bvh(read_bytes(path, BVHError), path)
 
