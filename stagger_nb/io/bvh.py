@@ -245,8 +245,6 @@ def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> 
     vectorised call per order."""
     F = data.shape[0]
     J = skel.num_joints
-    quats = np.zeros((F, J, 4))
-    quats[..., 3] = 1.0
     trans = None
     root_pos = np.broadcast_to(skel.offsets[0], (F, 3)).copy()
     groups: dict[str, tuple[list, list]] = {}
@@ -270,8 +268,14 @@ def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> 
             joints, cols = groups.setdefault(order, ([], []))
             joints.append(j)
             cols.append(rot_cols)
-    for order, (joints, cols) in groups.items():
-        quats[:, joints] = euler_deg_to_quat(data[:, np.array(cols)], order)
+    if len(groups) == 1 and next(iter(groups.values()))[0] == list(range(J)):
+        order, (_, cols) = next(iter(groups.items()))  # every joint, one order: no scatter needed
+        quats = euler_deg_to_quat(data[:, np.array(cols)], order)
+    else:
+        quats = np.zeros((F, J, 4))  # identity for joints without rotation channels
+        quats[..., 3] = 1.0
+        for order, (joints, cols) in groups.items():
+            quats[:, joints] = euler_deg_to_quat(data[:, np.array(cols)], order)
     if trans is not None:
         trans[:, 0] = root_pos
     return Motion(skel, frame_time, root_pos, quats, trans)
