@@ -69,6 +69,17 @@ class _Editor(widgets.VBox):
         self._update_buttons()
         self._refresh()
 
+    def _repr_mimebundle_(self, **kwargs):
+        for p in self.plots:   # new views of the plots must start from their current data
+            p.sync_state()
+        return super()._repr_mimebundle_(**kwargs)
+
+    def _tag(self, editor_class: str, **controls) -> None:
+        """CSS classes for notebooks and the browser test: ``sn-<name>`` on each named control."""
+        self.add_class(editor_class)
+        for name, w in controls.items():
+            w.add_class(f"sn-{name.replace('_', '-')}")
+
     # -- plumbing -------------------------------------------------------------------------------------
     def _goto(self, frame: int) -> None:
         self.view.frame = int(frame)
@@ -227,6 +238,7 @@ class StaggerEditor(_Editor):
             widgets.HBox([self.pose, self.joint]),
             widgets.HBox(self.nudge),
         ]
+        self._tag("sn-stagger-editor", cull=self.cull, s=self.s, l=self.l, tau=self.tau, w_r=self.w_r)
         self._setup(session, view, [self.curves, self.probability], controls,
                     op_controls=[self.cull, self.root, self.s, self.l, self.tau, self.seed, self.joint_set, self.w_r])
         self.warm_thread = None
@@ -405,6 +417,7 @@ class WandEditor(_Editor):
                     widgets.HBox([self.limit_range, self.range]),
                     widgets.HBox([self.joint] + self.rotation),
                     widgets.HBox([widgets.Label("compare:")] + list(self.compare.values()) + [self.show_sweep])]
+        self._tag("sn-wand-editor", sigma=self.sigma, frame=self.frame)
         self._setup(session, view, [self.falloff_plot, self.curves], controls,
                     op_controls=[self.sigma, self.frame, self.limit_range, self.range, self.propagate],
                     view_controls=list(self.compare.values()) + [self.show_sweep])
@@ -543,7 +556,7 @@ class WarpEditor(_Editor):
         controls = [widgets.HBox([self.mode, self.skip]),
                     widgets.HBox([self.duration, self.keytimes]),
                     widgets.HBox([self.reference, self.segment])]
-        self.session = session
+        self._tag("sn-warp-editor", duration=self.duration, skip=self.skip)
         self._setup(session, view, [self.warp_plot], controls,
                     op_controls=[self.mode, self.duration, self.skip, self.reference, self.segment, self.keytimes])
 

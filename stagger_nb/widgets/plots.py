@@ -49,6 +49,21 @@ class _ClickablePlot:
         self._callbacks: list[Callable] = []
         self._last: dict = {}
         self._wire_clicks()
+        fig.observe(self._on_view_rendered, names="_js2py_traceDeltas")
+
+    def _on_view_rendered(self, change) -> None:
+        """A front-end view reports its traces after its first draw. Under load, a view nested in a box can
+        be drawn before its model received the figure state (it then shows empty default axes); give such
+        a view the missing traces and the layout (messages only, nothing changes on the Python side)."""
+        from copy import deepcopy
+        msg = change.get("new") or {}
+        have = len(msg.get("trace_deltas", ()))
+        fig = self.figure
+        # edit id 0: the view was drawn from the default (empty) state; every Python-side edit increments it
+        if msg.get("trace_edit_id") == 0 and have < len(fig.data):
+            self.repairs = getattr(self, "repairs", 0) + 1
+            fig._send_addTraces_msg([deepcopy(t) for t in fig._data[have:]])
+            fig._send_relayout_msg(deepcopy(fig._layout))
 
     def _put(self, i, **props) -> None:
         """``figure.data[i].<prop> = value`` for the props whose value changed (call inside batch_update)."""
@@ -76,6 +91,14 @@ class _ClickablePlot:
     def _wire_clicks(self):
         for tr in self.figure.data:
             tr.on_click(self._clicked)
+
+    def sync_state(self) -> None:
+        """Copy the figure's current data/layout into the widget state that a *new* front-end view renders
+        from. plotly does this in ``FigureWidget._repr_mimebundle_`` only, i.e. when the figure itself is
+        displayed; inside an editor (a VBox) the editor calls this when it is displayed."""
+        from copy import deepcopy
+        self.figure._widget_layout = deepcopy(self.figure._layout_obj._props)
+        self.figure._widget_data = deepcopy(self.figure._data)
 
     def on_frame_click(self, callback: Callable[[int], None]) -> None:
         """Call ``callback(frame_index)`` when a point of any trace is clicked."""
