@@ -53,7 +53,7 @@ def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
 def _numpy_only(f):
     """Run ``f`` with the optional pyarrow accelerator switched off (the pure-numpy route)."""
     def g():
-        saved = _numparse._ARROW
+        saved = _numparse._load_arrow()
         _numparse._ARROW = None
         try:
             return f()
@@ -116,7 +116,7 @@ def _run(args) -> None:
         ref = np.array(block.split(), dtype=float).reshape(m.num_frames, C)
         assert np.array_equal(parse_table(block, m.num_frames, C), ref)
         text = block.decode()
-        arrow = _numparse._ARROW is not None
+        arrow = _numparse._load_arrow() is not None
         print(f"pyarrow accelerator: {'installed, used by read_bvh' if arrow else 'not installed (numpy route)'}")
         fns = {
             "read_bvh (stagger_nb)": lambda: sn.read_bvh(path),

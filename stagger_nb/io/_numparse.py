@@ -169,11 +169,24 @@ def _plain(b, block, starts, ends):
     return neg, body, nfrac, has_dot, None, v
 
 
-try:  # optional accelerator: pyarrow's C++ CSV reader (not a dependency; used when installed)
-    import pyarrow as _ARROW
-    import pyarrow.csv as _ARROW_CSV
-except ImportError:  # pragma: no cover - depends on the environment
-    _ARROW = _ARROW_CSV = None
+# optional accelerator: pyarrow's C++ CSV reader (the 'bench' extra installs it), imported on first use
+# (it takes ~0.1 s to import); `_ARROW` is the module, or None when absent or switched off
+_ARROW = _ARROW_CSV = None
+_ARROW_TRIED = False
+
+
+def _load_arrow():
+    """pyarrow, imported once on first use, or ``None`` when it is not installed."""
+    global _ARROW, _ARROW_CSV, _ARROW_TRIED
+    if not _ARROW_TRIED:
+        _ARROW_TRIED = True
+        try:
+            import pyarrow
+            import pyarrow.csv
+            _ARROW, _ARROW_CSV = pyarrow, pyarrow.csv
+        except ImportError:  # pragma: no cover - depends on the environment
+            pass
+    return _ARROW
 
 
 def _parse_with_arrow(block: bytes, rows: int, cols: int) -> np.ndarray | None:
@@ -217,7 +230,7 @@ def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     rows, parsed one after the other (the many array passes are memory-bound; in cache they are faster)."""
     if rows < 1 or cols < 1 or not block:
         return None
-    if _ARROW is not None:
+    if _load_arrow() is not None:
         table = _parse_with_arrow(block, rows, cols)
         if table is not None:
             return table
