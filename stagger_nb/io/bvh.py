@@ -308,12 +308,14 @@ def _position_decimals(motion: Motion) -> int:
     return int(np.clip(8 - np.floor(np.log10(scale)), 6, 12))
 
 
-def _hierarchy_lines(skel: Skeleton) -> list[str]:
-    """The HIERARCHY section (iterative depth-first walk; children in index order)."""
+def _hierarchy_lines(skel: Skeleton) -> tuple[list[str], list[int]]:
+    """The HIERARCHY section (iterative depth-first walk; children in index order) and the joints in
+    the order written, which is the order of their channels in each frame line."""
     kids = [[] for _ in range(skel.num_joints)]
     for j in range(1, skel.num_joints):
         kids[int(skel.parents[j])].append(j)
     out = ["HIERARCHY"]
+    written = []
     stack = [(0, 0, False)]
     while stack:
         j, depth, closing = stack.pop()
@@ -326,28 +328,46 @@ def _hierarchy_lines(skel: Skeleton) -> list[str]:
             out.append(f"{ind}}}")
             continue
         o = skel.offsets[j]
+        written.append(j)
         out += [f"{ind}{'ROOT' if j == 0 else 'JOINT'} {skel.names[j]}", f"{ind}{{",
                 f"{ind}\tOFFSET {o[0]:.9g} {o[1]:.9g} {o[2]:.9g}",
                 f"{ind}\tCHANNELS {len(skel.channels[j])}" + "".join(" " + c for c in skel.channels[j])]
         stack.append((j, depth, True))
         stack.extend((c, depth + 1, False) for c in reversed(kids[j]))
-    return out
+    return out, written
 
 
-def _channel_table(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
-    """The ``(F, C)`` channel values in file order and the decimals for each column."""
+def _partial_euler(q: np.ndarray, order: str) -> np.ndarray:
+    """Angles ``(F, 3)`` (degrees) in ``order`` plus the missing axes, whose leading ``len(order)`` angles
+    reproduce ``q (F, 4)`` whenever it is a rotation about those one or two axes. scipy keeps the middle
+    angle in [-90, 90] and may return the equivalent ``(a + 180, 180 - b, c + 180)``; for a two-axis
+    rotation that puts 180 in the dropped third angle, so it is turned back into ``(a, b, 0)``."""
+    full = order + "".join(a for a in "XYZ" if a not in order)[: 3 - len(order)]
+    e = quat_to_euler(q, full)
+    if len(order) == 2:
+        flip = np.abs(e[:, 2]) > 90.0
+        e[flip, 0] += 180.0
+        e[flip, 1] = 180.0 - e[flip, 1]
+        e[flip, 2] -= np.copysign(180.0, e[flip, 2])
+        e[:, :2] = (e[:, :2] + 180.0) % 360.0 - 180.0
+    return e
+
+
+def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(F, C)`` channel values of the joints in ``joint_order`` (the file's order) and the decimals
+    for each column."""
     skel = motion.skeleton
     trans = motion.translations()
     pos_dec = _position_decimals(motion)
     cols, dec = [], []
-    for j, chans in enumerate(skel.channels):
+    for j in joint_order:
+        chans = skel.channels[j]
         order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
         eul = None
         if len(order) == 3:
             eul = quat_to_euler(motion.local_quats[:, j], order)
         elif order:  # fewer than three rotation channels: the listed angles of a completed sequence
-            full = order + "".join(a for a in "XYZ" if a not in order)[: 3 - len(order)]
-            eul = quat_to_euler(motion.local_quats[:, j], full)
+            eul = _partial_euler(motion.local_quats[:, j], order)
         r = 0
         for c in chans:
             if c.lower().endswith("position"):
@@ -362,9 +382,9 @@ def _channel_table(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _format_bytes(motion: Motion) -> bytes:
-    head = _hierarchy_lines(motion.skeleton)
+    head, joint_order = _hierarchy_lines(motion.skeleton)
     head += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {motion.frame_time:.9g}"]
-    table, dec = _channel_table(motion)
+    table, dec = _channel_table(motion, joint_order)
     body = format_table(table, dec)
     if body is None:  # a value too large for fixed point: 9 significant digits instead
         body = "".join(" ".join(f"{v:.9g}" for v in row) + "\n" for row in table).encode()
@@ -373,7 +393,9 @@ def _format_bytes(motion: Motion) -> bytes:
 
 def format_bvh(motion: Motion) -> str:
     """BVH text of ``motion``: each joint's channel order and the end-site offsets kept; rotations with
-    6 decimals (degrees), positions with 6-12 decimals by their size (see :func:`_position_decimals`)."""
+    6 decimals (degrees), positions with 6-12 decimals by their size (see :func:`_position_decimals`).
+    BVH lists joints depth-first, so a skeleton stored in another parents-first order reads back with
+    its joints in depth-first order (same names, same motion)."""
     return _format_bytes(motion).decode("utf-8")
 
 
