@@ -168,6 +168,10 @@ def test_editors_render_and_respond_in_jupyterlab(jupyter_lab):
             for name, sel in editors.items():
                 page.wait_for_selector(f"{sel} canvas", timeout=60000)
                 page.wait_for_selector(f"{sel} .js-plotly-plot .gtitle", timeout=60000)  # drawn with its data
+            # every plot of every editor drawn with its title (a plot drawn from an empty state has none)
+            page.wait_for_function("""() => [...document.querySelectorAll('.js-plotly-plot')].every(
+                                          p => p.querySelector('.gtitle') && p.querySelector('.scatterlayer .trace'))""",
+                                   timeout=60000)
         except Exception:
             page.screenshot(path=str(ARTIFACTS / "browser_failure.png"), full_page=True)
             (ARTIFACTS / "browser_failure_console.txt").write_text("\n".join(console + page_errors))

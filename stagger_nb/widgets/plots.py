@@ -59,8 +59,8 @@ class _ClickablePlot:
         msg = change.get("new") or {}
         have = len(msg.get("trace_deltas", ()))
         fig = self.figure
-        # edit id 0: the view was drawn from the default (empty) state; every Python-side edit increments it
-        if msg.get("trace_edit_id") == 0 and have < len(fig.data):
+        # a drawn view reports one delta per trace it has; plotly's own reset of the trait (None) is skipped
+        if "trace_deltas" in msg and have < len(fig.data):
             self.repairs = getattr(self, "repairs", 0) + 1
             fig._send_addTraces_msg([deepcopy(t) for t in fig._data[have:]])
             fig._send_relayout_msg(deepcopy(fig._layout))
