@@ -37,7 +37,7 @@ def _chain_motion(J=100, F=3000, seed=0):
     return Motion(sk, 1 / 120, np.zeros((F, 3)), q)
 
 
-def test_view_shows_fk_positions_and_streams_one_frame(shared_motion):
+def test_view_shows_fk_positions_and_streams_one_frame(shared_motion):  # noqa: C901
     m = shared_motion("bandai_run_cycle.bvh")
     v = SkeletonView(m, ghost=m)
     pos, _ = sn.forward_kinematics(m)
@@ -47,6 +47,10 @@ def test_view_shows_fk_positions_and_streams_one_frame(shared_motion):
     idx = np.asarray(v.bones.geometry.index.array).reshape(-1, 2)
     assert sorted(map(tuple, idx.tolist())) == sorted((int(m.skeleton.parents[j]), j) for j in range(1, m.num_joints))
 
+    body = np.max(pos[0].max(0) - pos[0].min(0))
+    # the ghost stands beside the motion: same pose shifted along x by 0.6 of the body's extent
+    np.testing.assert_allclose(v._ghost_attr.array, pos[0] + [0.6 * body, 0, 0], rtol=1e-6, atol=1e-3)
+    assert SkeletonView(m, ghost=m, ghost_offset=(0, 0, 0))._ghost_pos[3].tolist() == v.positions[3].tolist()
     v.show_ghost = False
     log = _record_sends({"pos": v._attr, "ghost": v._ghost_attr, "colors": v._colors})
     v.slider.value = 7

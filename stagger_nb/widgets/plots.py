@@ -24,8 +24,11 @@ _COMPONENT_COLOURS = ("#e53e3e", "#38a169", "#3182ce")
 _COMPARISON_COLOURS = {"green": "#2f855a", "isomap": "#c05621", "diffusion": "#6b46c1", "spline": "#718096"}
 
 
+PLOT_WIDTH = 520  # px: a 3D view and a plot side by side fit JupyterLab's default notebook width
+
+
 def _layout(title: str, height: int, **kw) -> dict:
-    return dict(title=dict(text=title, font=dict(size=13)), height=height,
+    return dict(title=dict(text=title, font=dict(size=13)), height=height, width=PLOT_WIDTH,
                 margin=dict(l=50, r=10, t=35, b=35), legend=dict(orientation="h", y=-0.25), **kw)
 
 

@@ -41,6 +41,9 @@ class SkeletonView(widgets.VBox):
         Shown translucent beside/over ``motion`` (usually the original); same skeleton.
     width, height : int
         Canvas size in pixels.
+    ghost_offset : (3,) or None
+        Where the ghost stands relative to the motion, in file units; default beside it (along x, by
+        0.6 of the body's extent); ``(0, 0, 0)`` overlays the two.
 
     Traits
     ------
@@ -52,13 +55,21 @@ class SkeletonView(widgets.VBox):
     frame = traitlets.Int(0, help="current frame index (0-based)")
     show_ghost = traitlets.Bool(True, help="show the translucent original")
 
-    def __init__(self, motion: Motion, ghost: Motion | None = None, width: int = 520, height: int = 380, **kwargs):
+    def __init__(self, motion: Motion, ghost: Motion | None = None, width: int = 480, height: int = 380,
+                 ghost_offset=None, **kwargs):
         if not isinstance(motion, Motion):
             raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
         self._motion = motion
         self._pos = self._positions(motion)
         self._ghost_motion = ghost
-        self._ghost_pos = None if ghost is None else self._positions(ghost)
+        self._ghost_offset = None if ghost_offset is None else np.asarray(ghost_offset, dtype=np.float32).reshape(3)
+        self._ghost_pos = None
+        if ghost is not None:
+            if self._ghost_offset is None:
+                first = self._pos[0]
+                body = float(np.max(first.max(axis=0) - first.min(axis=0)))
+                self._ghost_offset = np.array([0.6 * body, 0.0, 0.0], dtype=np.float32)
+            self._ghost_pos = self._positions(ghost) + self._ghost_offset
         self._selected: list[int] = []
         self._pose_frames = np.zeros(0, dtype=int)
         self._contacts: list = []
@@ -83,7 +94,7 @@ class SkeletonView(widgets.VBox):
             gindex = three.BufferAttribute(array=_bone_index(ghost.skeleton.parents), normalized=False)
             self.ghost_bones = three.LineSegments(
                 three.BufferGeometry(attributes={"position": self._ghost_attr}, index=gindex),
-                three.LineBasicMaterial(color=_GHOST, transparent=True, opacity=0.35, linewidth=2),
+                three.LineBasicMaterial(color=_GHOST, transparent=True, opacity=0.45, linewidth=2),
                 frustumCulled=False)
             children.append(self.ghost_bones)
 
@@ -154,7 +165,7 @@ class SkeletonView(widgets.VBox):
         self._motion = motion
         self._pos = self._positions(motion)
         if ghost is not None and self.ghost_bones is not None:
-            self._ghost_motion, self._ghost_pos = ghost, self._positions(ghost)
+            self._ghost_motion, self._ghost_pos = ghost, self._positions(ghost) + self._ghost_offset
         F = motion.num_frames
         with self.hold_trait_notifications():
             if self.frame > F - 1:
