@@ -231,3 +231,21 @@ def test_export_refuses_the_source_and_writes_atomically(session, tmp_path):
     # BVH stores Euler degrees as text: compare rotations up to the writer's printed precision
     assert quat_angle(back.local_quats, s.edited().local_quats).max() < 1e-5
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.bvh", "out.bvh", "src.bvh"]
+
+
+def test_expensive_heads_are_cached_and_reported(shared_motion):
+    """The extraction runs once per source however the tail changes; busy listeners see it start/stop."""
+    m = shared_motion("xia_angry_run.bvh")
+    s = Session(m)
+    seen = []
+    s.observe_busy(lambda kind, started: seen.append((kind, started)))
+    s.set_ops([{"op": "succession", "root": m.skeleton.names[1], "s": 0.02, "l": 1.0}])
+    a = s.edited()
+    for l in (1.5, 2.0):
+        s.replace(0, {"op": "succession", "root": m.skeleton.names[1], "s": 0.02, "l": l})
+        s.edited()
+    assert seen == [("extract", True), ("extract", False)]
+    s.undo()
+    s.undo()
+    assert s.edited() is a
+    assert s.staggered() is s.states()[0] and s.extraction().num_poses == s.staggered().num_poses

@@ -519,9 +519,11 @@ class WarpEditor(_Editor):
     Parameters
     ----------
     motion : Motion or Session
-    reference : Motion, dict {name: Motion or path}, or None
-        Extra reference clips offered besides "self" and "segment". A Motion is offered as "reference";
-        clips given as paths are recorded in the session by path (so a saved session can reload them).
+    reference : Motion, path, dict {name: Motion or path}, or None
+        Extra reference clips offered besides "self" and "segment". A Motion is offered as "reference".
+        Clips given as paths are recorded in the session by path, so a saved session reloads them; an
+        in-memory Motion is recorded as ``{"path": "<memory:name>"}``, which a new process cannot reload
+        (save such sessions after choosing "self"/"segment", or pass the clip's path).
     """
 
     def __init__(self, motion, reference=None, session: Session | None = None, source_path=None, **kwargs):
