@@ -118,6 +118,7 @@ def _with_exponents(b, block, starts, ends, edge, nonws):
 
 _FILL = np.uint64(0x3030303030303030)  # eight ASCII '0'
 _DOTS = np.uint64(0x2E2E2E2E2E2E2E2E)
+_MINUS = np.uint64(0x2D2D2D2D2D2D2D2D)
 _LOW7 = np.uint64(0x7F7F7F7F7F7F7F7F)
 _U7 = np.uint64(7)
 
@@ -132,8 +133,6 @@ def _plain(b, block, starts, ends):
     words (SIMD within a register): find the dot, turn it and the padding into '0', then pack the
     digits. Same results as :func:`_with_exponents` (``k = None``: no exponents)."""
     neg = b[starts] == 45
-    if np.count_nonzero(neg) != block.count(b"-"):
-        return None  # a '-' inside a token
     s0 = starts + neg
     body = ends - s0  # digits and the dot
     L = np.clip(body, 1, 16)
@@ -150,6 +149,8 @@ def _plain(b, block, starts, ends):
     wb = np.where(long, words[s0 + 8], _FILL)
     bb = (wb << sh_b) | (_FILL >> (np.uint64(64) - sh_b))
     bb = np.where(long, bb, _FILL)
+    if np.any(_zero_bytes(a ^ _MINUS) | _zero_bytes(bb ^ _MINUS)):
+        return None  # a '-' after the first byte
     da, db = _zero_bytes(a ^ _DOTS), _zero_bytes(bb ^ _DOTS)
     nd = np.bitwise_count(da) + np.bitwise_count(db)
     if np.any(nd > 1):
@@ -255,6 +256,35 @@ def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     return out
 
 
+def _values(found) -> tuple[np.ndarray, np.ndarray] | None:
+    """Token values from the per-token fields of :func:`_plain` / :func:`_with_exponents`, and the mask
+    of tokens inside Clinger's fast path (at most 15 digits, ``|k| <= 22``; the caller converts the
+    others with ``float``)."""
+    if found is None:
+        return None
+    neg, body, nfrac, has_dot, k, v = found
+    if np.any(body <= has_dot):
+        return None  # a sign or a dot without digits
+    fast = body <= _MAX_DIGITS
+    if k is not None:
+        fast &= np.abs(k) <= 22
+    # v = I * 10**(nfrac+1) + R reads the dot as a 0 digit; the mantissa is I * 10**nfrac + R = v - 9 I 10**nfrac.
+    # floor(v / 10**(nfrac+1)) = I exactly: the quotient is I + R / 10**(nfrac+1) with the fraction < 0.1
+    p = _POW10[np.minimum(nfrac + has_dot, 22)]
+    q = np.floor(v / p)
+    q *= p / 10.0
+    q *= 9.0
+    q *= has_dot
+    v -= q
+    if k is None:  # no exponents: divide by 10**nfrac
+        v /= _POW10[np.minimum(nfrac, 22)]
+    else:
+        kc = np.clip(k, -22, 22)
+        v = np.where(kc >= 0, v * _POW10[np.maximum(kc, 0)], v / _POW10[np.maximum(-kc, 0)])
+    np.negative(v, out=v, where=neg)
+    return v, fast
+
+
 def _parse_rows(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     """:func:`parse_table` on one piece."""
     if not block or block.translate(None, _ALLOWED):
@@ -278,41 +308,36 @@ def _parse_rows(block: bytes, rows: int, cols: int) -> np.ndarray | None:
         return None
 
     if b"e" in block or b"E" in block or b"+" in block:
-        found = _with_exponents(b, block, starts, ends, edge, nonws)
+        special = np.flatnonzero(((b | 32) == 101) | (b == 43))
+        tok = np.unique(np.searchsorted(starts, special, side="right") - 1)
+        if tok.size * 4 > n:  # many exponents: the vectorised general route
+            res = _values(_with_exponents(b, block, starts, ends, edge, nonws))
+            if res is None:
+                return None
+            out, fast = res
+        else:  # a few: plain tokens vectorised, the others through float() below
+            plain = np.ones(n, dtype=bool)
+            plain[tok] = False
+            res = _values(_plain(b, block, starts[plain], ends[plain]))
+            if res is None:
+                return None
+            out = np.empty(n)
+            out[plain] = res[0]
+            fast = np.zeros(n, dtype=bool)
+            fast[plain] = res[1]
     else:
-        found = _plain(b, block, starts, ends)
-    if found is None:
-        return None
-    neg, body, nfrac, has_dot, k, v = found
-    if np.any(body <= has_dot):
-        return None  # a sign or a dot without digits
-    # Clinger's fast path: at most 15 digits and |k| <= 22; the rest goes through float() below
-    fast = body <= _MAX_DIGITS
-    if k is not None:
-        fast &= np.abs(k) <= 22
-    # v = I * 10**(nfrac+1) + R reads the dot as a 0 digit; the mantissa is I * 10**nfrac + R = v - 9 I 10**nfrac.
-    # floor(v / 10**(nfrac+1)) = I exactly: the quotient is I + R / 10**(nfrac+1) with the fraction < 0.1
-    p = _POW10[np.minimum(nfrac + has_dot, 22)]
-    q = np.floor(v / p)
-    q *= p / 10.0
-    q *= 9.0
-    q *= has_dot
-    v -= q
-    if k is None:  # no exponents: divide by 10**nfrac
-        v /= _POW10[np.minimum(nfrac, 22)]
-    else:
-        kc = np.clip(k, -22, 22)
-        v = np.where(kc >= 0, v * _POW10[np.maximum(kc, 0)], v / _POW10[np.maximum(-kc, 0)])
-    np.negative(v, out=v, where=neg)
-    if fast.all():
-        return v.reshape(rows, cols)
-    out = v
-    for i in np.flatnonzero(~fast).tolist():
-        tok = block[starts[i]:ends[i]]
-        if not NUMBER_RE.match(tok):
+        res = _values(_plain(b, block, starts, ends))
+        if res is None:
             return None
-        v_i = float(tok)
-        if not np.isfinite(v_i):
-            return None  # the line parser reports it
-        out[i] = v_i
+        out, fast = res
+        if fast.all():
+            return out.reshape(rows, cols)
+    slow = np.flatnonzero(~fast)
+    try:  # bytes are [0-9.+-eE] here, where float's grammar is NUMBER_RE's
+        vals = [float(block[i:j]) for i, j in zip(starts[slow].tolist(), ends[slow].tolist())]
+    except ValueError:
+        return None  # the line parser reports it
+    out[slow] = vals
+    if not np.all(np.isfinite(out[slow])):
+        return None
     return out.reshape(rows, cols)
