@@ -61,11 +61,12 @@ class Book:
 # --------------------------------------------------------------------------------------------------------
 
 SKELETON_FIGURE = '''
-def skeleton_figure(positions, parents, frames, colors=None, names=None, title=""):
+def skeleton_figure(positions, parents, frames, colors=None, names=None, title="", view="side"):
     """Static 3D plotly figure of the skeleton at several frames (a strobe).
 
     positions : (F, J, 3) world joint positions from sn.forward_kinematics; parents : (J,), root = -1;
-    frames : frame indices to draw; colors / names : one per frame (optional).
+    frames : frame indices to draw; colors / names : one per frame (optional);
+    view : "side" (from +x) or "front" (from +z: the clips face and travel along +z, y up).
     """
     fig = go.Figure()
     bones = [(j, p) for j, p in enumerate(parents) if p >= 0]
@@ -78,9 +79,9 @@ def skeleton_figure(positions, parents, frames, colors=None, names=None, title="
             x=xyz[0], y=xyz[1], z=xyz[2], mode="lines",
             line=dict(width=5, color=None if colors is None else colors[n]),
             name=(names[n] if names is not None else f"frame {f}")))
-    # BVH is y-up and the clips travel along +z: an orthographic side view from +x, y up
+    eye = dict(x=2.0, y=0.35, z=0.0) if view == "side" else dict(x=0.0, y=0.35, z=2.0)
     fig.update_layout(title=title, height=420, margin=dict(l=0, r=0, t=40, b=0),
-                      scene=dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=dict(x=2.0, y=0.35, z=0),
+                      scene=dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
                                                               projection=dict(type="orthographic"))))
     return fig
 '''
@@ -456,7 +457,7 @@ def staggered_nb() -> Book:
     skeleton_figure(shapes, walk.skeleton.parents, range(4), colors=["gold", "orange", "gold", "orange"],
                     names=["pose at t_k", "non-staggered pose", "pose at t_k, edited", "non-staggered, edited"],
                     title=f"Fig. 6: pose {k} (t = {t_k:.2f} s) true (yellow) and non-staggered (orange); "
-                          "right: after the arm edit").show()
+                          "right: after the arm edit", view="front").show()
 
     mean = staggered.mean_pose(sm_walk.values)
     staggered_knots = sm_walk.refinements != 0
@@ -1048,7 +1049,7 @@ def timewarp_nb() -> Book:
         "slow-motion jumps (V8)": warp_slow,
         "limp (V7)": warp_limp,
     }
-    fig = make_subplots(rows=len(warps), cols=1, subplot_titles=list(warps), vertical_spacing=0.06)
+    fig = make_subplots(rows=len(warps), cols=1, subplot_titles=list(warps), vertical_spacing=0.1)
     for row, (name, warp) in enumerate(warps.items(), start=1):
         speed = timewarp.warp_speed(warp, ft)
         t_out = np.arange(len(warp)) * ft
@@ -1058,7 +1059,7 @@ def timewarp_nb() -> Book:
         assert np.all(speed > 0)                       # monotonic: time never stops or reverses
         assert speed.max() <= 8 + 1e-9                 # the skip limit s = 8 bounds the speed
     fig.update_xaxes(title_text="output time (s)", row=len(warps), col=1)
-    fig.update_layout(title="Fig. 5: derivatives of the time warps (log scale)", height=720)
+    fig.update_layout(title="Fig. 5: derivatives of the time warps (log scale)", height=820)
     fig.show()
     """)
     b.md("""
@@ -1092,7 +1093,7 @@ def timewarp_nb() -> Book:
                             "heuristic / exact cost"]),
         cells=dict(values=list(zip(*[(name, nn, mm, rr, ss, f"{a:.2f} s", f"{b:.2f} s", f"{c:.2f} s",
                                       f"{fc / ec:.4f}") for name, nn, mm, rr, ss, a, b, c, ec, fc in table])))))
-    fig.update_layout(title="Table 1 (measured live)", height=260, margin=dict(t=40, b=0))
+    fig.update_layout(title="Table 1 (measured live)", height=360, margin=dict(t=40, b=0))
     fig.show()
     for row in table:
         print("{:24s} n={:4d} m={:4d} r={:3d} s={}  objective {:.2f} s  optimization {:.2f} s  heuristic {:.2f} s"
