@@ -117,7 +117,6 @@ def quickstart() -> Book:
     import plotly.graph_objects as go
 
     import stagger_nb as sn
-    import stagger_nb.data
     from stagger_nb import staggered, wand, timewarp
     from stagger_nb.core.rotations import quat_angle
 
@@ -273,7 +272,6 @@ def staggered_nb() -> Book:
     from plotly.subplots import make_subplots
 
     import stagger_nb as sn
-    import stagger_nb.data
     from stagger_nb import staggered
     from stagger_nb.core.rotations import quat_angle, quat_mul, quat_conj, quat_to_rotvec
     from stagger_nb.staggered.extraction import pose_priorities, pose_probability
@@ -603,7 +601,6 @@ def wand_nb() -> Book:
     import plotly.express as px
 
     import stagger_nb as sn
-    import stagger_nb.data
     from stagger_nb import wand
     from stagger_nb.core.rotations import quat_mul, rotvec_to_quat
 
@@ -878,7 +875,6 @@ def timewarp_nb() -> Book:
     from tqdm.auto import tqdm
 
     import stagger_nb as sn
-    import stagger_nb.data
     from stagger_nb import timewarp
 
     cmu = sn.data.load("cmu_01_01").resample(1 / 30)      # real capture: forward jumps, turn, jumps back
@@ -923,7 +919,7 @@ def timewarp_nb() -> Book:
     """)
     b.code("""
     results = {}
-    for label, frac in [("compress to 65 %", 0.65), ("expand to 150 %", 1.5)]:
+    for label, frac in tqdm([("compress to 65 %", 0.65), ("expand to 150 %", 1.5)], desc="warping"):
         m_out = int(round(frac * (n - 1))) + 1
         guided, g_warp = timewarp.guided_warp(cmu, cmu, m_out)
         linear, l_warp = timewarp.linear_warp(cmu, m_out)
