@@ -55,6 +55,9 @@ def finite_number(tok: str, what: str, source: str, line: int, error: type[Forma
     return v
 
 
+_EULER_BLOCK = 4096  # rows per block in euler_deg_to_quat (32 KB per temporary)
+
+
 def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
     """``sin`` and ``cos`` of half of each angle (degrees), through one tangent: with ``t = tan(a/4)``,
     ``sin(a/2) = 2t / (1 + t^2)`` and ``cos(a/2) = (1 - t^2) / (1 + t^2)``. numpy vectorises ``tan`` but
@@ -90,16 +93,20 @@ def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     if len(axes) == 3 and len(set(axes)) == 3:
         i, j, k = idx
         eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
-        # angle index first, so each component below is a contiguous array
-        a = np.array(np.moveaxis(np.asarray(angles_deg, dtype=float), -1, 0), order="C")
-        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
-        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-        q = np.empty(a.shape[1:] + (4,))
-        q[..., i] = s1c2 * c3 + eps * c1s2 * s3
-        q[..., j] = c1s2 * c3 - eps * s1c2 * s3
-        q[..., k] = c1c2 * s3 + eps * s1s2 * c3
-        q[..., 3] = c1c2 * c3 - eps * s1s2 * s3
-        return q
+        ang = np.asarray(angles_deg, dtype=float)
+        flat = ang.reshape(-1, 3)
+        q = np.empty((flat.shape[0], 4))
+        # blocks of rows: the temporaries stay small (cache, no fresh pages) whatever the clip length
+        for r0 in range(0, flat.shape[0], _EULER_BLOCK):
+            a = np.array(flat[r0:r0 + _EULER_BLOCK].T)  # angle index first: contiguous components
+            (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
+            c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+            out = q[r0:r0 + _EULER_BLOCK]
+            out[:, i] = s1c2 * c3 + eps * c1s2 * s3
+            out[:, j] = c1s2 * c3 - eps * s1c2 * s3
+            out[:, k] = c1c2 * s3 + eps * s1s2 * c3
+            out[:, 3] = c1c2 * c3 - eps * s1s2 * s3
+        return q.reshape(ang.shape[:-1] + (4,))
     a = np.radians(np.asarray(angles_deg, dtype=float))
     a *= 0.5
     s, c = np.sin(a), np.cos(a)
