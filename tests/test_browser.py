@@ -38,15 +38,15 @@ import stagger_nb as sn
 from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
 run = sn.read_bvh({str(MOCAP / 'xia_angry_run.bvh')!r})
 walk = sn.read_bvh({str(MOCAP / 'xia_neutral_walk.bvh')!r})""",
-    """se = StaggerEditor(run, precompute=False)
+    """se = StaggerEditor(run, precompute=False, show_ghost=True)
 se.s.value = 0.08
 se.view.frame = 64
 se""",
     """we = WandEditor(run, frame=40, joint="LeftUpLeg" if "LeftUpLeg" in run.skeleton.names else run.skeleton.names[2],
-                rotation=(35.0, 0.0, 0.0))
+                rotation=(35.0, 0.0, 0.0), show_ghost=True)
 we.view.frame = 75
 we""",
-    """xe = WarpEditor(walk, reference=run)
+    """xe = WarpEditor(walk, reference=run, show_ghost=True)
 xe""",
     """print("ALL", "CELLS", "DONE")""",   # the output, not this source line, reads "ALL CELLS DONE"
 ]

@@ -190,12 +190,15 @@ class StaggerEditor(_Editor):
         Edit this session (its op list is shown and edited); default a new one on ``motion``.
     precompute : bool
         Warm the cull cache for every slider position in a background thread (each cull is a refit).
+    show_ghost : bool
+        Start with the original shown as a grey ghost beside the edit (off: playback then streams only
+        J * 3 floats per frame; the checkbox under the view turns it on).
     """
 
     _CULL_STEP = 5.0
 
     def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
-                 **kwargs):
+                 show_ghost: bool = False, **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
@@ -224,7 +227,7 @@ class StaggerEditor(_Editor):
         self._closed = False
         self._warning = False
 
-        view = SkeletonView(m, ghost=m)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
         self.curves = JointCurvesPlot(m.frame_time)
         self.probability = ProbabilityPlot(m.frame_time)
         for w in self.nudge:
@@ -375,7 +378,8 @@ class WandEditor(_Editor):
     _SIGMA_STEPS = 15    # positions each side of the default sigma (x 0.25 .. x 4)
 
     def __init__(self, motion, session: Session | None = None, frame: int | None = None, joint: str | None = None,
-                 rotation=(0.0, 0.0, 0.0), source_path=None, precompute: bool = True, **kwargs):
+                 rotation=(0.0, 0.0, 0.0), source_path=None, precompute: bool = True, show_ghost: bool = False,
+                 **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
@@ -407,7 +411,7 @@ class WandEditor(_Editor):
         if any(rotation):
             self._deltas[self.joint.value] = [float(r) for r in rotation]
 
-        view = SkeletonView(m, ghost=m)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
         self.falloff_plot = FalloffPlot(m.frame_time, sweep=5)
         self.curves = JointCurvesPlot(m.frame_time)
         for w in self.rotation:
@@ -526,7 +530,8 @@ class WarpEditor(_Editor):
         (save such sessions after choosing "self"/"segment", or pass the clip's path).
     """
 
-    def __init__(self, motion, reference=None, session: Session | None = None, source_path=None, **kwargs):
+    def __init__(self, motion, reference=None, session: Session | None = None, source_path=None,
+                 show_ghost: bool = False, **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
@@ -553,7 +558,7 @@ class WarpEditor(_Editor):
                                                 **_SLIDER)
         self.keytimes = widgets.Text(value="", placeholder="in:out, in:out  (seconds)", description="keytimes",
                                      style=_SLIDER["style"], layout=widgets.Layout(width="340px"))
-        view = SkeletonView(m, ghost=m)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
         self.warp_plot = WarpPlot(m.frame_time)
         controls = [widgets.HBox([self.mode, self.skip]),
                     widgets.HBox([self.duration, self.keytimes]),

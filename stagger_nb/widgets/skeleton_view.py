@@ -41,6 +41,8 @@ class SkeletonView(widgets.VBox):
         Shown translucent beside/over ``motion`` (usually the original); same skeleton.
     width, height : int
         Canvas size in pixels.
+    show_ghost : bool
+        Start with the ghost shown (it doubles the floats sent per frame step: 2 * J * 3).
     ghost_offset : (3,) or None
         Where the ghost stands relative to the motion, in file units; default beside it (along x, by
         0.6 of the body's extent); ``(0, 0, 0)`` overlays the two.
@@ -56,7 +58,7 @@ class SkeletonView(widgets.VBox):
     show_ghost = traitlets.Bool(True, help="show the translucent original")
 
     def __init__(self, motion: Motion, ghost: Motion | None = None, width: int = 480, height: int = 380,
-                 ghost_offset=None, **kwargs):
+                 ghost_offset=None, show_ghost: bool = True, **kwargs):
         if not isinstance(motion, Motion):
             raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
         self._motion = motion
@@ -125,7 +127,8 @@ class SkeletonView(widgets.VBox):
                                              indent=False, disabled=ghost is None)
         traitlets.link((self.ghost_toggle, "value"), (self, "show_ghost"))
         super().__init__([self.renderer, widgets.HBox([self.play, self.slider, self.ghost_toggle])], **kwargs)
-        self.show_ghost = ghost is not None
+        self.show_ghost = ghost is not None and bool(show_ghost)
+        self.ghost_toggle.value = self.show_ghost
 
     # -- geometry ----------------------------------------------------------------------------------
     @staticmethod
