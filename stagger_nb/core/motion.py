@@ -76,9 +76,12 @@ class Motion:
                 raise ValueError(f"Motion: {name} must be finite (no NaN / inf)")
         object.__setattr__(self, "frame_time", ft)
         # renormalise only what is not unit already, so slicing / replacing keeps values bit for bit
-        n = np.linalg.norm(q, axis=-1, keepdims=True)
-        q = np.where(np.abs(n - 1.0) > _UNIT_TOL, quat_normalize(q), q)
-        object.__setattr__(self, "local_quats", _frozen(quat_continuous(q, axis=0)))
+        off = np.abs(np.sqrt(np.einsum("fji,fji->fj", q, q)) - 1.0) > _UNIT_TOL
+        if off.any():
+            q = np.where(off[..., None], quat_normalize(q), q)
+        q = quat_continuous(q, axis=0)  # a new array: the caller's is never aliased
+        q.setflags(write=False)
+        object.__setattr__(self, "local_quats", q)
         object.__setattr__(self, "root_positions", _frozen(rp))
         object.__setattr__(self, "local_translations", lt)
 

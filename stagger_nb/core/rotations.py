@@ -34,9 +34,10 @@ def quat_identity(shape=()) -> np.ndarray:
 def quat_normalize(q: np.ndarray) -> np.ndarray:
     """Unit quaternions ``(..., 4)``; a zero quaternion becomes the identity."""
     q = np.asarray(q, dtype=float)
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    out = np.where(n > 0, q / np.where(n > 0, n, 1.0), IDENTITY)
-    return out
+    n = np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
+    if np.all(n > 0):
+        return q / n
+    return np.where(n > 0, q / np.where(n > 0, n, 1.0), IDENTITY)
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -84,12 +85,15 @@ def quat_hemisphere(q: np.ndarray) -> np.ndarray:
 
 
 def quat_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
-    """Flip signs along ``axis`` (time) so consecutive quaternions have a non-negative dot product."""
-    q = np.moveaxis(np.asarray(q, dtype=float), axis, 0).copy()
+    """Flip signs along ``axis`` (time) so consecutive quaternions have a non-negative dot product.
+
+    Returns a new array (the input is never modified)."""
+    q = np.moveaxis(np.array(q, dtype=float), axis, 0)
     if q.shape[0] > 1:
-        d = np.sum(q[1:] * q[:-1], axis=-1)
-        flips = np.cumsum(d < 0, axis=0) % 2
-        q[1:] *= np.where(flips[..., None] == 1, -1.0, 1.0)
+        neg = np.einsum("t...i,t...i->t...", q[1:], q[:-1]) < 0
+        if neg.any():
+            flips = np.cumsum(neg, axis=0) % 2 == 1
+            q[1:][flips] *= -1.0
     return np.moveaxis(q, 0, axis)
 
 
