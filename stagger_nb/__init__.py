@@ -2,10 +2,9 @@
 
 Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
 """
-from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
-from .io import BVHError, read_bvh, write_bvh
 from . import data
-from .io import AMCError, read_asf_amc
+from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
+from .io import AMCError, BVHError, read_asf_amc, read_bvh, write_bvh
 
 __version__ = "0.1.0"
 

@@ -2,15 +2,15 @@
 
 Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_contacts`,
 :class:`StaggeredMotion` (``sm.pose_times (K,)``, ``sm.refinements (K, J)`` in seconds).
-The editing tools (§5) and the constraint layer live in ``editing.py`` / ``constraints.py``; their
-``__all__`` names are re-exported here when those modules exist.
+The editing tools (§5) are in ``editing.py``, the IK constraint layer in ``constraints.py``.
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
-
+from .constraints import (apply_contact_constraints, attenuation_weights, contact_errors, contact_positions,
+                          foot_skate, two_bone_ik)
 from .contacts import detect_contacts, end_effectors
+from .editing import (TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose, random_timing,
+                      retime, succession, timing_warnings)
 from .extraction import PoseEvidence, cull, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
@@ -18,11 +18,7 @@ from .representation import StaggeredMotion, evaluate, evaluate_arrays, knot_tim
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "detect_contacts", "end_effectors", "locate_poses",
            "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
-           "knot_times"]
-
-for _name in ("editing", "constraints"):
-    if importlib.util.find_spec(f"{__name__}.{_name}") is not None:
-        _mod = importlib.import_module(f"{__name__}.{_name}")
-        for _n in getattr(_mod, "__all__", ()):
-            globals()[_n] = getattr(_mod, _n)
-            __all__.append(_n)
+           "knot_times",
+           "TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession", "random_timing",
+           "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik", "contact_positions",
+           "contact_errors", "foot_skate", "attenuation_weights"]
