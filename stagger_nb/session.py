@@ -64,27 +64,6 @@ def _number(value, field):
     return float(value)
 
 
-def _nonneg(value, field):
-    v = _number(value, field)
-    if v < 0:
-        _fail(field, "a number >= 0", value)
-    return v
-
-
-def _positive(value, field):
-    v = _number(value, field)
-    if v <= 0:
-        _fail(field, "a number > 0", value)
-    return v
-
-
-def _percent(value, field):
-    v = _number(value, field)
-    if not 0.0 < v <= 100.0:
-        _fail(field, "a percentage in (0, 100]", value)
-    return v
-
-
 def _choice(*options):
     def f(value, field):
         if value not in options:
@@ -115,11 +94,20 @@ def _int(value, field):
     return int(value)
 
 
-def _nonneg_int(value, field):
-    v = _int(value, field)
-    if v < 0:
-        _fail(field, "an integer >= 0", value)
-    return v
+def _checked(base, ok, expected: str):
+    """A validator: ``base`` (type check and conversion), then the range test ``ok``."""
+    def f(value, field):
+        v = base(value, field)
+        if not ok(v):
+            _fail(field, expected, value)
+        return v
+    return f
+
+
+_nonneg = _checked(_number, lambda v: v >= 0, "a number >= 0")
+_positive = _checked(_number, lambda v: v > 0, "a number > 0")
+_percent = _checked(_number, lambda v: 0.0 < v <= 100.0, "a percentage in (0, 100]")
+_nonneg_int = _checked(_int, lambda v: v >= 0, "an integer >= 0")
 
 
 def _str(value, field):
