@@ -167,17 +167,44 @@ def test_save_load_round_trip_bit_for_bit(session, tmp_path, embed):
     assert not list(tmp_path.glob(".tmp-*"))  # the atomic write left no temporary file
 
 
+def _technique_sessions(m, path):
+    """Sessions using every technique: staggered cull/succession/random timing/pose edit, the magic wand, a
+    guided warp."""
+    names = m.skeleton.names
+    return [Session.from_bvh(path, ops=[
+                {"op": "cull", "percent": 60.0},
+                {"op": "edit_pose", "pose": 1, "deltas": {names[3]: [5.0, 0.0, -4.0]}},
+                {"op": "succession", "root": names[1], "s": 0.03, "l": 2.0},
+                {"op": "random_timing", "tau": 0.04, "seed": 3, "joints": None}]),
+            Session.from_bvh(path, ops=[{"op": "propagate", "frame": 50, "deltas": {names[2]: [20.0, 0.0, 0.0]},
+                                         "sigma": 0.3, "frame_range": [10, 120]}]),
+            Session.from_bvh(path, ops=[{"op": "guided_warp", "duration": 0.8, "skip": 6, "keytimes": [[0.5, 0.3]],
+                                         "reference": {"segment": [0.1, 0.9]}}])]
+
+
 def test_reload_in_a_new_process_is_bit_for_bit(session, tmp_path):
+    from conftest import shared_clip_path
+    path = shared_clip_path("xia_angry_run.bvh")
+    sessions = [session] + _technique_sessions(sn.read_bvh(path), path)
     session.set_ops(_edit_ops(session.source))
-    p = tmp_path / "s.json"
-    session.save(p)
+    files = []
+    for i, s in enumerate(sessions):
+        files.append(tmp_path / f"s{i}.json")
+        s.save(files[-1])
     out = tmp_path / "edited.npz"
-    code = ("import sys, numpy as np; from stagger_nb.session import Session; m = Session.load(sys.argv[1]).edited();"
-            "np.savez(sys.argv[2], q=m.local_quats, r=m.root_positions)")
-    subprocess.run([sys.executable, "-c", code, str(p), str(out)], check=True, cwd=REPO, timeout=180)  # loaded CI machines
+    code = ("import sys, numpy as np; from stagger_nb.session import Session\n"
+            "ms = [Session.load(p).edited() for p in sys.argv[2:]]\n"
+            "np.savez(sys.argv[1], **{f'q{i}': m.local_quats for i, m in enumerate(ms)},"
+            " **{f'r{i}': m.root_positions for i, m in enumerate(ms)})")
+    subprocess.run([sys.executable, "-c", code, str(out)] + [str(f) for f in files], check=True, cwd=REPO,
+                   timeout=300)  # generous: loaded CI machines
     got = np.load(out)
-    e = session.edited()
-    assert np.array_equal(got["q"], e.local_quats) and np.array_equal(got["r"], e.root_positions)
+    for i, s in enumerate(sessions):
+        e = s.edited()
+        # each session really edits (so equality is not the trivial source == source)
+        assert e.num_frames != s.source.num_frames or np.abs(e.local_quats - s.source.local_quats).max() > 1e-6
+        assert np.array_equal(got[f"q{i}"], e.local_quats), s
+        assert np.array_equal(got[f"r{i}"], e.root_positions), s
 
 
 @pytest.mark.parametrize("mutate, field", [
