@@ -26,7 +26,6 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ import numpy as np
 from .core.motion import Motion
 from .core.rotations import quat_mul, quat_to_rotvec, rotvec_to_quat
 from .core.skeleton import Skeleton
+from .io._common import atomic_write_bytes
 from .io.bvh import read_bvh, write_bvh
 
 __all__ = ["Session", "OpSpec", "OP_REGISTRY", "register_op", "validate_op", "apply_pose_deltas",
@@ -850,7 +850,7 @@ class Session:
     def save(self, path, embed_source: bool | None = None) -> None:
         """Write the session as JSON, atomically (temporary file + rename)."""
         text = json.dumps(self.to_json(embed_source), indent=1, allow_nan=False)
-        _atomic_write_text(os.fspath(path), text)
+        atomic_write_bytes(path, text.encode("utf-8"))
 
     @classmethod
     def from_json(cls, data: Any, source: Motion | None = None) -> "Session":
@@ -917,16 +917,3 @@ class Session:
     def __repr__(self) -> str:
         src = os.path.basename(self.source_path) if self.source_path else repr(self.source)
         return f"Session({src}, {len(self._ops)} ops: {', '.join(o['op'] for o in self._ops) or '-'})"
-
-
-def _atomic_write_text(path: str, text: str) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise

@@ -9,18 +9,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._arrays import readonly
 from .rotations import quat_continuous, quat_normalize, slerp
 from .skeleton import Skeleton
 
 __all__ = ["Motion", "concatenate"]
 
 _UNIT_TOL = 1e-12  # |norm - 1| above which a quaternion is renormalised on construction
-
-
-def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +65,7 @@ class Motion:
                 raise ValueError(f"Motion: local_translations must have shape ({F}, {J}, 3), got {lt.shape}")
             if not np.all(np.isfinite(lt)):
                 raise ValueError("Motion: local_translations must be finite (no NaN / inf)")
-            lt = _frozen(lt)
+            lt = readonly(lt)
         for name, a in (("local_quats", q), ("root_positions", rp)):
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"Motion: {name} must be finite (no NaN / inf)")
@@ -82,7 +77,7 @@ class Motion:
         q = quat_continuous(q, axis=0)  # a new array: the caller's is never aliased
         q.setflags(write=False)
         object.__setattr__(self, "local_quats", q)
-        object.__setattr__(self, "root_positions", _frozen(rp))
+        object.__setattr__(self, "root_positions", readonly(rp))
         object.__setattr__(self, "local_translations", lt)
 
     # -- basic properties -------------------------------------------------------------------------

@@ -5,13 +5,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._arrays import readonly
+
 __all__ = ["Skeleton"]
-
-
-def _frozen(a, dtype=float) -> np.ndarray:
-    a = np.array(a, dtype=dtype)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,8 +37,8 @@ class Skeleton:
 
     def __post_init__(self):
         names = tuple(str(n) for n in self.names)
-        parents = _frozen(self.parents, dtype=np.int64)
-        offsets = _frozen(self.offsets, dtype=float).reshape(-1, 3)
+        parents = readonly(self.parents, dtype=np.int64)
+        offsets = readonly(self.offsets, dtype=float).reshape(-1, 3)
         J = len(names)
         if parents.shape != (J,) or offsets.shape != (J, 3):
             raise ValueError(f"Skeleton: names ({J}), parents {parents.shape} and offsets {offsets.shape} disagree")
@@ -55,7 +51,7 @@ class Skeleton:
             for j in range(J))
         if len(channels) != J:
             raise ValueError(f"Skeleton: channels has {len(channels)} entries for {J} joints")
-        end_sites = {int(k): _frozen(v).reshape(3) for k, v in dict(self.end_sites).items()}
+        end_sites = {int(k): readonly(v).reshape(3) for k, v in dict(self.end_sites).items()}
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "parents", parents)
         object.__setattr__(self, "offsets", offsets)

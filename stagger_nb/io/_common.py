@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 
 import numpy as np
 
 from ..core.rotations import quat_mul
 
-__all__ = ["FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat"]
+__all__ = ["atomic_write_bytes", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat"]
 
 
 class FormatError(ValueError):
@@ -118,3 +120,26 @@ def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
         e[..., 3] = c[..., n]
         q = quat_mul(q, e)
     return q
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then a rename, so readers
+    never see half a file. The file gets the usual permissions (umask, or the mode of the file it replaces)."""
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        mode = os.stat(path).st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
 
 import numpy as np
 
 from ..core.motion import Motion
 from ..core.rotations import quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import FormatError, decode, euler_deg_to_quat, finite_number, read_bytes
+from ._common import FormatError, atomic_write_bytes, decode, euler_deg_to_quat, finite_number, read_bytes
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, parse_table
 
@@ -403,22 +402,4 @@ def write_bvh(motion: Motion, path) -> None:
     """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: a temporary file in the same folder,
     then a rename, so readers never see half a file; the file gets the usual permissions (umask, or the
     mode of the file it replaces)."""
-    path = os.fspath(path)
-    data = _format_bytes(motion)
-    folder = os.path.dirname(os.path.abspath(path))
-    try:
-        mode = os.stat(path).st_mode & 0o7777
-    except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        mode = 0o666 & ~umask
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".bvh", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_bytes(path, _format_bytes(motion))

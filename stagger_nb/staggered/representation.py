@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core._arrays import readonly
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from . import _kernels as K
@@ -27,12 +28,6 @@ from . import _kernels as K
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
            "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference",
            "evaluate_samples", "root_positions_at", "evaluate_arrays"]
-
-
-def _ro(a, dtype=float) -> np.ndarray:
-    a = np.array(a, dtype=dtype)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +120,7 @@ class StaggeredMotion:
         ft = float(self.frame_time)
         if not np.isfinite(ft) or ft <= 0:
             raise ValueError(f"StaggeredMotion: frame_time must be > 0 seconds, got {self.frame_time!r}")
-        pt = _ro(self.pose_times).reshape(-1)
+        pt = readonly(self.pose_times).reshape(-1)
         K = pt.size
         if K < 2:
             raise ValueError(f"StaggeredMotion: pose_times needs at least 2 poses, got {K}")
@@ -141,14 +136,14 @@ class StaggeredMotion:
         object.__setattr__(self, "pose_times", pt)
         for name, shape in expect.items():
             dtype = int if name.endswith("counts") else float
-            a = _ro(getattr(self, name), dtype)
+            a = readonly(getattr(self, name), dtype)
             if a.shape != shape:
                 raise ValueError(f"StaggeredMotion: {name} must have shape {shape}, got {a.shape}")
             object.__setattr__(self, name, a)
-        d = _ro(self.displacements)
+        d = readonly(self.displacements)
         if d.ndim != 4 or d.shape[:2] != (K - 1, J) or d.shape[3] != 3:
             raise ValueError(f"StaggeredMotion: displacements must have shape ({K - 1}, {J}, M, 3), got {d.shape}")
-        rd = _ro(self.root_displacements)
+        rd = readonly(self.root_displacements)
         if rd.ndim != 3 or rd.shape[0] != K - 1 or rd.shape[2] != 3:
             raise ValueError(f"StaggeredMotion: root_displacements must have shape ({K - 1}, M, 3), got {rd.shape}")
         if np.any(self.displacement_counts < 2) or np.any(self.displacement_counts > d.shape[2]):
@@ -158,7 +153,7 @@ class StaggeredMotion:
         object.__setattr__(self, "displacements", d)
         object.__setattr__(self, "root_displacements", rd)
         if self.local_translations is not None:
-            lt = _ro(self.local_translations)
+            lt = readonly(self.local_translations)
             if lt.ndim != 3 or lt.shape[1:] != (J, 3):
                 raise ValueError(f"StaggeredMotion: local_translations must have shape (F, {J}, 3), got {lt.shape}")
             object.__setattr__(self, "local_translations", lt)
