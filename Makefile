@@ -6,6 +6,8 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.stagger_nb-installed
 PORT   ?= 8888
+# JupyterLab refuses to run as root unless told; containers and CI machines often are root
+ROOTFLAG := $(if $(filter 0,$(shell id -u)),--allow-root)
 
 .PHONY: setup data lab test bench clean
 
@@ -21,7 +23,7 @@ data: $(STAMP)
 
 lab: setup
 	@echo "Starting JupyterLab on notebooks/ (open the URL printed below; Ctrl-C stops it)"
-	$(VENV)/bin/jupyter lab --no-browser --ip 127.0.0.1 --port $(PORT) --notebook-dir notebooks
+	$(VENV)/bin/jupyter lab --no-browser --ip 127.0.0.1 --port $(PORT) --notebook-dir notebooks $(ROOTFLAG)
 
 test: setup
 	$(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env -p no:cacheprovider
