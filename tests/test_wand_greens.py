@@ -153,3 +153,21 @@ def test_basis_cache_returns_the_same_object():
         g.basis(float(s))
     assert g.basis(0.3) is not b1                       # evicted after BASIS_CACHE newer values
     assert np.array_equal(g.basis(0.3).eigenvalues, b1.eigenvalues)  # ... and recomputed identically
+
+
+def test_paper_formula_is_reachable_through_the_one_call_falloff():
+    # Eq. 1-3 as printed (plain log map, no chain floor, phi_k of L, weight 1/lambda_k): every deviation
+    # of the defaults is an opt-in flag of wand.falloff, and with all eigenpairs the row is L^+'s row
+    from stagger_nb.core.rotations import quat_hemisphere, quat_log
+    from stagger_nb.wand import normalize_row
+    m = cyclic_motion(F=30, period=11, noise=0.05, seed=8)
+    X = quat_log(quat_hemisphere(m.local_quats)).reshape(30, -1)   # the plain log map of §3
+    sigma = 0.7
+    L, _ = _naive_laplacian(X, sigma)
+    Lp = np.linalg.pinv(L, rcond=1e-10, hermitian=True)
+    paper = dict(self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity")
+    for f in (0, 13, 29):
+        w = wand.falloff(m, f, sigma=sigma, num_eigs=29, **paper)
+        # 1e-8: the normalisation divides the 1e-10-relative agreement above by g_f - min g (~1e-2 of max)
+        assert np.allclose(w, normalize_row(Lp[f], f), atol=1e-8)
+        assert not np.allclose(w, wand.falloff(m, f, sigma=sigma, num_eigs=29), atol=1e-3)  # the defaults differ

@@ -7,8 +7,12 @@ frame of the range; frames outside the range get 0 (a constant row, e.g. a stati
 whole range).  The clip matters where a row
 peaks off its frame: a few frames off (§4.2's "offset of 2-3 frames", from truncating Eq. 3 and dropping
 its self term), or at a repetition of the pose in a denser part of the clip (seen on bandai_walk and CMU
-131_01 / 01_01 for some frames); such frames get weight 1, i.e. the full edit.  The normalised
-pose distance of Figure 1 is ``1 - w``.
+131_01 / 01_01 for some frames); such frames get weight 1, i.e. the full edit, and Eq. 5 stays well
+defined (``0 <= w <= 1``: no frame gets more than the edit).  Measured with the defaults on the real
+clips, rows whose clipped set reaches frames more than 0.25 s away: xia runs/walk 0 %, pymo 12 %,
+bandai_walk 30 %, CMU 131_01 31 %; the clipped values exceed 1 by a median <= 0.2 % and at most 3 %
+(12.7 % on CMU 131_01), so clipping changes those weights little: such a repetition would get about the
+full edit unclipped too.  The normalised pose distance of Figure 1 is ``1 - w``.
 
 "The artist ... can choose to include such repetition or discard it": with ``repetitions=False`` the range
 shrinks to the valley on either side of ``i`` (walking outward from ``i`` until ``w`` has risen
