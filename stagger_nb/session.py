@@ -26,6 +26,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -59,9 +60,15 @@ def _fail(field: str, expected: str, value) -> None:
 
 
 def _number(value, field):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         _fail(field, "a finite number", value)
-    return float(value)
+    try:
+        v = float(value)  # an int beyond the float range (e.g. 10**400 in a file) overflows here
+    except OverflowError:
+        v = math.inf
+    if not math.isfinite(v):
+        _fail(field, "a finite number", value)
+    return v
 
 
 def _choice(*options):
@@ -340,8 +347,17 @@ def _run_propagate(m, p, ctx):
     return _wand().propagate(m, f, edited, frame_range=fr, basis=ctx.wand_basis(m, p["sigma"]))
 
 
+_MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
+
+
 def _warp_frames(m, duration):
-    return max(2, int(round(duration / m.frame_time)) + 1)
+    """Output frames of a warp to ``duration`` seconds at the input's frame time (at most
+    ``_MAX_WARP_RATIO`` times the input's frames: an absurd duration must not allocate memory for it)."""
+    n = duration / m.frame_time
+    if n > _MAX_WARP_RATIO * m.num_frames:
+        raise ValueError(f"duration: {duration:g} s is more than {_MAX_WARP_RATIO} times the input's "
+                         f"{m.duration:g} s")
+    return max(2, int(round(n)) + 1)
 
 
 def _run_guided_warp(m, p, ctx):
@@ -360,6 +376,9 @@ def _run_linear_warp(m, p, ctx):
 
 
 def _run_resample(m, p, ctx):
+    if m.duration / p["frame_time"] > _MAX_WARP_RATIO * m.num_frames:
+        raise ValueError(f"frame_time: {p['frame_time']:g} s gives more than {_MAX_WARP_RATIO} times the "
+                         f"input's {m.num_frames} frames")
     return m.resample(p["frame_time"])
 
 
@@ -402,29 +421,68 @@ def _motion_to_json(m: Motion) -> dict:
             "local_translations": None if m.local_translations is None else m.local_translations.tolist()}
 
 
+_MOTION_FIELDS = ("names", "parents", "offsets", "channels", "end_sites", "frame_time", "root_positions",
+                  "local_quats", "local_translations")
+_CHANNEL_RE = re.compile(r"[XYZ](position|rotation)\Z", re.IGNORECASE)
+
+
+def _float_array(value, field, shape_tail: tuple) -> np.ndarray:
+    """``value`` (nested JSON lists of numbers) as a float array of shape ``(N,) + shape_tail``."""
+    try:
+        a = np.asarray(value)
+    except ValueError:  # ragged nesting
+        a = None
+    if a is None or a.dtype.kind not in "iuf" or a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
+        _fail(field, f"an array of numbers of shape (N, {', '.join(map(str, shape_tail))})",
+              type(value).__name__ if a is None or a.size > 8 else value)
+    a = a.astype(float)
+    if not np.all(np.isfinite(a)):
+        _fail(field, "finite numbers", "a non-finite value")
+    return a
+
+
 def _motion_from_json(d: Any, field: str) -> Motion:
     if not isinstance(d, dict):
         _fail(field, "an embedded motion object", d)
-    need = ("names", "parents", "offsets", "channels", "end_sites", "frame_time", "root_positions", "local_quats")
-    for k in need:
+    for k in d:
+        if k not in _MOTION_FIELDS:
+            raise ValueError(f"{field}.{k}: unknown field of an embedded motion")
+    for k in _MOTION_FIELDS[:-1]:
         if k not in d:
             raise ValueError(f"{field}.{k}: missing")
+    names = tuple(_str_list(d["names"], f"{field}.names"))
+    J = len(names)
+    parents = d["parents"]
+    if not isinstance(parents, list) or len(parents) != J:
+        _fail(f"{field}.parents", f"a list of {J} parent indices", parents)
+    parents = np.array([_int(v, f"{field}.parents[{i}]") for i, v in enumerate(parents)], dtype=np.int64)
+    channels = d["channels"]
+    if not isinstance(channels, list) or len(channels) != J:
+        _fail(f"{field}.channels", f"a list of {J} channel lists", channels)
+    for i, c in enumerate(channels):
+        if not isinstance(c, list) or not all(isinstance(x, str) and _CHANNEL_RE.match(x) for x in c):
+            _fail(f"{field}.channels[{i}]", 'a list like ["Zrotation", "Xrotation", "Yrotation"]', c)
+    ends = d["end_sites"]
+    if not isinstance(ends, dict):
+        _fail(f"{field}.end_sites", "an object {joint index: [x, y, z]}", ends)
+    end_sites = {}
+    for k, v in ends.items():
+        if not (isinstance(k, str) and k.isdigit() and int(k) < J):
+            _fail(f"{field}.end_sites", f"joint indices below {J} as keys", k)
+        end_sites[int(k)] = _float_array([v], f"{field}.end_sites.{k}", (3,))[0]
+    frame_time = _positive(d["frame_time"], f"{field}.frame_time")
+    offsets = _float_array(d["offsets"], f"{field}.offsets", (3,))
+    root = _float_array(d["root_positions"], f"{field}.root_positions", (3,))
+    q = _float_array(d["local_quats"], f"{field}.local_quats", (J, 4))
+    lt = d.get("local_translations")
+    lt = None if lt is None else _float_array(lt, f"{field}.local_translations", (J, 3))
     try:
-        arrays = {k: np.asarray(d[k], dtype=float) for k in ("offsets", "root_positions", "local_quats")}
-        lt = None if d.get("local_translations") is None else np.asarray(d["local_translations"], dtype=float)
-        parents = np.asarray(d["parents"], dtype=np.int64)
-        sk = Skeleton(tuple(_str_list(d["names"], f"{field}.names")), parents, arrays["offsets"],
-                      tuple(tuple(c) for c in d["channels"]),
-                      {int(k): np.asarray(v, dtype=float) for k, v in dict(d["end_sites"]).items()})
-        m = Motion(sk, _positive(d["frame_time"], f"{field}.frame_time"), arrays["root_positions"],
-                   arrays["local_quats"], lt)
-    except ValueError as e:
+        sk = Skeleton(names, parents, offsets, tuple(tuple(c) for c in channels), end_sites)
+        m = Motion(sk, frame_time, root, q, lt)
+    except ValueError as e:  # shapes that disagree, a parent after its child: the message names them
         raise ValueError(f"{field}: {e}") from None
-    except (TypeError, KeyError) as e:
-        raise ValueError(f"{field}: malformed embedded motion ({e})") from None
     # Motion() re-normalises the quaternions; the stored ones were already normalised by a Motion, so
     # keep the stored bits exactly (re-normalising can flip the last bit) -> bit-for-bit replay.
-    q = arrays["local_quats"]
     if q.shape == m.local_quats.shape and np.allclose(q, m.local_quats, rtol=0, atol=1e-12):
         q = q.copy()
         q.setflags(write=False)
@@ -447,6 +505,29 @@ def _sha256(path: str) -> str:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def _check_extract_options(options) -> dict:
+    """A copy of ``options`` (keyword arguments of ``staggered.extract`` / ``locate_poses``, JSON values),
+    or ValueError naming the bad key."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        _fail("extract_options", "an object", options)
+    options = dict(options)
+    if options:
+        import inspect
+        from .staggered import extraction
+        known = {name for f in (extraction.extract, extraction.locate_poses)
+                 for name, p in inspect.signature(f).parameters.items() if p.kind is p.KEYWORD_ONLY}
+        for k in options:
+            if k not in known:
+                raise ValueError(f"extract_options.{k}: unknown option; options are {', '.join(sorted(known))}")
+        try:
+            _canonical(options)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"extract_options: not JSON values ({e})") from None
+    return options
 
 
 def _canonical(ops) -> str:
@@ -492,8 +573,12 @@ class _Context:
 
     def extract(self, motion: Motion):
         """``staggered.extract(motion, **extract_options)``, once per motion."""
-        return self._cached("extract", motion, None,
-                            lambda: _staggered().extract(motion, **self._s.extract_options))
+        def make():
+            try:
+                return _staggered().extract(motion, **self._s.extract_options)
+            except (TypeError, ArithmeticError) as e:  # the keys are checked already: a bad value
+                raise ValueError(f"extract_options: {type(e).__name__}: {e}") from None
+        return self._cached("extract", motion, None, make)
 
     def cull(self, sm, percent: float):
         """``staggered.cull(sm, percent)`` (a refit of the splines, the slow step of the cull slider), once
@@ -569,8 +654,7 @@ class Session:
             raise ValueError(f"source: expected a Motion, got {type(source).__name__}")
         self.source = source
         self.source_path = None if source_path is None else os.path.abspath(os.fspath(source_path))
-        self.extract_options = dict(extract_options or {})
-        _canonical(self.extract_options)  # JSON-serialisable or TypeError/ValueError now
+        self.extract_options = _check_extract_options(extract_options)
         self._ops = self._validated(ops or [], "ops")
         self._undo: list = []
         self._redo: list = []
@@ -717,6 +801,8 @@ class Session:
                 state = spec.run(self._convert(state, spec.needs), op, self._ctx)
             except ValueError as e:
                 raise ValueError(f"ops[{i}] ({op['op']}): {e}") from None
+            except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
+                raise ValueError(f"ops[{i}] ({op['op']}): {type(e).__name__}: {e}") from None
             key = states[i][0]
             self._memo[key] = state
             out.append(state)
@@ -881,7 +967,10 @@ class Session:
                 digest = src.get("sha256")
                 if digest is not None and _str(digest, "source.sha256") != _sha256(path):
                     raise ValueError(f"source.sha256: {path} changed since the session was saved")
-                source = read_bvh(path)
+                try:
+                    source = read_bvh(path)
+                except ValueError as e:  # BVHError: names the file and line
+                    raise ValueError(f"source.path: {e}") from None
             elif "motion" in src:
                 source = _motion_from_json(src["motion"], "source.motion")
             else:
@@ -903,6 +992,8 @@ class Session:
             data = json.loads(text, parse_constant=no_constants)
         except json.JSONDecodeError as e:
             raise ValueError(f"session: {path} is not valid JSON ({e})") from None
+        except RecursionError:
+            raise ValueError(f"session: {path} nests JSON too deeply for a session file") from None
         return cls.from_json(data, source=source)
 
     def export_bvh(self, path) -> None:

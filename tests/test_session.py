@@ -240,6 +240,51 @@ def test_load_rejects_nan_and_garbage(session, tmp_path):
         Session.load(p)
 
 
+def _embedded(d):
+    return d["source"]["motion"]
+
+
+@pytest.mark.parametrize("mutate, field", [
+    (lambda d: d["ops"].append({"op": "cull", "percent": 10 ** 400}), r"ops\[2\]\.percent"),  # no float holds it
+    (lambda d: d.update(extract_options={"bogus": 1}), r"extract_options\.bogus"),
+    (lambda d: d.update(extract_options=[1]), r"extract_options"),
+    (lambda d: _embedded(d).update(channels=[[1, 2]] * len(_embedded(d)["names"])), r"source\.motion\.channels\[0\]"),
+    (lambda d: _embedded(d).update(parents="abc"), r"source\.motion\.parents"),
+    (lambda d: _embedded(d).update(local_quats=[[1, 2], [3]]), r"source\.motion\.local_quats"),
+    (lambda d: _embedded(d).update(local_quats=[[["1", 0, 0, 0]]]), r"source\.motion\.local_quats"),
+    (lambda d: _embedded(d).update(root_positions=[[10 ** 400, 0, 0]]), r"source\.motion\.root_positions"),
+    (lambda d: _embedded(d).update(end_sites={"x": [0, 0, 1]}), r"source\.motion\.end_sites"),
+    (lambda d: _embedded(d).update(evil=1), r"source\.motion\.evil"),
+    (lambda d: d.update(source={"path": __file__}), r"source\.path"),                  # not a BVH file
+])
+def test_load_names_the_field_of_hostile_values(session, tmp_path, mutate, field):
+    session.set_ops(_edit_ops(session.source))
+    p = tmp_path / "s.json"
+    session.save(p, embed_source=True)
+    d = json.loads(p.read_text())
+    mutate(d)
+    p.write_text(json.dumps(d))
+    with pytest.raises(ValueError, match=rf"^{field}"):
+        Session.load(p)
+
+
+def test_load_refuses_deeply_nested_json(tmp_path):
+    p = tmp_path / "s.json"
+    p.write_text("[" * 200_000 + "]" * 200_000)  # past the JSON decoder's recursion limit
+    with pytest.raises(ValueError, match="^session: .* nests JSON too deeply"):
+        Session.load(p)
+
+
+@pytest.mark.parametrize("op, field", [
+    ({"op": "linear_warp", "duration": 1e12}, "duration"),   # 10**13 output frames must not be allocated
+    ({"op": "resample", "frame_time": 1e-300}, "frame_time"),
+])
+def test_absurd_output_sizes_are_refused_before_allocating(session, op, field):
+    session.set_ops([op])
+    with pytest.raises(ValueError, match=rf"^ops\[0\] \({op['op']}\): {field}: .* more than 100 times"):
+        session.edited()
+
+
 def test_export_refuses_the_source_and_writes_atomically(session, tmp_path):
     src = tmp_path / "src.bvh"
     sn.write_bvh(session.source, src)
