@@ -179,6 +179,11 @@ def test_infeasible_or_bad_arguments_raise(walk30, walk_tables, shared_motion):
         timewarp.guided_warp(walk30, walk30, 100, skip=0)
     with pytest.raises(ValueError, match="upsample"):
         timewarp.guided_warp(walk30, walk30, 100, upsample=0)
+    for bad in (-0.1, float("nan"), "0.1"):
+        with pytest.raises(ValueError, match="smoothing"):
+            timewarp.guided_warp(walk30, walk30, 100, smoothing=bad, tables=walk_tables)
+    with pytest.raises(ValueError, match="k must"):
+        timewarp.guided_warp(walk30, walk30, 100, k="3")
 
 
 def test_smooth_warp_keeps_pins_and_monotonicity():

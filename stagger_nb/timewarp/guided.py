@@ -140,6 +140,8 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
                          "guided time warping needs the same skeleton (§4.2)")
     if m.num_frames < 2:
         raise ValueError(f"m needs at least 2 frames, got {m.num_frames}")
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"k must be a positive integer, got {k!r}")
     skip = validate_skip(skip)
     upsample = _validate_upsample(upsample)
     weights = feature_weights(weights)
@@ -268,7 +270,10 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     ----------
     m : input Motion (n frames, ``frame_time`` seconds apart); the output has the same frame time
     reference : Motion with the same joints giving the desired timing (``m`` itself to preserve timing, §4.1)
-    num_frames : output frame count m (``n / skip <= m``; ``m > n`` upsamples), or None: unconstrained length
+    num_frames : output frame count m (``n / skip <= m``; ``m > n`` upsamples), or None: unconstrained length.
+        ``m == n`` without upsampling (the default, ``upsample=None`` or 1) returns the identity warp: the only
+        complete subsequence of n input frames is all of them (§3.1). With an explicit ``upsample > 1`` the
+        search has ``(n - 1) u + 1`` frames and may choose any warp of the same duration for ``m == n``.
     skip : s, largest input-frame step per output frame (the fastest playback is s times real time)
     keytimes : list of (input_time_s, output_time_s) pairs or None; end points ``(0, 0)`` and
         ``(m.duration, (num_frames - 1) * frame_time)`` are implied; both times strictly increasing
@@ -292,6 +297,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         raise ValueError(f"m must be a Motion, got {type(m).__name__}")
     if num_frames is not None:
         num_frames = validate_num_frames(num_frames)
+    if isinstance(smoothing, bool) or not isinstance(smoothing, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(smoothing) or smoothing < 0:
+        raise ValueError(f"smoothing must be a non-negative number of seconds, got {smoothing!r}")
     if tables is None:
         u = required_upsample(m.num_frames, num_frames) if upsample is None else _validate_upsample(upsample)
         if num_frames is not None and num_frames > (m.num_frames - 1) * u + 1:
