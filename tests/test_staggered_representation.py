@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 from conftest import SHARED_CLIPS
 from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
-from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat
+from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
 from stagger_nb.staggered.fitting import (fit_rotation_tangents, fit_rotation_tangents_nelder_mead,
                                           fit_staggered, fit_translation_tangents, velocity_jumps)
 from stagger_nb.staggered.representation import (bezier_cubic, evaluate_arrays, evaluate_reference,
@@ -135,6 +135,42 @@ def test_fit_recovers_a_known_quaternion_bezier(rng):
     # data lie exactly on a spline of this family: the fit gets there (1e-12 rad^2 = solver tolerance)
     assert cost.max() < 1e-12
     assert quat_angle(tang[:, 0], c1).max() < 1e-5 and quat_angle(tang[:, 1], c2).max() < 1e-5
+
+
+def test_fit_start_keeps_a_flexion_and_extension_inside_one_segment():
+    # one-axis rotation whose angle is a Euclidean cubic with inner controls +130 deg and -120 deg (a knee
+    # flexing and extending inside one segment): the least-squares control polygon has a 250 deg leg, which
+    # the short-arc recursive slerp would follow the other way round. The fit must not fall back to the
+    # linear spline (it did: cost 4.47 rad^2, 38 deg off); a shrunk polygon fits to 0.40 rad^2 (11 deg).
+    n = 22
+    tn = np.linspace(0, 1, n)
+    u = 1 - tn
+    deg = 3 * u * u * tn * 130 + 3 * u * tn * tn * (-120) + tn ** 3 * 15
+    q = rotvec_to_quat(np.radians(deg)[:, None] * np.array([1.0, 0.0, 0.0]))
+    tang, cost = fit_rotation_tangents(tn, q, np.zeros(n, dtype=int), q[:1], q[-1:], 1)
+    lin = quat_bezier(q[0], *slerp(q[0], q[-1], np.array([1 / 3, 2 / 3])), q[-1], tn)
+    lin_cost = np.sum(quat_angle(lin, q) ** 2)
+    s = quat_bezier(q[0], tang[0, 0], tang[0, 1], q[-1], tn)
+    assert np.isclose(cost[0], np.sum(quat_angle(s, q) ** 2), rtol=1e-9)   # reported cost is the true one
+    assert cost[0] < 0.25 * lin_cost                                      # measured ratio 0.09
+
+
+def test_c1_fit_never_swings_the_long_way_on_the_procedural_run():
+    # procedural run (60 Hz): knees and hips hold a full flexion and extension between two knots. The C1
+    # fit once accepted control-polygon legs past a half turn there (feet 177 deg off before displacement).
+    from stagger_nb import data
+    from stagger_nb.staggered.fitting import _legs_within_half_turn
+    m = data.load("run")
+    sm = staggered.extract(m)
+    P = sm.tangents.shape[0] * sm.num_joints
+    a = sm.tangents[:, :, 0].reshape(P, 4).T
+    b = sm.tangents[:, :, 1].reshape(P, 4).T
+    assert _legs_within_half_turn(sm.values, a, b).all()
+    bare = staggered.evaluate(dataclasses.replace(sm, displacements=np.zeros_like(sm.displacements)))
+    err = np.degrees(quat_angle(bare.local_quats, m.local_quats))
+    # measured 55 deg (hip, C1 with ~0.35 s segments over a 0.72 s stride); 177 deg before the fix
+    assert err.max() < 90.0
+    assert quat_angle(staggered.evaluate(sm).local_quats, m.local_quats).max() <= 1e-6
 
 
 def test_fit_translation_recovers_control_points(rng):

@@ -34,6 +34,7 @@ __all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tan
 _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 interior samples) to the chord
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
 _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
+_SHRINK = (1.0, 0.85, 0.7, 0.55, 0.4, 0.2, 0.0)   # start polygons tried: Euclidean fit shrunk toward its chord
 
 
 # -- sampling ----------------------------------------------------------------------------------------
@@ -157,25 +158,36 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     def pair_cost(r):
         return np.bincount(pair, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], P)
 
-    # Start 1, closed form: Euclidean Bézier on log(v0^-1 q) (exact for a one-axis rotation at a constant
-    # rate; no hemisphere flip, targets are sign-continuous so the log stays continuous past pi).
+    # Closed-form start: a Euclidean Bézier on x = log(v0^-1 q) (exact for a one-axis rotation at any rate;
+    # targets are sign-continuous so the log stays continuous past pi). The recursive slerp takes each
+    # control-polygon leg the short way, so a leg of the Euclidean polygon longer than a half turn is
+    # followed the other way round: the least-squares polygon of a segment that holds a full flexion and
+    # extension (a knee over half a running stride) has such a leg. So the start is the best, by the true
+    # cost, of the Euclidean polygon shrunk toward its chord by the factors ``_SHRINK`` whose legs all stay
+    # within a half turn; factor 0 is the chord, i.e. the paper's linear rotation spline.
     x = quat_log(quat_mul(quat_conj(v0[pair]), targets))
     b3 = quat_log(quat_mul(quat_conj(v0), v3))
     inner = _fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
-    c1 = quat_mul(v0, quat_exp(inner[:, 0])).T
-    c2 = quat_mul(v0, quat_exp(inner[:, 1])).T
-    # Start 2, the paper's: the linear rotation spline. Where the Euclidean start puts a control polygon leg
-    # past a half turn, short-arc slerp takes the other way round and start 2 wins.
-    l1 = slerp(v0, v3, 1.0 / 3.0).T
-    l2 = slerp(v0, v3, 2.0 / 3.0).T
-    r = residual(c1, c2)
-    rl = residual(l1, l2)
-    cost, cl = pair_cost(r), pair_cost(rl)
-    use = cl < cost
-    c1 = np.where(use, l1, c1)
-    c2 = np.where(use, l2, c2)
-    cost = np.where(use, cl, cost)
-    r = np.where(use[pair], rl, r)
+    chord = np.stack([b3 / 3.0, 2.0 * b3 / 3.0], axis=1)
+    e3 = quat_exp(b3)
+    cost = np.full(P, np.inf)
+    c1 = c2 = r = None
+    for alpha in _SHRINK:
+        e = quat_exp(chord + alpha * (inner - chord))                     # (P, 2, 4) controls relative to v0
+        legal = ((e[:, 0, 3] > 0) & (np.sum(e[:, 0] * e[:, 1], axis=1) > 0)
+                 & (np.sum(e[:, 1] * e3, axis=1) > 0)) | (alpha == 0.0)
+        a1 = quat_mul(v0, e[:, 0]).T
+        a2 = quat_mul(v0, e[:, 1]).T
+        ra = residual(a1, a2)
+        ca = np.where(legal, pair_cost(ra), np.inf)
+        use = ca < cost
+        if c1 is None:
+            c1, c2, r = a1, a2, ra
+        else:
+            c1 = np.where(use, a1, c1)
+            c2 = np.where(use, a2, c2)
+            r = np.where(use[pair], ra, r)
+        cost = np.where(use, ca, cost)
 
     lam = np.full(P, 1e-6)
     starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1])
@@ -304,6 +316,15 @@ def _tangents_from_velocities(values, omega, d):
     return np.ascontiguousarray(a.reshape(-1, 4).T), np.ascontiguousarray(b.reshape(-1, 4).T)
 
 
+def _legs_within_half_turn(values, a, b):
+    """(P,) bool: the legs ``v_k -> a -> b -> v_k+1`` of each pair's control polygon (``a, b`` (4, P),
+    ``values (K, C, 4)``, pairs segment-major) all have positive quaternion dot products."""
+    P = a.shape[1]
+    v0 = values[:-1].reshape(P, 4).T
+    v3 = values[1:].reshape(P, 4).T
+    return (np.sum(v0 * a, axis=0) > 0) & (np.sum(a * b, axis=0) > 0) & (np.sum(b * v3, axis=0) > 0)
+
+
 def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations: int = 3):
     """C1 quaternion splines: one body angular velocity ``ω_{k,c}`` per knot shared by both adjacent
     segments, fitted by Levenberg–Marquardt on the squared residual angles of all samples (Appendix A's
@@ -312,6 +333,11 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     The Jacobian comes from finite differences with a two-colouring of the knots (a segment sees exactly
     one even and one odd knot), so one iteration costs 7 spline evaluations whatever K is; the normal
     equations are block-tridiagonal per control variable and solved as one sparse system.
+
+    Constraint: no control-polygon leg past a half turn (the recursive slerp would follow it the other way
+    round, a spline swinging through ~360 deg). Start velocities are halved at the knots of such segments
+    and steps that create one are rejected (except in segments whose chord ``v_k -> v_k+1`` is itself past
+    a half turn).
 
     Parameters
     ----------
@@ -341,6 +367,27 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     def joint_cost(r):
         return np.bincount(col, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], C)
 
+    def legs_ok(om):                                       # (P,) every control leg within a half turn
+        a, b = _tangents_from_velocities(values, om, d)
+        return _legs_within_half_turn(values, a, b)
+
+    # The recursive slerp follows each control-polygon leg the short way: a leg past a half turn makes the
+    # spline swing the other way round. Halve the start velocities at the knots of such segments (omega = 0
+    # makes the legs 0, v_k -> v_k+1, 0), and reject steps that push a leg of a joint past a half turn.
+    omega = np.array(omega, dtype=float)
+    chord_ok = _legs_within_half_turn(values, values[:-1].reshape(P, 4).T, values[1:].reshape(P, 4).T)
+    for _ in range(8):
+        bad = ~legs_ok(omega) & chord_ok
+        if not bad.any():
+            break
+        kb, cb = np.divmod(np.flatnonzero(bad), C)
+        omega[kb, cb] *= 0.5
+        omega[kb + 1, cb] *= 0.5
+    else:
+        bad = ~legs_ok(omega) & chord_ok
+        kb, cb = np.divmod(np.flatnonzero(bad), C)
+        omega[kb, cb] = 0.0
+        omega[kb + 1, cb] = 0.0
     r = residual(omega)
     cost = joint_cost(r)
     lam = np.full(C, 1e-4)
@@ -383,6 +430,7 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
         new = omega + delta.reshape(C, Kn, 3).transpose(1, 0, 2)
         rn = residual(new)
         cn = joint_cost(rn)
+        cn[np.unique(np.flatnonzero(~legs_ok(new) & chord_ok) % C)] = np.inf
         ok = cn < cost
         omega = np.where(ok[None, :, None], new, omega)
         r = np.where(ok[col], rn, r)
