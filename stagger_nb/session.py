@@ -546,30 +546,46 @@ class _Context:
         self._per_motion: dict[str, OrderedDict] = {"extract": OrderedDict(), "graph": OrderedDict(),
                                                     "basis": OrderedDict(), "warp": OrderedDict(),
                                                     "cull": OrderedDict()}
-        self._lock = threading.RLock()  # the caches may be warmed from a background thread
+        self._lock = threading.Lock()  # guards the stores: the caches may be warmed from a background thread
+        self._pending: dict = {}  # (kind, key) -> Event of an entry being computed by some thread
         self._references: dict = {}
         self._warps: dict = {}
 
     def _cached(self, kind: str, motion, key, make: Callable, size: int = _EXTRACT_CACHE_SIZE):
-        with self._lock:
-            return self._cached_locked(kind, motion, key, make, size)
+        """``make()`` once per (kind, motion, key), kept in a small LRU store.
 
-    def _cached_locked(self, kind, motion, key, make, size):
+        Thread-safe: the stores are touched under ``_lock`` only, and ``make()`` runs outside it, so a
+        background warm-up computing one entry never blocks the foreground from reading another (a
+        slider move racing the warm-up). Two threads asking for the same missing entry compute it once:
+        the second waits for the first's result (and computes it itself if the first failed)."""
         store = self._per_motion[kind]
         k = (id(motion), key)
-        hit = store.get(k)
-        if hit is not None and hit[0] is motion:
-            store.move_to_end(k)
-            return hit[1]
-        self._s._busy(kind, True)
+        while True:
+            with self._lock:
+                hit = store.get(k)
+                if hit is not None and hit[0] is motion:
+                    store.move_to_end(k)
+                    return hit[1]
+                pending = self._pending.get((kind, k))
+                if pending is None:
+                    pending = self._pending[(kind, k)] = threading.Event()
+                    break
+            pending.wait()  # another thread is computing this very entry
         try:
-            value = make()
+            self._s._busy(kind, True)
+            try:
+                value = make()
+            finally:
+                self._s._busy(kind, False)
+            with self._lock:
+                store[k] = (motion, value)
+                while len(store) > size:
+                    store.popitem(last=False)
+            return value
         finally:
-            self._s._busy(kind, False)
-        store[k] = (motion, value)
-        while len(store) > size:
-            store.popitem(last=False)
-        return value
+            with self._lock:
+                del self._pending[(kind, k)]
+            pending.set()
 
     def extract(self, motion: Motion):
         """``staggered.extract(motion, **extract_options)``, once per motion."""

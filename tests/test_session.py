@@ -321,3 +321,40 @@ def test_expensive_heads_are_cached_and_reported(shared_motion):
     s.undo()
     assert s.edited() is a
     assert s.staggered() is s.states()[0] and s.extraction().num_poses == s.staggered().num_poses
+
+
+def test_cache_computes_once_across_threads_and_never_blocks_other_entries(session):
+    """A background warm-up and the foreground share the caches: an entry asked for by two threads is
+    computed once; while one entry is being computed, another one can be read (no global lock held)."""
+    import threading
+    ctx, m = session._ctx, session.source
+    calls, release = [], threading.Event()
+
+    def slow():
+        calls.append("slow")
+        assert release.wait(10)  # held until the main thread has read the other entry
+        return "A"
+
+    results = []
+    workers = [threading.Thread(target=lambda: results.append(ctx._cached("cull", m, 1.0, slow)))
+               for _ in range(2)]
+    for w in workers:
+        w.start()
+    ctx._cached("cull", m, 2.0, lambda: "B")  # would deadlock with a lock held around make()
+    assert ctx._cached("cull", m, 2.0, lambda: "other") == "B"  # cached
+    release.set()
+    for w in workers:
+        w.join(10)
+    assert results == ["A", "A"] and calls == ["slow"]
+    assert not ctx._pending
+
+
+def test_cache_entry_whose_computation_failed_is_computed_again(session):
+    ctx, m = session._ctx, session.source
+
+    def boom():
+        raise RuntimeError("no")
+
+    with pytest.raises(RuntimeError):
+        ctx._cached("cull", m, 3.0, boom)
+    assert ctx._cached("cull", m, 3.0, lambda: "ok") == "ok" and not ctx._pending

@@ -178,3 +178,20 @@ def test_warp_editor_guided_linear_and_errors(shared_motion):
         assert "Error" not in e.message.value
     finally:
         e.close()
+
+
+def test_warm_up_failure_is_kept_and_logged(run, monkeypatch, caplog):
+    from stagger_nb.widgets import StaggerEditor
+
+    def fail(self, percents, stop=None):
+        raise RuntimeError("refit failed")
+
+    monkeypatch.setattr(Session, "precompute_cull", fail)
+    e = StaggerEditor(run)  # precompute=True: the warm-up thread runs (and fails) at once
+    try:
+        e.warm_thread.join(60)
+        assert e.warm_thread.daemon and not e.warm_thread.is_alive()
+        assert isinstance(e.warm_error, RuntimeError)
+        assert "cache warm-up stopped: RuntimeError: refit failed" in caplog.text
+    finally:
+        e.close()

@@ -8,7 +8,9 @@ place. Errors from the technique modules are shown in the editor's ``message`` H
 from __future__ import annotations
 
 import html
+import logging
 import threading
+from typing import Any, Callable
 
 import ipywidgets as widgets
 import numpy as np
@@ -19,6 +21,8 @@ from .plots import FalloffPlot, JointCurvesPlot, ProbabilityPlot, WarpPlot
 from .skeleton_view import SkeletonView
 
 __all__ = ["StaggerEditor", "WandEditor", "WarpEditor"]
+
+_log = logging.getLogger(__name__)
 
 _SLIDER = dict(continuous_update=True, style={"description_width": "110px"}, layout=widgets.Layout(width="340px"))
 
@@ -73,6 +77,27 @@ class _Editor(widgets.VBox):
         for p in self.plots:   # new views of the plots must start from their current data
             p.sync_state()
         return super()._repr_mimebundle_(**kwargs)
+
+    def _start_warm(self, work: Callable[[Callable[[], bool]], Any]) -> None:
+        """Run ``work(stop)`` in a daemon thread (cache warm-up: every result is also computed on demand,
+        so a failure only means a cache miss later). ``stop()`` turns true when the editor is closed.
+        A failure is kept in ``warm_error`` and logged, never lost; ``warm_thread`` is the thread."""
+        self._closed = False
+        self.warm_error = None
+
+        def run():
+            try:
+                work(lambda: self._closed)
+            except Exception as e:  # noqa: BLE001 - reported below; the foreground computes on demand
+                self.warm_error = e
+                _log.warning("%s: cache warm-up stopped: %s: %s", type(self).__name__, type(e).__name__, e)
+
+        self.warm_thread = threading.Thread(target=run, name=f"{type(self).__name__}-warm-up", daemon=True)
+        self.warm_thread.start()
+
+    def close(self):
+        self._closed = True   # a running warm-up stops after its current item
+        super().close()
 
     def _tag(self, editor_class: str, **controls) -> None:
         """CSS classes for notebooks and the browser test: ``sn-<name>`` on each named control."""
@@ -244,10 +269,9 @@ class StaggerEditor(_Editor):
         self._tag("sn-stagger-editor", cull=self.cull, s=self.s, l=self.l, tau=self.tau, w_r=self.w_r)
         self._setup(session, view, [self.curves, self.probability], controls,
                     op_controls=[self.cull, self.root, self.s, self.l, self.tau, self.seed, self.joint_set, self.w_r])
-        self.warm_thread = None
+        self.warm_thread = self.warm_error = None
         if precompute:
-            self.warm_thread = threading.Thread(target=self._warm_cull, daemon=True)
-            self.warm_thread.start()
+            self._start_warm(self._warm_cull)
 
     # -- ops ------------------------------------------------------------------------------------------
     def _ops_from_controls(self) -> list:
@@ -308,17 +332,10 @@ class StaggerEditor(_Editor):
         self._nudges.setdefault(self.pose.value, {})[self.joint.value] = [float(w.value) for w in self.nudge]
         self._on_control()
 
-    def _warm_cull(self):
+    def _warm_cull(self, stop):
         """Cache the cull result of every slider position (background thread; each cull is a refit)."""
         pcs = np.arange(100.0 - self._CULL_STEP, self._CULL_STEP - 1e-9, -self._CULL_STEP)
-        try:
-            self.session.precompute_cull([float(p) for p in pcs], stop=lambda: self._closed)
-        except Exception:  # a failed warm-up only means a cache miss later
-            pass
-
-    def close(self):
-        self._closed = True
-        super().close()
+        self.session.precompute_cull([float(p) for p in pcs], stop=stop)
 
     # -- views ----------------------------------------------------------------------------------------
     def _message_is_warning(self) -> bool:
@@ -426,27 +443,17 @@ class WandEditor(_Editor):
                     op_controls=[self.sigma, self.frame, self.limit_range, self.range, self.propagate],
                     view_controls=list(self.compare.values()) + [self.show_sweep])
         self.view.frame = max(0, min(F - 1, self.frame.value + F // 6))
-        self._closed = False
-        self.warm_thread = None
+        self.warm_thread = self.warm_error = None
         if precompute:
-            self.warm_thread = threading.Thread(target=self._warm_bases, daemon=True)
-            self.warm_thread.start()
+            self._start_warm(self._warm_bases)
 
     def _snapped_sigma(self, value: float) -> float:
         return float(self._sigma_grid[np.argmin(np.abs(np.log(self._sigma_grid) - np.log(value)))])
 
-    def _warm_bases(self):
+    def _warm_bases(self, stop):
         """Cache the eigenbasis of every slider position, nearest to the current sigma first."""
         order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(self.sigma.value)), kind="stable")
-        try:
-            self.session.precompute_wand_bases([float(self._sigma_grid[i]) for i in order],
-                                               stop=lambda: self._closed)
-        except Exception:  # a failed warm-up only means a cache miss later
-            pass
-
-    def close(self):
-        self._closed = True
-        super().close()
+        self.session.precompute_wand_bases([float(self._sigma_grid[i]) for i in order], stop=stop)
 
     def _frame_range(self):
         return list(self.range.value) if self.limit_range.value else None
