@@ -145,3 +145,33 @@ def test_plots_update_in_place_and_report_clicks():
         p.on_frame_click(got.append)
         p._clicked(p.figure.data[1], type("Points", (), {"xs": [0.5]})())
     assert got == [15, 15, 15, 15]
+
+
+def test_plot_view_drawn_without_traces_gets_them_again(monkeypatch):
+    """A view that reports fewer traces than the figure (drawn before its state arrived) is sent the
+    missing traces and the layout; a complete view is left alone; without plotly's private senders the
+    repair is skipped (logged), never an exception in the comm handler."""
+    from stagger_nb.widgets import plots
+    p = plots.ProbabilityPlot(1 / 30)
+    p.update(np.arange(5) / 30, np.linspace(0, 1, 5), [0.1], [0.5], [0.1], [0.5])
+    sent = []
+    p.figure.observe(lambda c: c["new"] is not None and sent.append(("add", c["new"])), names="_py2js_addTraces")
+    p.figure.observe(lambda c: c["new"] is not None and sent.append(("layout", c["new"])), names="_py2js_relayout")
+    uids = [t.uid for t in p.figure.data]
+    edit_id = p.figure._last_trace_edit_id
+
+    def report(n):  # what plotly's front end sends after drawing n traces
+        p.figure._js2py_traceDeltas = {"trace_deltas": [{"uid": u} for u in uids[:n]], "trace_edit_id": edit_id}
+
+    report(3)
+    assert sent == [] and p.repairs == 0
+    report(1)
+    assert p.repairs == 1 and [k for k, _ in sent] == ["add", "layout"]
+    added = sent[0][1]["trace_data"]
+    assert [t["uid"] for t in added] == uids[1:] and list(added[1]["x"]) == [0.1]
+    assert sent[1][1]["relayout_data"]["title"]["text"] == p.figure.layout.title.text
+    sent.clear()
+    monkeypatch.setattr(type(p.figure), "_send_addTraces_msg", None)
+    monkeypatch.setattr(plots, "_REPAIR_SKIPPED", [])
+    report(0)
+    assert sent == [] and p.repairs == 1 and plots._REPAIR_SKIPPED == [True]

@@ -12,6 +12,7 @@ as frame indices through ``on_frame_click(callback)`` so an editor can move its 
 """
 from __future__ import annotations
 
+import logging
 from typing import Callable
 
 import numpy as np
@@ -19,6 +20,9 @@ import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
 __all__ = ["JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot"]
+
+_log = logging.getLogger(__name__)
+_REPAIR_SKIPPED: list = []  # non-empty once the missing-private-method warning was given
 
 _COMPONENT_COLOURS = ("#e53e3e", "#38a169", "#3182ce")
 _COMPARISON_COLOURS = {"green": "#2f855a", "isomap": "#c05621", "diffusion": "#6b46c1", "spline": "#718096"}
@@ -51,22 +55,41 @@ class _ClickablePlot:
         self.frame_time = float(frame_time)
         self._callbacks: list[Callable] = []
         self._last: dict = {}
+        self.repairs = 0  # views repaired by _on_view_rendered
         self._wire_clicks()
         fig.observe(self._on_view_rendered, names="_js2py_traceDeltas")
 
     def _on_view_rendered(self, change) -> None:
-        """A front-end view reports its traces after its first draw. Under load, a view nested in a box can
-        be drawn before its model received the figure state (it then shows empty default axes); give such
-        a view the missing traces and the layout (messages only, nothing changes on the Python side)."""
-        from copy import deepcopy
+        """Repair a front-end view drawn with fewer traces than the figure.
+
+        A view reports one trace delta per trace after its first draw. plotly's widget state
+        (``_widget_data``/``_widget_layout``) is set only by ``FigureWidget._repr_mimebundle_``, and edits
+        made before a view exists travel as one-shot messages that view never sees (plotly.py #4933, fixed
+        for a displayed figure by #4956); under load a view nested in a box can also be drawn before its
+        model received the state, and then shows empty default axes. Such a view gets the missing traces
+        and the layout again. This needs two private plotly methods (no public call re-sends traces without
+        adding them to the Python figure); without them the repair is skipped and logged once (re-running
+        the cell redraws the view). Messages go to every view of the figure: a second, complete view of
+        the same figure would draw the re-sent traces twice."""
         msg = change.get("new") or {}
-        have = len(msg.get("trace_deltas", ()))
+        if "trace_deltas" not in msg:  # plotly resets the trait to None after handling it
+            return
         fig = self.figure
-        # a drawn view reports one delta per trace it has; plotly's own reset of the trait (None) is skipped
-        if "trace_deltas" in msg and have < len(fig.data):
-            self.repairs = getattr(self, "repairs", 0) + 1
-            fig._send_addTraces_msg([deepcopy(t) for t in fig._data[have:]])
-            fig._send_relayout_msg(deepcopy(fig._layout))
+        have = len(msg["trace_deltas"])
+        if have >= len(fig.data):
+            return
+        add = getattr(fig, "_send_addTraces_msg", None)
+        relayout = getattr(fig, "_send_relayout_msg", None)
+        if add is None or relayout is None:
+            if not _REPAIR_SKIPPED:
+                _REPAIR_SKIPPED.append(True)
+                _log.warning("a plot view was drawn without its data and this plotly version offers no way to "
+                             "re-send it; re-run the cell to redraw it")
+            return
+        from copy import deepcopy
+        self.repairs += 1
+        add([deepcopy(t) for t in fig._data[have:]])
+        relayout(deepcopy(fig._layout))
 
     def _put(self, i, **props) -> None:
         """``figure.data[i].<prop> = value`` for the props whose value changed (call inside batch_update)."""
