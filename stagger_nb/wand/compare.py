@@ -52,7 +52,8 @@ def diffusion_distance(m: Motion, frame: int, steps: int = 10, sigma: float | No
                        joint_weights=None, reference="mean") -> np.ndarray:
     """Diffusion-map distance after ``steps`` random-walk steps from ``frame`` to every frame, shape (F,).
 
-    With the Gaussian kernel of Eq. 1 (same ``sigma`` default as the Green's function), ``P = D^-1 K`` and
+    With the Gaussian kernel of Eq. 1 (same ``sigma`` default and the same consecutive-frame floor,
+    :data:`.laplacian.CHAIN_FLOOR`, as the Green's function), ``P = D^-1 K`` and
     stationary distribution ``pi = r / sum(r)``, ``D_t(i, j)^2 = sum_l (P^t_il - P^t_jl)^2 / pi_l``
     = ``sum_{k>0} mu_k^(2t) (psi_k(i) - psi_k(j))^2`` with ``mu_k`` the eigenvalues of
     ``A = D^-1/2 K D^-1/2`` and ``psi_k = D^-1/2 phi_k sqrt(sum r)`` (Coifman & Lafon 2006).
