@@ -75,6 +75,34 @@ def test_displacement_follows_the_segment_when_time_is_scaled(extracted):
     assert np.abs(out.root_positions - m.root_positions).max() < 1e-9
 
 
+def test_animated_translations_are_retimed_with_the_root(extracted):
+    # Bandai clips carry the body's travel (8 m) in the Hips joint's translation, not in root_positions:
+    # a time stretch must stretch it too (it was read at the absolute time, so the body ran ahead)
+    m, sm = extracted("bandai_walk.bvh")
+    hips = m.skeleton.index("Hips")
+    assert np.ptp(m.local_translations[:, hips, 2]) > 100.0            # the travel really is there
+    slow = staggered.retime(sm, 2 * sm.pose_times)
+    slow = dataclasses.replace(slow, refinements=2 * sm.refinements, root_refinements=2 * sm.root_refinements)
+    out = staggered.evaluate(slow, 2 * m.times)
+    assert quat_angle(out.local_quats, m.local_quats).max() < 1e-9       # t' identical: rounding only
+    assert np.abs(out.local_translations - m.local_translations).max() < 1e-9
+    # retiming one pose: the translation at the new pose time is the source's at the old one
+    k = sm.num_poses // 2
+    t_new = 0.5 * (sm.pose_times[k] + sm.pose_times[k + 1])
+    one = staggered.retime(sm, {k: t_new})
+    rk = sm.pose_times[k] + sm.root_refinements[k]
+    got = staggered.evaluate(one, [t_new + sm.root_refinements[k]]).local_translations[0]
+    want = staggered.evaluate(sm, [rk]).local_translations[0]
+    assert np.allclose(got, want, atol=1e-9)
+    # inserting and deleting poses leaves the translations where they were
+    T = np.concatenate([sm.knot_times(), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+    i = int(np.argmax(T[1:].min(axis=1) - T[:-1].max(axis=1)))            # widest gap between poses
+    ins = staggered.insert_pose(sm, 0.5 * (T[i].max() + T[i + 1].min()))
+    assert np.abs(staggered.evaluate(ins).local_translations - m.local_translations).max() < 1e-9
+    dele = staggered.delete_pose(sm, k)
+    assert np.abs(staggered.evaluate(dele).local_translations - m.local_translations).max() < 1e-9
+
+
 def test_retiming_one_joint_changes_only_that_joint(extracted):
     m, sm = extracted("xia_neutral_walk.bvh")
     j = m.skeleton.index("LeftForeArm") if "LeftForeArm" in m.skeleton.names else 5

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
-from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline
+from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline, translation_source_times
 
 __all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
            "random_timing", "insert_pose", "delete_pose", "mean_pose"]
@@ -669,7 +669,10 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     rdc = np.insert(sm.root_displacement_counts, k + 1, 2)
     rdc[rseg] = rcounts
     prob = np.insert(sm.pose_probability, k + 1, 0.0)
-    return _refresh(sm, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+    tt = sm.translation_times
+    if tt is not None:           # animated translations keep their source time at the new knot
+        tt = np.insert(tt, k + 1, translation_source_times(sm, [t])[0])
+    return _refresh(sm, translation_times=tt, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v_t, axis=0),
@@ -715,8 +718,10 @@ def delete_pose(sm: StaggeredMotion, k: int) -> StaggeredMotion:
     rd = _put_rows(np.delete(sm.root_displacements, k, axis=0), (rseg,), rrows)
     rdc = np.delete(sm.root_displacement_counts, k)
     rdc[rseg] = rcounts
+    tt = None if sm.translation_times is None else np.delete(sm.translation_times, k)
     return _refresh(sm, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.delete(sm.editing_knots, k, axis=0),
+                    translation_times=tt,
                     pose_probability=np.delete(sm.pose_probability, k))

@@ -24,7 +24,7 @@ from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, qu
                               quat_bezier, slerp)
 from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
-                             rotation_spline)
+                             rotation_spline, translation_source_times)
 
 __all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tangents",
            "match_translation_tangents", "fit_rotation_tangents_c1", "velocities_from_tangents",
@@ -622,6 +622,9 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
 
     # passed through on absolute time (a source not starting at 0 s: the caller passes its own)
     lt = source.local_translations if (from_sm or start_time == 0.0) else None
+    tt = None
+    if lt is not None:           # source times of the animated translations at the root-translation knots
+        tt = translation_source_times(source, rk[:, 0]) if from_sm else rk[:, 0]
     angles = np.linalg.norm(disp, axis=1)
     angles = np.minimum(angles, 2.0 * np.pi - angles)             # unwrapped rotvecs: the rotation's angle
     inner_mask = ~(first | last)
@@ -639,4 +642,4 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         root_values=root_values, root_refinements=rr, root_tangents=rtan,
         root_displacements=rtable, root_displacement_counts=rcounts,
         editing_knots=editing, pose_probability=np.ones(K) if pose_probability is None else pose_probability,
-        contacts=tuple(contacts), local_translations=lt, metadata=meta)
+        contacts=tuple(contacts), local_translations=lt, translation_times=tt, metadata=meta)

@@ -27,7 +27,7 @@ from . import _kernels as K
 
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
            "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference",
-           "evaluate_samples", "root_positions_at", "evaluate_arrays"]
+           "evaluate_samples", "root_positions_at", "evaluate_arrays", "translation_source_times"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,8 +92,16 @@ class StaggeredMotion:
     contacts : tuple of (joint_name, start_frame, stop_frame)
         Contact constraints found at extraction (Appendix B), half-open source-frame ranges.
     local_translations : ndarray, shape (F, J, 3), or None
-        The source motion's animated joint translations, passed through unchanged: ``evaluate`` samples
-        them at the requested *absolute* time (linear interpolation, clamped to the source), not retimed.
+        The source motion's animated joint translations (frame ``f`` at ``f * frame_time`` seconds; e.g. the
+        Bandai clips carry the body's travel in the Hips joint's translation, not in ``root_positions``).
+        They are retimed like the root translation: see ``translation_times``.
+    translation_times : ndarray, shape (K,), seconds, or None
+        Source time of ``local_translations`` at each root-translation knot. ``evaluate`` maps a time in
+        segment ``k`` of the knots ``pose_times + root_refinements`` at normalised time ``t'`` to the source
+        time ``translation_times[k] + t' (translation_times[k+1] - translation_times[k])`` (linear
+        interpolation of frames, clamped), so temporal edits retime animated translations with the root
+        translation. Extraction sets it to the knots themselves (identity); ``None`` reads
+        ``local_translations`` at the absolute evaluation time.
     """
 
     skeleton: Skeleton
@@ -114,6 +122,7 @@ class StaggeredMotion:
     contacts: tuple = ()
     local_translations: np.ndarray | None = None
     metadata: dict = field(default_factory=dict)
+    translation_times: np.ndarray | None = None
 
     def __post_init__(self):
         J = self.skeleton.num_joints
@@ -157,6 +166,11 @@ class StaggeredMotion:
             if lt.ndim != 3 or lt.shape[1:] != (J, 3):
                 raise ValueError(f"StaggeredMotion: local_translations must have shape (F, {J}, 3), got {lt.shape}")
             object.__setattr__(self, "local_translations", lt)
+        if self.translation_times is not None:
+            tt = readonly(self.translation_times).reshape(-1)
+            if tt.shape != (K,) or not np.all(np.isfinite(tt)):
+                raise ValueError(f"StaggeredMotion: translation_times must hold {K} finite seconds, got {tt.shape}")
+            object.__setattr__(self, "translation_times", tt)
         object.__setattr__(self, "contacts", tuple((str(n), int(a), int(b)) for n, a, b in self.contacts))
 
     # -- derived, cheap -----------------------------------------------------------------------------
@@ -279,6 +293,19 @@ def _sample_translations(lt: np.ndarray, frame_time: float, times: np.ndarray) -
     i1 = np.minimum(i0 + 1, lt.shape[0] - 1)
     a = (f - i0)[:, None, None]
     return lt[i0] * (1.0 - a) + lt[i1] * a
+
+
+def translation_source_times(sm: StaggeredMotion, times) -> np.ndarray:
+    """Source times ``(N,)`` at which ``sm.local_translations`` are read for evaluation ``times (N,)``
+    seconds: piecewise linear from the root-translation knots ``pose_times + root_refinements`` to
+    ``sm.translation_times`` (identity when that is None)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if sm.translation_times is None:
+        return times
+    seg, tn = segment_coordinates((sm.pose_times + sm.root_refinements)[:, None], times)
+    tt = sm.translation_times
+    a, b = tt[seg[:, 0]], tt[seg[:, 0] + 1]
+    return a + tn[:, 0] * (b - a)
 
 
 def _gather_rows(table, idx, out):
@@ -414,7 +441,8 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     Returns
     -------
     Motion with N frames, ``frame_time = sm.frame_time`` (or the spacing of uniform ``times``); the source's
-    ``local_translations`` (if any) are sampled at the same absolute times.
+    ``local_translations`` (if any) are sampled at :func:`translation_source_times` (retimed with the root
+    translation; the same absolute times for an unedited extraction).
     """
     if not isinstance(sm, StaggeredMotion):
         raise ValueError(f"evaluate: sm must be a StaggeredMotion, got {type(sm).__name__}")
@@ -430,5 +458,5 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     q, p = _evaluate_arrays(sm, times)        # Motion() normalises q into a new array: no copy needed
     lt = None
     if sm.local_translations is not None:
-        lt = _sample_translations(sm.local_translations, sm.frame_time, times)
+        lt = _sample_translations(sm.local_translations, sm.frame_time, translation_source_times(sm, times))
     return Motion(sm.skeleton, ft, p, q, lt)
