@@ -171,6 +171,8 @@ def test_infeasible_or_bad_arguments_raise(walk30, walk_tables, shared_motion):
         timewarp.guided_warp(walk30, walk30, 20, tables=walk_tables)      # 195 frames need >= 26 at s = 8
     with pytest.raises(ValueError, match="num_frames"):
         timewarp.guided_warp(walk30, walk30, 1)
+    with pytest.raises(ValueError, match="keytimes out of order.*once rounded to frames"):  # both 30 input frames
+        timewarp.guided_warp(walk30, walk30, 150, keytimes=[(1.0, 1.0), (1.01, 1.02)], tables=walk_tables)
     with pytest.raises(ValueError, match="keytimes"):                  # 3 s of input in 0.1 s of output
         timewarp.guided_warp(walk30, walk30, 150, keytimes=[(3.0, 0.1)], tables=walk_tables)
     with pytest.raises(ValueError, match="reference"):

@@ -50,8 +50,9 @@ def validate_keys(n: int, m: int, skip: int, keys=None) -> list[tuple[int, int]]
     pts.append((m - 1, n - 1))
     for (q0, y0), (q1, y1) in zip(pts[:-1], pts[1:]):
         if q1 <= q0 or y1 <= y0:
-            raise ValueError(f"keytimes out of order: (output {q0}, input {y0}) then (output {q1}, input {y1}); "
-                             "both times must increase strictly")
+            raise ValueError(f"keytimes out of order: (output frame {q0}, input frame {y0}) then (output frame {q1}, "
+                             f"input frame {y1}); both must increase strictly once rounded to frames (keys closer "
+                             "than a frame apart collide)")
         if not (q1 - q0 <= y1 - y0 <= (q1 - q0) * skip):
             raise ValueError(f"keytimes: {y1 - y0} input frames between output frames {q0} and {q1} cannot be "
                              f"covered in {q1 - q0} steps of 1..{skip} frames")
