@@ -68,6 +68,33 @@ def test_detect_contacts_matches_brute_force_on_noisy_steps(rng):
     assert got == want and len(got) >= 6
 
 
+def test_still_hands_count_only_near_the_feet():
+    F = 100
+    path = np.zeros((F, 3))                                   # everything still for 1 s
+    m = foot_motion(path)                                     # hand 1.0 above the foot (height 1.0)
+    assert staggered.detect_contacts(m, tolerance=0.01) == [("LeftFoot", 0, F)]
+    # the paper's plain stillness test also takes the hand
+    assert staggered.detect_contacts(m, tolerance=0.01, hand_support=None) == [("LeftFoot", 0, F),
+                                                                               ("RightHand", 0, F)]
+    # a hand on the floor next to the foot (0.05 above it, within 0.1 x height) supports the body
+    sk = Skeleton(["Hips", "LeftFoot", "RightHand"], [-1, 0, 0], [[0, 0, 0], [0, -1.0, 0], [0.5, -0.95, 0]])
+    low = Motion(sk, 0.01, path, quat_identity((F, 3)))
+    assert staggered.detect_contacts(low, tolerance=0.01) == [("LeftFoot", 0, F), ("RightHand", 0, F)]
+    with pytest.raises(ValueError, match="hand_support"):
+        staggered.detect_contacts(m, hand_support=-0.1)
+
+
+def test_walks_have_no_hand_contacts(shared_motion):
+    # CMU 131_01 starts and ends standing: the hanging wrists are still for over a second there
+    m = shared_motion("cmu_131_01_walk_startstop.bvh")
+    hands = re.compile("hand|wrist", re.I)
+    plain = staggered.detect_contacts(m, hand_support=None)
+    assert any(hands.search(n) for n, _, _ in plain)
+    got = staggered.detect_contacts(m)
+    assert not any(hands.search(n) for n, _, _ in got)
+    assert [c for c in plain if not hands.search(c[0])] == got   # feet are untouched
+
+
 def test_end_effectors_from_names_and_leaves(shared_motion):
     m = shared_motion("xia_neutral_walk.bvh")
     names = {m.skeleton.names[j] for j in end_effectors(m.skeleton)}

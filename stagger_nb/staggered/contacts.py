@@ -2,7 +2,8 @@
 
 Search forward in time for end effectors whose world positions stay within a tolerance for at least a
 minimum time (0.25 s); each such window becomes a contact, expanded over the further frames that stay within
-the tolerance. Contacts are ``(joint_name, start_frame, stop_frame)`` with half-open frame ranges.
+the tolerance. Hands additionally have to be near the feet's level (a supporting contact), see
+:func:`detect_contacts`. Contacts are ``(joint_name, start_frame, stop_frame)`` with half-open frame ranges.
 """
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from ..core.kinematics import forward_kinematics, skeleton_height
 from ..core.motion import Motion
 
-__all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE"]
+__all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE", "DEFAULT_HAND_SUPPORT"]
 
 DEFAULT_TOLERANCE = 0.02   # fraction of the skeleton height (~3.4 cm for 1.7 m): above marker noise, below a step
+DEFAULT_HAND_SUPPORT = 0.1  # fraction of the skeleton height (~17 cm): a hand this close to the feet's level bears weight
 _FOOT = re.compile(r"foot|toe|ankle|heel", re.I)
 _HAND = re.compile(r"hand|wrist", re.I)
 _FINGER = re.compile(r"thumb|index|middle|ring|pinky|finger|end", re.I)
@@ -41,8 +43,15 @@ def _box_extent(p: np.ndarray, length: int) -> np.ndarray:
 
 
 def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration: float = 0.25,
-                    joints=None, positions: np.ndarray | None = None) -> list[tuple[str, int, int]]:
+                    joints=None, positions: np.ndarray | None = None, *,
+                    hand_support: float | None = DEFAULT_HAND_SUPPORT) -> list[tuple[str, int, int]]:
     """Contact constraints of end effectors that stay still (Appendix B).
+
+    Appendix B tests every candidate joint for stillness alone. A hand that is still in the air (arms
+    hanging while the subject stands, the turn of an arm swing) is not an environmental contact, and
+    planting it with the constraint layer would undo arm edits; so by default a still window of a hand
+    (name like hand/wrist) counts only where the hand is low, near the feet, i.e. supporting the body
+    (crawls, handstands, push-ups). ``hand_support=None`` is the paper's plain test.
 
     Parameters
     ----------
@@ -56,6 +65,10 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
         Effectors to test (default :func:`end_effectors`).
     positions : (F, J, 3), optional
         World joint positions if already computed.
+    hand_support : float or None
+        A hand's still window is a contact only if its mean height (+Y, the BVH up axis) is at most
+        ``hand_support * skeleton height`` above the lowest foot joint over that window. Applies when
+        the skeleton has feet (names like foot/toe/ankle/heel); None disables the test.
 
     Returns
     -------
@@ -78,7 +91,16 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
     out = []
     if F < L:
         return out
+    feet = [j for j, n in enumerate(sk.names) if _FOOT.search(n) and not _FINGER.search(n)]
+    support = None
+    if hand_support is not None:
+        if not hand_support >= 0:
+            raise ValueError(f"detect_contacts: hand_support must be >= 0 or None, got {hand_support}")
+        if feet:
+            support = hand_support * skeleton_height(motion)
+            floor = positions[:, feet, 1].min(axis=1)                 # (F,) lowest foot joint per frame
     for j in joints:
+        is_hand = support is not None and bool(_HAND.search(sk.names[j])) and j not in feet
         p = positions[:, j]
         ok = _box_extent(p, L) <= tolerance                    # window [s, s + L) is still
         s = 0
@@ -98,7 +120,8 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
                     break
                 lo, hi = nlo, nhi
                 e += 1
-            out.append((sk.names[j], s, e))
+            if not is_hand or p[s:e, 1].mean() - floor[s:e].min() <= support:
+                out.append((sk.names[j], s, e))
             s = e
     out.sort(key=lambda c: (c[1], c[0]))
     return out
