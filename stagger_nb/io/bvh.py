@@ -6,9 +6,9 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (pyarrow's CSV reader when
-installed, else a vectorised numpy parser; both bit-identical to ``float``); when that cannot certify the
-block, a line-by-line parser finds the first bad line and raises :class:`BVHError` naming the file, the
+Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (pyarrow's CSV reader,
+bit-identical to ``float``; blocks with tabs or runs of spaces are rewritten single-spaced first); when
+that cannot certify the block, a line-by-line parser finds the first bad line and raises :class:`BVHError` naming the file, the
 line and what was expected. Writing formats the channel table with a vectorised fixed-point formatter
 (rotations to 1e-6 degree, positions to 1e-8 of the largest translation) and replaces the file atomically.
 """
