@@ -426,3 +426,19 @@ def test_detail_preserved_on_real_walk(shared_motion):
     e1 = np.sum(rb[inside] ** 2)
     print(f"high-frequency energy inside the edited neighbourhood: {e0:.4e} -> {e1:.4e} ({(e1 / e0 - 1) * 100:+.2f} %)")
     assert abs(e1 / e0 - 1) < 0.05  # the issue's 5 % bound
+
+
+def test_edit_keeps_displacements_past_half_a_turn_unwrapped(shared_motion):
+    # CMU 131_01's RThumb flips by ~180 deg within a frame near frame 242 (capture glitch): the segment's
+    # displacement map passes pi. Re-measured after an edit, it was folded back to <= pi, and between grid
+    # points the linear interpolation of the rotation vectors swung the thumb by 3.1 rad for a 0.01 edit.
+    m = shared_motion("cmu_131_01_walk_startstop.bvh")
+    sm = staggered.extract(m)
+    j = m.skeleton.index("RThumb")
+    k = int(np.searchsorted(knot_times(sm)[:, j], 242 * m.frame_time))
+    out = staggered.edit_pose(sm, k, {"RThumb": [0.0, 0.0, 0.01]})
+    t = (np.arange(m.num_frames - 1) + 0.5) * m.frame_time                 # between the grid points
+    change = quat_angle(evaluate(sm, t).local_quats[:, j], evaluate(out, t).local_quats[:, j])
+    # the edit is 0.01 rad at most (faded by the weights); between grid points the rotation vectors, not
+    # the rotations, are interpolated linearly, which adds ~4e-6 rad here (1 % margin)
+    assert change.max() <= 0.0101

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
+from .fitting import displacement_rotvecs
 from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline, translation_source_times
 
 __all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
@@ -257,7 +258,7 @@ def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn):
     tg = tangents[sp, jp]
     s = rotation_spline(values[sp, jp], tg[:, 0], tg[:, 1], values[sp + 1, jp], tn)
     v = target_fn(t, jp, pair, tn)
-    d = 2.0 * quat_log(quat_hemisphere(quat_mul(quat_conj(s), v)))
+    d = displacement_rotvecs(s, v, pair)          # unwrapped along each grid, as at extraction
     rows = np.zeros((counts.size, int(counts.max()), 3))
     rows[pair, m] = d
     return rows
