@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize, slerp)
+from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, slerp
 from .fitting import displacement_rotvecs
 from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline, translation_source_times
 

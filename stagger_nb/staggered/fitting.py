@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.motion import Motion
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
                               quat_bezier, slerp)
 from . import _kernels as K
