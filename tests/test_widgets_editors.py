@@ -195,3 +195,21 @@ def test_warm_up_failure_is_kept_and_logged(run, monkeypatch, caplog):
         assert "cache warm-up stopped: RuntimeError: refit failed" in caplog.text
     finally:
         e.close()
+
+
+def test_progress_bar_shows_foreground_work_only(stagger_editor):
+    """The warm-up's cache fills do not flash the progress bar (nor hide it under foreground work)."""
+    import threading
+    e = stagger_editor
+    saved = e.warm_thread
+    try:
+        e._on_busy("cull", True)   # foreground: shown
+        assert e.progress.layout.visibility == "visible"
+        e.warm_thread = threading.Thread(target=lambda: e._on_busy("cull", False))
+        e.warm_thread.start()
+        e.warm_thread.join()
+        assert e.progress.layout.visibility == "visible"  # the warm-up finishing did not hide it
+        e._on_busy("cull", False)
+        assert e.progress.layout.visibility == "hidden"
+    finally:
+        e.warm_thread = saved

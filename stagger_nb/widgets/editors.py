@@ -53,6 +53,7 @@ class _Editor(widgets.VBox):
         self.undo_button.on_click(lambda _: self.session.undo())
         self.redo_button.on_click(lambda _: self.session.redo())
         self._syncing = False
+        self.warm_thread = self.warm_error = None
         self._lock = threading.RLock()
         for w in op_controls:
             w.observe(self._on_control, names="value")
@@ -143,6 +144,8 @@ class _Editor(widgets.VBox):
         self.redo_button.disabled = not self.session.can_redo
 
     def _on_busy(self, kind: str, started: bool) -> None:
+        if threading.current_thread() is self.warm_thread:
+            return  # the background warm-up: nobody waits for it, and it must not hide a foreground bar
         labels = {"extract": "extracting poses", "graph": "pose graph", "basis": "eigenvectors",
                   "warp": "kNN tables"}
         if started:
@@ -269,7 +272,6 @@ class StaggerEditor(_Editor):
         self._tag("sn-stagger-editor", cull=self.cull, s=self.s, l=self.l, tau=self.tau, w_r=self.w_r)
         self._setup(session, view, [self.curves, self.probability], controls,
                     op_controls=[self.cull, self.root, self.s, self.l, self.tau, self.seed, self.joint_set, self.w_r])
-        self.warm_thread = self.warm_error = None
         if precompute:
             self._start_warm(self._warm_cull)
 
@@ -443,7 +445,6 @@ class WandEditor(_Editor):
                     op_controls=[self.sigma, self.frame, self.limit_range, self.range, self.propagate],
                     view_controls=list(self.compare.values()) + [self.show_sweep])
         self.view.frame = max(0, min(F - 1, self.frame.value + F // 6))
-        self.warm_thread = self.warm_error = None
         if precompute:
             self._start_warm(self._warm_bases)
 
