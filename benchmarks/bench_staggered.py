@@ -8,8 +8,8 @@ report). Prints, against baselines run in this process:
   ``core.rotations.quat_bezier`` (also a correctness cross-check) and against ``Motion.sample`` (slerp);
 * the paper's Nelder–Mead fitting (Appendix A, straight port) timed on a seeded subset of (segment, joint)
   pairs, extrapolated to the whole clip, as a ratio, with its accuracy next to ours on the same pairs;
-* per clip: mean angular residual of the spline before displacement, reconstruction error, tangent jumps
-  at segment joins; on the walks: median distance (frames) from pose times to foot contact/release events.
+* per clip (the shared clips, CMU 01_01, the procedural walk and run): mean and max angular residual of the
+  spline before displacement, reconstruction error, tangent jumps at segment joins; on the walks: median distance (frames) from pose times to foot contact/release events.
 """
 from __future__ import annotations
 
@@ -64,10 +64,7 @@ def tangent_jumps(sm):
 
 
 def foot_event_distance(sm, m):
-    import re
-    F = m.num_frames
-    feet = [(a, b) for n, a, b in sm.contacts if re.search("foot|toe|ankle|heel", n, re.I)]
-    ev = np.array(sorted({a for a, _ in feet} | {b for _, b in feet if b < F}))
+    ev = foot_events(sm.contacts, m.num_frames)
     if ev.size == 0:
         return float("nan"), 0
     frames = np.rint(sm.pose_times / m.frame_time).astype(int)[1:-1]
@@ -147,8 +144,10 @@ def main(quick=False):
         return
     # -- per clip report ----------------------------------------------------------------------------
     print("\nclip                              F    K  Kcull50  residual C1 / C0 (rad)  recon(rad)  |r|max(s)  "
-          "velocity jump at joins C1 | C0 (median rel.)")
-    clips = [(p.name, read_bvh(p)) for p in sorted(SHARED.glob("*.bvh"))] + [(label.split(":")[0], m)]
+          "velocity jump at joins C1 | C0 (median rel.)  max residual C1 / C0 (deg)")
+    from stagger_nb import data
+    clips = ([(p.name, read_bvh(p)) for p in sorted(SHARED.glob("*.bvh"))] + [(label.split(":")[0], m)]
+             + [(f"procedural {n} (60 Hz)", data.load(n)) for n in ("walk", "run")])
     for name, mo in clips:
         s = staggered.extract(mo)
         e = quat_angle(mo.local_quats, staggered.evaluate(s).local_quats).max()
@@ -157,7 +156,8 @@ def main(quick=False):
         jj = f"{np.median(j1):.1e} | {np.median(j0):.2f}" if j1.size else "n/a"
         print(f"{name[:32]:32s} {mo.num_frames:5d} {s.num_poses:4d} {staggered.cull(s, 50).num_poses:6d}   "
               f"{s.metadata['fit']['mean_residual_rad']:.4f} / {s0.metadata['fit']['mean_residual_rad']:.4f}        {e:.1e}    {np.abs(s.refinements).max():.3f}"
-              f"      {jj}")
+              f"      {jj:24s}  {np.degrees(s.metadata['fit']['max_residual_rad']):5.1f} / "
+              f"{np.degrees(s0.metadata['fit']['max_residual_rad']):5.1f}")
 
     print("\npose times vs foot contact/release events (median distance in frames over interior poses)")
     for name in ("cmu_131_01_walk_startstop.bvh", "xia_neutral_walk.bvh"):
