@@ -895,6 +895,16 @@ class Session:
             n += 1
         return n
 
+    def use_reference(self, path: str, motion: Motion) -> dict:
+        """Resolve the op reference ``{"path": path}`` to ``motion`` in this session (e.g. an in-memory clip
+        under a name like ``"<memory:name>"``) instead of reading the file; returns that reference.
+        A saved session keeps only the path: a new process reads the file."""
+        if not isinstance(motion, Motion):
+            raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
+        ref = {"path": _str(path, "path")}
+        self._ctx._references[_canonical(ref)] = motion
+        return ref
+
     def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
         """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
         return self._ctx.wand_basis(self.source if motion is None else motion, sigma)

@@ -358,3 +358,15 @@ def test_cache_entry_whose_computation_failed_is_computed_again(session):
     with pytest.raises(RuntimeError):
         ctx._cached("cull", m, 3.0, boom)
     assert ctx._cached("cull", m, 3.0, lambda: "ok") == "ok" and not ctx._pending
+
+
+def test_in_memory_reference_under_any_name(session):
+    """``use_reference`` resolves the path reference to the given Motion (non-ASCII names included: the
+    key is the op's canonical JSON, where such names are escaped)."""
+    ref_motion = session.source.slice(0, 12)
+    ref = session.use_reference("<memory:référence>", ref_motion)
+    session.set_ops([{"op": "guided_warp", "duration": 0.5, "skip": 4, "reference": ref}])
+    assert session._ctx.reference(ref, session.source) is ref_motion
+    assert session.edited().num_frames == int(round(0.5 / session.source.frame_time)) + 1
+    with pytest.raises(ValueError, match="^motion"):
+        session.use_reference("<memory:x>", "not a motion")

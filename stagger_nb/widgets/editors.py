@@ -583,9 +583,7 @@ class WarpEditor(_Editor):
             return {"segment": [float(x) for x in self.segment.value]}
         ref = self._references[r]
         if isinstance(ref, Motion):
-            key = f"<memory:{r}>"
-            self.session._ctx._references[f'{{"path":"{key}"}}'] = ref
-            return {"path": key}
+            return self.session.use_reference(f"<memory:{r}>", ref)
         return {"path": str(ref)}
 
     def _parse_keytimes(self):
