@@ -840,7 +840,12 @@ class Session:
         if hit is not None:
             self._memo.move_to_end(key)
             return hit
-        m = self._convert(self.states(progress)[-1], "motion")
+        last = self.states(progress)[-1]
+        try:
+            m = self._convert(last, "motion")
+        except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
+            n = len(self._ops) - 1
+            raise ValueError(f"ops[{n}] ({self._ops[n]['op']}): evaluating the result: {e}") from None
         self._memo[key] = m
         return m
 

@@ -57,12 +57,21 @@ class _ClickablePlot:
         self._last: dict = {}
         self.repairs = 0  # views repaired by _on_view_rendered
         self._wire_clicks()
+        # before plotly's own handler of the same report: that one raises KeyError on the empty delta of
+        # a trace the view never drew, and the observers after it would not run
+        own = getattr(type(fig), "_handler_js2py_traceDeltas", None)
+        if own is not None:
+            fig.unobserve(own, names="_js2py_traceDeltas")
         fig.observe(self._on_view_rendered, names="_js2py_traceDeltas")
+        if own is not None:
+            fig.observe(own, names="_js2py_traceDeltas")
 
     def _on_view_rendered(self, change) -> None:
         """Repair a front-end view drawn with fewer traces than the figure.
 
-        A view reports one trace delta per trace after its first draw. plotly's widget state
+        A view reports one trace delta per trace of its model's data after its first draw; a trace the
+        view did not draw gives an empty delta (no ``uid``), and the model's data may have arrived between
+        the draw and the report, so the drawn traces are the deltas with a ``uid``. plotly's widget state
         (``_widget_data``/``_widget_layout``) is set only by ``FigureWidget._repr_mimebundle_``, and edits
         made before a view exists travel as one-shot messages that view never sees (plotly.py #4933, fixed
         for a displayed figure by #4956); under load a view nested in a box can also be drawn before its
@@ -75,7 +84,10 @@ class _ClickablePlot:
         if "trace_deltas" not in msg:  # plotly resets the trait to None after handling it
             return
         fig = self.figure
-        have = len(msg["trace_deltas"])
+        drawn = [d for d in msg["trace_deltas"] if isinstance(d, dict) and "uid" in d]
+        if len(drawn) < len(msg["trace_deltas"]):
+            msg["trace_deltas"] = drawn  # the message plotly's handler reads next: empty deltas say nothing
+        have = len(drawn)
         if have >= len(fig.data):
             return
         add = getattr(fig, "_send_addTraces_msg", None)
