@@ -177,3 +177,16 @@ def test_plot_view_drawn_without_traces_gets_them_again(monkeypatch):
     monkeypatch.setattr(plots, "_REPAIR_SKIPPED", [])
     report(0)
     assert sent == [] and p.repairs == 1 and plots._REPAIR_SKIPPED == [True]
+
+
+def test_sync_state_gives_new_views_the_current_data():
+    """A view created after in-place updates renders from ``_widget_data``/``_widget_layout``: sync_state
+    must copy the current figure there (plotly does it only when the figure itself is displayed)."""
+    from stagger_nb.widgets import plots
+    p = plots.ProbabilityPlot(1 / 30)
+    p.update(np.arange(5) / 30, np.linspace(0, 1, 5), [0.1], [0.5], [0.1], [0.5])
+    assert len(p.figure._widget_data) == 0  # plotly never copied it: a new view would be empty
+    p.sync_state()
+    assert len(p.figure._widget_data) == 3
+    assert list(p.figure._widget_data[1]["x"]) == [0.1]
+    assert p.figure._widget_layout["title"]["text"].startswith("pose probability P(t): 1 of 1")

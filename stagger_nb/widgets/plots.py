@@ -133,10 +133,9 @@ class _ClickablePlot:
     def sync_state(self) -> None:
         """Copy the figure's current data/layout into the widget state that a *new* front-end view renders
         from. plotly does this in ``FigureWidget._repr_mimebundle_`` only, i.e. when the figure itself is
-        displayed; inside an editor (a VBox) the editor calls this when it is displayed."""
-        from copy import deepcopy
-        self.figure._widget_layout = deepcopy(self.figure._layout_obj._props)
-        self.figure._widget_data = deepcopy(self.figure._data)
+        displayed (plotly.py #4956); inside an editor (a VBox) the editor calls this when it is displayed,
+        through that same display hook (no private attributes of plotly touched here)."""
+        self.figure._repr_mimebundle_()
 
     def on_frame_click(self, callback: Callable[[int], None]) -> None:
         """Call ``callback(frame_index)`` when a point of any trace is clicked."""
