@@ -1013,8 +1013,12 @@ class Session:
     @classmethod
     def load(cls, path, source: Motion | None = None) -> "Session":
         """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
-        with open(os.fspath(path), encoding="utf-8") as f:
-            text = f.read()
+        with open(os.fspath(path), "rb") as f:
+            raw = f.read()
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise ValueError(f"session: {path} is not UTF-8 JSON text (byte {e.start})") from None
 
         def no_constants(c):
             raise ValueError(f"session: {c} is not allowed in a session file")

@@ -268,10 +268,13 @@ def test_load_names_the_field_of_hostile_values(session, tmp_path, mutate, field
         Session.load(p)
 
 
-def test_load_refuses_deeply_nested_json(tmp_path):
+def test_load_refuses_deeply_nested_json_and_binary_garbage(tmp_path):
     p = tmp_path / "s.json"
     p.write_text("[" * 200_000 + "]" * 200_000)  # past the JSON decoder's recursion limit
     with pytest.raises(ValueError, match="^session: .* nests JSON too deeply"):
+        Session.load(p)
+    p.write_bytes(b'{"format": "\xff\xfe"}')
+    with pytest.raises(ValueError, match="^session: .* is not UTF-8 JSON text"):
         Session.load(p)
 
 
