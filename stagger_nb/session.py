@@ -123,12 +123,6 @@ def _str(value, field):
     return value
 
 
-def _bool(value, field):
-    if not isinstance(value, bool):
-        _fail(field, "true or false", value)
-    return value
-
-
 def _optional(check):
     def f(value, field):
         return None if value is None else check(value, field)
