@@ -108,6 +108,18 @@ def test_shared_clip_list_is_what_we_test():
     assert sorted(ALL_CLIPS) == SHARED_CLIPS
 
 
-def test_skeleton_height_is_first_frame_extent():
+def test_skeleton_height_is_rest_pose_extent():
     m = three_joint_motion()
-    assert skeleton_height(m) == pytest.approx(1.0)  # extents (0, 1, 1): the largest is 1
+    assert skeleton_height(m) == pytest.approx(1.0)  # rest joints (0,0,0), (1,0,0), (1,1,0): largest extent 1
+    # animated root translation and rotations do not change it
+    far = m.replace(root_positions=[[500.0, -40.0, 9.0]])
+    assert skeleton_height(far) == skeleton_height(m)
+    # End Sites count: one 3 units above b stretches y to 4
+    skel = Skeleton(m.skeleton.names, m.skeleton.parents, m.skeleton.offsets, end_sites={2: [0.0, 3.0, 0.0]})
+    assert skeleton_height(m.replace(skeleton=skel)) == pytest.approx(4.0)
+
+
+def test_skeleton_height_of_bandai_walk_is_body_sized(shared_motion):
+    # joint_Root stays at the origin while the Hips walk away: the rest pose gives the body's size (cm)
+    h = skeleton_height(shared_motion("bandai_walk.bvh"))
+    assert 120 < h < 220

@@ -148,7 +148,18 @@ def positions_in_root_frame(motion: Motion, positions: np.ndarray | None = None,
 
 
 def skeleton_height(motion: Motion) -> float:
-    """Vertical extent of the first frame's joints (a length scale for tolerances), file units."""
-    p, _ = forward_kinematics(motion.slice(0, 1))
-    ext = p[0].max(axis=0) - p[0].min(axis=0)
+    """A length scale for tolerances, file units: the largest extent of the rest pose (identity rotations,
+    ``skeleton.offsets``, End Sites included).
+
+    The rest pose, not an animated frame, so animated translations cannot inflate it: the Bandai files'
+    static ``joint_Root`` sits metres away from the walking Hips, which made a first-frame extent ~3x the
+    body's size.
+    """
+    skel = motion.skeleton
+    rest = np.zeros((skel.num_joints, 3))
+    for j in range(1, skel.num_joints):
+        rest[j] = rest[skel.parents[j]] + skel.offsets[j]
+    points = [rest] + [rest[j] + off for j, off in skel.end_sites.items()]
+    pts = np.vstack(points)
+    ext = pts.max(axis=0) - pts.min(axis=0)
     return float(max(ext.max(), 1e-9))
