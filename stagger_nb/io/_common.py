@@ -3,13 +3,55 @@ from __future__ import annotations
 
 import math
 import os
+import stat
 import tempfile
 
 import numpy as np
 
 from ..core.rotations import quat_mul
 
-__all__ = ["atomic_write_bytes", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat"]
+__all__ = ["atomic_write_bytes", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
+           "MAX_INPUT_BYTES", "read_regular_file"]
+
+#: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips).
+#: 1 GiB holds a 100,000-frame, 100-joint BVH take several times over; override per call with ``max_bytes``.
+MAX_INPUT_BYTES = 1 << 30
+
+
+def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None) -> bytes:
+    """The bytes of ``path``, read only if it is a regular file no larger than ``max_bytes``.
+
+    The one path policy shared by the readers and the session: devices (``/dev/zero``), FIFOs, sockets and
+    directories are refused without blocking (opened with ``O_NONBLOCK``, checked with ``fstat``), and so is a
+    file over the limit, before it is read. Raises ``ValueError`` (``OSError`` texts included) naming ``what``
+    and the path; the readers wrap it in their own format error.
+    """
+    limit = MAX_INPUT_BYTES if max_bytes is None else int(max_bytes)
+    name = os.fspath(path)
+    try:
+        fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise ValueError(f"{what} {name}: cannot read: {e.strerror or e}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise ValueError(f"{what} {name}: not a regular file (devices, pipes and folders are not read)")
+        if st.st_size > limit:
+            raise ValueError(f"{what} {name}: {st.st_size} bytes is over the {limit}-byte limit")
+        chunks, total = [], 0
+        while True:   # read to EOF, but never past the limit (a file growing while we read)
+            chunk = os.read(fd, min(1 << 24, limit + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise ValueError(f"{what} {name}: over the {limit}-byte limit")
+        return b"".join(chunks)
+    except OSError as e:
+        raise ValueError(f"{what} {name}: cannot read: {e.strerror or e}") from None
+    finally:
+        os.close(fd)
 
 
 class FormatError(ValueError):
@@ -30,12 +72,13 @@ def read_text(path: str, error: type[FormatError]) -> str:
 
 
 def read_bytes(path: str, error: type[FormatError]) -> bytes:
-    """The file's bytes; ``error(path, None, ...)`` if it cannot be read."""
+    """The file's bytes (a regular file within :data:`MAX_INPUT_BYTES`); ``error(path, None, ...)`` otherwise."""
     try:
-        with open(path, "rb") as f:
-            return f.read()
-    except OSError as e:
-        raise error(path, None, f"cannot read: {e.strerror or e}") from None
+        return read_regular_file(path)
+    except ValueError as e:
+        msg = str(e)
+        prefix = f"file {os.fspath(path)}: "
+        raise error(path, None, msg[len(prefix):] if msg.startswith(prefix) else msg) from None
 
 
 def decode(raw: bytes) -> str:

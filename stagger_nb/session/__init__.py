@@ -34,11 +34,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .core.motion import Motion
-from .core.rotations import quat_mul, quat_to_rotvec, rotvec_to_quat
-from .core.skeleton import Skeleton
-from .io._common import atomic_write_bytes
-from .io.bvh import read_bvh, write_bvh
+from ..core.motion import Motion
+from ..core.rotations import quat_mul, quat_to_rotvec, rotvec_to_quat
+from ..core.skeleton import Skeleton
+from ..io._common import atomic_write_bytes
+from ..io.bvh import read_bvh, write_bvh
 
 __all__ = ["Session", "OpSpec", "OP_REGISTRY", "register_op", "validate_op", "apply_pose_deltas",
            "joint_rotation_degrees",
@@ -282,17 +282,17 @@ def apply_pose_deltas(pose_quats: np.ndarray, skeleton: Skeleton, deltas: dict, 
 
 # -- runners ---------------------------------------------------------------------------------------
 def _staggered():
-    from . import staggered  # late import: the technique packages load only when an op needs them
+    from .. import staggered  # late import: the technique packages load only when an op needs them
     return staggered
 
 
 def _wand():
-    from . import wand
+    from .. import wand
     return wand
 
 
 def _timewarp():
-    from . import timewarp
+    from .. import timewarp
     return timewarp
 
 
@@ -511,7 +511,7 @@ def _check_extract_options(options) -> dict:
     options = dict(options)
     if options:
         import inspect
-        from .staggered import extraction
+        from ..staggered import extraction
         known = {name for f in (extraction.extract, extraction.locate_poses)
                  for name, p in inspect.signature(f).parameters.items() if p.kind is p.KEYWORD_ONLY}
         for k in options:
