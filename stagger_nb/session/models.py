@@ -48,7 +48,7 @@ _CONTROLLED = {
     "retime": ("pose", "time"),
     "ik_pose": ("pose", "joint", "target"),
     "keep_contacts": (),
-    "propagate": ("frame", "deltas", "sigma", "frame_range", "repetitions"),
+    "propagate": ("frame", "frames", "deltas", "sigma", "frame_range", "repetitions"),
     "edit_frame": ("frame", "deltas"),
     "guided_warp": ("duration", "free_length", "skip", "reference", "keytimes", "backward"),
     "linear_warp": ("duration", "keytimes"),
@@ -149,6 +149,8 @@ class StaggerModel(_Model):
     ry = T.Float(0.0, help="nudge, y (degrees)")
     rz = T.Float(0.0, help="nudge, z (degrees)")
     pose_times = T.List(T.Float(), help="times (s) of the current poses (set by the binding)")
+    pose_time = T.Float(0.0, help="time (s) of the selected pose; a user change retimes it (Fig. 6c)")
+    frame_time = T.Float(1.0, help="seconds per frame of the source (set by the binding)")
     ik_joint = T.Unicode("", help="IK end effector ('' = none)")
     ik_x = T.Float(0.0, help="IK target x (world units)")
     ik_y = T.Float(0.0, help="IK target y")
@@ -201,6 +203,42 @@ class StaggerModel(_Model):
         return {int(k): _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
+    def pose_frame(self, k: int) -> int:
+        """Frame of pose ``k`` (nearest to its time)."""
+        return int(round(self.pose_times[k] / self.frame_time))
+
+    @T.observe("pose")
+    def _pose_moves_playhead(self, change):
+        """Choosing a pose moves the playhead to it (not while the playhead itself selects the pose)."""
+        if not getattr(self, "_seeking", False) and 0 <= self.pose < len(self.pose_times):
+            self.frame = self.pose_frame(self.pose)
+
+    @T.observe("frame")
+    def _playhead_selects_pose(self, change):
+        """The playhead selects the pose nearest to it (the nudge / retime / IK controls act on that one)."""
+        if not self.pose_times:
+            return
+        t = self.frame * self.frame_time
+        k = min(range(len(self.pose_times)), key=lambda i: abs(self.pose_times[i] - t))
+        self._seeking = True
+        try:
+            self.pose = k
+        finally:
+            self._seeking = False
+
+    @T.observe("pose", "pose_times", "retimes")
+    def _show_pose_time(self, change):
+        if 0 <= self.pose < len(self.pose_times):
+            with self.loading():
+                self.pose_time = float(self.retimes.get(self.pose, self.pose_times[self.pose]))
+
+    @T.observe("pose_time")
+    def _retime(self, change):
+        if self._loading or not 0 <= self.pose < len(self.pose_times):
+            return
+        if abs(self.pose_time - self.retimes.get(self.pose, self.pose_times[self.pose])) > 1e-12:
+            self.retimes = {**self.retimes, self.pose: float(self.pose_time)}
+
     def _selected_nudge(self):
         return self.pose_edits.get(self.pose, {}).get(self.joint, [0.0, 0.0, 0.0])
 
@@ -440,7 +478,9 @@ class WandModel(_Model):
 
     @T.observe("edit_frame")
     def _move_edit(self, change):
+        """Changing the edited frame moves its edit there (onto a frame without one) and moves the playhead."""
         old, new = change["old"], change["new"]
+        self.frame = new
         if not self._loading and old in self.edits and new not in self.edits:
             edits = copy.deepcopy(self.edits)
             edits[new] = edits.pop(old)
@@ -479,22 +519,34 @@ class WandModel(_Model):
 
 
 def wand_params_to_ops(p: dict) -> list:
-    """One ``propagate`` (or ``edit_frame`` with propagation off) op per edited frame with a non-zero edit."""
-    ops = []
+    """One ``propagate`` op over every edited frame with a non-zero edit (``frame``/``deltas`` for one,
+    ``frames``/``deltas`` lists for several, Dean et al. 2018 §3.3), or one ``edit_frame`` op per edited frame
+    when propagation is off."""
+    edits = []
     for f in sorted(p["edits"]):
         deltas = {j: [float(x) for x in v] for j, v in p["edits"][f].items() if any(v)}
-        if not deltas:
-            continue
-        if p["propagate"]:
-            op = {"op": "propagate", "frame": int(f), "deltas": deltas, "sigma": float(p["sigma"])}
-            if p["frame_range"]:
-                op["frame_range"] = [int(x) for x in p["frame_range"]]
-            if p["repetitions"] != "keep":
-                op["repetitions"] = p["repetitions"]
-        else:
-            op = {"op": "edit_frame", "frame": int(f), "deltas": deltas}
-        ops.append(op)
-    return ops
+        if deltas:
+            edits.append((int(f), deltas))
+    if not edits:
+        return []
+    if not p["propagate"]:
+        return [{"op": "edit_frame", "frame": f, "deltas": d} for f, d in edits]
+    if len(edits) == 1:
+        op = {"op": "propagate", "frame": edits[0][0], "deltas": edits[0][1]}
+    else:
+        op = {"op": "propagate", "frames": [f for f, _ in edits], "deltas": [d for _, d in edits]}
+    op["sigma"] = float(p["sigma"])
+    if p["frame_range"]:
+        op["frame_range"] = [int(x) for x in p["frame_range"]]
+    if p["repetitions"] != "keep":
+        op["repetitions"] = p["repetitions"]
+    return [op]
+
+
+def _wand_edits(op: dict):
+    if op.get("frames") is not None:
+        return list(zip(op["frames"], op["deltas"]))
+    return [(op["frame"], op["deltas"])]
 
 
 def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, list]:
@@ -503,12 +555,13 @@ def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, lis
     notes = []
     known = set(joint_names)
     mine = [o for o in ops if o["op"] in WAND_OPS]
-    edits = {}
+    edits: dict = {}
     for o in mine:
-        edits.setdefault(int(o["frame"]), {}).update({j: [float(x) for x in v] for j, v in o["deltas"].items()})
-        for j in o["deltas"]:
-            if known and j not in known:
-                notes.append(f"{o['op']}.deltas: joint {j!r} is not in this skeleton; the op is kept unchanged")
+        for f, d in _wand_edits(o):
+            edits.setdefault(int(f), {}).update({j: [float(x) for x in v] for j, v in d.items()})
+            for j in d:
+                if known and j not in known:
+                    notes.append(f"{o['op']}.deltas: joint {j!r} is not in this skeleton; the op is kept unchanged")
     p["edits"] = edits
     if mine:
         last = mine[-1]
@@ -601,8 +654,10 @@ def warp_params_to_ops(p: dict, references: dict | None = None, source_duration:
     op = {"op": "guided_warp", "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
     if kt:
         op["keytimes"] = kt
-    if p["free_length"]:
+    if p["free_length"]:   # the warp chooses its length: no duration, no keytimes (they need one)
         op["free_length"] = True
+        del op["duration"]
+        op.pop("keytimes", None)
     if p["backward"]:
         op["backward"] = True
     return [op]
@@ -619,7 +674,8 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None) ->
         return p, notes, new_refs
     o = mine[-1]
     p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
-    p["duration"] = float(o["duration"])
+    if o.get("duration") is not None:
+        p["duration"] = float(o["duration"])
     p["keytimes"] = [[float(a), float(b)] for a, b in (o.get("keytimes") or [])]
     if o["op"] == "guided_warp":
         p["skip"] = int(o.get("skip", 8))
@@ -654,8 +710,8 @@ def _key(op: dict):
         return (name, op["pose"])
     if name == "ik_pose":
         return (name, op["pose"], op["joint"])
-    if name in WAND_OPS:
-        return ("wand", op["frame"])
+    if name == "edit_frame":
+        return (name, op["frame"])
     if name in WARP_OPS:
         return ("warp",)
     return (name,)
