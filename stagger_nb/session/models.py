@@ -663,14 +663,18 @@ def warp_params_to_ops(p: dict, references: dict | None = None, source_duration:
     return [op]
 
 
-def warp_ops_to_params(ops: list, base: dict, references: dict | None = None) -> tuple[dict, list, dict]:
-    """Inverse of :func:`warp_params_to_ops` from the last warp op. Returns ``(params, notes, new_references)``:
-    a path reference the editor did not know is offered under its file name (``new_references``)."""
+def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
+                       source_duration: float = 0.0) -> tuple[dict, list, dict]:
+    """Inverse of :func:`warp_params_to_ops` from the last warp op (no warp op: the identity warp, guided on
+    itself at ``source_duration``). Returns ``(params, notes, new_references)``: a path reference the editor did
+    not know is offered under its file name (``new_references``)."""
     p = copy.deepcopy(base)
     notes: list = []
     new_refs: dict = {}
     mine = [o for o in ops if o["op"] in WARP_OPS]
     if not mine:
+        p.update(mode="guided", reference="self", duration=float(source_duration) or p["duration"], keytimes=[],
+                 free_length=False, backward=False)
         return p, notes, new_refs
     o = mine[-1]
     p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
@@ -717,8 +721,9 @@ def _key(op: dict):
     return (name,)
 
 
-def _rank(op: dict, owned: tuple) -> int:
-    return owned.index(op["op"])
+def _rank(op: dict, owned: tuple) -> tuple:
+    """Order of an owned op: by name (``owned``), then by instance (pose, frame...)."""
+    return (owned.index(op["op"]),) + _key(op)[1:]
 
 
 def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
@@ -834,7 +839,7 @@ class ModelBinding:
             return stagger_ops_to_params(ops, base, names)
         if isinstance(self.model, WandModel):
             return wand_ops_to_params(ops, base, names)
-        p, notes, new_refs = warp_ops_to_params(ops, base, self.references)
+        p, notes, new_refs = warp_ops_to_params(ops, base, self.references, self.model.source_duration)
         if new_refs:
             self.references.update(new_refs)
             self.model.reference_options = list(self.model.reference_options) + [

@@ -20,7 +20,8 @@ from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees
 from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
-from .plots import FalloffPlot, JointCurvesPlot, ProbabilityPlot, WarpPlot
+from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
+from .plots import PlotView
 from .skeleton_view import SkeletonView
 
 __all__ = ["StaggerEditor", "WandEditor", "WarpEditor"]
@@ -106,18 +107,15 @@ class _Editor(widgets.VBox):
         self.frame_slider.add_class("sn-frame")
         self._links = [widgets.link((model, "frame"), (view, "frame"))]
         for p in plots:
-            if hasattr(p, "frame"):
-                self._links.append(widgets.link((model, "frame"), (p, "frame")))
-            else:
-                p.on_frame_click(self.seek)
+            self._links.append(widgets.link((model, "frame"), (p, "frame")))   # a click on a plot seeks
         model.observe(self._show_message, names="message")
         session.observe(self._on_session)
         if hasattr(session, "observe_busy"):
             session.observe_busy(self._on_busy)
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
-        body = widgets.HBox([view, widgets.VBox(plots_widgets(plots), layout=widgets.Layout(flex="1 1 auto",
-                                                                                            min_width="0"))],
-                            layout=widgets.Layout(flex_flow="row wrap", width="100%"))
+        # the plots take the width left beside the 3D view (min_width 0: a flex item may shrink below its content)
+        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 0%", min_width="0"))],
+                            layout=widgets.Layout(width="100%"))
         self.children = [top, widgets.VBox(controls), self.message, body]
         self.add_class(self._css)
         self._update_buttons()
@@ -129,11 +127,7 @@ class _Editor(widgets.VBox):
 
     def figures(self) -> list:
         """The plots' current figures as plotly JSON dicts (for ``export_html``)."""
-        out = []
-        for p in self.plots:
-            fig = p.figure
-            out.append(fig if isinstance(fig, dict) else fig.to_dict())
-        return out
+        return [p.figure for p in self.plots]
 
     # -- session -> views ---------------------------------------------------------------------------
     def _on_session(self, session) -> None:
@@ -218,10 +212,6 @@ class _Editor(widgets.VBox):
         super().close()
 
 
-def plots_widgets(plots):
-    return [p if isinstance(p, widgets.DOMWidget) else p.figure for p in plots]
-
-
 _EFFECTOR = re.compile(r"(hand|foot|wrist|ankle)$", re.IGNORECASE)
 
 
@@ -289,8 +279,8 @@ class StaggerEditor(_Editor):
         self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.curves = JointCurvesPlot(m.frame_time)
-        self.probability = ProbabilityPlot(m.frame_time)
+        self.curves = PlotView(frame_time=m.frame_time)
+        self.probability = PlotView(frame_time=m.frame_time)
         self._precompute = precompute
         layout = [
             widgets.HBox([c["cull_by"], c["percent"], c["count"], c["keep"]]),
@@ -438,9 +428,9 @@ class StaggerEditor(_Editor):
         prob = full.metadata.get("probability")
         times = np.arange(m.num_frames) * ft
         kept = np.asarray(sm.pose_times)
-        self.probability.update(times if prob is not None else None, prob, np.asarray(full.pose_times),
-                                full.pose_probability, kept,
-                                np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
+        self.probability.figure = pose_probability_figure(
+            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
+            np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
         self._draw_curves(edited, sm)
         self.view.set_pose_frames(np.round(kept / ft).astype(int))
         self.view.set_contacts(list(getattr(sm, "contacts", ()) or ()))
@@ -458,9 +448,10 @@ class StaggerEditor(_Editor):
         sm = sm if sm is not None else getattr(self, "_last_staggered", None)
         kept = None if sm is None else np.asarray(sm.pose_times)
         knots = None if sm is None else kept + np.asarray(sm.refinements)[:, j]
-        self.curves.update(edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j),
-                           pose_times=kept, knot_times=knots,
-                           title=f"{name}: rotation vector (°), edited vs original")
+        self.curves.figure = joint_curves_figure(
+            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
+            title=f"{name}: rotation vector (°), edited vs original")
         self.view.highlight_joints([name])
 
 
@@ -524,8 +515,8 @@ class WandEditor(_Editor):
         self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.falloff_plot = FalloffPlot(m.frame_time)
-        self.curves = JointCurvesPlot(m.frame_time)
+        self.falloff_plot = PlotView(frame_time=m.frame_time)
+        self.curves = PlotView(frame_time=m.frame_time)
         layout = [widgets.HBox([c["sigma"], c["propagate"], c["repetitions"]]),
                   widgets.HBox([c["edit_frame"], self.edited_frames, self.add_button, self.remove_button]),
                   widgets.HBox([self.limit_range, self.range]),
@@ -595,12 +586,14 @@ class WandEditor(_Editor):
         compare = list(mod.compare)
         if f < m.num_frames:
             curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
-            self.falloff_plot.update(m.times, curves, frame=f,
-                                     title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})")
+            self.falloff_plot.figure = falloff_figure(
+                m.times, curves, edited_times=[g * m.frame_time for g in (mod.edited_frames or [f])],
+                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})")
         j = m.skeleton.index(mod.joint)
-        self.curves.update(edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j),
-                           pose_times=[g * m.frame_time for g in mod.edited_frames],
-                           title=f"{mod.joint}: rotation vector (°), edited vs original")
+        self.curves.figure = joint_curves_figure(
+            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            pose_times=[g * m.frame_time for g in mod.edited_frames],
+            title=f"{mod.joint}: rotation vector (°), edited vs original")
         self.view.set_motion(edited)
         self.view.highlight_joints([mod.joint])
         self.view.set_pose_frames(mod.edited_frames or [f])
@@ -656,7 +649,7 @@ class WarpEditor(_Editor):
                                      style=_STYLE, layout=_WIDE)
         self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.warp_plot = WarpPlot(m.frame_time)
+        self.warp_plot = PlotView(frame_time=m.frame_time)
         layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]),
                   widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
                   widgets.HBox([c["reference"], c["segment"]])]
@@ -718,7 +711,7 @@ class WarpEditor(_Editor):
             warp = edited.times
         out_t = np.arange(len(warp)) * ft
         kt = self.model.keytimes or None
-        self.warp_plot.update(out_t, warp, timewarp.warp_speed(warp, ft), keytimes=kt,
-                              title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s → "
-                                    f"{out_t[-1]:.2f} s")
+        self.warp_plot.figure = warp_figure(out_t, warp, timewarp.warp_speed(warp, ft), keytimes=kt,
+                                            title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
+                                                  f"→ {out_t[-1]:.2f} s")
         self.view.set_motion(edited)
