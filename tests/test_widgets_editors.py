@@ -156,6 +156,7 @@ def test_stagger_tools_are_reachable_and_inert_ones_say_why(stagger_editor):
 
 def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
     from stagger_nb.widgets import WandEditor
+    run = run.slice(0, 120)
     s = Session(run, ops=[{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0},
                           {"op": "guided_warp", "duration": round(0.8 * run.duration, 3)}])
     kept = s.ops
@@ -234,11 +235,12 @@ def test_warp_editor_guided_linear_and_reference_undo(walk, run):
 
 def test_warp_editor_keeps_out_of_range_skip(walk):
     from stagger_nb.widgets import WarpEditor
-    s = Session(walk, ops=[{"op": "guided_warp", "duration": 3.0, "skip": 100}])
+    short = walk.slice(0, 90)
+    s = Session(short, ops=[{"op": "guided_warp", "duration": 1.0, "skip": 40}])   # the slider stops at 16
     e = WarpEditor(s)
     try:
-        assert e.model.skip == 100 and e.controls["skip"].value == 100 and e.controls["skip"].max >= 100
-        e.model.duration = 3.5
-        assert e.session.ops[0]["skip"] == 100
+        assert e.model.skip == 40 and e.controls["skip"].value == 40 and e.controls["skip"].max >= 40
+        e.model.duration = 1.2
+        assert e.session.ops[0]["skip"] == 40
     finally:
         e.close()
