@@ -27,7 +27,7 @@ def stagger_editor(run):
 
 
 def _view_frame_positions(editor):
-    return np.asarray(editor.view._attr.array)
+    return editor.view.shown_positions()
 
 
 def _fk(m, f):
