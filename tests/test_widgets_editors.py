@@ -125,6 +125,9 @@ def test_stagger_playhead_pose_and_nudge(stagger_editor, walk):
     e.model.pose = 2                        # choosing a pose moves the playhead to it
     f2 = int(round(e.model.pose_times[2] / walk.frame_time))
     assert e.model.frame == f2 == e.view.frame
+    e.view.selected_joint = "Spine"         # picking a joint in the 3D view selects it
+    assert e.model.joint == "Spine" and e.controls["joint"].value == "Spine"
+    e.model.joint = "LeftForeArm"
     e.model.ry = 25.0                       # nudge the selected joint of the selected pose
     op = e.session.ops[0]
     assert op["op"] == "edit_pose" and op["pose"] == 2 and op["deltas"] == {e.model.joint: [0.0, 25.0, 0.0]}

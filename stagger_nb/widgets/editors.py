@@ -108,6 +108,10 @@ class _Editor(widgets.VBox):
         self._links = [widgets.link((model, "frame"), (view, "frame"))]
         for p in plots:
             self._links.append(widgets.link((model, "frame"), (p, "frame")))   # a click on a plot seeks
+            if hasattr(view, "link_frame"):
+                view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
+        if model.has_trait("joint") and view.has_trait("selected_joint"):
+            view.observe(self._on_picked, names="selected_joint")
         model.observe(self._show_message, names="message")
         session.observe(self._on_session)
         if hasattr(session, "observe_busy"):
@@ -120,6 +124,20 @@ class _Editor(widgets.VBox):
         self.add_class(self._css)
         self._update_buttons()
         self._refresh()
+
+    def _on_picked(self, change) -> None:
+        """Clicking a joint in the 3D view selects it in the editor."""
+        if change["new"] and change["new"] in self.model.joint_names:
+            self.model.joint = change["new"]
+
+    def _show_motion(self, edited: Motion, pose_frames=None, contacts=None) -> None:
+        """Send the edited motion to the 3D view once per edit (not again for a view-only change)."""
+        key = (id(edited), None if pose_frames is None else tuple(int(f) for f in pose_frames),
+               None if contacts is None else tuple(map(tuple, contacts)))
+        if getattr(self, "_shown", None) == key and self.view.motion is edited:
+            return
+        self._shown = key
+        self.view.set_motion(edited, pose_frames=pose_frames, contacts=contacts)
 
     def seek(self, frame: int) -> None:
         """Move the playhead (what a click on a plot does)."""
@@ -401,10 +419,10 @@ class StaggerEditor(_Editor):
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
-        self.view.set_motion(edited)
         self._draw_curves(edited)
         if not self._needs_staggered() and self._precompute and not self._extraction_ready():
             self._last_staggered = None
+            self._show_motion(edited)
             return   # first paint: the extraction is computed after it (warm), then this draws the rest
         sm = self.session.staggered()
         self._last_staggered = sm
@@ -432,8 +450,8 @@ class StaggerEditor(_Editor):
             times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
             np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
         self._draw_curves(edited, sm)
-        self.view.set_pose_frames(np.round(kept / ft).astype(int))
-        self.view.set_contacts(list(getattr(sm, "contacts", ()) or ()))
+        self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
+                          contacts=list(getattr(sm, "contacts", ()) or ()))
 
     def _extraction_ready(self) -> bool:
         ready = getattr(self.session, "is_cached", None)
@@ -594,9 +612,8 @@ class WandEditor(_Editor):
             edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
             pose_times=[g * m.frame_time for g in mod.edited_frames],
             title=f"{mod.joint}: rotation vector (°), edited vs original")
-        self.view.set_motion(edited)
+        self._show_motion(edited, pose_frames=mod.edited_frames or [f])
         self.view.highlight_joints([mod.joint])
-        self.view.set_pose_frames(mod.edited_frames or [f])
 
 
 class WarpEditor(_Editor):
@@ -714,4 +731,4 @@ class WarpEditor(_Editor):
         self.warp_plot.figure = warp_figure(out_t, warp, timewarp.warp_speed(warp, ft), keytimes=kt,
                                             title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
                                                   f"→ {out_t[-1]:.2f} s")
-        self.view.set_motion(edited)
+        self._show_motion(edited)
