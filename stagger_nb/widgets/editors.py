@@ -75,6 +75,19 @@ def _link(model, name, control, log=False):
     return widgets.link((model, name), (control, "value"))
 
 
+def _session_knows(op: dict) -> bool:
+    """Whether this version of the session package accepts ``op`` (a tool whose op it lacks is disabled)."""
+    from .. import session as _s
+    check = getattr(_s, "validate_op", None)
+    if check is None:
+        return True
+    try:
+        check(op)
+        return True
+    except ValueError:
+        return False
+
+
 def _inert(control, inert: bool, why: str, tip: str = "") -> None:
     """Disable ``control`` with a tooltip saying why (or enable it with its normal tooltip)."""
     control.disabled = bool(inert)
@@ -85,6 +98,19 @@ class _Editor(widgets.VBox):
     """Common plumbing: message line, progress bar, undo/redo, model <-> session binding, the shared playhead."""
 
     _css = ""
+    _ALIASES: dict = {}   # former attribute names of controls (deprecated): name -> key in self.controls
+
+    def __getattr__(self, name):
+        """Deprecated aliases: ``editor.s`` etc. are the controls ``editor.controls["s"]`` (set the model instead:
+        ``editor.model.s = 0.03``)."""
+        controls = self.__dict__.get("controls")
+        if controls is not None and not name.startswith("_"):
+            key = self._ALIASES.get(name, name)
+            if isinstance(key, tuple):
+                return [controls[k] for k in key]
+            if key in controls:
+                return controls[key]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls: list,
                references: dict | None = None):
@@ -243,6 +269,7 @@ class StaggerEditor(_Editor):
     """
 
     _css = "sn-stagger-editor"
+    _ALIASES = {"cull": "percent", "joint_set": "tau_joints", "nudge": ("rx", "ry", "rz")}
 
     def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
                  show_ghost: bool = False, **kwargs):
@@ -323,6 +350,13 @@ class StaggerEditor(_Editor):
         self._links += self._setup_links()
         self._links.append(traitlets.link((model, "keep"), (c["keep"], "value"), transform=(tuple, list)))
         self._links.append(traitlets.link((model, "w_r_reference"), (c["w_r_reference"], "value")))
+        self._missing = {name for name, op in [
+            ("keep_contacts", {"op": "keep_contacts"}),
+            ("ik", {"op": "ik_pose", "pose": 0, "joint": names[0], "target": [0.0, 0.0, 0.0]}),
+            ("retime", {"op": "retime", "pose": 0, "time": 0.0}),
+            ("insert", {"op": "insert_pose", "time": 0.0})] if not _session_knows(op)}
+        if "keep_contacts" in self._missing and not any(o["op"] == "keep_contacts" for o in session.ops):
+            model.keep_contacts = False
         model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint"])
         model.observe(self._on_selection, names=["joint"])
         model.observe(self._on_pose, names=["pose", "ik_joint"])
@@ -368,6 +402,17 @@ class StaggerEditor(_Editor):
         _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
         for a in "xyz":
             _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+        why = "this version of the session has no {} op"
+        if "keep_contacts" in self._missing:
+            _inert(c["keep_contacts"], True, why.format("keep_contacts"))
+        if "ik" in self._missing:
+            for k in ("ik_joint", "ik_x", "ik_y", "ik_z"):
+                _inert(c[k], True, why.format("ik_pose"))
+        if "retime" in self._missing:
+            _inert(c["pose_time"], True, why.format("retime"))
+        if "insert" in self._missing:
+            _inert(self.insert_button, True, why.format("insert_pose / delete_pose"))
+            _inert(self.delete_button, True, why.format("insert_pose / delete_pose"))
 
     def _on_selection(self, change=None) -> None:
         try:
@@ -490,6 +535,7 @@ class WandEditor(_Editor):
     """
 
     _css = "sn-wand-editor"
+    _ALIASES = {"rotation": ("rx", "ry", "rz")}
     _SIGMA_STEP = 0.04   # log10 units between slider positions
     _SIGMA_STEPS = 15    # positions each side of the default sigma (x 0.25 .. x 4)
 
