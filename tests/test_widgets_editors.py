@@ -151,6 +151,13 @@ def test_stagger_tools_are_reachable_and_inert_ones_say_why(stagger_editor):
     e.model.count = 5
     ops = e.session.ops
     assert (ops and ops[0].get("count") == 5) or "count" in e.model.message   # (a session without cull.count says so)
+    e.model.cull_by = "keep"                # pick poses by clicking the probability plot
+    t = e.session.extraction().pose_times
+    e.probability.click(float(t[3]) + 0.01, 0.5)
+    e.probability.click(float(t[1]), 0.5)
+    assert e.model.keep == [1, 3]
+    e.probability.click(float(t[3]), 0.5)
+    assert e.model.keep == [1]
     if ops:
         e.session.undo()
         assert e.model.cull_by == "count" and e.model.count == 0
@@ -229,6 +236,11 @@ def test_warp_editor_guided_linear_and_reference_undo(walk, run):
         assert "keytimes" in e.message.value and e.session.ops[0]["keytimes"] == [[1.0, 0.4]]
         e.keytimes.value = ""
         assert "keytimes" not in e.message.value
+        e.click_keytime.value = True          # keytimes editable on the warp plot: click (output x, input y)
+        e.warp_plot.click(0.5, 1.0)
+        assert e.model.keytimes == [[1.0, 0.5]] and e.session.ops[0]["keytimes"] == [[1.0, 0.5]]
+        assert e.model.frame == int(round(0.5 / walk.frame_time))   # the click also seeks
+        e.model.keytimes = []
         assert e.controls["segment"].disabled and "segment" in e.controls["segment"].tooltip
         e.model.frame = 30
         assert e.view.frame == 30 and e.warp_plot.frame == 30

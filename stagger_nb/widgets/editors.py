@@ -344,6 +344,7 @@ class StaggerEditor(_Editor):
         self._setup_links = lambda: [_link(model, k, w) if not isinstance(w, widgets.SelectMultiple) else
                                      traitlets.link((model, k), (w, "value"), transform=(tuple, list))
                                      for k, w in c.items() if k not in ("w_r_reference", "keep")]
+        self.probability.on_click(self._on_probability_click)
         for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
             c[k].add_class(f"sn-{k.replace('_', '-')}")
         self._setup(model, session, view, [self.curves, self.probability], layout)
@@ -387,6 +388,16 @@ class StaggerEditor(_Editor):
     def delete_pose(self, k: int) -> None:
         """Delete pose ``k`` (op ``delete_pose``)."""
         self._insert_action({"op": "delete_pose", "pose": int(k)})
+
+    def _on_probability_click(self, x, y, frame) -> None:
+        """With cull = "picked", a click on the probability plot toggles the nearest candidate pose (§4.3)."""
+        if self.model.cull_by != "keep":
+            return
+        times = np.asarray(self.session.extraction().pose_times)
+        k = int(np.argmin(np.abs(times - float(x))))
+        keep = set(self.model.keep)
+        keep.symmetric_difference_update({k})
+        self.model.keep = sorted(keep)
 
     # -- view state ------------------------------------------------------------------------------------
     def _on_inert(self, change=None) -> None:
@@ -716,6 +727,12 @@ class WarpEditor(_Editor):
         layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]),
                   widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
                   widgets.HBox([c["reference"], c["segment"]])]
+        self.click_keytime = widgets.Checkbox(value=False, indent=False,
+                                              description="click the warp plot to add a keytime")
+        self.clear_keytimes = widgets.Button(description="clear keytimes", layout=widgets.Layout(width="130px"))
+        self.clear_keytimes.on_click(lambda _: setattr(self.model, "keytimes", []))
+        self.warp_plot.on_click(self._on_warp_click)
+        layout.append(widgets.HBox([self.click_keytime, self.clear_keytimes]))
         c["duration"].add_class("sn-duration")
         c["skip"].add_class("sn-skip")
         self._setup(model, session, view, [self.warp_plot], layout, references=refs)
@@ -730,6 +747,13 @@ class WarpEditor(_Editor):
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
+
+    def _on_warp_click(self, x, y, frame) -> None:
+        """With "click to add a keytime" on, a click on the warp plot at (output time x, input time y) adds
+        the keytime [y, x] (Hsu et al. 2007, §4.2)."""
+        if self.click_keytime.value and y is not None and not self.model.free_length:
+            kt = sorted(self.model.keytimes + [[float(y), float(x)]], key=lambda p: p[1])
+            self.model.keytimes = kt
 
     @staticmethod
     def _format_keytimes(kt) -> str:
