@@ -224,9 +224,11 @@ def pose_reference(value, name):
         name, '"previous", "next", "mean" or a pose index', value)
 
 
-def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None = None):
-    """A dataclass field checked by ``check``; ``to_json`` turns the stored value back into JSON."""
-    return field(default=default, metadata={"check": check, "to_json": to_json})
+def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None = None, omit_none: bool = False):
+    """A dataclass field checked by ``check``; ``to_json`` turns the stored value back into JSON;
+    ``omit_none`` leaves the field out of :meth:`Op.to_json` while it is None (alternatives such as cull's
+    ``count``/``keep``; other optional fields are written as ``null``)."""
+    return field(default=default, metadata={"check": check, "to_json": to_json, "omit_none": omit_none})
 
 
 # --------------------------------------------------------------------------------------------------
@@ -234,7 +236,8 @@ def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None
 # --------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Op:
-    """Base of the op dataclasses. Subclasses set ``name`` (the ``"op"`` value) and ``needs``."""
+    """Base of the op dataclasses. Subclasses set ``name`` (the ``"op"`` value) and ``needs``
+    (``"staggered"``, ``"motion"``, or ``"any"`` for an op taking either state as it is)."""
 
     name: ClassVar[str] = ""
     needs: ClassVar[str] = "motion"
@@ -242,8 +245,8 @@ class Op:
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         if cls.__dict__.get("name"):
-            if cls.needs not in ("staggered", "motion"):
-                raise ValueError(f"needs: expected 'staggered' or 'motion', got {cls.needs!r}")
+            if cls.needs not in ("staggered", "motion", "any"):
+                raise ValueError(f"needs: expected 'staggered', 'motion' or 'any', got {cls.needs!r}")
             OPS[cls.name] = cls
 
     def __post_init__(self):
@@ -284,11 +287,11 @@ class Op:
             raise ValueError(f"{where}.{e}") from None
 
     def to_json(self) -> dict:
-        """The normalised JSON object (``{"op": name, ...}``; optional fields left unset are omitted)."""
+        """The normalised JSON object (``{"op": name, ...}``, every field; an unset alternative left out)."""
         out = {"op": self.name}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if v is None and f.default is None:
+            if v is None and f.metadata.get("omit_none"):
                 continue
             conv = f.metadata.get("to_json")
             out[f.name] = conv(v) if conv is not None and v is not None else _plain(v)
@@ -335,9 +338,9 @@ class Cull(Op):
 
     name: ClassVar[str] = "cull"
     needs: ClassVar[str] = "staggered"
-    percent: float | None = _spec(optional(number(0.0, 100.0, open_lo=True)), None)
-    count: int | None = _spec(optional(integer(2)), None)
-    keep: tuple | None = _spec(optional(tuple_of(_index, "a list of pose indices")), None)
+    percent: float | None = _spec(optional(number(0.0, 100.0, open_lo=True)), None, omit_none=True)
+    count: int | None = _spec(optional(integer(2)), None, omit_none=True)
+    keep: tuple | None = _spec(optional(tuple_of(_index, "a list of pose indices")), None, omit_none=True)
 
     def _validate(self):
         given = [k for k in ("percent", "count", "keep") if getattr(self, k) is not None]
@@ -428,7 +431,7 @@ class KeepContacts(Op):
     timing edits, are held (``staggered.keep_contacts``)."""
 
     name: ClassVar[str] = "keep_contacts"
-    needs: ClassVar[str] = "staggered"
+    needs: ClassVar[str] = "any"
 
 
 @dataclass(frozen=True)
@@ -465,8 +468,8 @@ class Propagate(Op):
     name: ClassVar[str] = "propagate"
     needs: ClassVar[str] = "motion"
     deltas: Any = _spec(None)  # checked in _validate: its form depends on frame / frames
-    frame: int | None = _spec(optional(_index), None)
-    frames: tuple | None = _spec(optional(tuple_of(_index, "a list of frame indices")), None)
+    frame: int | None = _spec(optional(_index), None, omit_none=True)
+    frames: tuple | None = _spec(optional(tuple_of(_index, "a list of frame indices")), None, omit_none=True)
     sigma: float | None = _spec(optional(_positive), None)
     frame_range: tuple | None = _spec(optional(frame_range), None)
     repetitions: str = _spec(choice("keep", "discard"), "keep")
@@ -507,13 +510,13 @@ class GuidedWarp(Op):
 
     name: ClassVar[str] = "guided_warp"
     needs: ClassVar[str] = "motion"
-    duration: float | None = _spec(optional(_positive), None)
+    duration: float | None = _spec(optional(_positive), None, omit_none=True)
     free_length: bool = _spec(boolean, False)
     skip: int = _spec(integer(1, MAX_SKIP), 8)
     keytimes: tuple | None = _spec(optional(keytimes), None)
     reference: Any = _spec(warp_reference, "self", to_json=_reference_json)
     backward: bool = _spec(boolean, False)
-    upsample: int | None = _spec(optional(integer(1, 16)), None)
+    upsample: int | None = _spec(optional(integer(1, 16)), None, omit_none=True)
 
     def _validate(self):
         if self.free_length:
