@@ -151,16 +151,17 @@ def test_stagger_tools_are_reachable_and_inert_ones_say_why(stagger_editor):
     e.model.count = 5
     ops = e.session.ops
     assert (ops and ops[0].get("count") == 5) or "count" in e.model.message   # (a session without cull.count says so)
+    if ops:
+        e.session.undo()
+        assert e.model.cull_by == "count" and e.model.count == 0
     e.model.cull_by = "keep"                # pick poses by clicking the probability plot
     t = e.session.extraction().pose_times
     e.probability.click(float(t[3]) + 0.01, 0.5)
     e.probability.click(float(t[1]), 0.5)
-    assert e.model.keep == [1, 3]
+    assert e.model.keep == [1, 3] and e.session.ops[0]["keep"] == [1, 3]
     e.probability.click(float(t[3]), 0.5)
     assert e.model.keep == [1]
-    if ops:
-        e.session.undo()
-        assert e.model.cull_by == "count" and e.model.count == 0
+    e.session.clear()
     e.model.cull_by = "percent"
 
 
@@ -257,5 +258,61 @@ def test_warp_editor_keeps_out_of_range_skip(walk):
         assert e.model.skip == 40 and e.controls["skip"].value == 40 and e.controls["skip"].max >= 40
         e.model.duration = 1.2
         assert e.session.ops[0]["skip"] == 40
+    finally:
+        e.close()
+
+
+def test_stagger_keep_contacts_on_by_default_and_ik_target_writes_an_op(walk):
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk, precompute=False)
+    try:
+        assert e.model.keep_contacts and e.controls["keep_contacts"].value and not e.controls["keep_contacts"].disabled
+        e.model.s = 0.02
+        assert e.session.ops[-1] == {"op": "keep_contacts"}
+        held = e.session.edited()
+        e.model.keep_contacts = False
+        assert [o["op"] for o in e.session.ops] == ["succession"]
+        assert np.abs(held.local_quats - e.session.edited().local_quats).max() > 1e-6   # the constraint acted
+        e.session.undo()
+        assert e.model.keep_contacts and e.controls["keep_contacts"].value
+        # IK posing: choose the effector (sliders start at its place, no op), move the target
+        e.model.pose = 3
+        e.model.ik_joint = "LeftHand"
+        assert not e.controls["ik_x"].disabled and not any(o["op"] == "ik_pose" for o in e.session.ops)
+        x0 = e.model.ik_x
+        p, _ = sn.forward_kinematics(e.session.edited())
+        np.testing.assert_allclose([e.model.ik_x, e.model.ik_y, e.model.ik_z],
+                                   p[e.model.pose_frame(3), walk.skeleton.index("LeftHand")], atol=1e-9)
+        e.model.ik_x = x0 + 2.0
+        ik = [o for o in e.session.ops if o["op"] == "ik_pose"]
+        assert len(ik) == 1 and ik[0]["pose"] == 3 and ik[0]["joint"] == "LeftHand"
+        assert ik[0]["target"][0] == pytest.approx(x0 + 2.0)
+        ops = [o["op"] for o in e.session.ops]
+        assert ops.index("ik_pose") < ops.index("succession") < ops.index("keep_contacts")
+        if hasattr(staggered, "ik_pose"):      # staggered.ik_pose (staggered-edit): the target is met at pose 3
+            e.model.s = 0.0
+            p, _ = sn.forward_kinematics(e.session.edited())
+            hand = p[e.model.pose_frame(3), walk.skeleton.index("LeftHand")]
+            assert np.linalg.norm(hand - [e.model.ik_x, e.model.ik_y, e.model.ik_z]) < 0.1, e.message.value
+        else:                                  # said in plain words, not raised
+            assert "ik_pose" in e.message.value
+    finally:
+        e.close()
+
+
+def test_stagger_first_paint_then_warm_up(walk):
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk)                 # precompute: the extraction is warmed after first paint
+    try:
+        assert "extracting" in str(e.probability.figure["layout"]["title"])   # drawn at once, filled later
+        e._first_future.result(timeout=120)
+        e.warm_future.cancel()
+        import time
+        for _ in range(100):                # the redraw runs in the future's done-callback
+            if len(e.probability.figure["data"][1]["x"]):
+                break
+            time.sleep(0.05)
+        assert len(e.probability.figure["data"][1]["x"]) == e.session.extraction().num_poses
+        assert e.model.pose_times
     finally:
         e.close()

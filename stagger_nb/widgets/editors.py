@@ -232,26 +232,30 @@ class _Editor(widgets.VBox):
     def _update_views(self, edited: Motion) -> None:
         raise NotImplementedError
 
-    def _warm(self, *jobs):
+    def _warm(self, *jobs, then=None):
         """Fill the session's caches after first paint (``Session.warm``: a cancellable future on the session's
-        executor); the views redraw when it is done. Without ``Session.warm`` nothing is started here."""
+        executor, never a thread of ours); ``then()`` runs when it is done (e.g. draw what needed it). The
+        progress bar shows meanwhile. Returns the future (also ``editor.warm_future``), None without warm."""
         warm = getattr(self.session, "warm", None)
         if warm is None:
             return None
-        fut = warm(*jobs, progress=self._on_progress)
-        self._warm_future = fut
         self.progress.layout.visibility = "visible"
+        fut = warm(*jobs, progress=self._on_progress)
+        self.warm_future = fut
 
         def done(f):
-            self.progress.layout.visibility = "hidden"
-            if not f.cancelled():
-                self._refresh()
+            if f is self.warm_future:
+                self.progress.layout.visibility = "hidden"
+            if not f.cancelled() and f.exception() is None and then is not None:
+                then()
         fut.add_done_callback(done)
         return fut
 
+    def _futures(self):
+        return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
+
     def close(self):
-        fut = getattr(self, "_warm_future", None)
-        if fut is not None:
+        for fut in self._futures():
             fut.cancel()
         super().close()
 
@@ -327,6 +331,7 @@ class StaggerEditor(_Editor):
         self.curves = PlotView(frame_time=m.frame_time)
         self.probability = PlotView(frame_time=m.frame_time)
         self._precompute = precompute
+        self._defer = precompute and callable(getattr(session, "warm", None))
         layout = [
             widgets.HBox([c["cull_by"], c["percent"], c["count"], c["keep"]]),
             widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
@@ -363,8 +368,10 @@ class StaggerEditor(_Editor):
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
-        if precompute:
-            self._warm("extract", "cull")
+        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position
+            self._first_future = self._warm("extract", then=self._refresh)
+            pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
+            self._warm(("cull", pcs))
 
     # -- actions ---------------------------------------------------------------------------------------
     def _insert_action(self, op: dict) -> None:
@@ -455,15 +462,29 @@ class StaggerEditor(_Editor):
             w.min, w.max = min(w.min, float(v) - ext), max(w.max, float(v) + ext)
         m.show_ik_target(p)
 
-    def _warnings_html(self) -> str:
+    def _timing_summary(self):
+        """(summary sentence, warnings) of the current staggered state (``staggered.timing_warnings``)."""
         sm = getattr(self, "_last_staggered", None)
-        warnings = [] if sm is None else list(sm.metadata.get("warnings") or ())
-        if not warnings:
-            return ""
+        if sm is None:
+            return "", []
         from .. import staggered
+        warnings = list(staggered.timing_warnings(sm))
+        if not warnings:
+            return "", []
         summarize = getattr(staggered, "summarize_timing_warnings", None)
-        summary = summarize(warnings) if summarize else f"{len(warnings)} refined times cross a neighbouring pose: " \
-                                                         f"lower s, l or τ."
+        summary = summarize(warnings) if summarize else (f"{len(warnings)} refined times cross a neighbouring "
+                                                         f"pose: lower s, l or τ.")
+        return summary, warnings
+
+    def _notes(self) -> list:
+        summary, _ = self._timing_summary()
+        return [n for n in super()._notes() if n != summary]
+
+    def _warnings_html(self) -> str:
+        """The timing warnings: one sentence (cause and fix), the details on demand."""
+        summary, warnings = self._timing_summary()
+        if not summary:
+            return ""
         details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
         return (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
                 f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
@@ -476,8 +497,11 @@ class StaggerEditor(_Editor):
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
         self._draw_curves(edited)
-        if not self._needs_staggered() and self._precompute and not self._extraction_ready():
+        if not self._needs_staggered() and not self._extraction_ready():
             self._last_staggered = None
+            if not self.probability.figure:
+                self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
+                                                                  title="pose probability: extracting poses…")
             self._show_motion(edited)
             return   # first paint: the extraction is computed after it (warm), then this draws the rest
         sm = self.session.staggered()
@@ -510,10 +534,12 @@ class StaggerEditor(_Editor):
                           contacts=list(getattr(sm, "contacts", ()) or ()))
 
     def _extraction_ready(self) -> bool:
-        ready = getattr(self.session, "is_cached", None)
-        if callable(ready):
-            return bool(ready("extract"))
-        return getattr(self.session, "warm", None) is None   # without warm-up: compute on demand
+        """Whether the staggered plots can be drawn now without waiting for the extraction: always without a
+        warm-up; with one, once its extraction is done (first paint shows the motion and curves before)."""
+        if not self._defer:
+            return True
+        fut = getattr(self, "_first_future", None)
+        return fut is not None and fut.done()
 
     def _draw_curves(self, edited: Motion, sm=None) -> None:
         m = self.session.source
@@ -621,7 +647,7 @@ class WandEditor(_Editor):
         self._on_inert()
         if precompute:
             order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(model.sigma)), kind="stable")
-            self._warm(*[("basis", float(self._sigma_grid[i])) for i in order])
+            self._warm(("wand_basis", [float(self._sigma_grid[i]) for i in order]))
 
     def _snapped_sigma(self, value: float) -> float:
         return float(self._sigma_grid[np.argmin(np.abs(np.log(self._sigma_grid) - np.log(value)))])
