@@ -284,3 +284,15 @@ def test_stagger_model_pose_and_playhead_follow_each_other():
     assert m.retimes == {1: 1.2}
     ops = M.stagger_params_to_ops(m.params())
     assert {"op": "retime", "pose": 1, "time": 1.2} in ops and ops[-1] == {"op": "keep_contacts"}
+
+
+def test_a_reloaded_session_restores_every_parameter(walk, tmp_path):
+    s = Session(walk)
+    m = M.StaggerModel(root="Hips", joint="Spine", frame_time=walk.frame_time)
+    M.ModelBinding(m, s)
+    m.percent, m.s, m.l, m.tau, m.seed, m.w_r, m.w_r_reference = 60.0, 0.03, 2.0, 0.02, 3, 0.4, "mean"
+    m.pose_edits = {2: {"Spine": [0.0, 10.0, 0.0]}}
+    s.save(tmp_path / "s.json")
+    m2 = M.StaggerModel(root="Hips", frame_time=walk.frame_time)
+    M.ModelBinding(m2, Session.load(tmp_path / "s.json", source=walk))
+    assert m2.params() == m.params()
