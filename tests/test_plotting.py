@@ -65,8 +65,7 @@ def test_warp_speed_is_clipped_on_a_labelled_log_axis():
     f = plotting.warp_figure(T, 1.5 * T, speed, keytimes=[[0, 0], [1.5, 1.0]])
     g = _valid(f)
     assert list(g.data[3].y[:2]) == [0.1, 1.5] and g.data[3].y[-1] == 10.0
-    assert g.layout.yaxis2.type == "log" and list(g.layout.yaxis2.ticktext) == ["0.1×", "0.2×", "0.5×", "1×", "2×",
-                                                                                "5×", "10×"]
+    assert g.layout.yaxis2.type == "log" and list(g.layout.yaxis2.ticktext) == ["0.1×", "0.5×", "1×", "2×", "10×"]
     assert list(g.data[2].x) == [0, 1.0] and list(g.data[2].y) == [0, 1.5]   # (input, output) -> x=output
     assert list(g.data[0].x) == [0, 1] and list(g.data[0].y) == [0, 1.5]      # the linear warp
     assert g.layout.xaxis2.title.text == "output time (s)" and g.layout.yaxis.title.text == "input time (s)"

@@ -3,15 +3,15 @@ shared plotly.js library, the playhead frame that is never echoed, clicks that s
 from __future__ import annotations
 
 import base64
+import json
 
 import numpy as np
-import plotly
 import pytest
 import traitlets
 
 from stagger_nb import plotting
 from stagger_nb.widgets import FalloffPlot, JointCurvesPlot, PlotView, ProbabilityPlot, WarpPlot
-from stagger_nb.widgets.plots import PlotlyLibrary
+from stagger_nb.widgets.plots import figure_to_json
 
 T = np.arange(31) / 30
 
@@ -48,14 +48,21 @@ def test_state_holds_the_current_figure_as_typed_arrays():
         v.frame_time = 0.0
 
 
-def test_one_shared_plotly_library_from_the_installed_package():
-    a, b = PlotView(), PlotView()
-    assert a.get_state()["_library"] == b.get_state()["_library"] == f"IPY_MODEL_{PlotlyLibrary.shared().model_id}"
-    src = PlotlyLibrary.shared().source
-    assert len(src) > 1_000_000 and "http" not in a.get_state()["_esm"]   # no URL to fetch anything from
-    assert len(a.get_state()["_esm"]) < 20_000   # each view carries its small module, not plotly.js
+def test_plotly_js_is_sent_on_request_never_in_the_state():
+    v = PlotView(plotting.falloff_figure(T, {"green": T}))
+    state = v.get_state()
+    assert len(json.dumps(figure_to_json(state))) < 30_000   # the small module and the figure: no plotly.js
+    assert "http" not in state["_esm"]   # no URL to fetch anything from
+    sent = []
+    orig = v.comm.send
+    v.comm.send = lambda data=None, metadata=None, buffers=None: sent.append((data, buffers))
+    try:   # what the browser's first view sends
+        v._handle_msg({"content": {"data": {"method": "custom", "content": {"event": "need_plotly"}}}, "buffers": []})
+    finally:
+        v.comm.send = orig
+    (data, buffers), = sent
     from plotly.offline import get_plotlyjs
-    assert src == get_plotlyjs() and plotly.__version__
+    assert data["content"] == {"event": "plotly.js"} and bytes(buffers[0]) == get_plotlyjs().encode()
 
 
 def test_frame_from_the_browser_is_not_echoed_and_updates_are_one_message():

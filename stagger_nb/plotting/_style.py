@@ -33,14 +33,18 @@ def same_length(**arrays) -> None:
 
 def base_layout(title: str, height: int, x_title: str = "time (s)", y_title: str = "", **extra) -> dict:
     """A layout that takes the width it is given (no ``width``: the view sizes it to its output area),
-    a title on the left, the legend in one or more rows under the x axis, and a hover line along x so a
+    a title on the left, the legend right of the axes, and a hover line along x so a
     click anywhere in the plot reports the nearest sample (the view uses it to seek)."""
     layout = dict(
         title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)),
         height=int(height), autosize=True,
         margin=dict(l=60, r=20, t=40, b=10, autoexpand=True),
         font=dict(size=12),
-        legend=dict(orientation="h", x=0, xanchor="left", y=-0.18, yanchor="top", font=dict(size=11)),
+        showlegend=True,   # also with one trace: every curve is named
+        # right of the axes, top-aligned: plotly widens the right margin for it, so it never covers the
+        # x-axis title (a horizontal legend under the axes did at 260 px height)
+        legend=dict(orientation="v", x=1.01, xanchor="left", y=1, yanchor="top", font=dict(size=11),
+                    tracegroupgap=4),
         hovermode="x", hoverdistance=-1,
         xaxis=dict(title=dict(text=x_title), automargin=True, zeroline=False),
         yaxis=dict(title=dict(text=y_title), automargin=True),

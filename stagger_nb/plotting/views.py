@@ -105,7 +105,7 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
         kx, ky = np.repeat(kt, 3), ky.reshape(-1)
     else:
         kx, ky = np.zeros(0), np.zeros(0)
-    data.append(dict(type="scatter", x=kx, y=ky, mode="markers", name="refinement knots t_k + r_kj",
+    data.append(dict(type="scatter", x=kx, y=ky, mode="markers", name="knots t_k + r_kj",
                      marker=dict(symbol="diamond", size=7, color="#1a202c")))
     layout = base_layout(title or "joint rotation: edited (solid) vs original (dotted)", height,
                          y_title="rotation (°)", shapes=[vline(x, POSE_COLOUR) for x in pt])
@@ -152,7 +152,8 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
 
 def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = None, height: int = 420) -> dict:
     """A time warp and its speed: top, input time against output time with the linear warp and the
-    keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1× … 10× (clipped there).
+    keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1×, 0.5×, 1×, 2×, 10× (clipped
+    to [0.1, 10]).
 
     Parameters
     ----------
@@ -179,15 +180,14 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
         dict(type="scatter", x=x, y=np.clip(s, lo, hi), mode="lines", name="speed", xaxis="x2", yaxis="y2",
              line=dict(color="#2f855a", width=2)),
     ]
-    ticks = [0.1, 0.2, 0.5, 1, 2, 5, 10]
+    ticks = [0.1, 0.5, 1, 2, 10]   # five labels fit the lower row's ~120 px
     layout = base_layout(title or "time warp", height, x_title="",
                          xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False, automargin=True),
-                         yaxis=dict(domain=[0.42, 1], anchor="x", title=dict(text="input time (s)"), automargin=True),
+                         yaxis=dict(domain=[0.48, 1], anchor="x", title=dict(text="input time (s)"), automargin=True),
                          xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="output time (s)"), automargin=True),
-                         yaxis2=dict(domain=[0, 0.3], anchor="x2", type="log", range=[np.log10(lo), np.log10(hi)],
+                         yaxis2=dict(domain=[0, 0.36], anchor="x2", type="log", range=[np.log10(lo), np.log10(hi)],
                                      tickvals=ticks, ticktext=[f"{v:g}×" for v in ticks],
                                      title=dict(text="speed"), automargin=True),
                          shapes=[dict(type="line", xref="x2 domain", yref="y2", x0=0, x1=1, y0=1, y1=1,
                                       line=dict(color="#a0aec0", width=1), layer="below")])
-    layout["legend"]["y"] = -0.14
     return dict(data=data, layout=layout)

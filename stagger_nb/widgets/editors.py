@@ -143,9 +143,10 @@ class _Editor(widgets.VBox):
         if hasattr(session, "observe_busy"):
             session.observe_busy(self._on_busy)
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
-        # the plots take the width left beside the 3D view (min_width 0: a flex item may shrink below its content)
-        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 0%", min_width="0"))],
-                            layout=widgets.Layout(width="100%"))
+        # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
+        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
+                                                                           max_width="100%"))],
+                            layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
         self.children = [top, widgets.VBox(controls), self.message, body]
         self.add_class(self._css)
         self._update_buttons()

@@ -1,6 +1,6 @@
 // PlotView: one plotly figure drawn by plotly.js, fed from the widget model (anywidget ESM).
-// - plotly.js comes from one shared _PlotlyLibrary widget (the installed plotly package's bundle), loaded
-//   once per page, never from a CDN;
+// - plotly.js is the installed plotly package's bundle, sent by the kernel once per page on request (a
+//   binary message), never from a CDN and never in the widget state;
 // - every view draws the model's current `figure` (so a new view, e.g. after a page reload, shows the
 //   current data) and redraws with Plotly.react on every change;
 // - `frame` is drawn as a vertical line (the playhead) and moved with one relayout;
@@ -9,19 +9,27 @@
 const LIB_KEY = Symbol.for("stagger_nb.plotly.js");
 
 function loadPlotly(model) {
+  // asked once per page, from the kernel (a binary message): plotly.js never sits in the widget state, so
+  // restoring the widgets after a page reload stays small and fast
   if (!globalThis[LIB_KEY]) {
-    const p = (async () => {
-      let lib = model.get("_library");
-      if (typeof lib === "string") {
-        lib = await model.widget_manager.get_model(lib.replace(/^IPY_MODEL_/, ""));
-      }
-      const src = lib.get("source");
-      if (!src) throw new Error("plotly.js source is empty");
-      const module = { exports: {} };
-      // the bundle is UMD: given `module` it returns Plotly as module.exports
-      new Function("module", "exports", src)(module, module.exports);
-      return module.exports;
-    })();
+    const p = new Promise((resolve, reject) => {
+      const onMsg = (msg, buffers) => {
+        if (!msg || msg.event !== "plotly.js") return;
+        model.off("msg:custom", onMsg);
+        clearTimeout(timer);
+        try {
+          const src = new TextDecoder().decode(buffers[0]);
+          const module = { exports: {} };
+          // the bundle is UMD: given `module` it returns Plotly as module.exports
+          new Function("module", "exports", src)(module, module.exports);
+          resolve(module.exports);
+        } catch (err) { reject(err); }
+      };
+      const timer = setTimeout(() => { model.off("msg:custom", onMsg);
+                                       reject(new Error("the kernel did not send plotly.js within 120 s")); }, 120000);
+      model.on("msg:custom", onMsg);
+      model.send({ event: "need_plotly" });
+    });
     p.catch(() => { if (globalThis[LIB_KEY] === p) delete globalThis[LIB_KEY]; });
     globalThis[LIB_KEY] = p;
   }

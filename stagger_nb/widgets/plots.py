@@ -7,8 +7,9 @@ called (``_send_addTraces_msg``…), and it ships its 4.8 MB bundle with every i
 is one synced trait: every view, whenever it is created, draws the model's current ``figure`` with
 ``Plotly.react``; a change of ``figure`` redraws every view. Numpy arrays travel as plotly.js typed-array
 specs (``{"dtype": "f4", "bdata": base64}``), not as JSON number lists. plotly.js itself (the installed
-plotly package's bundle, never a CDN) is held once by a shared :class:`PlotlyLibrary` widget that every
-view references, so a page with ten plots loads it once.
+plotly package's bundle, never a CDN) is sent by the kernel once per page, as one binary message, to the
+first view that asks; it is never part of the widget state, so restoring the widgets after a page
+reload moves kilobytes, not megabytes (JupyterLab gives that restore 4 s before a slower fallback).
 
 - ``view.figure = fig_dict``: plotly JSON ``{"data": [...], "layout": {...}}`` (builders in
   :mod:`stagger_nb.plotting`); replaced whole, redrawn in place (zoom and legend clicks are kept through
@@ -33,11 +34,10 @@ from typing import Callable
 import anywidget
 import numpy as np
 import traitlets as t
-from ipywidgets import widget_serialization
 
 from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 
-__all__ = ["PlotView", "PlotlyLibrary", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
+__all__ = ["PlotView", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
            "WarpPlot"]
 
 _JS = (Path(__file__).with_name("plot_view.js")).read_text(encoding="utf-8")
@@ -74,22 +74,15 @@ def figure_to_json(value, widget=None):
     return value
 
 
-class PlotlyLibrary(anywidget.AnyWidget):
-    """Holds plotly.js (the installed plotly package's own bundle) for every :class:`PlotView` of the
-    page: one copy in the widget state, evaluated once per page. Use :meth:`shared`."""
+_PLOTLY_JS: list = []   # the installed plotly.js bundle, UTF-8, read on first request
 
-    _esm = "export default { render() {} };"
-    source = t.Unicode("").tag(sync=True)
-    _instance = None
 
-    @classmethod
-    def shared(cls) -> "PlotlyLibrary":
-        """The process-wide instance (a new one if it was closed)."""
-        inst = cls._instance
-        if inst is None or inst.comm is None:
-            from plotly.offline import get_plotlyjs
-            inst = cls._instance = cls(source=get_plotlyjs())
-        return inst
+def plotly_js_bytes() -> bytes:
+    """The installed plotly package's plotly.js bundle (what the views run), UTF-8 encoded."""
+    if not _PLOTLY_JS:
+        from plotly.offline import get_plotlyjs
+        _PLOTLY_JS.append(get_plotlyjs().encode("utf-8"))
+    return _PLOTLY_JS[0]
 
 
 class PlotView(anywidget.AnyWidget):
@@ -115,10 +108,8 @@ class PlotView(anywidget.AnyWidget):
     playhead_xref = t.Unicode("x").tag(sync=True)
     show_playhead = t.Bool(True).tag(sync=True)
     seek_on_click = t.Bool(True).tag(sync=True)
-    _library = t.Instance(PlotlyLibrary).tag(sync=True, **widget_serialization)
 
     def __init__(self, figure: dict | None = None, **kwargs):
-        kwargs.setdefault("_library", PlotlyLibrary.shared())
         if figure is not None:
             kwargs["figure"] = figure
         super().__init__(**kwargs)
@@ -148,8 +139,12 @@ class PlotView(anywidget.AnyWidget):
             self._click_callbacks.append(callback)
 
     def _on_custom_msg(self, _widget, content, _buffers) -> None:
-        if isinstance(content, dict) and content.get("event") == "click":
+        if not isinstance(content, dict):
+            return
+        if content.get("event") == "click":
             self.click(float(content["x"]), content.get("y"), seek=False)
+        elif content.get("event") == "need_plotly":   # the first view of a page asks, once
+            self.send({"event": "plotly.js"}, buffers=[plotly_js_bytes()])
 
     def frame_of_x(self, x: float) -> int:
         """The frame a click at data x seeks to (what the browser computes)."""
