@@ -16,7 +16,7 @@ from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
-           "project", "drawn_height_fraction", "grid_cell", "switch_keys", "highlight_keys", "body_size"]
+           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "switch_keys", "highlight_keys", "body_size"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -145,6 +145,37 @@ def grid_cell(size: float) -> float:
     return float(10 ** (k + 1))
 
 
+def ground_segments(positions: np.ndarray, cell: float, margin: float, ground: float,
+                    max_segments: int = 40000) -> np.ndarray:
+    """A ground grid as short line segments ``(2 N, 3)`` float32 (pairs of end points), one per cell edge, over
+    the root's ground track (x, z) of ``positions (F, J, 3)`` plus ``margin``, at height ``ground``.
+
+    Cell-sized segments, not lines across the whole ground: a GL line with an end behind the camera may be
+    dropped entirely (seen with SwiftShader), which left the ground near a following camera blank. The cell
+    grows (×2) until the grid has at most ``max_segments`` segments."""
+    xz = np.asarray(positions, dtype=float)[:, 0][:, [0, 2]]
+    lo = np.floor((xz.min(axis=0) - margin) / cell) * cell
+    hi = np.ceil((xz.max(axis=0) + margin) / cell) * cell
+    while True:
+        nx, nz = np.round((hi - lo) / cell).astype(int)
+        if 2 * nx * nz + nx + nz <= max_segments:
+            break
+        cell *= 2
+        lo, hi = np.floor(lo / cell) * cell, np.ceil(hi / cell) * cell
+    xs = lo[0] + cell * np.arange(nx + 1)
+    zs = lo[1] + cell * np.arange(nz + 1)
+    X, Z = np.meshgrid(xs[:-1], zs, indexing="ij")          # edges along x
+    a = np.stack([X, Z], -1).reshape(-1, 2)
+    along_x = np.stack([a, a + [cell, 0.0]], axis=1)
+    X, Z = np.meshgrid(xs, zs[:-1], indexing="ij")          # edges along z
+    b = np.stack([X, Z], -1).reshape(-1, 2)
+    along_z = np.stack([b, b + [0.0, cell]], axis=1)
+    seg = np.concatenate([along_x, along_z]).reshape(-1, 2)
+    out = np.empty((len(seg), 3), dtype=np.float32)
+    out[:, 0], out[:, 1], out[:, 2] = seg[:, 0], ground, seg[:, 1]
+    return out
+
+
 @dataclass(frozen=True)
 class Camera:
     """A perspective camera riding on a rig that follows the character.
@@ -165,6 +196,19 @@ class Camera:
         """World camera position and target at ``frame``, each (3,)."""
         r = self.rig[min(max(int(frame), 0), len(self.rig) - 1)]
         return np.asarray(self.position) + r, np.asarray(self.target) + r
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian smoothing (σ in samples) with the signal continued by point reflection at both ends
+    (x[0] - (x[k] - x[0])), so a steady linear track comes out unchanged, ends included."""
+    n = len(x)
+    pad = min(n - 1, int(np.ceil(4 * sigma)))
+    if pad < 1:
+        return np.asarray(x, dtype=float).copy()
+    left = 2 * x[0] - x[pad:0:-1]
+    right = 2 * x[-1] - x[-2:-pad - 2:-1]
+    y = gaussian_filter1d(np.concatenate([left, x, right]), sigma, mode="nearest")
+    return y[pad:pad + n]
 
 
 _VIEW_DIR = np.array([0.62, 0.28, 0.73])   # from the target towards the camera: front-right, slightly above
@@ -191,8 +235,8 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
         root = P[:, 0]
         sigma = max(smooth_s / frame_time, 1e-3)
         rig = np.zeros((F, 3))
-        rig[:, 0] = gaussian_filter1d(root[:, 0], sigma, mode="nearest")
-        rig[:, 2] = gaussian_filter1d(root[:, 2], sigma, mode="nearest")
+        rig[:, 0] = _smooth(root[:, 0], sigma)
+        rig[:, 2] = _smooth(root[:, 2], sigma)
         rig[:, 1] = ground
         # the body's vertical centre above the ground, from all frames: steady, no bobbing camera
         centre_y = float(np.median((P[..., 1].max(axis=1) + P[..., 1].min(axis=1)) / 2)) - ground
@@ -228,6 +272,19 @@ def project(points: np.ndarray, eye, target, fov: float, width: int, height: int
     ndc_x = f / aspect * cx / -cz
     ndc_y = f * cy / -cz
     return np.stack([(ndc_x + 1) / 2 * width, (1 - ndc_y) / 2 * height], axis=1)
+
+
+def look_at_quaternion(eye, target, up=(0.0, 1.0, 0.0)) -> tuple:
+    """Rotation (x, y, z, w) of a camera at ``eye`` looking at ``target`` (its -z axis towards the target, +y
+    towards ``up``), as three.js ``Object3D.lookAt`` sets it for a camera without a parent."""
+    from scipy.spatial.transform import Rotation
+    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
+    z = eye - target
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return tuple(float(c) for c in Rotation.from_matrix(np.stack([x, y, z], axis=1)).as_quat())
 
 
 def drawn_height_fraction(points: np.ndarray, camera: Camera, frame: int, width: int, height: int) -> float:

@@ -281,22 +281,24 @@ def test_view_plays_in_the_browser_and_picks(lab):
             stopped_at = _slider_value(page, run_sel)
             report["stopped"] = {"slider": stopped_at, "view.frame": kernel.eval("v.frame"),
                                  "playing": kernel.eval("v.playing")}
-            # -- play again: the canvas keeps changing --------------------------------------------------------
-            kernel.run("v.frame = 0")
+            # -- play again, repeating (screenshots are slow under load): the canvas keeps changing ----------
+            kernel.run("v.frame = 0; v.player.repeat = True")
             page.wait_for_timeout(500)
             play.click()
-            shots = []
-            for _ in range(3):
+            shots, shot_frames = [], []
+            for _ in range(4):
                 shots.append(_image(canvas.screenshot()))
+                shot_frames.append(_slider_value(page, run_sel))
                 page.wait_for_timeout(150)
             play.click()
+            kernel.run("v.player.repeat = False")
             changes = [_changed(shots[k], shots[k + 1]) for k in range(len(shots) - 1)]
             shots[1].save(ARTIFACTS / "view3d_run_playing.png")
             report.update(play_rate=round(rate, 3), samples=[(round(t - t_start, 2), v) for t, v in samples],
                           comm_msgs_per_s=round(rate_msgs, 2),
                           ws_frames_per_s=round(len(window) / (t_frames_end - t_frames), 2),
                           ws_kinds=sorted({f"{c}/{k}" for _, c, k in window}),
-                          canvas_changed=[round(c, 4) for c in changes])
+                          canvas_changed=[round(c, 4) for c in changes], shot_frames=shot_frames)
 
             # -- a trail and picking ------------------------------------------------------------------------
             kernel.run("v.frame = 150; v.trail_joints = ['LeftHand', 'RightFoot']")
@@ -334,3 +336,60 @@ def test_view_plays_in_the_browser_and_picks(lab):
     assert report["stopped"]["view.frame"] == stopped_at and not report["stopped"]["playing"], report
     assert picked == "Head", report
     assert not page_errors, page_errors
+
+
+def test_exported_page_plays_offline(tmp_path):
+    """export_html of an editor, opened from file:// with every request other than the page itself blocked."""
+    reason = _skip_reason()
+    if reason:
+        print("SKIP:", reason)
+        pytest.skip(reason)
+    sys.path.insert(0, str(REPO))
+    import stagger_nb as sn
+    from stagger_nb.widgets import StaggerEditor, export_html
+    from playwright.sync_api import sync_playwright
+
+    run = sn.data.load("run")
+    editor = StaggerEditor(run, precompute=False)
+    editor.s.value = 0.05
+    page_path = export_html(editor, tmp_path / "run.html")
+    editor.close()
+    ARTIFACTS.mkdir(exist_ok=True)
+    requests, errors, report = [], [], {}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1300, "height": 800})
+            page.on("pageerror", lambda e: errors.append(str(e)[:300]))
+            page.on("console", lambda m: errors.append(m.text[:300]) if m.type == "error" else None)
+
+            def route(r):
+                if r.request.url == page_path.as_uri():
+                    return r.continue_()
+                requests.append(r.request.url)
+                return r.abort()
+            page.route("**/*", route)
+            page.on("request", lambda r: None if r.url == page_path.as_uri() else requests.append(r.url))
+            page.goto(page_path.as_uri(), wait_until="load", timeout=60000)
+            page.wait_for_selector("#sn-view canvas", timeout=30000)
+            page.wait_for_function("() => document.querySelectorAll('.sn-plot .main-svg').length > 0", timeout=30000)
+            page.wait_for_timeout(800)
+            canvas = page.locator("#sn-view canvas")
+            a = _image(canvas.screenshot())
+            page.wait_for_timeout(1000)
+            b = _image(canvas.screenshot())
+            n_plots = page.locator(".sn-plot").count()
+            traces = page.locator(".sn-plot .scatterlayer .trace").count()
+            page.screenshot(path=str(ARTIFACTS / "view3d_export_page.png"))
+            a.save(ARTIFACTS / "view3d_export_canvas.png")
+        finally:
+            browser.close()
+    from PIL import ImageStat
+    report.update(size=page_path.stat().st_size, stddev=max(ImageStat.Stat(a).stddev), changed=_changed(a, b),
+                  plots=n_plots, traces=traces, requests=requests, errors=errors)
+    print(json.dumps(report, indent=1))
+    assert report["stddev"] > 5, report          # not blank (a blank canvas has ~0)
+    assert report["changed"] > 0.001, report     # it plays: the two screenshots 1 s apart differ
+    assert n_plots == len(editor.figures() if hasattr(editor, "figures") else editor.plots) > 0 and traces > 0, report
+    assert requests == [], report                # nothing but the file itself was asked for
+    assert errors == [], report

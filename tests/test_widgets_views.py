@@ -227,11 +227,22 @@ def test_project_matches_the_pinhole_closed_form():
     assert abs((px[0, 1] - px[1, 1]) / 300 - h / (2 * d * np.tan(np.radians(fov / 2)))) < 1e-9
 
 
+def test_look_at_quaternion_points_the_camera_at_the_target():
+    from scipy.spatial.transform import Rotation
+    eye, target = np.array([3.0, 2.0, 5.0]), np.array([0.5, 1.0, -1.0])
+    q = scene3d.look_at_quaternion(eye, target)
+    forward = Rotation.from_quat(q).apply([0, 0, -1])     # a three.js camera looks down its -z axis
+    np.testing.assert_allclose(forward, (target - eye) / np.linalg.norm(target - eye), atol=1e-12)
+    assert Rotation.from_quat(q).apply([1, 0, 0])[1] == pytest.approx(0, abs=1e-12)   # no roll: x stays level
+
+
 def test_view_framing_and_joint_pixels():
     m = sn.data.load("run")
     v = SkeletonView(m)
     for f in (0, 150, 300):
         assert v.drawn_height(f) >= 0.45
+    np.testing.assert_allclose(v.three_camera.quaternion,
+                               scene3d.look_at_quaternion(v.three_camera.position, v.controls.target), atol=1e-12)
     x, y = v.joint_pixel("Head", 0)
     assert 0 < x < v.width and 0 < y < v.height / 2   # the head is in the upper half
     v.camera = "all"

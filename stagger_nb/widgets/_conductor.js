@@ -103,7 +103,8 @@ function initialize({ model }) {
         }, 0);
       }
     } else {
-      rebase(v);   // a scrub or a seek while playing
+      rebase(v);   // a scrub, a seek or the Play's repeat while playing
+      if (!st.raf) st.raf = requestAnimationFrame(loop);
     }
   }
 

@@ -151,16 +151,17 @@ class SkeletonView(widgets.VBox):
         self._markers: dict[int, three.Mesh] = {}
 
         # -- ground, lights, camera rig ----------------------------------------------------------------------
-        self.grid = three.GridHelper(size=1, divisions=1, colorCenterLine="#a0aec0", colorGrid="#e2e8f0")
-        self.rig = three.Group(name="rig")
+        self.grid = three.Group(name="ground")   # replaced by the ground segments once the motion is known
+        # the camera stays put and the world moves under it: a "rig" group holding everything drawn is shifted by
+        # minus the follow path (keyframed), so orbit controls and picking work in plain scene coordinates
         self.three_camera = three.PerspectiveCamera(fov=40, aspect=width / height, up=(0, 1, 0))
-        self.rig.children = (self.three_camera,)
         self.controls = three.OrbitControls(controlling=self.three_camera)
         self.picker = three.Picker(controlling=self._groups[0], event="click")
         self.picker.observe(self._on_pick, names=["point", "object"])
         self.trails_group = three.Group(name="trails")
-        self.scene = three.Scene(children=[self._groups[0], self._ghost_groups[0], self.trails_group, self.grid,
-                                           self.rig, three.AmbientLight(intensity=0.45),
+        self.rig = three.Group(name="rig", children=[self._groups[0], self._ghost_groups[0], self.trails_group,
+                                                     self.grid])
+        self.scene = three.Scene(children=[self.rig, three.AmbientLight(intensity=0.45),
                                            three.HemisphereLight(color="#ffffff", groundColor="#718096",
                                                                  intensity=0.75)],
                                  background="#ffffff")
@@ -275,6 +276,16 @@ class SkeletonView(widgets.VBox):
         """The character's drawn height at ``frame`` as a fraction of the canvas height (framed camera)."""
         f = self.frame if frame is None else int(frame)
         return scene3d.drawn_height_fraction(self._pos[f], self._camera, f, self.width, self.height)
+
+    @property
+    def pose_frames(self) -> np.ndarray:
+        """Frames of the staggered poses highlighted, (K,) int."""
+        return self._pose_frames.copy()
+
+    @property
+    def contacts(self) -> list:
+        """Contacts highlighted, ``[(joint_name, start_frame, end_frame), ...]`` (half-open)."""
+        return [(self._names[j], a, b) for j, a, b in self._contacts]
 
     @property
     def joint_groups(self) -> list:
@@ -443,14 +454,14 @@ class SkeletonView(widgets.VBox):
         step = max(1, int(round(0.05 / m.frame_time)))   # keys every ~50 ms; linear in between
         idx = np.unique(np.concatenate([np.arange(0, m.num_frames, step), [m.num_frames - 1]]))
         track = three.VectorKeyframeTrack(name="rig.position", times=_f32(idx * m.frame_time),
-                                          values=_f32(cam.rig[idx]))
+                                          values=_f32(-cam.rig[idx]))
         self.three_camera.fov, self.three_camera.near, self.three_camera.far = cam.fov, cam.near, cam.far
         if not getattr(self, "_camera_placed", None) == self.camera:   # keep the user's orbit across edits
             self.three_camera.position = cam.position
             self.controls.target = cam.target
-            self.three_camera.lookAt(cam.target)
+            self.three_camera.quaternion = scene3d.look_at_quaternion(cam.position, cam.target)
             self._camera_placed = self.camera
-        self.rig.position = tuple(float(x) for x in cam.rig[min(self.frame, m.num_frames - 1)])
+        self.rig.position = tuple(-float(x) for x in cam.rig[min(self.frame, m.num_frames - 1)])
         return self._clip_action("camera", [track])
 
     def _send_trails(self) -> int:
@@ -489,19 +500,16 @@ class SkeletonView(widgets.VBox):
         self._update_legend()
 
     def _update_grid(self) -> None:
-        """A new ground grid (GridHelper geometry is fixed at construction) covering the clip's ground track."""
+        """The ground: cell-edge line segments over the clip's ground track (see scene3d.ground_segments)."""
         cell = scene3d.grid_cell(self._size)
-        xz = self._pos[:, 0][:, [0, 2]]
-        lo, hi = xz.min(axis=0) - 2 * self._size, xz.max(axis=0) + 2 * self._size
-        n = int(min(400, np.ceil(float(np.max(hi - lo)) / cell)))
-        c = (lo + hi) / 2
-        key = (n, cell, float(c[0]), float(c[1]), float(self._camera.ground))
+        seg = scene3d.ground_segments(self._pos, cell, 2 * self._size, self._camera.ground)
+        key = (seg.shape, float(seg[:, 0].min()), float(seg[:, 2].min()), float(self._camera.ground), cell)
         if key == getattr(self, "_grid_key", None):
             return
         old = self.grid
-        self.grid = three.GridHelper(size=n * cell, divisions=n, colorCenterLine="#a0aec0", colorGrid="#cbd5e0",
-                                     position=(float(c[0]), float(self._camera.ground), float(c[1])))
-        self.scene.children = tuple(self.grid if ch is old else ch for ch in self.scene.children)
+        self.grid = three.LineSegments(three.BufferGeometry(attributes={"position": three.BufferAttribute(seg)}),
+                                       three.LineBasicMaterial(color="#cbd5e0"), name="ground")
+        self.rig.children = tuple(self.grid if ch is old else ch for ch in self.rig.children)
         old.close()
         self._grid_key, self._grid_cell = key, cell
 
