@@ -61,7 +61,7 @@ class TimingWarning:
         return dataclasses.asdict(self)
 
 
-_MIN_ANGLE_DEG = 1.0   # a control variable whose knots around a pose span less than this does not visibly move
+_MIN_ANGLE_DEG = 2.0   # knots around a pose spanning less than this: the joint barely moves (a 20 cm hand tip < 7 mm)
 
 
 def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -> tuple[TimingWarning, ...]:
