@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_MOCAP = Path(os.environ.get("STAGGER_NB_MOCAP", REPO.parent / "shared" / "mocap"))  # worktrees: set it
+# ../shared/mocap beside the repository; STAGGER_NB_MOCAP points elsewhere (e.g. from a git worktree)
+SHARED_MOCAP = Path(os.environ.get("STAGGER_NB_MOCAP") or REPO.parent / "shared" / "mocap")
 SHARED_CLIPS = sorted(p.name for p in SHARED_MOCAP.glob("*.bvh")) if SHARED_MOCAP.is_dir() else []
 
 
