@@ -309,6 +309,32 @@ def test_retime_single_pose_is_local_and_moves_the_pose(fixture):
     assert np.array_equal(staggered.retime(sm, t.tolist()).pose_times, out.pose_times)
 
 
+def test_retime_recreates_editing_knots_fig6c(fixture):
+    """Fig. 6c: after a timing change the editing knot is re-created at t_k by evaluation (a new value where
+    the joint has a refinement); the extreme values are untouched and move with the pose."""
+    _, sm = fixture
+    k = 2
+    refined = sm.refinements[k] != 0
+    assert refined.any() and (~refined).any()
+    out = staggered.retime(sm, {k: sm.pose_times[k] + 0.07})
+    at_tk = evaluate(out, [out.pose_times[k]]).local_quats[0]
+    assert quat_angle(out.editing_knots[k], at_tk)[refined].max() < 1e-9
+    assert np.array_equal(out.values, sm.values)
+    moved = quat_angle(out.editing_knots[k], sm.editing_knots[k])[refined]
+    assert moved.max() > 1e-3             # re-created, not copied: the pose at t_k is another instant now
+    # joints without a refinement keep editing knot == extreme value, reached at the new t_k
+    assert np.array_equal(out.editing_knots[k][~refined], sm.values[k][~refined])
+    assert quat_angle(at_tk[~refined], sm.values[k][~refined]).max() < 1e-9
+    # and a geometric edit after the retime still lands on the new t_k (the editing knots are current)
+    d = {"LeftArm": [0.0, 0.3, 0.0]}
+    j = NAMES.index("LeftArm")
+    ed = staggered.edit_pose(out, k, deltas=d, mode="staggered")
+    got = evaluate(ed, [out.pose_times[k]]).local_quats[0, j]
+    # 1e-3 rad, not round-off: t_k moved 2.1 frames, off the re-measured displacement grid, whose linear
+    # interpolation between samples then misses the plateau value by ~2e-4 rad (exact on grid points)
+    assert quat_angle(got, quat_mul(out.editing_knots[k, j], rotvec_to_quat(np.array(d["LeftArm"])))) < 1e-3
+
+
 def _brute_force_warnings(sm, min_angle):
     """§5.2 rule written out knot by knot: the refined time is closer (by more than a frame) to the
     neighbouring pose's knot of the same joint than to its own pose time, or the knots cross; only joints

@@ -29,6 +29,7 @@ import hashlib
 import json
 import os
 import threading
+from collections import OrderedDict
 from concurrent.futures import Future, InvalidStateError, ThreadPoolExecutor
 from typing import Any, Callable
 
@@ -59,13 +60,15 @@ def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
     return np.degrees(quat_to_rotvec(motion.local_quats[:, j]))
 
 
-class _Step:
-    """One replayed op: the state after it, the warp curve it computed (if a warp), its notes."""
+class _Info:
+    """What the replay remembers of one step besides its state (small; kept for every op of recent
+    replays): the warp curve it computed (if a warp), its notes, whether its state is staggered, and the
+    timing-warning summary of that state (filled on demand)."""
 
-    __slots__ = ("state", "warp", "notes", "summary")
+    __slots__ = ("warp", "notes", "staggered", "summary")
 
-    def __init__(self, state, warp=None, notes=()):
-        self.state, self.warp, self.notes, self.summary = state, warp, tuple(notes), None
+    def __init__(self, warp, notes, staggered: bool):
+        self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
 
 
 def _chain(previous: str, op: Op) -> str:
@@ -102,8 +105,11 @@ class Session:
         self._busy_listeners: list[Callable] = []
         self._ctx = Heads(Cache(busy=self._busy), source, self.extract_options)
         self._history = History(self._typed_list(ops or [], "ops"), owner=self)
-        self._steps: list[_Step] = []   # the last replay, one step per op
-        self._step_keys: list[str] = []
+        self._keys_of: tuple = ()       # the op tuple self._keys was computed for
+        self._keys: list[str] = []      # digest of each op prefix (ops[:i + 1])
+        self._info: OrderedDict = OrderedDict()   # prefix digest -> _Info, LRU (bounded in _walk)
+        self._held: dict[str, Any] = {}  # strong refs: the last replay's final and last staggered state
+        self._replayed = False
         self._replay_lock = threading.RLock()
         self._executor: ThreadPoolExecutor | None = None
         self._warm_futures: list[Future] = []
@@ -203,32 +209,58 @@ class Session:
             f(kind, started)
 
     # -- replay ------------------------------------------------------------------------------------
-    def _replay(self, progress: Callable | None = None) -> list[_Step]:
-        """One step per op, reusing the last replay's common prefix and the cached steps."""
-        with self._replay_lock:
-            ops = self._history.ops
-            n = len(ops)
-            keys, prev = [], "source"
-            for op in ops:
+    def _prefix_keys(self) -> list[str]:
+        """Digest of each op prefix, chained (O(1) per op; recomputed only from the first changed op)."""
+        ops = self._history.ops
+        if ops is not self._keys_of:
+            old_ops, old = self._keys_of, self._keys
+            same = 0
+            while same < min(len(ops), len(old_ops)) and ops[same] is old_ops[same]:
+                same += 1
+            keys = old[:same]
+            prev = keys[-1] if keys else "source"
+            for op in ops[same:]:
                 prev = _chain(prev, op)
                 keys.append(prev)
-            # the longest prefix still valid from the last replay, then cached steps past it
-            start = 0
-            old = self._step_keys
-            while start < min(n, len(old)) and old[start] == keys[start]:
-                start += 1
-            steps = self._steps[:start]
-            cache = self._ctx.cache
-            while start < n:
-                hit = cache.peek("state", keys[start])
-                if hit is None:
-                    break
-                steps.append(hit)
-                start += 1
-            total = n - start
-            origin = self._origin(steps)
-            state = steps[-1].state if steps else self.source
-            for done, i in enumerate(range(start, n)):
+            self._keys_of, self._keys = ops, keys
+        return self._keys
+
+    def _available(self, key: str):
+        """The state after the prefix ``key`` if held or cached, else None."""
+        hit = self._held.get(key)
+        return hit if hit is not None else self._ctx.cache.peek("state", key)
+
+    def _walk(self, upto: int, keep_all: bool = False, progress: Callable | None = None):
+        """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them),
+        resuming from the latest prefix whose state is held or cached and whose earlier steps are known.
+        Linear in ``upto``: prefix keys are chained digests, each state is computed at most once."""
+        with self._replay_lock:
+            ops, keys = self._history.ops, self._prefix_keys()
+            info, cache = self._info, self._ctx.cache
+            known = 0  # steps whose _Info is known, from the start
+            while known < upto and keys[known] in info:
+                known += 1
+            states = [None] * upto
+            r = 0
+            if keep_all:
+                for i in range(known):
+                    states[i] = self._available(keys[i])
+                r = next((i for i in range(known) if states[i] is None), known)
+            else:
+                for i in range(known, 0, -1):
+                    hit = self._available(keys[i - 1])
+                    if hit is not None:
+                        states[i - 1], r = hit, i
+                        break
+            todo = [i for i in range(r, upto) if states[i] is None]
+            total = len(todo)
+            state = self.source if r == 0 else states[r - 1]
+            origin = (lambda r=r, st=list(states[:r]): self._origin(keys[:r], st))  # noqa: E731 (lazy)
+            done = 0
+            for i in range(r, upto):
+                if states[i] is not None:  # keep_all: a cached step past a missing one
+                    state = states[i]
+                    continue
                 op = ops[i]
                 if progress is not None:
                     progress(done, total, op.name)
@@ -239,26 +271,36 @@ class Session:
                     raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
                 except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
                     raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
-                origin = run.origin
-                step = _Step(state, run.warp, run.notes)
+                origin = run._origin
                 cache.name(state, keys[i])
-                cache.put("state", keys[i], None, step)
-                steps.append(step)
+                cache.put("state", keys[i], None, state)
+                info[keys[i]] = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                if keep_all:
+                    states[i] = state  # otherwise only the bounded cache holds it (memory stays flat)
+                done += 1
             if progress is not None and total:
                 progress(total, total, "done")
-            cache.touch("state", [(k, None) for k in keys])
-            self._steps, self._step_keys = steps, keys
-            return steps
+            for k in keys[:upto]:  # recently used; the oldest infos go (bounded: a few replays' worth)
+                if k in info:
+                    info.move_to_end(k)
+            while len(info) > max(4096, 2 * len(keys)):
+                info.popitem(last=False)
+            if upto:
+                self._held = {keys[upto - 1]: state}
+            if upto == len(ops):
+                self._replayed = True
+            return states if keep_all else (state if upto else self.source)
 
-    def _origin(self, steps) -> Motion:
-        """The Motion the last staggered state of ``steps`` was extracted from (the source by default)."""
-        prev_motion = self.source
+    def _origin(self, keys, states) -> Motion:
+        """The Motion the staggered state after ``keys`` was extracted from (the source by default): the
+        latest Motion state before the last run of staggered states."""
         origin = self.source
-        for st in steps:
-            if isinstance(st.state, Motion):
-                prev_motion = st.state
-            else:
-                origin = prev_motion
+        for i in range(len(keys) - 1, -1, -1):
+            if not self._info[keys[i]].staggered:
+                if i == len(keys) - 1:
+                    return origin  # the state is a Motion: an extraction would start from it
+                st = states[i] if states[i] is not None else self._walk(i + 1)
+                return st
         return origin
 
     def states(self, progress: Callable | None = None) -> list:
@@ -266,30 +308,40 @@ class Session:
 
         ``progress(done, total, label)`` is called before each op that is actually computed.
         """
-        return [s.state for s in self._replay(progress)]
+        return self._walk(len(self._history.ops), keep_all=True, progress=progress)
 
     def edited(self, progress: Callable | None = None) -> Motion:
         """The source motion with every op applied (a Motion; staggered states are evaluated)."""
-        if not self._history.ops:
+        n = len(self._history.ops)
+        if not n:
             return self.source
-        steps = self._replay(progress)
-        last = steps[-1].state
+        last = self._walk(n, progress=progress)
         if isinstance(last, Motion):
             return last
-        key = self._step_keys[-1]
         try:
-            return self._ctx.cache.get("state", key, "motion", lambda: convert(last, "motion", None))
+            return self._ctx.cache.get("state", self._keys[-1], "motion", lambda: convert(last, "motion", None))
         except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
-            n = len(steps) - 1
-            raise ValueError(f"ops[{n}] ({self._history.ops[n].name}): evaluating the result: {e}") from None
+            raise ValueError(f"ops[{n - 1}] ({self._history.ops[n - 1].name}): evaluating the result: {e}") from None
+
+    def _last_staggered_index(self) -> int | None:
+        n = len(self._history.ops)
+        if n:
+            self._walk(n)
+        keys = self._keys
+        return next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
 
     def staggered(self, progress: Callable | None = None):
         """The last staggered representation of the replay (after the last staggered op), or the
         extraction of the source when no op is staggered."""
-        for st in reversed(self._replay(progress)):
-            if not isinstance(st.state, Motion):
-                return st.state
-        return self.extraction()
+        n = len(self._history.ops)
+        if n:
+            self._walk(n, progress=progress)
+        j = self._last_staggered_index()
+        if j is None:
+            return self.extraction()
+        st = self._walk(j + 1)
+        self._held[self._keys[j]] = st
+        return st
 
     def extraction(self):
         """The (cached) staggered extraction of the source motion."""
@@ -299,29 +351,35 @@ class Session:
         """Plain notes from the last replay, for the user: what a runner reported (an unreachable IK target,
         …) and the summarised timing warnings of the last staggered state (``staggered.timing_warnings``).
         Empty before the first replay."""
-        with self._replay_lock:
-            steps = list(self._steps)
-        out = [note for s in steps for note in s.notes]
-        last = next((s for s in reversed(steps) if not isinstance(s.state, Motion)), None)
-        if last is not None:
-            if last.summary is None:
+        if not self._replayed:
+            return []
+        n = len(self._history.ops)
+        keys = self._prefix_keys()
+        if any(k not in self._info for k in keys):
+            return []  # the op list changed since the last replay
+        out = [note for k in keys for note in self._info[k].notes]
+        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+        if j is not None:
+            inf = self._info[keys[j]]
+            if inf.summary is None:
                 from .. import staggered
+                warnings = staggered.timing_warnings(self._walk(j + 1))
                 summarize = getattr(staggered, "summarize_timing_warnings", None)
-                warnings = staggered.timing_warnings(last.state)
                 if summarize is not None:
-                    last.summary = summarize(warnings)
+                    inf.summary = summarize(warnings)
                 else:
-                    last.summary = (f"{len(warnings)} timing warning(s): refined times cross a neighbouring "
-                                    "pose; lower s, l or tau" if warnings else "")
-            if last.summary:
-                out.append(last.summary)
+                    inf.summary = (f"{len(warnings)} timing warning(s): refined times cross a neighbouring "
+                                   "pose; lower s, l or tau" if warnings else "")
+            if inf.summary:
+                out.append(inf.summary)
         return out
 
     def warp_curve(self, index: int = -1):
         """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
         (None when that op is not a warp)."""
         i = self._index(index)
-        return self._replay()[i].warp
+        self._walk(len(self._history.ops))
+        return self._info[self._keys[i]].warp
 
     # -- cached heads --------------------------------------------------------------------------------
     def precompute_cull(self, percents, stop: Callable | None = None) -> int:

@@ -127,11 +127,21 @@ class Run:
     """What a runner may use while running one op: the cached ``heads``, the Motion the current staggered
     representation was extracted from (``origin``), and where to leave notes and the warp curve."""
 
-    def __init__(self, heads: Heads, origin: Motion):
+    def __init__(self, heads: Heads, origin):
         self.heads = heads
-        self.origin = origin
+        self._origin = origin  # a Motion, or a callable giving it (found only when a runner asks)
         self.notes: list[str] = []
         self.warp: np.ndarray | None = None
+
+    @property
+    def origin(self) -> Motion:
+        if callable(self._origin):
+            self._origin = self._origin()
+        return self._origin
+
+    @origin.setter
+    def origin(self, motion: Motion) -> None:
+        self._origin = motion
 
     def note(self, message: str) -> None:
         if message:

@@ -11,6 +11,7 @@ from .constraints import (apply_contact_constraints, attenuation_weights, carry_
 from .contacts import detect_contacts, end_effectors
 from .editing import (TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose, random_timing,
                       retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
+from .ik import IKPoseResult, ik_pose, solve_limb
 from .extraction import PoseEvidence, cull, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
@@ -21,4 +22,5 @@ __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "detect_contacts", 
            "knot_times",
            "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession", "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik", "contact_positions",
-           "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts", "keep_contacts"]
+           "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts", "keep_contacts",
+           "IKPoseResult", "ik_pose", "solve_limb"]

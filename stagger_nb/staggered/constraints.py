@@ -222,8 +222,15 @@ def _chain(skeleton, j: int) -> tuple[int, int, int]:
     and zero-length bones are skipped so both IK bones have a length (e.g. CMU's ``lhand`` sits on
     ``LeftWrist``; ``upper`` is the first ancestor not co-located with ``middle``). ``upper`` is -1 when the
     chain would reach the root."""
+    par = skeleton.parents
+    return _limb(skeleton, int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j)
+
+
+def _limb(skeleton, eff: int) -> tuple[int, int, int]:
+    """(upper, middle, effector) two-bone limb ending at joint ``eff`` (zero-length bones skipped, see
+    :func:`_chain`); ``upper`` is -1 when the limb would reach the root."""
     par, off = skeleton.parents, np.linalg.norm(skeleton.offsets, axis=1)
-    eff = int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j
+    eff = int(eff)
     while eff > 0 and off[eff] < 1e-9:
         eff = int(par[eff])
     mid = int(par[eff]) if eff > 0 else -1

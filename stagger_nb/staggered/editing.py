@@ -61,7 +61,7 @@ class TimingWarning:
         return dataclasses.asdict(self)
 
 
-_MIN_ANGLE_DEG = 1.0   # a control variable whose knots around a pose span less than this does not visibly move
+_MIN_ANGLE_DEG = 2.0   # knots around a pose spanning less than this: the joint barely moves (a 20 cm hand tip < 7 mm)
 
 
 def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -> tuple[TimingWarning, ...]:
@@ -96,7 +96,6 @@ def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -
     tuple of :class:`TimingWarning` sorted by (pose, joint); :func:`summarize_timing_warnings` puts them in
     one sentence.
     """
-    from ..core.rotations import quat_angle
     min_angle = _finite(min_angle, "min_angle")
     if min_angle < 0:
         raise ValueError(f"min_angle must be >= 0 degrees, got {min_angle}")
@@ -119,16 +118,18 @@ def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -
     if not bad.any():
         return ()
     # does the control variable move around the knot? (rotation range of the knots of poses k-1 .. k+1)
-    lo, hi = np.maximum(np.arange(K) - 1, 0), np.minimum(np.arange(K) + 1, K - 1)
     ks, cols = np.nonzero(bad)
+    idx = np.clip(ks[:, None] + np.array([-1, 0, 1]), 0, K - 1)                # (n, 3) neighbouring poses
     keep = np.ones(ks.size, bool)
-    for m, (k, i) in enumerate(zip(ks, cols)):
-        if i < J:
-            v = np.concatenate([sm.values[lo[k]:hi[k] + 1, i], sm.editing_knots[lo[k]:hi[k] + 1, i]])
-            keep[m] = np.degrees(quat_angle(v[:, None], v[None]).max()) >= min_angle
-        else:
-            p = sm.root_values[lo[k]:hi[k] + 1]
-            keep[m] = np.ptp(p, axis=0).max() > 1e-9 * (1.0 + np.abs(p).max())
+    rot = cols < J
+    if rot.any():
+        c = cols[rot][:, None]
+        v = np.concatenate([sm.values[idx[rot], c], sm.editing_knots[idx[rot], c]], axis=1)   # (n, 6, 4)
+        dots = np.abs(np.einsum("nac,nbc->nab", v, v)).min(axis=(1, 2))
+        keep[rot] = 2.0 * np.degrees(np.arccos(np.clip(dots, -1.0, 1.0))) >= min_angle
+    if (~rot).any():
+        p = sm.root_values[idx[~rot]]                                                  # (n, 3, 3)
+        keep[~rot] = np.ptp(p, axis=1).max(axis=1) > 1e-9 * (1.0 + np.abs(p).max(axis=(1, 2)))
     out = []
     for k, i in zip(ks[keep], cols[keep]):
         nb = int(nearer[k, i])
