@@ -192,6 +192,25 @@ def _window_targets(tgt, traj, act, weight, left, right) -> None:
 _REACH = 0.999  # fraction of a chain's full length the root drop makes available (a just-bent knee)
 
 
+def _pivot(off: np.ndarray, to_upper: np.ndarray, reach: float) -> np.ndarray:
+    """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) toward ``to_upper (n, 3)`` (toe target ->
+    upper joint) by the least angle that brings the ankle within ``reach`` of the upper joint: the heel
+    lifts further when the leg cannot reach otherwise (fully toward it if even that is not enough)."""
+    f = np.linalg.norm(off, axis=-1)
+    D = np.linalg.norm(to_upper, axis=-1)
+    u = to_upper / np.maximum(D, 1e-12)[:, None]
+    cos0 = np.sum(off * u, axis=-1) / np.maximum(f, 1e-12)
+    need = np.clip((D ** 2 + f ** 2 - reach ** 2) / np.maximum(2.0 * D * f, 1e-12), -1.0, 1.0)
+    turn = cos0 < need                                                  # too far with the given heel lift
+    if not turn.any():
+        return off
+    w = off - (cos0 * f)[:, None] * u                                    # part of off orthogonal to u
+    wn = np.linalg.norm(w, axis=-1)
+    w = np.where(wn[:, None] > 1e-12, w / np.maximum(wn, 1e-12)[:, None], 0.0)
+    sin = np.sqrt(1.0 - need ** 2)
+    return np.where(turn[:, None], f[:, None] * (need[:, None] * u + sin[:, None] * w), off)
+
+
 def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
     """Smallest smooth downward root offset ``(F,)`` (file units, >= 0) with which every held chain reaches
     ``_REACH`` of its length at its target on its active frames (vertical move only; a target horizontally beyond reach gets the
@@ -329,7 +348,11 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         t = targets[i]
         if eff != j:  # toe contact: ankle target keeps the foot's world orientation (or the given one)
             given = None if toe_offsets is None else toe_offsets[i]
-            t = t - (pos[s:e, j] - pos[s:e, eff]) if given is None else t + np.asarray(given, dtype=float)
+            if given is None:
+                t = t - (pos[s:e, j] - pos[s:e, eff])
+            else:
+                t = t + _pivot(np.asarray(given, dtype=float), pos[s:e, up] - t,
+                               _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid])))
         act[s:e] = True
         tgt[s:e] = t
 
