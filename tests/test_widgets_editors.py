@@ -289,11 +289,16 @@ def test_stagger_keep_contacts_on_by_default_and_ik_target_writes_an_op(walk):
         assert ik[0]["target"][0] == pytest.approx(x0 + 2.0)
         ops = [o["op"] for o in e.session.ops]
         assert ops.index("ik_pose") < ops.index("succession") < ops.index("keep_contacts")
-        if hasattr(staggered, "ik_pose"):      # staggered.ik_pose (staggered-edit): the target is met at pose 3
-            e.model.s = 0.0
+        if hasattr(staggered, "ik_pose"):      # staggered.ik_pose (staggered-edit): a reachable target is met
+            e.model.s, e.model.keep_contacts = 0.0, False
+            f, hand_j = e.model.pose_frame(3), walk.skeleton.index("LeftHand")
+            p, _ = sn.forward_kinematics(walk)
+            target = p[f, hand_j] + 0.2 * (p[f, walk.skeleton.index("LeftArm")] - p[f, hand_j])   # toward the shoulder
+            with e.model.hold_trait_notifications():
+                e.model.ik_x, e.model.ik_y, e.model.ik_z = target
+            assert [o["op"] for o in e.session.ops] == ["ik_pose"]
             p, _ = sn.forward_kinematics(e.session.edited())
-            hand = p[e.model.pose_frame(3), walk.skeleton.index("LeftHand")]
-            assert np.linalg.norm(hand - [e.model.ik_x, e.model.ik_y, e.model.ik_z]) < 0.1, e.message.value
+            assert np.linalg.norm(p[f, hand_j] - target) < 0.1, e.message.value   # 1 mm in cm units
         else:                                  # said in plain words, not raised
             assert "ik_pose" in e.message.value
     finally:
