@@ -47,18 +47,21 @@ def sweep(editor, name, warm_values, values, bare: Session):
         ed.append(w)
         cpu.append(c)
         bare.set_ops(editor.session.ops)
-        base.append(timed(bare.edited)[0])
+        base.append(timed(bare.edited))
     assert not editor.error, editor.error
     return ed, cpu, base
 
 
 def report(label, ed, cpu, base, target_ms):
+    """Wall median/max and CPU median of the editor; the bare replay's wall and CPU; the ratio on CPU (the load
+    of the shared machine inflates wall times, CPU much less); the target judged on CPU time."""
     med, worst = 1000 * statistics.median(ed), 1000 * max(ed)
-    cmed, bmed = 1000 * statistics.median(cpu), 1000 * statistics.median(base)
-    ok = "OK" if med <= target_ms else "MISSED"
-    print(f"{label:<34} median {med:6.1f} ms (cpu {cmed:6.1f}) max {worst:6.1f} | bare replay {bmed:6.1f} ms "
-          f"views/bare x{med / max(bmed, 1e-3):5.1f} | target <= {target_ms} ms: {ok}")
-    return med
+    cmed = 1000 * statistics.median(cpu)
+    bmed, bcpu = 1000 * statistics.median([w for w, _ in base]), 1000 * statistics.median([c for _, c in base])
+    ok = "OK" if cmed <= target_ms else "MISSED"
+    print(f"{label:<36} wall {med:7.1f} ms (max {worst:7.1f}) cpu {cmed:6.1f} | bare replay wall {bmed:7.1f} "
+          f"cpu {bcpu:6.1f} | editor/bare cpu x{cmed / max(bcpu, 1e-3):5.1f} | target <= {target_ms} ms cpu: {ok}")
+    return cmed
 
 
 def main():

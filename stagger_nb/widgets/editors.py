@@ -158,13 +158,23 @@ class _Editor(widgets.VBox):
             self.model.joint = change["new"]
 
     def _show_motion(self, edited: Motion, pose_frames=None, contacts=None) -> None:
-        """Send the edited motion to the 3D view once per edit (not again for a view-only change)."""
-        key = (id(edited), None if pose_frames is None else tuple(int(f) for f in pose_frames),
-               None if contacts is None else tuple(map(tuple, contacts)))
-        if getattr(self, "_shown", None) == key and self.view.motion is edited:
+        """Send the edited motion to the 3D view once per edit (not again for a view-only change); the pose
+        frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
+        pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
+        ct = None if contacts is None else tuple(tuple(c) for c in contacts)
+        last = getattr(self, "_shown", (None, None, None))
+        pf_new = pf if pf is not None and pf != last[1] else None
+        ct_new = ct if ct is not None and ct != last[2] else None
+        if self.view.motion is edited and pf_new is None and ct_new is None:
             return
-        self._shown = key
-        self.view.set_motion(edited, pose_frames=pose_frames, contacts=contacts)
+        self._shown = (id(edited), pf if pf is not None else last[1], ct if ct is not None else last[2])
+        if self.view.motion is edited:   # only the highlights changed
+            if pf_new is not None:
+                self.view.set_pose_frames(pf_new)
+            if ct_new is not None:
+                self.view.set_contacts(ct_new)
+            return
+        self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
 
     def seek(self, frame: int) -> None:
         """Move the playhead (what a click on a plot does)."""
