@@ -321,3 +321,26 @@ def test_stagger_first_paint_then_warm_up(walk):
         assert e.model.pose_times
     finally:
         e.close()
+
+
+def test_warp_style_free_length_and_backward(walk, run):
+    from stagger_nb.widgets import WarpEditor
+    w, r = walk.slice(0, 150), run.slice(0, 150)
+    e = WarpEditor(w, reference={"run": r})
+    try:
+        op = e.session.ops[0]   # default: a style warp on the given clip at the same duration (not the identity)
+        assert op["reference"] == {"path": "<memory:run>"} and op["duration"] == pytest.approx(w.duration)
+        warp = e.session.warp_curve(0)
+        assert len(warp) == w.num_frames and np.abs(warp - w.times).max() > 2 * w.frame_time
+        e.model.free_length = True
+        assert "duration" not in {k for k, v in e.session.ops[0].items() if v is not None}
+        assert e.controls["duration"].disabled and "free length" in e.controls["duration"].tooltip
+        assert e.view.motion.num_frames == e.session.edited().num_frames
+        e.model.free_length = False
+        e.model.backward = True
+        warp = e.session.warp_curve(0)
+        assert warp[0] > warp[-1] and not e.error
+        e.session.undo()
+        assert not e.model.backward and e.controls["backward"].value is False
+    finally:
+        e.close()
