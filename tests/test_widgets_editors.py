@@ -192,6 +192,10 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.model.compare = ["isomap", "spline"]
         names = [d["name"] for d in e.falloff_plot.figure["data"]]
         assert len(names) >= 3 and all(names)   # a legend entry on every curve
+        e.model.frame_range = [0, 10]           # a range without the edited frame: said, then cleared
+        assert "frame_range" in e.message.value
+        e.limit_range.value = False
+        assert e.model.frame_range == [] and "frame_range" not in e.message.value and e.range.disabled
         e.model.propagate = False
         assert e.session.ops[1]["op"] == "edit_frame" and e.controls["sigma"].disabled
     finally:
