@@ -363,6 +363,7 @@ class StaggerEditor(_Editor):
         self.probability.on_click(self._on_probability_click)
         for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
             c[k].add_class(f"sn-{k.replace('_', '-')}")
+        c["percent"].add_class("sn-cull")   # its former name (browser checks)
         self._setup(model, session, view, [self.curves, self.probability], layout)
         self._links += self._setup_links()
         self._links.append(traitlets.link((model, "keep"), (c["keep"], "value"), transform=(tuple, list)))
