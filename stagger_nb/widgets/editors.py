@@ -88,6 +88,20 @@ def _session_knows(op: dict) -> bool:
         return False
 
 
+def _on_kernel_thread(fn, *args) -> None:
+    """Run ``fn(*args)`` on the kernel's own thread (the IOLoop, where widget messages and user edits run) when
+    called from the session's warm-up worker; directly outside a kernel (scripts, tests)."""
+    try:
+        from IPython import get_ipython
+        loop = getattr(getattr(get_ipython(), "kernel", None), "io_loop", None)
+    except ImportError:
+        loop = None
+    if loop is None:
+        fn(*args)
+    else:
+        loop.add_callback(fn, *args)
+
+
 def _inert(control, inert: bool, why: str, tip: str = "") -> None:
     """Disable ``control`` with a tooltip saying why (or enable it with its normal tooltip)."""
     control.disabled = bool(inert)
@@ -259,7 +273,7 @@ class _Editor(widgets.VBox):
                 self.progress.layout.visibility = "hidden"
             if not f.cancelled() and f.exception() is None and then is not None:
                 then()
-        fut.add_done_callback(done)
+        fut.add_done_callback(lambda f: _on_kernel_thread(done, f))
         return fut
 
     def _futures(self):
