@@ -113,11 +113,12 @@ def test_pose_features_ignore_global_position_and_heading(shared_motion):
 def test_joint_weights_and_prefilter(shared_motion):
     m = shared_motion("bandai_walk.bvh").slice(0, 30)
     J = m.num_joints
-    raw = pose_features(m, prefilter=0.0).reshape(30, J, 3)
+    n = J - 1                                           # the static joint_Root above the pelvis is left out
+    raw = pose_features(m, prefilter=0.0).reshape(30, n, 3)
     w = np.linspace(0.0, 2.0, J)
-    weighted = pose_features(m, joint_weights=w, prefilter=0.0).reshape(30, J, 3)
-    np.testing.assert_allclose(weighted, raw * np.sqrt(w)[None, :, None], atol=1e-12)  # one product each
-    smooth = pose_features(m, prefilter=3 * m.frame_time).reshape(30, J, 3)
+    weighted = pose_features(m, joint_weights=w, prefilter=0.0).reshape(30, n, 3)
+    np.testing.assert_allclose(weighted, raw * np.sqrt(w[1:])[None, :, None], atol=1e-12)  # one product each
+    smooth = pose_features(m, prefilter=3 * m.frame_time).reshape(30, n, 3)
     np.testing.assert_allclose(smooth[5], raw[4:7].mean(axis=0), atol=1e-9)    # a 3-frame box, round-off
     with pytest.raises(ValueError, match="joint_weights"):
         pose_features(m, joint_weights=np.ones(J + 1))
