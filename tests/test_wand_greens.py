@@ -165,7 +165,7 @@ def test_paper_formula_is_reachable_through_the_one_call_falloff():
     sigma = 0.7
     L, _ = _naive_laplacian(X, sigma)
     Lp = np.linalg.pinv(L, rcond=1e-10, hermitian=True)
-    paper = dict(self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity")
+    paper = dict(self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity", heading="keep")
     for f in (0, 13, 29):
         w = wand.falloff(m, f, sigma=sigma, num_eigs=29, **paper)
         # 1e-8: the normalisation divides the 1e-10-relative agreement above by g_f - min g (~1e-2 of max)

@@ -33,8 +33,8 @@ def pelvis_joint(skeleton: Skeleton) -> int:
 
     The shallowest joint with at least three child *chains* (children that have children of their own, so
     an End Site or a one-joint prop does not count): ``Hips`` on CMU-style, Bandai and PyMO rigs (below
-    Bandai's static ``joint_Root``), the CMU ASF root.  A rig without such a joint (a chain, a
-    two-legged toy) gets the deepest common ancestor of all leaves; a single joint gets 0.
+    Bandai's static ``joint_Root``), the CMU ASF root.  A rig without such a joint but with several leaves
+    (a two-legged toy) gets the deepest common ancestor of its leaves; a single chain gets joint 0.
     """
     parents = skeleton.parents
     J = skeleton.num_joints
@@ -50,6 +50,8 @@ def pelvis_joint(skeleton: Skeleton) -> int:
         return int(branching[np.argmin(depth[branching])])
     # deepest common ancestor of the leaves
     leaves = np.flatnonzero(~has_child)
+    if leaves.size < 2:
+        return 0
     ancestors = None
     for leaf in leaves:
         path, a = set(), int(leaf)

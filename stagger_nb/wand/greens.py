@@ -275,7 +275,7 @@ def _sparse_eigs(K, N: int):
 
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
-               time_weight: float = 0.0, reference="mean") -> PoseGraph:
+               time_weight: float = 0.0, reference="mean", heading: str = "remove") -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -285,12 +285,13 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames.  Dense keeps ``F x F`` squared distances.
     knn : int
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
-    joint_weights, time_weight, reference
-        See :func:`.pose_space.pose_vectors`.
+    joint_weights, time_weight, reference, heading
+        See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
     """
     if method not in ("auto", "dense", "sparse"):
         raise ValueError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
-    X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference)
+    X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference,
+                     heading=heading)
     F = X.shape[0]
     if F < 2:
         raise ValueError("the magic wand needs a motion with at least 2 frames")
@@ -309,7 +310,7 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean") -> GreensBasis:
+                 reference="mean", heading: str = "remove") -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value.
@@ -324,11 +325,11 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference
+    method, knn, joint_weights, time_weight, reference, heading
         See :func:`pose_graph`.
     """
     g = pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                   reference=reference)
+                   reference=reference, heading=heading)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 
