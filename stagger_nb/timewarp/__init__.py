@@ -12,12 +12,14 @@ Keytimes are ``[(input_time_s, output_time_s), ...]``; the end points are implie
 """
 from .dp import constrained_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
-from .guided import WarpSolution, WarpTables, guided_warp, prepare_warp, required_upsample, reverse_motion, solve_warp
+from .guided import (WarpSolution, WarpTables, guided_warp, prepare_warp, required_upsample, reverse_motion,
+                     solve_warp, warp_memory)
 from .linear import linear_warp, linear_warp_curve
 from .objective import knn_scores
-from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, warp_speed
+from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps, warp_speed
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
            "unconstrained_dp", "warp_bounds", "path_cost", "pose_features", "reference_features",
-           "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes"]
+           "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes",
+           "speed_jumps", "warp_memory"]

@@ -55,7 +55,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..core.motion import Motion
-from .laplacian import (CHAIN_FLOOR, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
+from .laplacian import (CHAIN_FLOOR, _check_sigma, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
                         pairwise_sq_distances, sparse_kernel)
 from .pose_space import pose_vectors
 
@@ -196,7 +196,7 @@ class PoseGraph:
         F = self.num_frames
         if F < 2:
             raise ValueError("the magic wand needs at least 2 frames")
-        s = self.default_sigma if sigma is None else sigma
+        s = self.default_sigma if sigma is None else _check_sigma(sigma)
         if normalization not in ("random_walk", "symmetric"):
             raise ValueError(f"normalization must be 'random_walk' or 'symmetric', got {normalization!r}")
         N = DEFAULT_NUM_EIGS if num_eigs is None else int(num_eigs)
