@@ -144,15 +144,38 @@ def test_dense_and_sparse_agree_on_a_1000_frame_clip(shared_motion):
     assert diff <= 1e-3
 
 
-def test_basis_cache_returns_the_same_object():
+def test_pose_graph_has_no_hidden_cache():
+    """Issue 11 item 2: the graph is immutable; each basis() call computes (identically)."""
     m = cyclic_motion(F=40, period=13, seed=6)
     g = wand.pose_graph(m)
     b1 = g.basis(0.3)
-    assert g.basis(0.3) is b1 and g.basis(0.4) is not b1
-    for s in np.linspace(0.5, 1.5, wand.greens.BASIS_CACHE):
-        g.basis(float(s))
-    assert g.basis(0.3) is not b1                       # evicted after BASIS_CACHE newer values
-    assert np.array_equal(g.basis(0.3).eigenvalues, b1.eigenvalues)  # ... and recomputed identically
+    b2 = g.basis(0.3)
+    assert b2 is not b1 and np.array_equal(b2.eigenvalues, b1.eigenvalues)
+    with pytest.raises(AttributeError):
+        g.method = "sparse"
+
+
+def test_one_call_falloff_reuses_the_graph_by_content(monkeypatch):
+    """A new sigma through wand.falloff does not rebuild the pose graph; equal content hits, other content
+    or options miss; the cache is bounded."""
+    from stagger_nb.wand import greens
+    greens.clear_graph_cache()
+    built = []
+    real = greens.pose_graph
+    monkeypatch.setattr(greens, "pose_graph", lambda *a, **k: built.append(1) or real(*a, **k))
+    m = cyclic_motion(F=40, period=13, seed=6)
+    for s in (0.3, 0.4, 0.5):
+        wand.falloff(m, 3, sigma=s)
+    assert len(built) == 1
+    wand.falloff(m.replace(local_quats=np.array(m.local_quats)), 3, sigma=0.6)   # a copy: same content
+    assert len(built) == 1
+    wand.falloff(m, 3, sigma=0.6, heading="keep")                               # other options: a new graph
+    assert len(built) == 2
+    for seed in range(greens.GRAPH_CACHE + 1):
+        wand.falloff(cyclic_motion(F=30, period=11, seed=seed), 3)
+    wand.falloff(m, 3, sigma=0.3)
+    assert len(built) == 2 + greens.GRAPH_CACHE + 1 + 1                       # m was evicted
+    greens.clear_graph_cache()
 
 
 def test_paper_formula_is_reachable_through_the_one_call_falloff():

@@ -47,6 +47,9 @@ about a small negative shift, memory ``O(F (k + N))``.  Only the rows an edit ne
 """
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,13 +62,13 @@ from .laplacian import (CHAIN_FLOOR, _check_sigma, KnnGraph, default_sigma, dens
                         pairwise_sq_distances, sparse_kernel)
 from .pose_space import pose_vectors
 
-__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "BASIS_CACHE",
-           "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN"]
+__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
+           "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN", "cached_pose_graph", "clear_graph_cache"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
-BASIS_CACHE = 8          # GreensBasis objects each PoseGraph keeps (O(F N) each)
+GRAPH_CACHE = 4          # PoseGraphs the one-call functions (falloff, propagate, greens_basis) keep, see below
 DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
 # Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
 # (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
@@ -162,14 +165,14 @@ class PoseGraph:
     method : str
         ``"dense"`` or ``"sparse"``.
 
-    ``basis()`` remembers its last ``BASIS_CACHE`` results (a slider moved back to a value costs nothing).
+    Immutable, with no hidden state: ``basis(sigma)`` computes a new :class:`GreensBasis` on every call.  A
+    caller that revisits sigma values keeps the bases it wants (the session's cache does).
     """
 
     pose_vectors: np.ndarray
     sq_distances: np.ndarray | None
     knn: KnnGraph
     method: str
-    _cache: dict = field(default_factory=dict, init=False, repr=False)
 
     @property
     def num_frames(self) -> int:
@@ -183,16 +186,6 @@ class PoseGraph:
     def basis(self, sigma: float | None = None, num_eigs: int | None = None, self_term: bool = False,
               normalization: str = "random_walk", chain_floor: float = CHAIN_FLOOR) -> GreensBasis:
         """Eigenpairs for kernel width ``sigma`` (default :attr:`default_sigma`); see :func:`greens_basis`."""
-        key = (None if sigma is None else float(sigma), num_eigs, bool(self_term), normalization, float(chain_floor))
-        hit = self._cache.pop(key, None)
-        if hit is None:
-            hit = self._basis(sigma, num_eigs, self_term, normalization, chain_floor)
-        self._cache[key] = hit                 # most recent last
-        while len(self._cache) > BASIS_CACHE:
-            self._cache.pop(next(iter(self._cache)))
-        return hit
-
-    def _basis(self, sigma, num_eigs, self_term, normalization, chain_floor) -> GreensBasis:
         F = self.num_frames
         if F < 2:
             raise ValueError("the magic wand needs at least 2 frames")
@@ -307,13 +300,59 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
 
 
+_GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
+_GRAPHS_LOCK = threading.Lock()
+
+
+def _graph_key(motion: Motion, options: dict) -> bytes:
+    """Content key of (motion rotations, skeleton, options): a BLAKE2b digest, never ``id()``."""
+    h = hashlib.blake2b(digest_size=20)
+    h.update(np.ascontiguousarray(motion.local_quats).view(np.uint8).reshape(-1))
+    h.update(np.asarray(motion.skeleton.parents, dtype=np.int64).tobytes())
+    h.update(repr((motion.num_frames, motion.frame_time, motion.skeleton.names)).encode())
+    for name in sorted(options):
+        v = options[name]
+        h.update(name.encode())
+        h.update(np.asarray(v, dtype=float).tobytes() if isinstance(v, np.ndarray) else repr(v).encode())
+    return h.digest()
+
+
+def cached_pose_graph(motion: Motion, **options) -> PoseGraph:
+    """:func:`pose_graph` through a small module cache, so the one-call functions (:func:`greens_basis`,
+    ``wand.falloff``, ``wand.propagate``) do not rebuild the sigma-independent graph when only sigma changes.
+
+    Explicit and bounded: keyed by the content of ``motion.local_quats``, the skeleton and ``options`` (a
+    BLAKE2b digest; about 1 ms per MB of rotations), holds the last :data:`GRAPH_CACHE` graphs, least recently
+    used out first; :func:`clear_graph_cache` empties it.  Graphs are immutable, so sharing them is safe.
+    Callers that manage their own caching (the session) call :func:`pose_graph` directly."""
+    key = _graph_key(motion, options)
+    with _GRAPHS_LOCK:
+        g = _GRAPHS.get(key)
+        if g is not None:
+            _GRAPHS.move_to_end(key)
+            return g
+    g = pose_graph(motion, **options)
+    with _GRAPHS_LOCK:
+        _GRAPHS[key] = g
+        while len(_GRAPHS) > GRAPH_CACHE:
+            _GRAPHS.popitem(last=False)
+    return g
+
+
+def clear_graph_cache() -> None:
+    """Empty the module cache of :func:`cached_pose_graph`."""
+    with _GRAPHS_LOCK:
+        _GRAPHS.clear()
+
+
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
                  reference="mean", heading: str = "remove") -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
-    For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value.
+    For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
+    form reuses the graph of the same motion and options through :func:`cached_pose_graph`.
 
     Parameters
     ----------
@@ -328,8 +367,10 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
     method, knn, joint_weights, time_weight, reference, heading
         See :func:`pose_graph`.
     """
-    g = pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                   reference=reference, heading=heading)
+    if sigma is not None:
+        _check_sigma(sigma)
+    g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
+                          reference=reference, heading=heading)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 
