@@ -152,3 +152,18 @@ def test_threads_give_the_same_table_and_report_progress():
     assert seen[-1] == 1.0 and np.all(np.diff(seen) > 0)
     with pytest.raises(ValueError, match="workers"):
         knn_scores(X, R, 5, 3, workers=0)
+
+
+@pytest.mark.parametrize("n,r,d,s,k", [(30, 25, 6, 4, 3), (17, 40, 9, 8, 1), (25, 12, 3, 3, 5)])
+def test_candidate_scores_with_every_candidate_are_exact(n, r, d, s, k):
+    """The long-take search (objective.candidate_scores) with C = all reference frames is the linear search."""
+    X, R = _walks(np.random.default_rng(n * r), n, r, d)
+    slow = knn_scores_loop(X, R, s, k, weights=(1.0, 2.0, 3.0))
+    full = objective.candidate_scores(X, R, s, k, weights=(1.0, 2.0, 3.0), candidates=r, chunk=7)
+    _finite_close(full, slow, rtol=1e-9, atol=1e-9)       # float64 round-off
+    few = objective.candidate_scores(X, R, s, k, weights=(1.0, 2.0, 3.0), candidates=k + 1)
+    fin = np.isfinite(slow)
+    assert np.array_equal(fin, np.isfinite(few))
+    assert np.all(few[fin] >= slow[fin] - 1e-9)            # fewer candidates can only miss neighbours
+    step = objective.candidate_scores(X, R, s, k, candidates=r, ref_step=1.5)
+    _finite_close(step, knn_scores_loop(X, R, s, k, ref_step=1.5), rtol=1e-9, atol=1e-9)

@@ -28,15 +28,19 @@ from ..core.motion import Motion
 from .dp import constrained_dp, path_cost, unconstrained_dp, validate_keys
 from .features import feature_weights, pose_features, prefilter_frames
 from .linear import check_output_size, validate_num_frames
-from .objective import knn_scores, validate_skip
+from .objective import candidate_scores, knn_scores, validate_skip
 from .postprocess import apply_warp, parse_keytimes, smooth_warp
 
 __all__ = ["WarpTables", "WarpSolution", "prepare_warp", "solve_warp", "guided_warp", "required_upsample",
-           "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "SPEED_PENALTY", "SMOOTHING"]
+           "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
 
 MAX_WARP_BYTES = 2 << 30   # refuse (ValueError) a search whose tables would need more memory than this
 SPEED_PENALTY = 0.3        # default speed_penalty (see solve_warp)
 SMOOTHING = 0.2            # default smoothing, seconds (applied twice: a triangular kernel, see guided_warp)
+MAX_SEARCH_FRAMES = 40000  # longest searched input (after upsampling) guided_warp accepts
+AUTO_APPROX_PAIRS = 3000 * 3000   # knn="auto": the approximate kNN above this many (input, reference) pairs
+DEFAULT_CANDIDATES = 32    # reference frames per input frame of the approximate kNN
+AUTO_COARSE_FRAMES = 6000  # solve_warp: the coarse-to-fine heuristic by default above this many searched frames
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,6 +58,8 @@ class WarpTables:
         features (the ``time_unit`` scaling included)
     X : (n_up, D) pose features of the searched input; R : (r, D) of the reference
     scores : (n_up, s, s) local scores, ``scores[j, a-1, b-1] = f(j-a, j, j+b)`` (inf if not admissible)
+    knn : "exact" (:func:`.objective.knn_scores`) or "approx" (:func:`.objective.candidate_scores` with
+        ``candidates`` reference frames per input frame)
     """
 
     motion: Motion
@@ -66,6 +72,8 @@ class WarpTables:
     X: np.ndarray
     R: np.ndarray
     scores: np.ndarray
+    knn: str = "exact"
+    candidates: int = 0
 
     @property
     def n_up(self) -> int:
@@ -109,22 +117,42 @@ def required_upsample(n: int, num_frames: int | None, reference_differs: bool = 
     return max(2, int(np.ceil(2.0 * (num_frames - 1) / (n - 1))))
 
 
-def warp_memory(n: int, r: int, skip: int, upsample: int = 1, dims: int = 93) -> int:
-    """Bytes the tables of a guided warp need (an estimate, before allocating): the ``(n_up, s, s)`` float64
-    score table, three ``(r, n_up + 2 s)`` float32 partial-sum matrices of the exact kNN search and the
-    ``(n_up, dims)`` features, with ``n_up = (n - 1) upsample + 1``."""
+def _knn_mode(knn: str, n_up: int, r: int) -> str:
+    if knn not in ("auto", "exact", "approx"):
+        raise ValueError(f"knn must be 'auto', 'exact' or 'approx', got {knn!r}")
+    if knn == "auto":
+        return "approx" if n_up * r > AUTO_APPROX_PAIRS else "exact"
+    return knn
+
+
+def warp_memory(n: int, r: int, skip: int, upsample: int = 1, dims: int = 93, knn: str = "auto",
+                candidates: int = DEFAULT_CANDIDATES) -> int:
+    """Bytes the tables of a guided warp need (an estimate, before allocating), ``n_up = (n - 1) upsample + 1``:
+    the ``(n_up, s, s)`` float64 score table and the ``(n_up, dims)`` features, plus for the exact kNN search
+    three ``(r, n_up + 2 s)`` float32 partial-sum matrices, for the approximate one the ``(n_up, C)`` candidate
+    table and one chunk of gathered reference blocks."""
     n_up = (int(n) - 1) * int(upsample) + 1
-    return int(n_up * skip * skip * 8 + 3 * 4 * r * (n_up + 2 * skip) + 8 * dims * (n_up + r))
+    base = n_up * skip * skip * 8 + 8 * dims * (n_up + 4 * r)
+    if _knn_mode(knn, n_up, r) == "exact":
+        return int(base + 3 * 4 * r * (n_up + 2 * skip))
+    C = int(candidates)
+    return int(base + 16 * n_up * C + 8 * 1024 * C * (3 * dims + 4 * skip * skip))
 
 
-def _check_warp_size(n: int, r: int, skip: int, upsample: int, dims: int, what: str) -> None:
-    need = warp_memory(n, r, skip, upsample, dims)
+def _check_warp_size(n: int, r: int, skip: int, upsample: int, dims: int, what: str, knn: str = "auto",
+                     candidates: int = DEFAULT_CANDIDATES) -> None:
+    n_up = (n - 1) * upsample + 1
+    remedy = ("ask for fewer output frames, or shorten the clips first (m.slice(start, stop), or "
+              "m.resample(frame_time) with a longer frame time)")
+    if n_up > MAX_SEARCH_FRAMES:
+        raise ValueError(f"{what}: the search over {n_up} input frames (n={n}, upsample={upsample}) is longer than "
+                         f"the {MAX_SEARCH_FRAMES} frames guided warping handles (its time grows with the length); "
+                         + remedy)
+    need = warp_memory(n, r, skip, upsample, dims, knn, candidates)
     if need > MAX_WARP_BYTES:
-        n_up = (n - 1) * upsample + 1
         raise ValueError(f"{what}: the search over {n_up} input frames (n={n}, upsample={upsample}) against "
                          f"{r} reference frames needs about {need / 2**30:.1f} GiB, more than the "
-                         f"{MAX_WARP_BYTES / 2**30:.0f} GiB limit; ask for fewer output frames, or shorten the "
-                         "clips first (m.slice(start, stop), or m.resample(frame_time) with a longer frame time)")
+                         f"{MAX_WARP_BYTES / 2**30:.0f} GiB limit; " + remedy)
 
 
 def _validate_upsample(upsample) -> int:
@@ -135,7 +163,8 @@ def _validate_upsample(upsample) -> int:
 
 def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1, *, reverse: bool = False,
                  k: int = 3, weights=(1.0, 1.0, 1.0), joint_weights=None, prefilter: float = 0.1,
-                 time_unit: float = 1.0 / 30.0, dtype=np.float32, progress=None) -> WarpTables:
+                 time_unit: float = 1.0 / 30.0, dtype=np.float32, knn: str = "auto",
+                 candidates: int = DEFAULT_CANDIDATES, progress=None) -> WarpTables:
     """Features and the kNN score table (§3.2) for warping ``m`` guided by ``reference``.
 
     Parameters
@@ -152,7 +181,11 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
     time_unit : seconds; velocities and accelerations are expressed per ``time_unit`` (default 1/30 s, the
         paper's 30 Hz), so the balance of pose against timing in the features does not depend on the clip's
         frame rate (the derivative weights are scaled by ``time_unit / frame_time`` and its square)
-    dtype : float32 or float64 for the kNN search (see :func:`.objective.knn_scores`)
+    dtype : float32 or float64 for the exact kNN search (see :func:`.objective.knn_scores`)
+    knn : "exact", "approx" (:func:`.objective.candidate_scores`: the k nearest among the ``candidates``
+        reference frames of nearest pose; for long takes) or "auto" (approx above ``AUTO_APPROX_PAIRS``
+        input x reference frames, i.e. beyond about 3,000 x 3,000)
+    candidates : C of the approximate search
     progress : callable(fraction) or None
 
     Returns
@@ -183,16 +216,24 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
         ref = ref.resample(m.frame_time)
     if ref.num_frames < k + 2:
         raise ValueError(f"reference has {ref.num_frames} frames at the input's frame time; k={k} needs >= {k + 2}")
+    if isinstance(candidates, bool) or not isinstance(candidates, (int, np.integer)) or candidates < k:
+        raise ValueError(f"candidates must be an integer >= k = {k}, got {candidates!r}")
+    n_up = (m.num_frames - 1) * upsample + 1
+    mode = _knn_mode(knn, n_up, ref.num_frames)
     _check_warp_size(m.num_frames, ref.num_frames, skip, upsample, 3 * m.num_joints,
-                     "upsample" if upsample > 1 else "m")
+                     "upsample" if upsample > 1 else "m", mode, candidates)
     src = reverse_motion(m) if reverse else m
     if upsample > 1:
         n_up = (m.num_frames - 1) * upsample + 1
         src = src.sample(np.arange(n_up) / upsample, m.frame_time / upsample)
     X = pose_features(src, joint_weights, prefilter)
     R = pose_features(ref, joint_weights, prefilter)
-    scores = knn_scores(X, R, skip, k, weights, dtype=dtype, progress=progress)
-    return WarpTables(m, ref, skip, upsample, bool(reverse), int(k), weights, X, R, scores)
+    if mode == "exact":
+        scores = knn_scores(X, R, skip, k, weights, dtype=dtype, progress=progress)
+    else:
+        scores = candidate_scores(X, R, skip, k, weights, candidates=int(candidates), progress=progress)
+    return WarpTables(m, ref, skip, upsample, bool(reverse), int(k), weights, X, R, scores, mode,
+                      int(candidates) if mode == "approx" else 0)
 
 
 def _frame_keys(tables: WarpTables, num_frames: int, keytimes) -> list[tuple[int, int]]:
@@ -227,7 +268,11 @@ def _coarse_band(tables: WarpTables, m: int, keys, factor: int, band: float | No
     except ValueError:
         return None
     wp, wv, wa = tables.weights  # coarse differences span dt_out output frames: rescale to keep the units
-    Sc = knn_scores(Xc, tables.R, s, tables.k, (wp, wv / dt_out, wa / dt_out ** 2), ref_step=dt_out)
+    wc = (wp, wv / dt_out, wa / dt_out ** 2)
+    if tables.knn == "approx":
+        Sc = candidate_scores(Xc, tables.R, s, tables.k, wc, candidates=tables.candidates, ref_step=dt_out)
+    else:
+        Sc = knn_scores(Xc, tables.R, s, tables.k, wc, ref_step=dt_out)
     fc, cost_c = constrained_dp(Sc, m_c, keys=ckeys)
     if not np.isfinite(cost_c):
         return None
@@ -268,7 +313,8 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
     num_frames : m, output frame count, or None for the unconstrained shortest path (free length: the
         search picks the length whose timing matches the reference best; no keytimes)
     keytimes : list of (input_time_s, output_time_s) pairs or None
-    coarse : subsampling factor of the coarse-to-fine heuristic (the paper uses 8), or None for the exact DP.
+    coarse : subsampling factor of the coarse-to-fine heuristic (the paper uses 8), or None for the exact DP
+        (None means 8 above ``AUTO_COARSE_FRAMES`` searched frames, where the exact DP would not fit).
         The full-resolution search is restricted to ``band`` searched-input frames (default
         ``4 * max(coarse, skip)``; self-referenced compressions have many near-ties, and a narrower band loses
         a few per cent of the objective) either side of the interpolated coarse solution; it falls back to the
@@ -302,6 +348,8 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
         keys = _frame_keys(tables, m, keytimes)
         validate_keys(n, m, s, keys)
         lo = hi = None
+        if coarse is None and n > AUTO_COARSE_FRAMES:
+            coarse = 8      # the exact DP's backpointers grow as m x (band width) x s: the paper's heuristic
         if coarse is not None:
             if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 2:
                 raise ValueError(f"coarse must be an integer factor >= 2 or None, got {coarse!r}")
@@ -332,8 +380,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                 upsample: int | None = None, reverse: bool = False, backward: bool | None = None, k: int = 3,
                 weights=(1.0, 1.0, 1.0), joint_weights=None, prefilter: float = 0.1, time_unit: float = 1.0 / 30.0,
                 coarse: int | None = None, band: float | None = None, speed_penalty: float = SPEED_PENALTY,
-                smoothing: float = SMOOTHING, adaptive: bool = True, tables: WarpTables | None = None,
-                progress=None):
+                smoothing: float = SMOOTHING, adaptive: bool = True, knn: str = "auto",
+                candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None, progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
 
     What an editor can ask for (issue 11 item 5):
@@ -359,7 +407,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         ``(m.duration, (num_frames - 1) * frame_time)`` are implied; both times strictly increasing
     upsample : integer upsampling of the input (default :func:`required_upsample`); 1 forbids expansion
     reverse, backward : backward warp (play the input backwards); ``backward`` overrides ``reverse`` if given
-    k, weights, joint_weights, prefilter, time_unit : objective options, see :func:`prepare_warp`
+    k, weights, joint_weights, prefilter, time_unit, knn, candidates : objective options, see
+        :func:`prepare_warp` (long takes: ``knn="auto"`` switches to the approximate kNN beyond ~3,000 x 3,000
+        frames and the search to the coarse-to-fine heuristic beyond 6,000; 20,000 frames take ~20-30 s)
     coarse, band, speed_penalty : search options, see :func:`solve_warp`
     smoothing : seconds, moving-average window applied twice to the discrete warp's speed (§3.4; a triangular
         kernel ``2 smoothing`` wide); 0 disables. With the default speed penalty, measured as
@@ -403,14 +453,15 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
             u = _validate_upsample(upsample)
         r = max(2, int(round(reference.duration / m.frame_time)) + 1)
         _check_warp_size(m.num_frames, r, validate_skip(skip), u, 3 * m.num_joints,
-                         "num_frames" if upsample is None and u > 1 else ("upsample" if u > 1 else "m"))
+                         "num_frames" if upsample is None and u > 1 else ("upsample" if u > 1 else "m"),
+                         knn if knn in ("exact", "approx") else "auto", candidates)
         if num_frames is not None and num_frames > (m.num_frames - 1) * u + 1:
             raise ValueError(f"num_frames={num_frames} is more than the {m.num_frames} input frames and "
                              f"upsample={u} gives only {(m.num_frames - 1) * u + 1}: expansion needs upsampling")
         head = None if progress is None else (lambda f: progress(0.9 * f))
         tables = prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
-                              joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit,
-                              progress=head)
+                              joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit, knn=knn,
+                              candidates=candidates, progress=head)
     elif tables.motion is not m and (tables.motion.num_frames != m.num_frames
                                      or tables.motion.num_joints != m.num_joints):
         raise ValueError("tables were prepared for a different input motion")
