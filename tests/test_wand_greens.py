@@ -194,3 +194,30 @@ def test_paper_formula_is_reachable_through_the_one_call_falloff():
         # 1e-8: the normalisation divides the 1e-10-relative agreement above by g_f - min g (~1e-2 of max)
         assert np.allclose(w, normalize_row(Lp[f], f), atol=1e-8)
         assert not np.allclose(w, wand.falloff(m, f, sigma=sigma, num_eigs=29), atol=1e-3)  # the defaults differ
+
+
+def test_landmark_graph_interpolates_a_subsampled_graph():
+    """Long takes (method="landmarks"): the graph of every stride-th frame, eigenvectors interpolated in time.
+    With stride 1 it is the sparse graph itself. With stride 2 it is an approximation whose error is NOT small
+    on every clip (here: mean |dw| 0.28, because the temporal chain's diffusion depends on the sampling; on the
+    20,000-frame benchmark clip mean 0.009, max 0.07; benchmarks/bench_wand.py case D): only its form is
+    checked here."""
+    from stagger_nb.wand import greens
+    m = cyclic_motion(F=400, period=37, noise=0.01, seed=4)
+    gs = wand.pose_graph(m, method="sparse", knn=30)
+    old = greens.MAX_LANDMARKS
+    try:
+        greens.MAX_LANDMARKS = 400
+        g1 = wand.pose_graph(m, method="landmarks", knn=30)
+        greens.MAX_LANDMARKS = 200
+        g2 = wand.pose_graph(m, method="landmarks", knn=30)
+    finally:
+        greens.MAX_LANDMARKS = old
+    assert g1.landmarks.size == 400 and g2.landmarks[1] == 2 and g2.landmarks[-1] == 399
+    s = gs.default_sigma
+    bs, b1, b2 = gs.basis(s, num_eigs=20), g1.basis(s, num_eigs=20), g2.basis(s, num_eigs=20)
+    assert b2.eigenvectors.shape == (400, 20) and b2.method == "landmarks"
+    for f in (0, 101, 250):
+        np.testing.assert_allclose(wand.greens_falloff(b1, f), wand.greens_falloff(bs, f), atol=1e-9)
+        w2 = wand.greens_falloff(b2, f)
+        assert w2[f] == 1.0 and w2.min() >= 0.0 and w2.max() <= 1.0 and np.isclose(w2.min(), 0.0)

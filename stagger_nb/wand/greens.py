@@ -63,12 +63,14 @@ from .laplacian import (CHAIN_FLOOR, _check_sigma, normalized_adjacency, KnnGrap
 from .pose_space import pose_vectors
 
 __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
-           "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN", "cached_pose_graph", "clear_graph_cache"]
+           "DENSE_MAX_FRAMES", "SPARSE_MAX_FRAMES", "MAX_LANDMARKS", "DEFAULT_NUM_EIGS", "DEFAULT_KNN", "cached_pose_graph", "clear_graph_cache"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
 GRAPH_CACHE = 4          # PoseGraphs the one-call functions (falloff, propagate, greens_basis) keep, see below
+SPARSE_MAX_FRAMES = 20000  # method="auto": the sparse graph of every frame up to this many, landmarks above
+MAX_LANDMARKS = 8000       # frames of a landmark graph at most
 DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
 # Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
 # (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
@@ -78,7 +80,7 @@ _EIGSH_TOL = 1e-8  # ARPACK relative accuracy of the Ritz values (eigenvalues ch
 _F32_MIN_FRAMES = 300  # dense eigenpairs in float32 + a float64 Rayleigh-Ritz step above this many frames
 _F32_EXTRA = 8         # extra float32 eigenvectors in that subspace (a buffer at the cut)
 _COEF_TOL = 1e-10
-LA_MAX_FRAMES = 8000   # sparse path: plain Lanczos on A up to this many frames, shift-invert above
+LA_MAX_FRAMES = 4000   # sparse path: plain Lanczos on A up to this many frames, shift-invert above
 _LA_TOL = 1e-10        # its ARPACK tolerance (relative to mu ~ 1)
 _LA_EXTRA = 70         # Krylov space of k + this (measured fastest on CMU 01_01 among 2k+1 .. k+150)  # spectral weights below this are rounding noise of lambda = 1
 
@@ -168,7 +170,10 @@ class PoseGraph:
     knn : KnnGraph
         The sparse kernel's neighbours; on the dense path a small table (k = 8) backs ``default_sigma``.
     method : str
-        ``"dense"`` or ``"sparse"``.
+        ``"dense"``, ``"sparse"`` or ``"landmarks"``.
+    landmarks : ndarray, shape (F_l,), int, or None
+        ``"landmarks"`` (long takes): the frames the graph is built on (every ``stride``-th frame and the last);
+        ``knn`` indexes them, and the eigenvectors are interpolated linearly in time to every frame.
 
     Immutable, with no hidden state: ``basis(sigma)`` computes a new :class:`GreensBasis` on every call.  A
     caller that revisits sigma values keeps the bases it wants (the session's cache does).
@@ -178,6 +183,7 @@ class PoseGraph:
     sq_distances: np.ndarray | None
     knn: KnnGraph
     method: str
+    landmarks: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -210,8 +216,20 @@ class PoseGraph:
             raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (every frame is its own component); "
                              "increase sigma")
         vecs = phi / np.sqrt(r)[:, None] if normalization == "random_walk" else phi
+        if self.landmarks is not None:
+            vecs, r = _interpolate_frames(self.landmarks, F, vecs), _interpolate_frames(self.landmarks, F, r)
         return GreensBasis(lam, np.ascontiguousarray(vecs), r, float(s), bool(self_term), normalization,
                            self.method, null_dim)
+
+
+def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.ndarray:
+    """Values at ascending ``frames`` (first 0, last F - 1), shape (F_l, ...) -> every frame, (F, ...),
+    linearly in time."""
+    t = np.arange(F)
+    i1 = np.clip(np.searchsorted(frames, t, side="right"), 1, frames.size - 1)
+    i0 = i1 - 1
+    w = ((t - frames[i0]) / (frames[i1] - frames[i0])).reshape((F,) + (1,) * (values.ndim - 1))
+    return np.ascontiguousarray(values[i0] * (1.0 - w) + values[i1] * w)
 
 
 def _eigh_smallest(L: np.ndarray, hi: int):
@@ -318,22 +336,30 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     Parameters
     ----------
     motion : Motion
-    method : "auto" | "dense" | "sparse"
-        ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames.  Dense keeps ``F x F`` squared distances.
+    method : "auto" | "dense" | "sparse" | "landmarks"
+        ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames, sparse up to ``SPARSE_MAX_FRAMES``, landmarks above.
+        Dense keeps ``F x F`` squared distances; sparse a kNN table of every frame; ``landmarks`` (long takes)
+        builds the sparse graph on every ``ceil(F / MAX_LANDMARKS)``-th frame (and the last) and interpolates
+        its eigenvectors linearly in time, so the eigenproblem stays at most ``MAX_LANDMARKS`` frames (a
+        sparse LU of 100,000 frames does not fit in 4 GB).  An approximation, and not a small one on every clip:
+        against the sparse graph of every frame, on the 20,000-frame benchmark clip (xia walk/run copies),
+        stride 2 gives falloffs within mean 0.009 / max 0.07, stride 4 mean 0.017 / max 0.19; on a 400-frame
+        synthetic cyclic clip stride 2 gives mean 0.28 (the temporal chain's diffusion, which the chain floor
+        makes strong, depends on the sampling).  ``benchmarks/bench_wand.py`` prints the figures.
     knn : int
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
     joint_weights, time_weight, reference, heading
         See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
     """
-    if method not in ("auto", "dense", "sparse"):
-        raise ValueError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
+    if method not in ("auto", "dense", "sparse", "landmarks"):
+        raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
     X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference,
                      heading=heading)
     F = X.shape[0]
     if F < 2:
         raise ValueError("the magic wand needs a motion with at least 2 frames")
     if method == "auto":
-        method = "dense" if F <= DENSE_MAX_FRAMES else "sparse"
+        method = "dense" if F <= DENSE_MAX_FRAMES else ("sparse" if F <= SPARSE_MAX_FRAMES else "landmarks")
     if method == "dense":
         D2 = pairwise_sq_distances(X)
         table = knn_graph(X, min(8, F - 1))
@@ -341,7 +367,11 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     k = int(knn)
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
-    return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
+    if method == "sparse":
+        return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
+    stride = max(1, -(-F // MAX_LANDMARKS))
+    frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
+    return PoseGraph(X, None, knn_graph(X[frames], min(k, frames.size - 1)), "landmarks", frames)
 
 
 _GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
