@@ -9,6 +9,13 @@ Public names::
     out, warp = guided_warp(m, reference, num_frames, keytimes=..., tables=tables)   # cheap tail
 
 Keytimes are ``[(input_time_s, output_time_s), ...]``; the end points are implied.
+
+Editor capabilities (see :func:`guided_warp`): same-duration style warps (``num_frames == n`` with a different
+reference upsamples x2), free length (``num_frames=None``), backward warps (``backward=True``), keytimes.
+Long takes: ``knn="auto"`` switches to an approximate kNN (:func:`.objective.candidate_scores`) and the
+coarse-to-fine search; beyond ``MAX_SEARCH_FRAMES`` or ``MAX_WARP_BYTES`` (:func:`warp_memory`) a ValueError
+names the parameter and the remedy before anything is allocated.  :func:`speed_jumps` measures playback pops.
+The torso frame of the features is the pelvis (:func:`stagger_nb.core.body.pelvis_joint`), not joint 0.
 """
 from .dp import constrained_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
