@@ -123,3 +123,17 @@ def test_backward_warp(walk):
     np.testing.assert_array_equal(warp, warp2)
     out, warp = timewarp.guided_warp(walk, walk, None, backward=True)
     assert warp[0] == pytest.approx(walk.duration) and np.all(np.diff(warp) < 0)
+
+
+def test_box_average_is_the_mean_of_the_linear_interpolation():
+    """The adaptive smoothing's prefix-sum average against a dense sampling of np.interp (naive reference)."""
+    from stagger_nb.timewarp.postprocess import _box_average
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(12, 2))
+    a = np.array([0.0, 0.3, 2.5, 7.9, 10.2])
+    b = np.array([1.0, 4.7, 2.6, 11.0, 11.0])
+    got = _box_average(v, a, b)
+    for i in range(a.size):
+        x = np.linspace(a[i], b[i], 200001)
+        want = [np.interp(x, np.arange(12), v[:, c]).mean() for c in range(2)]
+        np.testing.assert_allclose(got[i], want, atol=1e-5)   # the dense sampling's quadrature error
