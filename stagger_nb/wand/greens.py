@@ -7,7 +7,8 @@ few terms of the sum are needed since it is dominated by the smaller eigenvalues
 What exactly is computed (the choices the paper leaves open, stated once):
 
 **Deviations from the paper, and why the defaults are not Eq. 3 as printed.**  The paper's formula is
-``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity")``
+``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
+heading="keep")`` (``heading``: the default pose space leaves the root's heading out, :mod:`.pose_space`)
 (every flag is opt-in).  Measured on the issue's checks (default sigma, N = 50; same-phase weight must be
 >= 0.8 and opposite-phase <= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
 0.67 / 0.59 (frames 10 / 20); bandai_run_cycle looped x4 same phase 0.47 / 0.81 / 0.56 and opposite
