@@ -145,3 +145,19 @@ def test_keep_contacts_bad_input(walk):
         staggered.carry_contacts([1, 2], sm.contacts, m.frame_time)
     # no contacts: the evaluated motion itself
     assert np.array_equal(staggered.keep_contacts(sm, m, contacts=[]).local_quats, staggered.evaluate(sm).local_quats)
+
+
+def test_cull_after_timing_edits_keeps_the_warp(walk):
+    """cull keeps a subset of the poses at their times: their source knot times stay, so the contacts are
+    still carried (and held)."""
+    m, sm = walk
+    edited = stagger(sm)
+    culled = staggered.cull(edited, percent=60)
+    assert culled.num_poses < edited.num_poses
+    S, S_all = staggered.source_knot_times(culled), staggered.source_knot_times(edited)
+    rows = [int(np.flatnonzero(np.isclose(edited.pose_times, t))[0]) for t in culled.pose_times]
+    assert np.array_equal(S, S_all[rows])
+    carried = staggered.carry_contacts(culled, sm.contacts, m.frame_time)
+    assert carried != list(sm.contacts)                       # moved with the feet's timing
+    out = staggered.keep_contacts(culled, m)
+    assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM

@@ -372,16 +372,24 @@ def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
     ``source_knot_times(sm)[:, c] -> knots[:, c]`` (splines and displacement maps live on normalised segment
     time, so between two knots the edited motion replays the source segment linearly in time; see
     :func:`warp_times`). The editing tools record it in ``sm.metadata["source_knots"]`` at their first
-    edit and carry it through retiming, succession, random timing and pose insertion/deletion; an
-    ``sm`` without the record (a fresh extraction), or whose record no longer matches its pose count
-    (culled after timing edits), is taken as unedited: its own knots.
+    edit and carry it through retiming, succession, random timing and pose insertion/deletion (and a later
+    :func:`~stagger_nb.staggered.cull`, which keeps a subset of the poses at their times: their rows are
+    kept). An ``sm`` without the record (a fresh extraction), or whose poses no longer match it (retimed
+    by something other than these tools), is taken as unedited: its own knots.
     """
     K, J = sm.num_poses, sm.num_joints
     rec = sm.metadata.get("source_knots")
     if rec is not None:
         rec = np.asarray(rec, dtype=float)
-        if rec.shape == (K, J + 1):
+        at = np.asarray(sm.metadata.get("source_knots_pose_times", ()), dtype=float)
+        if rec.shape == (K, J + 1) and (at.shape != (K,) or np.allclose(at, sm.pose_times, rtol=0, atol=1e-9)):
             return rec
+        if at.shape == (rec.shape[0],) and rec.shape[1:] == (J + 1,):
+            # poses culled since the record (cull keeps a subset of the poses at their times): keep their rows
+            row = np.searchsorted(at, sm.pose_times)
+            row = np.clip(row, 0, at.size - 1)
+            if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
+                return rec[row]
     return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
 
 
@@ -440,6 +448,7 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     sk = np.array(source_knots, dtype=float)
     sk.setflags(write=False)
     meta["source_knots"] = sk
+    meta["source_knots_pose_times"] = new.pose_times        # the rows' poses (a later cull keeps a subset)
     # the object was created above and is not shared yet: set the two derived fields in place (as
     # __post_init__ does) instead of validating and copying every array a second time
     object.__setattr__(new, "editing_knots", editing)
