@@ -161,3 +161,24 @@ def test_cull_after_timing_edits_keeps_the_warp(walk):
     assert carried != list(sm.contacts)                       # moved with the feet's timing
     out = staggered.keep_contacts(culled, m)
     assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+
+
+def test_carry_by_limb_uses_the_hip_timing(walk):
+    """carry_by="limb": a contact moves with its limb's upper joint (hip); shifting only the hips' knots
+    moves the feet's contacts, shifting only the toes' does not (and the other way round for "joint")."""
+    m, sm = walk
+    dt = 3 * m.frame_time
+    hips = staggered.succession(sm, root="LHipJoint", s=dt, l=1.0, joints=["LeftUpLeg"], poses=range(2, 11))
+    toes = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], poses=range(2, 11))
+    T0 = sm.pose_times
+    inner = [c for c in sm.contacts if c[0] == "LeftToeBase" and T0[2] + dt <= c[1] * m.frame_time
+             and (c[2] - 1) * m.frame_time <= T0[10]]
+    assert inner
+    for edited, by, moves in ((hips, "limb", True), (toes, "limb", False), (hips, "joint", False), (toes, "joint", True)):
+        got = staggered.carry_contacts(edited, inner, m.frame_time, carry_by=by)
+        assert got == [(n, a + 3 * moves, b + 3 * moves) for n, a, b in inner], (by, moves)
+    out = staggered.keep_contacts(stagger(sm), m, carry_by="limb")
+    carried = staggered.carry_contacts(stagger(sm), sm.contacts, m.frame_time, carry_by="limb")
+    assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+    with pytest.raises(ValueError, match="carry_by"):
+        staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="pelvis")
