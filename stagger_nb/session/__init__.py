@@ -129,6 +129,7 @@ class Session:
     def _typed_list(cls, ops, where) -> tuple:
         if not isinstance(ops, (list, tuple)):
             _fail(where, "a list of op objects", ops)
+        _ops_module._limit(ops, where)
         return tuple(cls._typed(op, f"{where}[{i}]") for i, op in enumerate(ops))
 
     @property
