@@ -25,10 +25,12 @@ This package does not import ipywidgets; the widgets build on it.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
 import threading
+import warnings
 from collections import OrderedDict
 from concurrent.futures import Future, InvalidStateError, ThreadPoolExecutor
 from typing import Any, Callable
@@ -52,6 +54,36 @@ __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_ro
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = _ops_module.optional(number(0.0, open_lo=True))
+
+
+_REQUIRED = dataclasses.MISSING
+
+
+def register_op(name: str, needs: str, fields: dict, run: Callable) -> type:
+    """Deprecated: define an :class:`~.ops.Op` subclass and add its runner to ``runners.RUNNERS``.
+
+    Kept for old code: builds that subclass from ``fields`` (``{field: (check(value, field) or None,
+    default)}``, ``Session.REQUIRED`` for a required field) and registers ``run(state, params: dict, run)``,
+    which now receives the op's JSON dict and a :class:`~.runners.Run` (``run.heads`` has the cached heads)."""
+    warnings.warn("register_op is deprecated: subclass stagger_nb.session.ops.Op and add the runner to "
+                  "stagger_nb.session.runners.RUNNERS", DeprecationWarning, stacklevel=2)
+    if needs not in ("staggered", "motion", "any"):
+        raise ValueError(f"needs: expected 'staggered', 'motion' or 'any', got {needs!r}")
+    order = sorted(fields.items(), key=lambda kv: kv[1][1] is not _REQUIRED)  # required fields first
+    spec = [(k, Any, dataclasses.field(default=d, metadata={"check": c}) if d is not _REQUIRED
+             else dataclasses.field(metadata={"check": c})) for k, (c, d) in order]
+    cls = dataclasses.make_dataclass(f"_Registered_{name}", spec, bases=(Op,), frozen=True,
+                                     namespace={"name": name, "needs": needs, "__annotations__": {}})
+    RUNNERS[cls] = lambda state, op, r: run(state, op.to_json(), r)
+    return cls
+
+
+def __getattr__(attr):  # deprecated module attributes
+    if attr == "OP_REGISTRY":
+        warnings.warn("OP_REGISTRY is deprecated: use stagger_nb.session.OPS (op classes by name)",
+                      DeprecationWarning, stacklevel=2)
+        return OPS
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
@@ -95,6 +127,8 @@ class Session:
     Each op list change (``add``, ``set_ops``, ``replace``, ``remove``, ``clear``) is one undo step.
     Listeners registered with :meth:`observe` are called as ``listener(session)`` after every change.
     """
+
+    REQUIRED = _REQUIRED  # deprecated with register_op
 
     def __init__(self, source: Motion, ops=None, source_path=None, extract_options=None):
         if not isinstance(source, Motion):
