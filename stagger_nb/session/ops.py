@@ -502,7 +502,8 @@ class Propagate(Op):
         out = super().to_json()
         out["deltas"] = (_deltas_json(self.deltas) if self.frames is None
                          else [_deltas_json(d) for d in self.deltas])
-        return out
+        first = ("op", "frame", "frames", "deltas")  # in the order a person writes them
+        return {k: out[k] for k in first if k in out} | {k: v for k, v in out.items() if k not in first}
 
     @property
     def edits(self) -> tuple:
