@@ -78,3 +78,19 @@ def test_warm_error_reaches_the_future(session, monkeypatch):
     with pytest.raises(RuntimeError, match="extraction failed"):
         session.warm("extract").result(30)
     session.close()
+
+
+def test_interpreter_exit_does_not_wait_for_the_whole_warm_up(tmp_path):
+    """The worker stops before its next item once the main thread has finished (30 items of >= 0.5 s each
+    would keep a plain executor's exit waiting 15 s)."""
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+    code = ("import time, stagger_nb as sn; from stagger_nb.session import Session\n"
+            "s = Session(sn.data.load('walk').slice(0, 60)); s.extraction()\n"
+            "s.warm(('cull', [100 - i for i in range(30)]), progress=lambda d, t, l: time.sleep(0.5))\n"
+            "time.sleep(0.2)\n")
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120, cwd=Path(__file__).resolve().parents[1])
+    assert time.perf_counter() - t0 < 12  # import + extraction + one or two items; the 30 items would take 15 s

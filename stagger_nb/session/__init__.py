@@ -13,7 +13,8 @@ One module per job:
 - :mod:`.runners` — op -> function over the state, and the cached expensive heads;
 - :mod:`.history` — the op list, undo/redo, observers;
 - :mod:`.cache` — the one cache (one lock, compute-once futures, content/weakref keys, bounded);
-- :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards.
+- :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards;
+- :mod:`.warm` — the session's background worker for :meth:`Session.warm`.
 
 Replay is linear in the number of ops: each prefix is named by a digest chained from the previous one
 (``digest_i = H(digest_{i-1}, op_i)``), so changing the last op (a slider move) replays only the tail and
@@ -32,7 +33,7 @@ import os
 import threading
 import warnings
 from collections import OrderedDict
-from concurrent.futures import Future, InvalidStateError, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any, Callable
 
 import numpy as np
@@ -48,6 +49,7 @@ from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
 from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_size
+from .warm import Worker
 
 __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_rotation_degrees",
            "SESSION_FORMAT", "SESSION_VERSION"]
@@ -145,8 +147,7 @@ class Session:
         self._held: dict[str, Any] = {}  # strong refs: the last replay's final and last staggered state
         self._replayed = False
         self._replay_lock = threading.RLock()
-        self._executor: ThreadPoolExecutor | None = None
-        self._warm_futures: list[Future] = []
+        self._worker = Worker()
 
     @classmethod
     def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
@@ -505,38 +506,11 @@ class Session:
 
         Returns a :class:`concurrent.futures.Future` whose result is the number of items computed (or found
         cached). ``future.cancel()`` stops the work before its next item (the item running finishes and is
-        cached) and makes the future cancelled; ``running()`` stays False until it is done. Everything
-        warmed is also computed on demand: warming only moves the wait.
+        cached) and makes the future cancelled; ``running()`` stays False until it is done. The worker is a
+        daemon thread: an interpreter exit does not wait for it. Everything warmed is also computed on
+        demand: warming only moves the wait.
         """
-        items = self._warm_items(jobs)
-        fut: Future = Future()
-        if self._executor is None:
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stagger_nb-warm")
-        self._warm_futures = [f for f in self._warm_futures if not f.done()] + [fut]
-
-        def work():
-            done = 0
-            try:
-                for label, fn in items:
-                    if fut.cancelled():
-                        return
-                    if progress is not None:
-                        progress(done, len(items), label)
-                    fn()
-                    done += 1
-                if progress is not None:
-                    progress(done, len(items), "done")
-                fut.set_result(done)
-            except InvalidStateError:  # cancelled between the last check and the result
-                pass
-            except BaseException as e:  # noqa: BLE001 - handed to whoever waits on the future
-                try:
-                    fut.set_exception(e)
-                except InvalidStateError:
-                    pass
-
-        self._executor.submit(work)
-        return fut
+        return self._worker.submit(self._warm_items(jobs), progress)
 
     def _warm_items(self, jobs) -> list:
         items = []
@@ -568,12 +542,8 @@ class Session:
         return items
 
     def close(self) -> None:
-        """Cancel pending warm-ups and stop the session's worker thread (after its current item)."""
-        for f in self._warm_futures:
-            f.cancel()
-        if self._executor is not None:
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = None
+        """Cancel pending warm-ups (each stops before its next item)."""
+        self._worker.cancel_all()
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:
