@@ -6,7 +6,13 @@ Printed beside them, measured in this process: the straightforward loop implemen
 per triple + the DP of eqs. 3-4 as Python loops) on the Table-1 size, the coarse-to-fine heuristic, and
 dtw-python aligning the same two feature sequences.
 
-Run: ``.venv/bin/python benchmarks/bench_timewarp.py [--no-loop]`` (the loop baseline takes ~20-60 s).
+Issue 13 additions: the whole public ``guided_warp`` call at Table-1 size (features, objective, DP with the
+speed penalty, smoothing, resampling; target <= 80 ms), the approximate kNN's error against the exact
+objective at Table-1 size, and a long take: 20,000 frames (xia walk/run copies at 120 Hz, self reference, 65 %
+length) in a fresh child process, time, CPU and peak RSS (target <= 30 s, <= 2 GB), plus the ValueError beyond
+``MAX_SEARCH_FRAMES``.
+
+Run: ``.venv/bin/python benchmarks/bench_timewarp.py [--no-loop] [--no-long]`` (the loop baseline takes ~20-60 s).
 Poses come from ``data/cmu_01_01.bvh`` (resampled so the clip has n frames) when prepared, else from the
 procedural jump.
 """
@@ -70,7 +76,11 @@ CPU: dict = {}
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--no-loop", action="store_true", help="skip the straightforward loop baseline")
+    ap.add_argument("--no-long", action="store_true", help="skip the 20,000-frame long take")
+    ap.add_argument("--child-long", type=int, default=0, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.child_long:
+        return child_long(args.child_long)
     name, motion = clip()
     print(f"poses: {name} ({motion.num_joints} joints -> {3 * motion.num_joints}-dim positions, "
           f"{9 * motion.num_joints}-dim features), k = {K}, s = {S}; {os.cpu_count()} CPUs, load average "
@@ -109,6 +119,10 @@ def main(argv=None) -> int:
         if table1 is None:
             table1 = (X, R, scores, frames, cost, total, t_obj, t_dp, m)
     X, R, scores, frames, cost, total, t_obj, t_dp, m = table1
+    public_call(motion)
+    approx_error(X, R, m)
+    if not args.no_long:
+        long_take()
     print("paper, Table 1 (V1, 2.4 GHz Pentium 4, C++ objective + MATLAB DP): 1.3 s + 2.7 s; heuristic 0.17 s")
     try:
         from dtw import dtw
@@ -132,6 +146,87 @@ def main(argv=None) -> int:
               f"(float32 search), same frames: {bool(np.array_equal(lframes, frames))}, "
               f"cost ratio {lcost / cost:.6f}")
     return 0
+
+
+def public_call(motion):
+    """The whole public guided_warp at Table-1 size, against the straightforward baseline's pieces measured
+    in this process: the float64 exact objective + the DP of eqs. 3-4 without the speed penalty or banding."""
+    from stagger_nb import timewarp
+    mm = motion.resample(motion.duration / 492)
+    timewarp.guided_warp(mm, mm, 280)
+    t, _ = best_of(lambda: timewarp.guided_warp(mm, mm, 280), 5)
+    cpu = CPU["<lambda>"]
+    def baseline():
+        tb = timewarp.prepare_warp(mm, mm, S, knn="exact", dtype=np.float64)
+        return constrained_dp(tb.scores, 280)
+    tb, _ = best_of(baseline, 3)
+    print(f"public guided_warp(m, m, 280), n = {mm.num_frames} (Table-1 size, everything included): {t * 1e3:.0f} ms "
+          f"wall, {cpu * 1e3:.0f} ms CPU (target <= 80 ms); float64 objective + plain DP {tb * 1e3:.0f} ms -> "
+          f"ratio baseline/ours {tb / t:.2f}x")
+
+
+def approx_error(X, R, m):
+    """The long-take objective (k nearest among C candidate reference frames) against the exact one."""
+    from stagger_nb.timewarp.dp import path_cost
+    from stagger_nb.timewarp.objective import candidate_scores
+    exact = knn_scores(X, R, S, K, dtype=np.float64)
+    f0, c0 = constrained_dp(exact, m)
+    for C in (8, 16, 32):
+        t, approx = best_of(lambda: candidate_scores(X, R, S, K, candidates=C), 3)
+        f1, _ = constrained_dp(approx, m)
+        fin = np.isfinite(exact)
+        rel = (approx[fin] - exact[fin]) / exact[fin]
+        print(f"approximate kNN, C = {C} candidates, Table-1 size: objective {t * 1e3:.0f} ms; scores exact in "
+              f"{np.mean(np.abs(rel) < 1e-6) * 100:.1f} % of triples (max over-estimate {rel.max() * 100:.0f} %); "
+              f"its optimal warp costs x{path_cost(exact, f1) / c0:.4f} the exact optimum (exact objective)")
+
+
+def child_long(F):
+    import json
+    import resource
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_wand import _long_clip, _peak_rss_mb
+    from stagger_nb import timewarp
+    m = _long_clip(F)
+    c0, t0 = time.process_time(), time.perf_counter()
+    tables = timewarp.prepare_warp(m, m, S)
+    t_head, c_head = time.perf_counter() - t0, time.process_time() - c0
+    num = int(round(0.65 * (F - 1))) + 1
+    c0, t0 = time.process_time(), time.perf_counter()
+    out, warp = timewarp.guided_warp(m, m, num, tables=tables)
+    t_tail, c_tail = time.perf_counter() - t0, time.process_time() - c0
+    j = timewarp.speed_jumps(warp, m.frame_time)
+    try:
+        timewarp.guided_warp(m, m, 10 * F)
+        refused = "accepted?!"
+    except ValueError as exc:
+        refused = str(exc)
+    del resource
+    print(json.dumps(dict(F=F, knn=tables.knn, head=t_head, head_cpu=c_head, tail=t_tail, tail_cpu=c_tail,
+                          rss=_peak_rss_mb(), p95=float(np.percentile(j, 95)), jmax=float(j.max()), refused=refused)))
+    return 0
+
+
+def long_take(F=20000):
+    import json
+    import subprocess
+    out = subprocess.run([sys.executable, __file__, "--child-long", str(F)], capture_output=True, text=True)
+    if out.returncode != 0:
+        print(f"long take {F} frames: FAILED\n{out.stderr[-2000:]}")
+        return
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    total = r["head"] + r["tail"]
+    print(f"long take: {F} frames x 31 joints at 120 Hz -> 65 %, self reference, knn={r['knn']} (C = 32), "
+          f"coarse-to-fine DP: tables {r['head']:.1f} s wall / {r['head_cpu']:.1f} s CPU, search + smoothing + "
+          f"resampling {r['tail']:.1f} / {r['tail_cpu']:.1f} s, total {total:.1f} s wall (target <= 30 s); peak RSS "
+          f"{r['rss']:.0f} MB (target <= 2 GB); speed jumps p95 {r['p95']:.3f}, max {r['jmax']:.3f}. "
+          f"The exact search would need {warp_memory_gib(F):.1f} GiB.")
+    print(f"   guided_warp(m, m, {10 * F}) -> ValueError: {r['refused']}")
+
+
+def warp_memory_gib(F):
+    from stagger_nb.timewarp import warp_memory
+    return warp_memory(F, F, S, 1, 93, knn="exact") / 2 ** 30
 
 
 def _tables_from(motion, n, scores, X):

@@ -473,9 +473,31 @@ def test_insert_delete_bad_arguments(fixture):
         staggered.insert_pose(sm, 30 * FT)  # on an existing pose
     with pytest.raises(ValueError, match="t must lie"):
         staggered.insert_pose(sm, 5.0)
-    late = staggered.succession(sm, root="LeftShoulder", s=0.03, l=2.0, poses=[1])  # LeftHand: +0.27 s
-    with pytest.raises(ValueError, match="LeftHand"):
-        staggered.insert_pose(late, float(sm.pose_times[1] + 0.15))  # would cut LeftHand's segment backwards
+    crossed = staggered.succession(sm, root="LeftShoulder", s=0.3, l=2.0, poses=[1])  # LeftHand +2.7 s
+    with pytest.raises(ValueError, match="LeftHand"):                # past pose 2's knot: out of order
+        staggered.insert_pose(crossed, float(sm.pose_times[1] + 0.15))
+
+
+def test_insert_pose_where_timing_edits_moved_knots_past_t(fixture):
+    """LeftHand's knot of pose 1 is moved 0.27 s later, past t: its new knot goes to the same relative
+    place in its own segment (a refinement like its neighbours'), the motion is unchanged, and the new
+    pose's editing knots are the pose at t."""
+    _, sm = fixture
+    late = staggered.succession(sm, root="LeftShoulder", s=0.03, l=2.0, poses=[1])
+    h = NAMES.index("LeftHand")
+    t = float(sm.pose_times[1] + 0.15)
+    assert knot_times(late)[1, h] > t                       # the hand's knot of pose 1 is past t
+    out = staggered.insert_pose(late, t)
+    T, T0 = knot_times(out), knot_times(late)
+    u = (t - late.pose_times[1]) / (late.pose_times[2] - late.pose_times[1])
+    assert T[2, h] == pytest.approx(T0[1, h] + u * (T0[2, h] - T0[1, h]), abs=1e-12)
+    assert out.refinements[2, NAMES.index("Spine")] == 0.0     # straddled: the knot sits at t
+    assert np.all(np.diff(T, axis=0) > 0)
+    a, b = max_change(evaluate(out), evaluate(late))
+    assert a.max() < 5e-3 and b.max() < 5e-3                  # as for other inserts after timing edits
+    at_t = evaluate(out, [t]).local_quats[0]
+    assert quat_angle(out.editing_knots[2], at_t).max() < 5e-3
+    assert staggered.delete_pose(out, 2).num_poses == late.num_poses
 
 
 @pytest.mark.parametrize("call, match", [

@@ -145,3 +145,40 @@ def test_keep_contacts_bad_input(walk):
         staggered.carry_contacts([1, 2], sm.contacts, m.frame_time)
     # no contacts: the evaluated motion itself
     assert np.array_equal(staggered.keep_contacts(sm, m, contacts=[]).local_quats, staggered.evaluate(sm).local_quats)
+
+
+def test_cull_after_timing_edits_keeps_the_warp(walk):
+    """cull keeps a subset of the poses at their times: their source knot times stay, so the contacts are
+    still carried (and held)."""
+    m, sm = walk
+    edited = stagger(sm)
+    culled = staggered.cull(edited, percent=60)
+    assert culled.num_poses < edited.num_poses
+    S, S_all = staggered.source_knot_times(culled), staggered.source_knot_times(edited)
+    rows = [int(np.flatnonzero(np.isclose(edited.pose_times, t))[0]) for t in culled.pose_times]
+    assert np.array_equal(S, S_all[rows])
+    carried = staggered.carry_contacts(culled, sm.contacts, m.frame_time)
+    assert carried != list(sm.contacts)                       # moved with the feet's timing
+    out = staggered.keep_contacts(culled, m)
+    assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+
+
+def test_carry_by_limb_uses_the_hip_timing(walk):
+    """carry_by="limb": a contact moves with its limb's upper joint (hip); shifting only the hips' knots
+    moves the feet's contacts, shifting only the toes' does not (and the other way round for "joint")."""
+    m, sm = walk
+    dt = 3 * m.frame_time
+    hips = staggered.succession(sm, root="LHipJoint", s=dt, l=1.0, joints=["LeftUpLeg"], poses=range(2, 11))
+    toes = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], poses=range(2, 11))
+    T0 = sm.pose_times
+    inner = [c for c in sm.contacts if c[0] == "LeftToeBase" and T0[2] + dt <= c[1] * m.frame_time
+             and (c[2] - 1) * m.frame_time <= T0[10]]
+    assert inner
+    for edited, by, moves in ((hips, "limb", True), (toes, "limb", False), (hips, "joint", False), (toes, "joint", True)):
+        got = staggered.carry_contacts(edited, inner, m.frame_time, carry_by=by)
+        assert got == [(n, a + 3 * moves, b + 3 * moves) for n, a, b in inner], (by, moves)
+    out = staggered.keep_contacts(stagger(sm), m, carry_by="limb")
+    carried = staggered.carry_contacts(stagger(sm), sm.contacts, m.frame_time, carry_by="limb")
+    assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+    with pytest.raises(ValueError, match="carry_by"):
+        staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="pelvis")

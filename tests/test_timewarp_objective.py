@@ -113,11 +113,12 @@ def test_pose_features_ignore_global_position_and_heading(shared_motion):
 def test_joint_weights_and_prefilter(shared_motion):
     m = shared_motion("bandai_walk.bvh").slice(0, 30)
     J = m.num_joints
-    raw = pose_features(m, prefilter=0.0).reshape(30, J, 3)
+    n = J - 1                                           # the static joint_Root above the pelvis is left out
+    raw = pose_features(m, prefilter=0.0).reshape(30, n, 3)
     w = np.linspace(0.0, 2.0, J)
-    weighted = pose_features(m, joint_weights=w, prefilter=0.0).reshape(30, J, 3)
-    np.testing.assert_allclose(weighted, raw * np.sqrt(w)[None, :, None], atol=1e-12)  # one product each
-    smooth = pose_features(m, prefilter=3 * m.frame_time).reshape(30, J, 3)
+    weighted = pose_features(m, joint_weights=w, prefilter=0.0).reshape(30, n, 3)
+    np.testing.assert_allclose(weighted, raw * np.sqrt(w[1:])[None, :, None], atol=1e-12)  # one product each
+    smooth = pose_features(m, prefilter=3 * m.frame_time).reshape(30, n, 3)
     np.testing.assert_allclose(smooth[5], raw[4:7].mean(axis=0), atol=1e-9)    # a 3-frame box, round-off
     with pytest.raises(ValueError, match="joint_weights"):
         pose_features(m, joint_weights=np.ones(J + 1))
@@ -151,3 +152,18 @@ def test_threads_give_the_same_table_and_report_progress():
     assert seen[-1] == 1.0 and np.all(np.diff(seen) > 0)
     with pytest.raises(ValueError, match="workers"):
         knn_scores(X, R, 5, 3, workers=0)
+
+
+@pytest.mark.parametrize("n,r,d,s,k", [(30, 25, 6, 4, 3), (17, 40, 9, 8, 1), (25, 12, 3, 3, 5)])
+def test_candidate_scores_with_every_candidate_are_exact(n, r, d, s, k):
+    """The long-take search (objective.candidate_scores) with C = all reference frames is the linear search."""
+    X, R = _walks(np.random.default_rng(n * r), n, r, d)
+    slow = knn_scores_loop(X, R, s, k, weights=(1.0, 2.0, 3.0))
+    full = objective.candidate_scores(X, R, s, k, weights=(1.0, 2.0, 3.0), candidates=r, chunk=7)
+    _finite_close(full, slow, rtol=1e-9, atol=1e-9)       # float64 round-off
+    few = objective.candidate_scores(X, R, s, k, weights=(1.0, 2.0, 3.0), candidates=k + 1)
+    fin = np.isfinite(slow)
+    assert np.array_equal(fin, np.isfinite(few))
+    assert np.all(few[fin] >= slow[fin] - 1e-9)            # fewer candidates can only miss neighbours
+    step = objective.candidate_scores(X, R, s, k, candidates=r, ref_step=1.5)
+    _finite_close(step, knn_scores_loop(X, R, s, k, ref_step=1.5), rtol=1e-9, atol=1e-9)

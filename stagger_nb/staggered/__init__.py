@@ -2,7 +2,10 @@
 
 Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_contacts`,
 :class:`StaggeredMotion` (``sm.pose_times (K,)``, ``sm.refinements (K, J)`` in seconds).
-The editing tools (§5) are in ``editing.py``, the IK constraint layer in ``constraints.py``.
+The editing tools (§5) are in ``editing.py`` (timing warnings: :func:`timing_warnings`, one plain sentence:
+:func:`summarize_timing_warnings`; the per-joint time warp of the timing edits: :func:`warp_times`), the IK
+constraint layer in ``constraints.py`` (:func:`keep_contacts`: the source's contacts carried through the
+timing edits and held), IK posing of a staggered pose in ``ik.py`` (:func:`ik_pose`).
 """
 from __future__ import annotations
 

@@ -192,6 +192,25 @@ def _window_targets(tgt, traj, act, weight, left, right) -> None:
 _REACH = 0.999  # fraction of a chain's full length the root drop makes available (a just-bent knee)
 
 
+def _pivot(off: np.ndarray, to_upper: np.ndarray, reach: float) -> np.ndarray:
+    """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) toward ``to_upper (n, 3)`` (toe target ->
+    upper joint) by the least angle that brings the ankle within ``reach`` of the upper joint: the heel
+    lifts further when the leg cannot reach otherwise (fully toward it if even that is not enough)."""
+    f = np.linalg.norm(off, axis=-1)
+    D = np.linalg.norm(to_upper, axis=-1)
+    u = to_upper / np.maximum(D, 1e-12)[:, None]
+    cos0 = np.sum(off * u, axis=-1) / np.maximum(f, 1e-12)
+    need = np.clip((D ** 2 + f ** 2 - reach ** 2) / np.maximum(2.0 * D * f, 1e-12), -1.0, 1.0)
+    turn = cos0 < need                                                  # too far with the given heel lift
+    if not turn.any():
+        return off
+    w = off - (cos0 * f)[:, None] * u                                    # part of off orthogonal to u
+    wn = np.linalg.norm(w, axis=-1)
+    w = np.where(wn[:, None] > 1e-12, w / np.maximum(wn, 1e-12)[:, None], 0.0)
+    sin = np.sqrt(1.0 - need ** 2)
+    return np.where(turn[:, None], f[:, None] * (need[:, None] * u + sin[:, None] * w), off)
+
+
 def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
     """Smallest smooth downward root offset ``(F,)`` (file units, >= 0) with which every held chain reaches
     ``_REACH`` of its length at its target on its active frames (vertical move only; a target horizontally beyond reach gets the
@@ -329,7 +348,11 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         t = targets[i]
         if eff != j:  # toe contact: ankle target keeps the foot's world orientation (or the given one)
             given = None if toe_offsets is None else toe_offsets[i]
-            t = t - (pos[s:e, j] - pos[s:e, eff]) if given is None else t + np.asarray(given, dtype=float)
+            if given is None:
+                t = t - (pos[s:e, j] - pos[s:e, eff])
+            else:
+                t = t + _pivot(np.asarray(given, dtype=float), pos[s:e, up] - t,
+                               _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid])))
         act[s:e] = True
         tgt[s:e] = t
 
@@ -414,13 +437,16 @@ def _timeline(edited):
     raise ValueError(f"edited must be a StaggeredMotion or a Motion, got {type(edited).__name__}")
 
 
-def _carry(edited, contacts, source_frame_time: float):
-    """``[(name, joint, start, stop, source_start, source_stop)]`` of the contacts that keep a frame."""
+def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint"):
+    """``[(name, joint, start, stop, source_start, source_stop, clock)]`` of the contacts that keep a frame
+    (``clock``: the joint whose time warp moved it)."""
     from .editing import warp_times
     from .representation import StaggeredMotion
     ft_s = float(source_frame_time)
     if not np.isfinite(ft_s) or ft_s <= 0:
         raise ValueError(f"source_frame_time must be > 0 seconds, got {source_frame_time!r}")
+    if carry_by not in ("joint", "limb"):
+        raise ValueError(f"carry_by must be 'joint' or 'limb', got {carry_by!r}")
     t0, ft, F, names = _timeline(edited)
     out = []
     for item in contacts:
@@ -436,16 +462,20 @@ def _carry(edited, contacts, source_frame_time: float):
         if not 0 <= a < b:
             raise ValueError(f"contacts: frame range [{a}, {b}) of {name!r} is empty or negative")
         times = np.array([a, b - 1], dtype=float) * ft_s
+        clock = name
+        if carry_by == "limb":
+            up = _chain(edited.skeleton, list(names).index(name))[0]
+            clock = names[up] if up >= 0 else name
         if isinstance(edited, StaggeredMotion):
-            times = warp_times(edited, times, name)
+            times = warp_times(edited, times, clock)
         start = max(int(np.ceil((times[0] - t0) / ft - 1e-6)), 0)
         stop = min(int(np.floor((times[1] - t0) / ft + 1e-6)) + 1, F)
         if stop > start:
-            out.append((str(name), list(names).index(name), start, stop, a, b))
+            out.append((str(name), list(names).index(name), start, stop, a, b, clock))
     return out
 
 
-def carry_contacts(edited, contacts, source_frame_time: float) -> list[tuple[str, int, int]]:
+def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str = "joint") -> list[tuple[str, int, int]]:
     """Contacts of the source moved in time with each contact joint's own timing edit.
 
     A contact ``(joint, start, stop)`` holds on source frames ``[start, stop)`` (times ``frame *
@@ -459,17 +489,22 @@ def carry_contacts(edited, contacts, source_frame_time: float) -> list[tuple[str
     edited : StaggeredMotion (timing-edited) or Motion (no timing edit: times map to themselves)
     contacts : list of (joint_name, start_frame, stop_frame), half-open source frames
     source_frame_time : float, seconds
+    carry_by : {"joint", "limb"}
+        Whose time warp moves a contact: the contact joint's own (default: "a foot's contact moves with that
+        foot's timing"), or the upper joint of its limb (hip / shoulder: the limb's timing relative to the
+        pelvis; a foot whose ankle lags the hip then ends its contact earlier, nearer to where the leg can
+        still reach, so :func:`keep_contacts` lowers the root less).
 
     Returns
     -------
     list of (joint_name, start_frame, stop_frame), half-open frames of the edited motion; contacts that
     shrink to no frame are dropped.
     """
-    return [(n, s_, e_) for n, _, s_, e_, _, _ in _carry(edited, contacts, source_frame_time)]
+    return [c[:1] + c[2:4] for c in _carry(edited, contacts, source_frame_time, carry_by)]
 
 
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
-                  lower_root: bool = True) -> Motion:
+                  lower_root: bool = True, carry_by: str = "joint") -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
     :func:`apply_contact_constraints` at the source's contact positions.
@@ -494,6 +529,8 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         Lower the root where a leg cannot reach its carried contact (default True: a foot whose timing
         lags the pelvis' would otherwise be dragged at the end of its contact); see
         :func:`apply_contact_constraints`.
+    carry_by : {"joint", "limb"}
+        Whose timing moves each contact (see :func:`carry_contacts`).
 
     Returns
     -------
@@ -514,16 +551,16 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         contacts = list(edited.contacts) if is_sm and edited.contacts else detect_contacts(source)
     _parse_contacts(source, contacts)                        # validates frames against the source
     motion = evaluate(edited) if is_sm else edited
-    carried = _carry(edited, contacts, source.frame_time)
+    carried = _carry(edited, contacts, source.frame_time, carry_by)
     if not carried:
         return motion
     src_pos = forward_kinematics(source)[0]
     sk = source.skeleton
     targets, toe_offsets = [], []
-    for name, j, s_, e_, a, b in carried:
+    for name, j, s_, e_, a, b, clock in carried:
         # source positions at the source time of every carried frame (inverse of the joint's warp)
         te = t0 + np.arange(s_, e_) * motion.frame_time
-        ts = warp_times(edited, te, name, inverse=True) if is_sm else te
+        ts = warp_times(edited, te, clock, inverse=True) if is_sm else te
         f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
         i0 = np.floor(f).astype(int)
         i1 = np.minimum(i0 + 1, source.num_frames - 1)

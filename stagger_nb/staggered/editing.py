@@ -372,16 +372,24 @@ def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
     ``source_knot_times(sm)[:, c] -> knots[:, c]`` (splines and displacement maps live on normalised segment
     time, so between two knots the edited motion replays the source segment linearly in time; see
     :func:`warp_times`). The editing tools record it in ``sm.metadata["source_knots"]`` at their first
-    edit and carry it through retiming, succession, random timing and pose insertion/deletion; an
-    ``sm`` without the record (a fresh extraction), or whose record no longer matches its pose count
-    (culled after timing edits), is taken as unedited: its own knots.
+    edit and carry it through retiming, succession, random timing and pose insertion/deletion (and a later
+    :func:`~stagger_nb.staggered.cull`, which keeps a subset of the poses at their times: their rows are
+    kept). An ``sm`` without the record (a fresh extraction), or whose poses no longer match it (retimed
+    by something other than these tools), is taken as unedited: its own knots.
     """
     K, J = sm.num_poses, sm.num_joints
     rec = sm.metadata.get("source_knots")
     if rec is not None:
         rec = np.asarray(rec, dtype=float)
-        if rec.shape == (K, J + 1):
+        at = np.asarray(sm.metadata.get("source_knots_pose_times", ()), dtype=float)
+        if rec.shape == (K, J + 1) and (at.shape != (K,) or np.allclose(at, sm.pose_times, rtol=0, atol=1e-9)):
             return rec
+        if at.shape == (rec.shape[0],) and rec.shape[1:] == (J + 1,):
+            # poses culled since the record (cull keeps a subset of the poses at their times): keep their rows
+            row = np.searchsorted(at, sm.pose_times)
+            row = np.clip(row, 0, at.size - 1)
+            if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
+                return rec[row]
     return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
 
 
@@ -440,6 +448,7 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     sk = np.array(source_knots, dtype=float)
     sk.setflags(write=False)
     meta["source_knots"] = sk
+    meta["source_knots_pose_times"] = new.pose_times        # the rows' poses (a later cull keeps a subset)
     # the object was created above and is not shared yet: set the two derived fields in place (as
     # __post_init__ does) instead of validating and copying every array a second time
     object.__setattr__(new, "editing_knots", editing)
@@ -755,10 +764,14 @@ def _split_rotation_bezier(c0, c1, c2, c3, u):
 def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     """Insert a pose at time ``t`` (seconds, strictly between two poses) without changing the motion.
 
-    The new pose has zero refinements and the current values at ``t``; each joint's segment is split with
-    the de Casteljau construction and the two new displacement maps are re-measured so the evaluated motion
-    is preserved on their sample grids ("we update the displacement map to preserve the global transition
-    values", §5.1). Raises ``ValueError`` if some joint's refined knots do not straddle ``t``.
+    Each control variable gets its new knot at ``t`` (zero refinement) when its refined knots of the two
+    neighbouring poses straddle ``t``; otherwise (timing edits moved them past ``t``, e.g. a succession down
+    a long limb) at the same relative place in its own segment, ``T[k] + u (T[k+1] - T[k])`` with
+    ``u = (t - t_k) / (t_{k+1} - t_k)`` (a refinement that follows the neighbours' staggering). The knot takes
+    the current value there, the editing knot the current value at ``t``; each segment is split with the de
+    Casteljau construction and the two new displacement maps are re-measured so the evaluated motion is
+    preserved on their sample grids ("we update the displacement map to preserve the global transition
+    values", §5.1). Raises ``ValueError`` where a joint's knots of the two poses are out of order.
     """
     _check(sm)
     t = _finite(t, "t")
@@ -768,23 +781,28 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     k = int(np.searchsorted(pt, t)) - 1      # new pose goes between k and k + 1
     K, J = sm.num_poses, sm.num_joints
     T = knot_times(sm)
-    bad = ~((T[k] < t) & (t < T[k + 1]))
+    bad = ~(T[k] < T[k + 1])
     if bad.any():
-        raise ValueError(f"t = {t} s is not between the refined knots of pose {k} and {k + 1} for joints "
-                         f"{[sm.skeleton.names[i] for i in np.flatnonzero(bad)]}")
+        raise ValueError(f"cannot insert a pose at t = {t} s: the refined knots of poses {k} and {k + 1} are out of "
+                         f"order for joints {[sm.skeleton.names[i] for i in np.flatnonzero(bad)]}")
     rk = sm.pose_times + sm.root_refinements
-    if not rk[k] < t < rk[k + 1]:
-        raise ValueError(f"t = {t} s is not between the root translation knots of pose {k} and {k + 1}")
+    if not rk[k] < rk[k + 1]:
+        raise ValueError(f"cannot insert a pose at t = {t} s: the root translation knots of poses {k} and {k + 1} "
+                         "are out of order")
+    u_pose = (t - pt[k]) / (pt[k + 1] - pt[k])
+    T_new = np.where((T[k] < t) & (t < T[k + 1]), t, T[k] + u_pose * (T[k + 1] - T[k]))     # (J,)
+    rk_new = t if rk[k] < t < rk[k + 1] else rk[k] + u_pose * (rk[k + 1] - rk[k])
     cols = np.arange(J)
-    v_t = _eval_rotations(sm, np.full(J, t), cols)
-    p_t = _eval_root(sm, np.array([t]))[0]
-    u = (t - T[k]) / (T[k + 1] - T[k])                 # (J,) where each joint's spline is split
+    v_t = _eval_rotations(sm, T_new, cols)                  # the new extreme values (at the new knots)
+    v0_t = _eval_rotations(sm, np.full(J, t), cols)         # the pose at t (editing knots)
+    p_t = _eval_root(sm, np.array([rk_new]))[0]
+    u = (T_new - T[k]) / (T[k + 1] - T[k])                  # (J,) where each joint's spline is split
     tg = sm.tangents[k]
     (l1, l2), (r1, r2) = _split_rotation_bezier(sm.values[k], tg[:, 0], tg[:, 1], sm.values[k + 1], u)
     values = np.insert(sm.values, k + 1, v_t, axis=0)
     tangents = np.concatenate([sm.tangents[:k], np.stack([l1, l2], 1)[None], np.stack([r1, r2], 1)[None],
                                sm.tangents[k + 1:]])
-    refinements = np.insert(sm.refinements, k + 1, 0.0, axis=0)
+    refinements = np.insert(sm.refinements, k + 1, T_new - t, axis=0)
     pose_times = np.insert(sm.pose_times, k + 1, t)
     knots = pose_times[:, None] + refinements
     seg = np.repeat([k, k + 1], J)
@@ -797,13 +815,13 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     dcounts[seg, joint] = counts
     disp = _put_rows(disp, (seg, joint), rows)
 
-    ua = (t - rk[k]) / (rk[k + 1] - rk[k])
+    ua = (rk_new - rk[k]) / (rk[k + 1] - rk[k])
     p0, (p1, p2), p3 = sm.root_values[k], sm.root_tangents[k], sm.root_values[k + 1]
     a, b, c = p0 + ua * (p1 - p0), p1 + ua * (p2 - p1), p2 + ua * (p3 - p2)
     d, e = a + ua * (b - a), b + ua * (c - b)
     root_values = np.insert(sm.root_values, k + 1, p_t, axis=0)
     root_tangents = np.concatenate([sm.root_tangents[:k], [[a, d]], [[e, c]], sm.root_tangents[k + 1:]])
-    root_ref = np.insert(sm.root_refinements, k + 1, 0.0)
+    root_ref = np.insert(sm.root_refinements, k + 1, rk_new - t)
     rknots = pose_times + root_ref
     rseg = np.array([k, k + 1])
     rcounts = _counts_for(rknots[rseg], rknots[rseg + 1], sm.frame_time)
@@ -815,13 +833,13 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     prob = np.insert(sm.pose_probability, k + 1, 0.0)
     tt = sm.translation_times
     if tt is not None:           # animated translations keep their source time at the new knot
-        tt = np.insert(tt, k + 1, translation_source_times(sm, [t])[0])
-    src = source_knot_times(sm)          # the new knot's source time: through each variable's warp
-    new_src = [warp_times(sm, [t], c, inverse=True)[0] for c in range(J + 1)]
+        tt = np.insert(tt, k + 1, translation_source_times(sm, [rk_new])[0])
+    src = source_knot_times(sm)          # the new knots' source times: through each variable's warp
+    new_src = [warp_times(sm, [x], c, inverse=True)[0] for c, x in enumerate(np.append(T_new, rk_new))]
     return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), translation_times=tt, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
-                    root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v_t, axis=0),
+                    root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v0_t, axis=0),
                     pose_probability=prob)
 
 

@@ -217,31 +217,34 @@ def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: 
         raise ValueError(f"target must be 3 finite numbers (world x, y, z), got {target!r}")
     ch = _parse_chain(sm, joint, chain)
     tk = float(sm.pose_times[k])
-    m0 = evaluate(sm, [tk])
-    tol = 1e-4 * skeleton_height(m0) if tolerance is None else _finite(tolerance, "tolerance")
+    tol = 1e-4 * skeleton_height(evaluate(sm, [tk])) if tolerance is None else _finite(tolerance, "tolerance")
     if tol <= 0:
         raise ValueError(f"tolerance must be > 0, got {tol}")
     parents = np.asarray(sm.skeleton.parents)
-    eff = ch[-1]
+    eff = ch[-1]                     # the requested joint, or the joint it sits on (zero-length bone)
     names = sm.skeleton.names
-    out = sm
+
+    def miss(motion):
+        return float(np.linalg.norm(forward_kinematics(evaluate(motion, [tk]))[0][0, eff] - tgt))
+
+    out, error = sm, miss(sm)
     for _ in range(_ROUNDS):
+        if error <= tol:
+            break
         m1 = evaluate(out, [tk])
         pos, wq = (x[0] for x in forward_kinematics(m1))
-        if np.linalg.norm(pos[eff] - tgt) <= tol:
-            break
         new = solve_limb(pos, wq, m1.local_quats[0], parents, ch, tgt, damping=damping, tolerance=0.1 * tol)
         if not new:
             break
-        target_quats = {names[j]: q for j, q in new.items()}
-        out = edit_pose(out, k, target={n: q for n, q in target_quats.items()}, mode="staggered",
-                        joints=list(target_quats))
-        before = np.linalg.norm(pos[eff] - tgt)
-        pos2 = forward_kinematics(evaluate(out, [tk]))[0][0]
-        if np.linalg.norm(pos2[eff] - tgt) >= before - 0.01 * tol:   # no further progress: out of reach
+        trial = edit_pose(out, k, target={names[j]: q for j, q in new.items()}, mode="staggered",
+                          joints=[names[j] for j in new])
+        e = miss(trial)
+        if e >= error - 0.01 * tol:                 # no further progress (out of reach): keep the best
+            if e < error:
+                out, error = trial, e
             break
+        out, error = trial, e
     pos = forward_kinematics(evaluate(out, [tk]))[0][0]
-    error = float(np.linalg.norm(pos[eff] - tgt))
     reached = error <= tol
     message = ""
     if not reached:
@@ -251,6 +254,7 @@ def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: 
         why = (f"it is {dist:.3g} units from the {names[top]}, farther than the stretched limb reaches ({reach:.3g})"
                if dist > reach - tol else "the limb cannot bend that far (the target is too close to the "
                f"{names[top]})" if dist < 0.5 * reach else "the limb could not get closer")
-        message = (f"{names[eff]} cannot reach the target at pose {k} ({tk:.2f} s): {why}; it stops at the "
+        asked = joint if isinstance(joint, str) else names[int(joint)]
+        message = (f"{asked} cannot reach the target at pose {k} ({tk:.2f} s): {why}; it stops at the "
                    f"nearest point it can reach, {error:.3g} units away.")
     return IKPoseResult(out, reached, error, message)

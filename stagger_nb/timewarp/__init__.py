@@ -9,15 +9,24 @@ Public names::
     out, warp = guided_warp(m, reference, num_frames, keytimes=..., tables=tables)   # cheap tail
 
 Keytimes are ``[(input_time_s, output_time_s), ...]``; the end points are implied.
+
+Editor capabilities (see :func:`guided_warp`): same-duration style warps (``num_frames == n`` with a different
+reference upsamples x2), free length (``num_frames=None``), backward warps (``backward=True``), keytimes.
+Long takes: ``knn="auto"`` switches to an approximate kNN (:func:`.objective.candidate_scores`) and the
+coarse-to-fine search; beyond ``MAX_SEARCH_FRAMES`` or ``MAX_WARP_BYTES`` (:func:`warp_memory`) a ValueError
+names the parameter and the remedy before anything is allocated.  :func:`speed_jumps` measures playback pops.
+The torso frame of the features is the pelvis (:func:`stagger_nb.core.body.pelvis_joint`), not joint 0.
 """
 from .dp import constrained_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
-from .guided import WarpSolution, WarpTables, guided_warp, prepare_warp, required_upsample, reverse_motion, solve_warp
+from .guided import (WarpSolution, WarpTables, guided_warp, prepare_warp, required_upsample, reverse_motion,
+                     solve_warp, warp_memory)
 from .linear import linear_warp, linear_warp_curve
 from .objective import knn_scores
-from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, warp_speed
+from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps, warp_speed
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
            "unconstrained_dp", "warp_bounds", "path_cost", "pose_features", "reference_features",
-           "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes"]
+           "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes",
+           "speed_jumps", "warp_memory"]

@@ -1,11 +1,16 @@
 """Pose features for guided time warping (Hsu et al. 2007, §3.2).
 
-A frame's *pose* is the vector of its joint positions in the character's torso (root) coordinate frame,
+A frame's *pose* is the vector of its joint positions in the character's torso coordinate frame,
 low-pass prefiltered to limit temporal aliasing of the finite differences (§3.2, last paragraph). The
 feature vector of an output frame is ``[y, ẏ, ÿ]`` where the derivatives are central finite differences
 *over output frames*: if input frames ``i, j, k`` are placed at consecutive output frames,
 
     y = x_j,    ẏ = (x_k - x_i) / 2,    ÿ = x_k - 2 x_j + x_i          (units: file units per output frame)
+
+The torso frame is the **pelvis's** (:func:`..core.body.pelvis_joint`, the joint where the legs' and the
+spine's chains branch), not joint 0's: on rigs whose joint 0 is a static root above the hips (the Bandai files)
+joint 0's frame does not move with the body, and positions in it carry the global travel (807 cm on
+bandai_walk). Only the pelvis's subtree enters the features (joints above it carry the travel too).
 
 Glossary: F frames, J joints, D = 3 J pose dimensions, n input frames, r reference frames.
 """
@@ -14,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from ..core.kinematics import positions_in_root_frame
+from ..core.body import positions_in_pelvis_frame
 from ..core.motion import Motion
 
 __all__ = ["pose_features", "prefilter_frames", "feature_weights", "triple_features", "reference_blocks",
@@ -42,19 +47,21 @@ def pose_features(motion: Motion, joint_weights=None, prefilter: float = 0.1) ->
 
     Returns
     -------
-    X : (F, 3 J) float64, joint positions in the root joint's frame (file units), flattened joint-major.
+    X : (F, 3 n) float64, positions of the pelvis's subtree (n joints, ``n = J`` when the pelvis is joint 0)
+        in the pelvis's frame (file units), flattened joint-major.
     """
     J = motion.num_joints
-    p = positions_in_root_frame(motion)  # (F, J, 3)
     if joint_weights is not None:
         w = np.asarray(joint_weights, dtype=float)
         if w.shape != (J,) or not np.all(np.isfinite(w)) or np.any(w < 0):
             raise ValueError(f"joint_weights must be {J} non-negative finite numbers, got shape {w.shape}")
-        p = p * np.sqrt(w)[None, :, None]
+    p, joints = positions_in_pelvis_frame(motion)  # (F, n, 3)
+    if joint_weights is not None:
+        p = p * np.sqrt(w[joints])[None, :, None]
     width = prefilter_frames(prefilter, motion.frame_time)
     if width > 1 and motion.num_frames > 1:
         p = uniform_filter1d(p, size=width, axis=0, mode="nearest")
-    return np.ascontiguousarray(p.reshape(motion.num_frames, 3 * J))
+    return np.ascontiguousarray(p.reshape(motion.num_frames, -1))
 
 
 def feature_weights(weights) -> tuple[float, float, float]:

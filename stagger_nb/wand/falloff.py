@@ -140,7 +140,8 @@ def falloff(m: Motion, frame: int, sigma: float | None = None, frame_range=None,
     basis_options
         Passed to :func:`.greens.greens_basis` (``method``, ``knn``, ``self_term``, ``joint_weights``, ...).
         The defaults deviate from Eqs. 1-3 as printed (reasons and measurements in :mod:`.greens`); the
-        paper's formula is ``self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity"``.
+        paper's formula is ``self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
+        heading="keep"`` (the default pose space is heading-invariant, :mod:`.pose_space`).
 
     Returns
     -------

@@ -7,7 +7,8 @@ few terms of the sum are needed since it is dominated by the smaller eigenvalues
 What exactly is computed (the choices the paper leaves open, stated once):
 
 **Deviations from the paper, and why the defaults are not Eq. 3 as printed.**  The paper's formula is
-``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity")``
+``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
+heading="keep")`` (``heading``: the default pose space leaves the root's heading out, :mod:`.pose_space`)
 (every flag is opt-in).  Measured on the issue's checks (default sigma, N = 50; same-phase weight must be
 >= 0.8 and opposite-phase <= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
 0.67 / 0.59 (frames 10 / 20); bandai_run_cycle looped x4 same phase 0.47 / 0.81 / 0.56 and opposite
@@ -47,6 +48,9 @@ about a small negative shift, memory ``O(F (k + N))``.  Only the rows an edit ne
 """
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,24 +59,31 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..core.motion import Motion
-from .laplacian import (CHAIN_FLOOR, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
+from .laplacian import (CHAIN_FLOOR, _check_sigma, normalized_adjacency, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
                         pairwise_sq_distances, sparse_kernel)
 from .pose_space import pose_vectors
 
-__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "BASIS_CACHE",
-           "DENSE_MAX_FRAMES", "DEFAULT_NUM_EIGS", "DEFAULT_KNN"]
+__all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
+           "DENSE_MAX_FRAMES", "SPARSE_MAX_FRAMES", "MAX_LANDMARKS", "DEFAULT_NUM_EIGS", "DEFAULT_KNN", "cached_pose_graph", "clear_graph_cache"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
 DEFAULT_NUM_EIGS = 50    # N, the number of non-null eigenpairs kept in Eq. 3
-BASIS_CACHE = 8          # GreensBasis objects each PoseGraph keeps (O(F N) each)
+GRAPH_CACHE = 4          # PoseGraphs the one-call functions (falloff, propagate, greens_basis) keep, see below
+SPARSE_MAX_FRAMES = 20000  # method="auto": the sparse graph of every frame up to this many, landmarks above
+MAX_LANDMARKS = 8000       # frames of a landmark graph at most
 DEFAULT_KNN = 64         # neighbours per frame of the sparse kernel (~0.25 s of motion either side at 120 Hz)
 # Shift-invert centre for eigsh: L + 1e-5 I is positive definite (it factorises) and well enough conditioned
 # (2e5) for double precision, while 1e-5 stays below the wanted eigenvalues of long clips (~1e-5..1e-3),
 # whose transformed values 1/(lambda + 1e-5) are then well separated (faster convergence than 1e-3).
 _SHIFT = -1e-5
 _EIGSH_TOL = 1e-8  # ARPACK relative accuracy of the Ritz values (eigenvalues change by ~1e-12 relative vs 0)
-_COEF_TOL = 1e-10  # spectral weights below this are rounding noise of lambda = 1
+_F32_MIN_FRAMES = 300  # dense eigenpairs in float32 + a float64 Rayleigh-Ritz step above this many frames
+_F32_EXTRA = 8         # extra float32 eigenvectors in that subspace (a buffer at the cut)
+_COEF_TOL = 1e-10
+LA_MAX_FRAMES = 4000   # sparse path: plain Lanczos on A up to this many frames, shift-invert above
+_LA_TOL = 1e-10        # its ARPACK tolerance (relative to mu ~ 1)
+_LA_EXTRA = 70         # Krylov space of k + this (measured fastest on CMU 01_01 among 2k+1 .. k+150)  # spectral weights below this are rounding noise of lambda = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,16 +171,20 @@ class PoseGraph:
     knn : KnnGraph
         The sparse kernel's neighbours; on the dense path a small table (k = 8) backs ``default_sigma``.
     method : str
-        ``"dense"`` or ``"sparse"``.
+        ``"dense"``, ``"sparse"`` or ``"landmarks"``.
+    landmarks : ndarray, shape (F_l,), int, or None
+        ``"landmarks"`` (long takes): the frames the graph is built on (every ``stride``-th frame and the last);
+        ``knn`` indexes them, and the eigenvectors are interpolated linearly in time to every frame.
 
-    ``basis()`` remembers its last ``BASIS_CACHE`` results (a slider moved back to a value costs nothing).
+    Immutable, with no hidden state: ``basis(sigma)`` computes a new :class:`GreensBasis` on every call.  A
+    caller that revisits sigma values keeps the bases it wants (the session's cache does).
     """
 
     pose_vectors: np.ndarray
     sq_distances: np.ndarray | None
     knn: KnnGraph
     method: str
-    _cache: dict = field(default_factory=dict, init=False, repr=False)
+    landmarks: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -183,20 +198,10 @@ class PoseGraph:
     def basis(self, sigma: float | None = None, num_eigs: int | None = None, self_term: bool = False,
               normalization: str = "random_walk", chain_floor: float = CHAIN_FLOOR) -> GreensBasis:
         """Eigenpairs for kernel width ``sigma`` (default :attr:`default_sigma`); see :func:`greens_basis`."""
-        key = (None if sigma is None else float(sigma), num_eigs, bool(self_term), normalization, float(chain_floor))
-        hit = self._cache.pop(key, None)
-        if hit is None:
-            hit = self._basis(sigma, num_eigs, self_term, normalization, chain_floor)
-        self._cache[key] = hit                 # most recent last
-        while len(self._cache) > BASIS_CACHE:
-            self._cache.pop(next(iter(self._cache)))
-        return hit
-
-    def _basis(self, sigma, num_eigs, self_term, normalization, chain_floor) -> GreensBasis:
         F = self.num_frames
         if F < 2:
             raise ValueError("the magic wand needs at least 2 frames")
-        s = self.default_sigma if sigma is None else sigma
+        s = self.default_sigma if sigma is None else _check_sigma(sigma)
         if normalization not in ("random_walk", "symmetric"):
             raise ValueError(f"normalization must be 'random_walk' or 'symmetric', got {normalization!r}")
         N = DEFAULT_NUM_EIGS if num_eigs is None else int(num_eigs)
@@ -212,13 +217,39 @@ class PoseGraph:
             raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (every frame is its own component); "
                              "increase sigma")
         vecs = phi / np.sqrt(r)[:, None] if normalization == "random_walk" else phi
+        if self.landmarks is not None:
+            vecs, r = _interpolate_frames(self.landmarks, F, vecs), _interpolate_frames(self.landmarks, F, r)
         return GreensBasis(lam, np.ascontiguousarray(vecs), r, float(s), bool(self_term), normalization,
                            self.method, null_dim)
 
 
+def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.ndarray:
+    """Values at ascending ``frames`` (first 0, last F - 1), shape (F_l, ...) -> every frame, (F, ...),
+    linearly in time."""
+    t = np.arange(F)
+    i1 = np.clip(np.searchsorted(frames, t, side="right"), 1, frames.size - 1)
+    i0 = i1 - 1
+    w = ((t - frames[i0]) / (frames[i1] - frames[i0])).reshape((F,) + (1,) * (values.ndim - 1))
+    return np.ascontiguousarray(values[i0] * (1.0 - w) + values[i1] * w)
+
+
 def _eigh_smallest(L: np.ndarray, hi: int):
-    """The ``hi`` smallest eigenpairs of dense symmetric ``L``, ascending, + null mask."""
-    lam, phi = sla.eigh(L, subset_by_index=[0, hi - 1], check_finite=False, driver="evr")
+    """The ``hi`` smallest eigenpairs of dense symmetric ``L``, ascending, + null mask.
+
+    Above ``_F32_MIN_FRAMES`` frames the tridiagonalisation (the O(F^3) part) runs in float32, for
+    ``_F32_EXTRA`` more eigenvectors than asked, and one Rayleigh-Ritz step in float64 on that subspace
+    (``Q^T L Q``, ``(F, hi)`` products) restores double-precision eigenvalues (the null space is then found
+    with ``NULL_TOL`` as before): half the time of the float64 solver on 600 frames.  Measured on 600
+    frames of pymo_walk_turnaround: eigenvalues within 5e-13 of float64, falloffs within 2e-6."""
+    F = L.shape[0]
+    if F <= _F32_MIN_FRAMES:
+        lam, phi = sla.eigh(L, subset_by_index=[0, hi - 1], check_finite=False, driver="evr")
+        return lam, phi, lam < NULL_TOL
+    h2 = min(F, hi + _F32_EXTRA)
+    _, q = sla.eigh(L.astype(np.float32), subset_by_index=[0, h2 - 1], check_finite=False, driver="evr")
+    Q, _ = np.linalg.qr(q.astype(np.float64))
+    theta, Y = np.linalg.eigh(Q.T @ (L @ Q))
+    lam, phi = theta[:hi], Q @ Y[:, :hi]
     return lam, phi, lam < NULL_TOL
 
 
@@ -255,15 +286,40 @@ def _eigsh_smallest(L, k: int, v0: np.ndarray, op=None):
     return lam, phi, lam < NULL_TOL
 
 
+def _largest_adjacency(K, k: int, v0: np.ndarray):
+    """``k`` eigenpairs of ``L`` from the largest of ``A = D^-1/2 K D^-1/2`` (plain Lanczos, no factorisation;
+    ``L = I - A``), ascending in ``lambda``, + null mask.  The eigenvalues are the Rayleigh quotients
+    ``phi^T L phi`` (accurate to ~1e-15 absolute, where ``1 - mu`` would keep the Ritz tolerance)."""
+    A, _ = normalized_adjacency(K)
+    ncv = min(A.shape[0] - 1, max(2 * k + 1, k + _LA_EXTRA))
+    mu, phi = spla.eigsh(A, k=k, which="LA", v0=v0, ncv=ncv, tol=_LA_TOL)
+    phi = phi[:, np.argsort(-mu)]
+    lam = np.maximum(np.einsum("fk,fk->k", phi, phi - A @ phi), 0.0)
+    order = np.argsort(lam, kind="stable")
+    lam, phi = lam[order], phi[:, order]
+    return lam, phi, lam < NULL_TOL
+
+
 def _sparse_eigs(K, N: int):
-    """Smallest non-null eigenpairs of the sparse normalised Laplacian by shift-invert Lanczos."""
+    """Smallest non-null eigenpairs of the sparse normalised Laplacian: plain Lanczos on ``A`` up to
+    ``LA_MAX_FRAMES`` frames (measured on CMU 01_01, 2,751 frames: 0.19 s CPU against 0.41 s for shift-invert,
+    whose sparse LU fills in), shift-invert Lanczos above (the small eigenvalues of long clips cluster near 0,
+    where plain Lanczos converges slowly)."""
     F = K.shape[0]
     r = np.asarray(K.sum(axis=1)).reshape(-1)
     if F <= 2 * N + 16:  # ARPACK needs k < F - 1 and room for its Krylov space; tiny graphs go dense
         return _dense_eigs(K.toarray(), N)
     k = N + 1
-    L = normalized_laplacian(K).tocsc()
     v0 = np.sqrt(r) / np.linalg.norm(np.sqrt(r))  # a deterministic start vector (the null vector itself)
+    if F <= LA_MAX_FRAMES:
+        lam, phi, null = _largest_adjacency(K, k, v0)
+        null_dim = int(np.count_nonzero(null))
+        if null_dim > 1 and k < F - 2:
+            lam, phi, null = _largest_adjacency(K, min(N + null_dim, F - 2), v0)
+            null_dim = int(np.count_nonzero(null))
+        keep = np.flatnonzero(~null)[:N]
+        return lam[keep], phi[:, keep], null_dim, r
+    L = normalized_laplacian(K).tocsc()
     op = _shift_invert(L)
     lam, phi, null = _eigsh_smallest(L, k, v0, op)
     null_dim = int(np.count_nonzero(null))
@@ -275,27 +331,36 @@ def _sparse_eigs(K, N: int):
 
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
-               time_weight: float = 0.0, reference="mean") -> PoseGraph:
+               time_weight: float = 0.0, reference="mean", heading: str = "remove") -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
     ----------
     motion : Motion
-    method : "auto" | "dense" | "sparse"
-        ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames.  Dense keeps ``F x F`` squared distances.
+    method : "auto" | "dense" | "sparse" | "landmarks"
+        ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames, sparse up to ``SPARSE_MAX_FRAMES``, landmarks above.
+        Dense keeps ``F x F`` squared distances; sparse a kNN table of every frame; ``landmarks`` (long takes)
+        builds the sparse graph on every ``ceil(F / MAX_LANDMARKS)``-th frame (and the last) and interpolates
+        its eigenvectors linearly in time, so the eigenproblem stays at most ``MAX_LANDMARKS`` frames (a
+        sparse LU of 100,000 frames does not fit in 4 GB).  An approximation, and not a small one on every clip:
+        against the sparse graph of every frame, on the 20,000-frame benchmark clip (xia walk/run copies),
+        stride 2 gives falloffs within mean 0.009 / max 0.07, stride 4 mean 0.017 / max 0.19; on a 400-frame
+        synthetic cyclic clip stride 2 gives mean 0.28 (the temporal chain's diffusion, which the chain floor
+        makes strong, depends on the sampling).  ``benchmarks/bench_wand.py`` prints the figures.
     knn : int
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
-    joint_weights, time_weight, reference
-        See :func:`.pose_space.pose_vectors`.
+    joint_weights, time_weight, reference, heading
+        See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
     """
-    if method not in ("auto", "dense", "sparse"):
-        raise ValueError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
-    X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference)
+    if method not in ("auto", "dense", "sparse", "landmarks"):
+        raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
+    X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference,
+                     heading=heading)
     F = X.shape[0]
     if F < 2:
         raise ValueError("the magic wand needs a motion with at least 2 frames")
     if method == "auto":
-        method = "dense" if F <= DENSE_MAX_FRAMES else "sparse"
+        method = "dense" if F <= DENSE_MAX_FRAMES else ("sparse" if F <= SPARSE_MAX_FRAMES else "landmarks")
     if method == "dense":
         D2 = pairwise_sq_distances(X)
         table = knn_graph(X, min(8, F - 1))
@@ -303,16 +368,66 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     k = int(knn)
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
-    return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
+    if method == "sparse":
+        return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
+    stride = max(1, -(-F // MAX_LANDMARKS))
+    frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
+    return PoseGraph(X, None, knn_graph(X[frames], min(k, frames.size - 1)), "landmarks", frames)
+
+
+_GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
+_GRAPHS_LOCK = threading.Lock()
+
+
+def _graph_key(motion: Motion, options: dict) -> bytes:
+    """Content key of (motion rotations, skeleton, options): a BLAKE2b digest, never ``id()``."""
+    h = hashlib.blake2b(digest_size=20)
+    h.update(np.ascontiguousarray(motion.local_quats).view(np.uint8).reshape(-1))
+    h.update(np.asarray(motion.skeleton.parents, dtype=np.int64).tobytes())
+    h.update(repr((motion.num_frames, motion.frame_time, motion.skeleton.names)).encode())
+    for name in sorted(options):
+        v = options[name]
+        h.update(name.encode())
+        h.update(np.asarray(v, dtype=float).tobytes() if isinstance(v, np.ndarray) else repr(v).encode())
+    return h.digest()
+
+
+def cached_pose_graph(motion: Motion, **options) -> PoseGraph:
+    """:func:`pose_graph` through a small module cache, so the one-call functions (:func:`greens_basis`,
+    ``wand.falloff``, ``wand.propagate``) do not rebuild the sigma-independent graph when only sigma changes.
+
+    Explicit and bounded: keyed by the content of ``motion.local_quats``, the skeleton and ``options`` (a
+    BLAKE2b digest; about 1 ms per MB of rotations), holds the last :data:`GRAPH_CACHE` graphs, least recently
+    used out first; :func:`clear_graph_cache` empties it.  Graphs are immutable, so sharing them is safe.
+    Callers that manage their own caching (the session) call :func:`pose_graph` directly."""
+    key = _graph_key(motion, options)
+    with _GRAPHS_LOCK:
+        g = _GRAPHS.get(key)
+        if g is not None:
+            _GRAPHS.move_to_end(key)
+            return g
+    g = pose_graph(motion, **options)
+    with _GRAPHS_LOCK:
+        _GRAPHS[key] = g
+        while len(_GRAPHS) > GRAPH_CACHE:
+            _GRAPHS.popitem(last=False)
+    return g
+
+
+def clear_graph_cache() -> None:
+    """Empty the module cache of :func:`cached_pose_graph`."""
+    with _GRAPHS_LOCK:
+        _GRAPHS.clear()
 
 
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean") -> GreensBasis:
+                 reference="mean", heading: str = "remove") -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
-    For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value.
+    For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
+    form reuses the graph of the same motion and options through :func:`cached_pose_graph`.
 
     Parameters
     ----------
@@ -324,11 +439,13 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference
+    method, knn, joint_weights, time_weight, reference, heading
         See :func:`pose_graph`.
     """
-    g = pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                   reference=reference)
+    if sigma is not None:
+        _check_sigma(sigma)
+    g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
+                          reference=reference, heading=heading)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 

@@ -130,10 +130,19 @@ def default_sigma(X: np.ndarray | None = None, knn: KnnGraph | None = None,
     return max(s, 1e-9)
 
 
+MIN_SIGMA = 1e-150  # below this 1 / (2 sigma^2) overflows double precision
+
+
 def _check_sigma(sigma) -> float:
-    s = float(sigma)
-    if not np.isfinite(s) or s <= 0:
+    try:
+        s = float(sigma)
+    except (TypeError, ValueError):
+        raise ValueError(f"sigma must be a finite number > 0, got {sigma!r}") from None
+    if isinstance(sigma, bool) or not np.isfinite(s) or s <= 0:
         raise ValueError(f"sigma must be a finite number > 0, got {sigma!r}")
+    if s < MIN_SIGMA:
+        raise ValueError(f"sigma={sigma!r} is too small: the kernel exp(-d^2 / 2 sigma^2) needs sigma >= "
+                         f"{MIN_SIGMA:g}; use sigma=None for the clip's default or a value near it")
     return s
 
 

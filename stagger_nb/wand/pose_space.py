@@ -20,6 +20,14 @@ Optional per-joint weights scale each joint's three log coordinates, and an opti
 (the paper: "it may be desirable to include the temporal distance between poses") appends
 ``time_weight * t`` so that ``d(p_i, p_j)^2 = sum_j w_j^2 |log q_ij - log q_jj|^2 + time_weight^2 (t_i - t_j)^2``.
 
+**Heading** (issue 13 item 10; a deviation from the paper, whose pose vector holds the root's rotation as
+is): by default the pose space is *heading-invariant*.  The pelvis (:func:`..core.body.pelvis_joint`, not
+necessarily joint 0) enters with its world rotation minus its heading, the twist about the vertical axis
+(:func:`..core.body.remove_heading`; pitch and roll kept), and the joints above it (a static root) are left
+out.  Otherwise a walk that turns puts the same phase one stride later far away in pose space: measured on
+bandai_walk_turn_left the same-phase weight was 0.25 with the heading, 0.87 without.  ``heading="keep"``
+gives the paper's form (every joint's local rotation, the root's heading included).
+
 Shapes: F frames, J joints, D = 3 J (+ 1 with the temporal term) pose dimensions.
 """
 from __future__ import annotations
@@ -28,11 +36,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..core.body import pelvis_joint, remove_heading, up_axis
 from ..core.motion import Motion
 from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul
 
 __all__ = ["mean_rotations", "reference_rotations", "pose_logs", "pose_exps", "pose_vectors",
-           "joint_weight_array"]
+           "joint_weight_array", "heading_free_quats", "HEADINGS"]
+
+HEADINGS = ("remove", "keep")
+_UP_SAMPLES = 256   # frames used to find the vertical axis (:func:`..core.body.up_axis`)
 
 
 def mean_rotations(local_quats: np.ndarray) -> np.ndarray:
@@ -119,7 +131,31 @@ def joint_weight_array(skeleton, joint_weights) -> np.ndarray:
     return w
 
 
-def pose_vectors(motion: Motion, joint_weights=None, time_weight: float = 0.0, reference="mean") -> np.ndarray:
+def heading_free_quats(motion: Motion, up=None) -> np.ndarray:
+    """Local rotations ``(F, J, 4)`` with the pelvis's heading removed (module docstring).
+
+    The pelvis row holds its *world* rotation minus the twist about ``up`` (default: :func:`..core.body.up_axis`
+    of the motion), the rows of its ancestors the identity; every other row is the local rotation.
+    """
+    q = np.array(motion.local_quats, dtype=float)
+    skel = motion.skeleton
+    p = pelvis_joint(skel)
+    if up is None:
+        step = max(1, motion.num_frames // _UP_SAMPLES)
+        up = up_axis(motion.slice(0, motion.num_frames, step))
+    chain = [p]
+    while skel.parents[chain[-1]] >= 0:
+        chain.append(int(skel.parents[chain[-1]]))
+    world = q[:, chain[-1]]
+    for a in reversed(chain[:-1]):
+        world = quat_mul(world, q[:, a])
+    q[:, p] = remove_heading(world, np.asarray(up, dtype=float))
+    q[:, chain[1:]] = [0.0, 0.0, 0.0, 1.0]
+    return q
+
+
+def pose_vectors(motion: Motion, joint_weights=None, time_weight: float = 0.0, reference="mean",
+                 heading: str = "remove") -> np.ndarray:
     """Pose vectors of every frame (§3: concatenated log-map rotational dofs).
 
     Parameters
@@ -132,6 +168,9 @@ def pose_vectors(motion: Motion, joint_weights=None, time_weight: float = 0.0, r
         Weight of the temporal term: the extra coordinate is ``time_weight * t`` with ``t`` in seconds.
     reference : "mean" (default), "identity" or ndarray (J, 4)
         Per-joint rotation the log map is taken about (see the module docstring).
+    heading : "remove" (default) | "keep"
+        Leave the pelvis's heading (yaw about the vertical) out of the pose, keeping pitch and roll
+        (heading-invariant), or keep every local rotation as in the paper (module docstring).
 
     Returns
     -------
@@ -141,8 +180,11 @@ def pose_vectors(motion: Motion, joint_weights=None, time_weight: float = 0.0, r
     tw = float(time_weight)
     if not np.isfinite(tw) or tw < 0:
         raise ValueError(f"time_weight must be a finite number >= 0, got {time_weight!r}")
-    ref = reference_rotations(motion.local_quats, reference)
-    logs = pose_logs(motion.local_quats, ref) * w[None, :, None]
+    if heading not in HEADINGS:
+        raise ValueError(f"heading must be one of {HEADINGS}, got {heading!r}")
+    q = heading_free_quats(motion) if heading == "remove" else motion.local_quats
+    ref = reference_rotations(q, reference)
+    logs = pose_logs(q, ref) * w[None, :, None]
     X = logs.reshape(motion.num_frames, -1)
     if tw > 0:
         X = np.concatenate([X, (tw * motion.times)[:, None]], axis=1)

@@ -1,0 +1,129 @@
+"""Body landmarks found on any rig: the pelvis, the vertical axis, and heading-free root rotations.
+
+Joint 0 is not always the pelvis: the Bandai files put a static ``joint_Root`` (at the origin, or translating
+on its own) above the walking ``Hips``.  Techniques that need the character's torso frame (guided time
+warping, §3.2 of Hsu et al. 2007) or its heading (the magic wand's pose space) find the pelvis here.
+
+Glossary: F frames, J joints; quaternions (x, y, z, w).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .kinematics import forward_kinematics
+from .motion import Motion
+from .rotations import quat_conj, quat_mul, quat_normalize, quat_rotate
+from .skeleton import Skeleton
+
+__all__ = ["pelvis_joint", "subtree", "up_axis", "heading_quats", "remove_heading"]
+
+
+def subtree(skeleton: Skeleton, j: int) -> np.ndarray:
+    """Joint ``j`` and all its descendants, ascending indices, shape (n,) int."""
+    inside = np.zeros(skeleton.num_joints, dtype=bool)
+    inside[j] = True
+    for c in range(j + 1, skeleton.num_joints):     # parents come before children
+        if inside[skeleton.parents[c]]:
+            inside[c] = True
+    return np.flatnonzero(inside)
+
+
+def pelvis_joint(skeleton: Skeleton) -> int:
+    """Index of the pelvis: the joint where the legs' and the spine's chains branch.
+
+    The shallowest joint with at least three child *chains* (children that have children of their own, so
+    an End Site or a one-joint prop does not count): ``Hips`` on CMU-style, Bandai and PyMO rigs (below
+    Bandai's static ``joint_Root``), the CMU ASF root.  A rig without such a joint but with several leaves
+    (a two-legged toy) gets the deepest common ancestor of its leaves; a single chain gets joint 0.
+    """
+    parents = skeleton.parents
+    J = skeleton.num_joints
+    has_child = np.zeros(J, dtype=bool)
+    has_child[parents[1:]] = True
+    chains = np.zeros(J, dtype=int)
+    for c in range(1, J):
+        if has_child[c]:
+            chains[parents[c]] += 1
+    depth = skeleton.depth()
+    branching = np.flatnonzero(chains >= 3)
+    if branching.size:
+        return int(branching[np.argmin(depth[branching])])
+    # deepest common ancestor of the leaves
+    leaves = np.flatnonzero(~has_child)
+    if leaves.size < 2:
+        return 0
+    ancestors = None
+    for leaf in leaves:
+        path, a = set(), int(leaf)
+        while a >= 0:
+            path.add(a)
+            a = int(parents[a])
+        ancestors = path if ancestors is None else ancestors & path
+    common = sorted(ancestors or {0}, key=lambda a: depth[a])
+    return int(common[-1])
+
+
+def up_axis(motion: Motion, positions: np.ndarray | None = None) -> np.ndarray:
+    """The world's vertical axis for ``motion``, a unit coordinate axis, shape (3,).
+
+    The mean over frames of (spine subtree centre - leg subtrees centre), the pelvis's child chains split by
+    size (the largest chain, which holds the arms and the head, is the spine), snapped to the nearest
+    coordinate axis (±X, ±Y or ±Z).  Falls back to +Y (the BVH convention) when the rig has a single chain.
+    ``positions`` (F, J, 3) from :func:`.kinematics.forward_kinematics` may be given to reuse them.
+    """
+    skel = motion.skeleton
+    p = skel.children(pelvis_joint(skel))
+    chains = [subtree(skel, c) for c in p if skel.children(c)]
+    if len(chains) < 2:
+        return np.array([0.0, 1.0, 0.0])
+    if positions is None:
+        positions, _ = forward_kinematics(motion)
+    chains.sort(key=len)
+    spine = chains[-1]
+    legs = np.concatenate(chains[:-1])
+    v = (positions[:, spine].mean(axis=(0, 1)) - positions[:, legs].mean(axis=(0, 1)))
+    if not np.all(np.isfinite(v)) or not np.any(v):
+        return np.array([0.0, 1.0, 0.0])
+    a = int(np.argmax(np.abs(v)))
+    up = np.zeros(3)
+    up[a] = np.sign(v[a])
+    return up
+
+
+def heading_quats(world_quats: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """The heading (twist about the vertical ``up``) of rotations ``(..., 4)`` -> ``(..., 4)``.
+
+    Swing-twist: ``q = h s`` with ``h`` a rotation about ``up`` (the heading, yaw) and ``s`` a swing about a
+    horizontal axis (pitch and roll).  ``h = normalize((v . up) up, w)`` for ``q = (v, w)``; where both are 0
+    (a half-turn about a horizontal axis, where the heading is undefined) ``h`` is the identity.
+    """
+    q = np.asarray(world_quats, dtype=float)
+    u = np.asarray(up, dtype=float)
+    proj = np.sum(q[..., :3] * u, axis=-1, keepdims=True)
+    h = np.concatenate([proj * u, q[..., 3:]], axis=-1)
+    n = np.linalg.norm(h, axis=-1, keepdims=True)
+    bad = n[..., 0] < 1e-12
+    h = np.where(bad[..., None], np.array([0.0, 0.0, 0.0, 1.0]), h / np.where(n < 1e-12, 1.0, n))
+    return h
+
+
+def remove_heading(world_quats: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """``h^-1 q``: rotations ``(..., 4)`` with their heading about ``up`` removed, pitch and roll kept."""
+    q = np.asarray(world_quats, dtype=float)
+    return quat_normalize(quat_mul(quat_conj(heading_quats(q, up)), q))
+
+
+def positions_in_pelvis_frame(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the pelvis's subtree in the pelvis's moving frame: ``R_p(t)^-1 (x_j(t) - x_p(t))``.
+
+    Returns ``(positions (F, n, 3), joints (n,))`` with ``joints`` the subtree's indices (the pelvis first,
+    its row zero).  Joints above the pelvis (a static root) are left out: they carry the global travel.
+    """
+    pos, wq = forward_kinematics(motion)
+    pelvis = pelvis_joint(motion.skeleton)
+    joints = subtree(motion.skeleton, pelvis)
+    rel = pos[:, joints] - pos[:, pelvis:pelvis + 1]
+    return quat_rotate(quat_conj(wq[:, pelvis:pelvis + 1]), rel), joints
+
+
+__all__ += ["positions_in_pelvis_frame"]

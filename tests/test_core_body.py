@@ -1,0 +1,94 @@
+"""Pelvis, vertical axis and heading on any rig (issue 13 items 9 and 10): a static root above the hips
+must not leak global travel into torso-frame features."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stagger_nb import Motion, Skeleton, data, forward_kinematics
+from stagger_nb.core.body import heading_quats, pelvis_joint, remove_heading, up_axis
+from stagger_nb.core.rotations import quat_angle, quat_mul, rotvec_to_quat
+from stagger_nb.timewarp import pose_features
+
+
+def static_root_rig(m: Motion) -> Motion:
+    """``m`` with a static ``joint_Root`` at the origin inserted above joint 0, which keeps the motion as its
+    own animated translation (the Bandai layout)."""
+    sk = m.skeleton
+    J = sk.num_joints
+    skel = Skeleton(("joint_Root",) + sk.names, np.concatenate([[-1], np.where(sk.parents < 0, 0, sk.parents + 1)]),
+                    np.vstack([np.zeros(3), sk.offsets]))
+    F = m.num_frames
+    lt = np.empty((F, J + 1, 3))
+    lt[:, 1:] = m.local_translations if m.local_translations is not None else sk.offsets
+    lt[:, 0] = 0.0
+    lt[:, 1] = m.root_positions
+    q = np.concatenate([np.tile([0.0, 0.0, 0.0, 1.0], (F, 1, 1)), m.local_quats], axis=1)
+    return Motion(skel, m.frame_time, np.zeros((F, 3)), q, lt)
+
+
+def moved_root(m: Motion, seed: int = 0) -> Motion:
+    """``m`` with a time-varying rigid motion of joint 0 (turns about the vertical and travels)."""
+    F = m.num_frames
+    t = np.linspace(0.0, 1.0, F)
+    rng = np.random.default_rng(seed)
+    rot = rotvec_to_quat(np.outer(np.sin(3 * t) * 2.0, [0.0, 1.0, 0.0]) + 0.01 * rng.normal(size=(F, 3)))
+    q = m.local_quats.copy()
+    q[:, 0] = quat_mul(rot, q[:, 0])
+    return m.replace(local_quats=q, root_positions=m.root_positions + np.outer(t, [500.0, 3.0, -200.0]))
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return data.load("walk")
+
+
+def test_pelvis_of_known_rigs(walk, shared_motion):
+    assert pelvis_joint(walk.skeleton) == 0
+    assert static_root_rig(walk).skeleton.names[pelvis_joint(static_root_rig(walk).skeleton)] == "Hips"
+    for name in ("bandai_walk.bvh", "bandai_run_cycle.bvh", "pymo_walk_turnaround.bvh", "xia_neutral_walk.bvh"):
+        m = shared_motion(name)
+        assert m.skeleton.names[pelvis_joint(m.skeleton)] == "Hips", name
+
+
+def test_pelvis_of_small_rigs():
+    sk = Skeleton(("a", "b", "c", "d"), np.array([-1, 0, 1, 2]), np.ones((4, 3)))
+    assert pelvis_joint(sk) == 0    # a single chain: its root
+    sk2 = Skeleton(("root", "hips", "l1", "l2", "r1", "r2"), np.array([-1, 0, 1, 2, 1, 4]), np.ones((6, 3)))
+    assert pelvis_joint(sk2) == 1   # two chains only: the deepest common ancestor of the leaves
+
+
+def test_torso_features_ignore_a_static_root(walk):
+    """The same walk with and without a static root above the hips gives the same features."""
+    np.testing.assert_allclose(pose_features(static_root_rig(walk)), pose_features(walk), atol=1e-9)
+
+
+def test_torso_features_ignore_any_motion_of_the_static_root(walk):
+    """Turning and translating the static root (the Bandai run cycle's moving joint_Root) changes nothing."""
+    rig = static_root_rig(walk)
+    np.testing.assert_allclose(pose_features(moved_root(rig)), pose_features(rig), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["bandai_walk.bvh", "bandai_run_cycle.bvh"])
+def test_bandai_torso_features_carry_no_travel(shared_motion, name):
+    m = shared_motion(name)
+    pos, _ = forward_kinematics(m)
+    travel = np.linalg.norm(pos[-1, 1] - pos[0, 1])            # the hips travel (bandai_walk: ~800 cm)
+    X = pose_features(m, prefilter=0.0).reshape(m.num_frames, -1, 3)
+    assert travel > 100.0
+    # in the torso frame every joint stays within a body length of the pelvis, and moves little over the clip
+    assert np.linalg.norm(X, axis=-1).max() < 120.0
+    assert np.ptp(X.mean(axis=1), axis=0).max() < 20.0
+    np.testing.assert_allclose(pose_features(moved_root(m)), pose_features(m), atol=1e-7)
+
+
+def test_up_axis_and_heading(walk, shared_motion):
+    np.testing.assert_array_equal(up_axis(walk), [0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(up_axis(shared_motion("bandai_walk.bvh")), [0.0, 1.0, 0.0])
+    rng = np.random.default_rng(3)
+    up = np.array([0.0, 1.0, 0.0])
+    tilt = rotvec_to_quat(rng.normal(size=(50, 3)) * [0.3, 0.0, 0.3])      # pitch/roll only
+    yaw = rotvec_to_quat(np.outer(rng.uniform(-3, 3, 50), up))
+    q = quat_mul(yaw, tilt)
+    assert quat_angle(heading_quats(q, up), yaw).max() < 1e-9
+    assert quat_angle(remove_heading(q, up), tilt).max() < 1e-9
