@@ -105,6 +105,17 @@ class _Info:
         self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
 
 
+def _timing_summary(sm) -> str:
+    """One plain sentence about the timing warnings of ``sm`` ('' when none), §5.2."""
+    from .. import staggered
+    found = staggered.timing_warnings(sm)
+    summarize = getattr(staggered, "summarize_timing_warnings", None)
+    if summarize is not None:
+        return summarize(found)
+    return (f"{len(found)} timing warning(s): refined times cross a neighbouring pose; lower s, l or tau"
+            if found else "")
+
+
 def _chain(previous: str, op: Op) -> str:
     return hashlib.blake2b(f"{previous}\n{op.key}".encode(), digest_size=16).hexdigest()
 
@@ -389,25 +400,19 @@ class Session:
         Empty before the first replay."""
         if not self._replayed:
             return []
-        n = len(self._history.ops)
-        keys = self._prefix_keys()
-        if any(k not in self._info for k in keys):
-            return []  # the op list changed since the last replay
-        out = [note for k in keys for note in self._info[k].notes]
-        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
-        if j is not None:
-            inf = self._info[keys[j]]
-            if inf.summary is None:
-                from .. import staggered
-                warnings = staggered.timing_warnings(self._walk(j + 1))
-                summarize = getattr(staggered, "summarize_timing_warnings", None)
-                if summarize is not None:
-                    inf.summary = summarize(warnings)
-                else:
-                    inf.summary = (f"{len(warnings)} timing warning(s): refined times cross a neighbouring "
-                                   "pose; lower s, l or tau" if warnings else "")
-            if inf.summary:
-                out.append(inf.summary)
+        with self._replay_lock:
+            n = len(self._history.ops)
+            keys = self._prefix_keys()
+            if any(k not in self._info for k in keys):
+                return []  # the op list changed since the last replay
+            out = [note for k in keys for note in self._info[k].notes]
+            j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+            if j is not None:
+                inf = self._info[keys[j]]
+                if inf.summary is None:
+                    inf.summary = _timing_summary(self._walk(j + 1))
+                if inf.summary:
+                    out.append(inf.summary)
         return out
 
     def warp_curve(self, index: int = -1):
