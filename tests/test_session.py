@@ -350,3 +350,19 @@ def test_in_memory_reference_under_any_name(session):
     np.testing.assert_array_equal(session.warp_curve(), warp)  # the warp was guided by ref_motion
     with pytest.raises(ValueError, match="^motion"):
         session.use_reference("<memory:x>", "not a motion")
+
+
+def test_deprecated_register_op_and_op_registry_still_work(session):
+    import stagger_nb.session as S
+    with pytest.warns(DeprecationWarning, match="register_op"):
+        cls = S.register_op("_old_shift", "motion", {"dx": (None, Session.REQUIRED), "k": (None, 2)},
+                            lambda st, p, ctx: st.replace(root_positions=st.root_positions + [p["dx"] * p["k"], 0, 0]))
+    try:
+        with pytest.warns(DeprecationWarning, match="OP_REGISTRY"):
+            assert S.OP_REGISTRY["_old_shift"] is cls
+        session.set_ops([{"op": "_old_shift", "dx": 1.5}])
+        assert session.ops == [{"op": "_old_shift", "dx": 1.5, "k": 2}]
+        d = session.edited().root_positions - session.source.root_positions
+        np.testing.assert_allclose(d, np.broadcast_to([3.0, 0, 0], d.shape))
+    finally:
+        del OPS["_old_shift"], RUNNERS[cls]

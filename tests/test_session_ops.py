@@ -169,3 +169,13 @@ def test_extract_options_accepted_values_pass_through():
     opts = {"iterations": 3, "filter_width": 0.2, "smoothing_iterations": None, "contacts": [["LeftFoot", 0, 10]]}
     assert check_extract_options(opts) == opts
     assert check_extract_options(None) == {}
+
+
+def test_huge_lists_are_refused_by_size_before_their_items_are_checked():
+    n = O.MAX_ITEMS + 1
+    with pytest.raises(ValueError, match=r"^ops\[0\]\.keytimes: 100001 items is over the limit"):
+        Op.from_json({"op": "linear_warp", "duration": 1.0, "keytimes": [[0.1, 0.1]] * n}, "ops[0]")
+    with pytest.raises(ValueError, match=r"^ops\[0\]\.joints: 100001 items"):
+        Op.from_json({"op": "random_timing", "tau": 0.1, "joints": ["x"] * n}, "ops[0]")
+    with pytest.raises(ValueError, match=r"^ops\[0\]\.deltas: 100001 items"):
+        Op.from_json({"op": "edit_frame", "frame": 1, "deltas": {str(i): [0, 0, 0] for i in range(n)}}, "ops[0]")

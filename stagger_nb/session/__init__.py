@@ -13,7 +13,8 @@ One module per job:
 - :mod:`.runners` — op -> function over the state, and the cached expensive heads;
 - :mod:`.history` — the op list, undo/redo, observers;
 - :mod:`.cache` — the one cache (one lock, compute-once futures, content/weakref keys, bounded);
-- :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards.
+- :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards;
+- :mod:`.warm` — the session's background worker for :meth:`Session.warm`.
 
 Replay is linear in the number of ops: each prefix is named by a digest chained from the previous one
 (``digest_i = H(digest_{i-1}, op_i)``), so changing the last op (a slider move) replays only the tail and
@@ -25,12 +26,14 @@ This package does not import ipywidgets; the widgets build on it.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
 import threading
+import warnings
 from collections import OrderedDict
-from concurrent.futures import Future, InvalidStateError, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any, Callable
 
 import numpy as np
@@ -46,12 +49,43 @@ from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
 from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_size
+from .warm import Worker
 
 __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_rotation_degrees",
            "SESSION_FORMAT", "SESSION_VERSION"]
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = _ops_module.optional(number(0.0, open_lo=True))
+
+
+_REQUIRED = dataclasses.MISSING
+
+
+def register_op(name: str, needs: str, fields: dict, run: Callable) -> type:
+    """Deprecated: define an :class:`~.ops.Op` subclass and add its runner to ``runners.RUNNERS``.
+
+    Kept for old code: builds that subclass from ``fields`` (``{field: (check(value, field) or None,
+    default)}``, ``Session.REQUIRED`` for a required field) and registers ``run(state, params: dict, run)``,
+    which now receives the op's JSON dict and a :class:`~.runners.Run` (``run.heads`` has the cached heads)."""
+    warnings.warn("register_op is deprecated: subclass stagger_nb.session.ops.Op and add the runner to "
+                  "stagger_nb.session.runners.RUNNERS", DeprecationWarning, stacklevel=2)
+    if needs not in ("staggered", "motion", "any"):
+        raise ValueError(f"needs: expected 'staggered', 'motion' or 'any', got {needs!r}")
+    order = sorted(fields.items(), key=lambda kv: kv[1][1] is not _REQUIRED)  # required fields first
+    spec = [(k, Any, dataclasses.field(default=d, metadata={"check": c}) if d is not _REQUIRED
+             else dataclasses.field(metadata={"check": c})) for k, (c, d) in order]
+    cls = dataclasses.make_dataclass(f"_Registered_{name}", spec, bases=(Op,), frozen=True,
+                                     namespace={"name": name, "needs": needs, "__annotations__": {}})
+    RUNNERS[cls] = lambda state, op, r: run(state, op.to_json(), r)
+    return cls
+
+
+def __getattr__(attr):  # deprecated module attributes
+    if attr == "OP_REGISTRY":
+        warnings.warn("OP_REGISTRY is deprecated: use stagger_nb.session.OPS (op classes by name)",
+                      DeprecationWarning, stacklevel=2)
+        return OPS
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
 def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
@@ -69,6 +103,17 @@ class _Info:
 
     def __init__(self, warp, notes, staggered: bool):
         self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
+
+
+def _timing_summary(sm) -> str:
+    """One plain sentence about the timing warnings of ``sm`` ('' when none), §5.2."""
+    from .. import staggered
+    found = staggered.timing_warnings(sm)
+    summarize = getattr(staggered, "summarize_timing_warnings", None)
+    if summarize is not None:
+        return summarize(found)
+    return (f"{len(found)} timing warning(s): refined times cross a neighbouring pose; lower s, l or tau"
+            if found else "")
 
 
 def _chain(previous: str, op: Op) -> str:
@@ -96,6 +141,8 @@ class Session:
     Listeners registered with :meth:`observe` are called as ``listener(session)`` after every change.
     """
 
+    REQUIRED = _REQUIRED  # deprecated with register_op
+
     def __init__(self, source: Motion, ops=None, source_path=None, extract_options=None):
         if not isinstance(source, Motion):
             raise ValueError(f"source: expected a Motion, got {type(source).__name__}")
@@ -111,8 +158,7 @@ class Session:
         self._held: dict[str, Any] = {}  # strong refs: the last replay's final and last staggered state
         self._replayed = False
         self._replay_lock = threading.RLock()
-        self._executor: ThreadPoolExecutor | None = None
-        self._warm_futures: list[Future] = []
+        self._worker = Worker()
 
     @classmethod
     def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
@@ -129,6 +175,7 @@ class Session:
     def _typed_list(cls, ops, where) -> tuple:
         if not isinstance(ops, (list, tuple)):
             _fail(where, "a list of op objects", ops)
+        _ops_module._limit(ops, where)
         return tuple(cls._typed(op, f"{where}[{i}]") for i, op in enumerate(ops))
 
     @property
@@ -353,25 +400,19 @@ class Session:
         Empty before the first replay."""
         if not self._replayed:
             return []
-        n = len(self._history.ops)
-        keys = self._prefix_keys()
-        if any(k not in self._info for k in keys):
-            return []  # the op list changed since the last replay
-        out = [note for k in keys for note in self._info[k].notes]
-        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
-        if j is not None:
-            inf = self._info[keys[j]]
-            if inf.summary is None:
-                from .. import staggered
-                warnings = staggered.timing_warnings(self._walk(j + 1))
-                summarize = getattr(staggered, "summarize_timing_warnings", None)
-                if summarize is not None:
-                    inf.summary = summarize(warnings)
-                else:
-                    inf.summary = (f"{len(warnings)} timing warning(s): refined times cross a neighbouring "
-                                   "pose; lower s, l or tau" if warnings else "")
-            if inf.summary:
-                out.append(inf.summary)
+        with self._replay_lock:
+            n = len(self._history.ops)
+            keys = self._prefix_keys()
+            if any(k not in self._info for k in keys):
+                return []  # the op list changed since the last replay
+            out = [note for k in keys for note in self._info[k].notes]
+            j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+            if j is not None:
+                inf = self._info[keys[j]]
+                if inf.summary is None:
+                    inf.summary = _timing_summary(self._walk(j + 1))
+                if inf.summary:
+                    out.append(inf.summary)
         return out
 
     def warp_curve(self, index: int = -1):
@@ -470,38 +511,11 @@ class Session:
 
         Returns a :class:`concurrent.futures.Future` whose result is the number of items computed (or found
         cached). ``future.cancel()`` stops the work before its next item (the item running finishes and is
-        cached) and makes the future cancelled; ``running()`` stays False until it is done. Everything
-        warmed is also computed on demand: warming only moves the wait.
+        cached) and makes the future cancelled; ``running()`` stays False until it is done. The worker is a
+        daemon thread: an interpreter exit does not wait for it. Everything warmed is also computed on
+        demand: warming only moves the wait.
         """
-        items = self._warm_items(jobs)
-        fut: Future = Future()
-        if self._executor is None:
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stagger_nb-warm")
-        self._warm_futures = [f for f in self._warm_futures if not f.done()] + [fut]
-
-        def work():
-            done = 0
-            try:
-                for label, fn in items:
-                    if fut.cancelled():
-                        return
-                    if progress is not None:
-                        progress(done, len(items), label)
-                    fn()
-                    done += 1
-                if progress is not None:
-                    progress(done, len(items), "done")
-                fut.set_result(done)
-            except InvalidStateError:  # cancelled between the last check and the result
-                pass
-            except BaseException as e:  # noqa: BLE001 - handed to whoever waits on the future
-                try:
-                    fut.set_exception(e)
-                except InvalidStateError:
-                    pass
-
-        self._executor.submit(work)
-        return fut
+        return self._worker.submit(self._warm_items(jobs), progress)
 
     def _warm_items(self, jobs) -> list:
         items = []
@@ -533,12 +547,8 @@ class Session:
         return items
 
     def close(self) -> None:
-        """Cancel pending warm-ups and stop the session's worker thread (after its current item)."""
-        for f in self._warm_futures:
-            f.cancel()
-        if self._executor is not None:
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = None
+        """Cancel pending warm-ups (each stops before its next item)."""
+        self._worker.cancel_all()
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:

@@ -50,12 +50,15 @@ from typing import Any, Callable, ClassVar
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
 
 MAX_SKIP = 127  # guided warping's largest input step per output frame (timewarp.prepare_warp's limit)
+#: Most items in any list of an op (joints, poses, frames, keytimes, deltas): a hostile session file must
+#: not make the checks themselves run for minutes (a 100,000-frame take has fewer poses than this).
+MAX_ITEMS = 100_000
 
 
 def canonical(value) -> str:
@@ -72,6 +75,11 @@ def _fail(name: str, expected: str, value) -> None:
     if len(shown) > 80:
         shown = shown[:77] + "..."
     raise ValueError(f"{name}: expected {expected}, got {shown}")
+
+
+def _limit(value, name) -> None:
+    if len(value) > MAX_ITEMS:
+        raise ValueError(f"{name}: {len(value)} items is over the limit of {MAX_ITEMS}")
 
 
 def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = False) -> Callable:
@@ -145,6 +153,7 @@ def tuple_of(inner: Callable, what: str, length: int | None = None) -> Callable:
     def check(value, name):
         if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
             _fail(name, what, value)
+        _limit(value, name)
         return tuple(inner(v, f"{name}[{i}]") for i, v in enumerate(value))
     return check
 
@@ -164,6 +173,7 @@ def deltas(value, name) -> tuple:
         value = dict(value)  # the stored form (already checked once; checked again cheaply)
     if not isinstance(value, dict):
         _fail(name, "an object {joint name: [rx, ry, rz] degrees}", value)
+    _limit(value, name)
     out = []
     for k, v in value.items():
         text(k, f"{name} key")
@@ -179,6 +189,7 @@ def keytimes(value, name) -> tuple:
     """``[[input_seconds, output_seconds], ...]`` -> tuple of pairs (order is checked by the technique)."""
     if not isinstance(value, (list, tuple)):
         _fail(name, "a list of [input_time, output_time] pairs (seconds)", value)
+    _limit(value, name)
     return tuple(tuple_of(_nonneg, "[input_time, output_time] (seconds)", 2)(p, f"{name}[{i}]")
                  for i, p in enumerate(value))
 
@@ -491,7 +502,8 @@ class Propagate(Op):
         out = super().to_json()
         out["deltas"] = (_deltas_json(self.deltas) if self.frames is None
                          else [_deltas_json(d) for d in self.deltas])
-        return out
+        first = ("op", "frame", "frames", "deltas")  # in the order a person writes them
+        return {k: out[k] for k in first if k in out} | {k: v for k, v in out.items() if k not in first}
 
     @property
     def edits(self) -> tuple:
@@ -557,6 +569,7 @@ def _contacts(value, name):
         return [text(c[0], f"{n}[0]"), _index(c[1], f"{n}[1]"), _index(c[2], f"{n}[2]")]
     if not isinstance(value, (list, tuple)):
         _fail(name, "a list of [joint_name, start_frame, stop_frame]", value)
+    _limit(value, name)
     return [one(c, f"{name}[{i}]") for i, c in enumerate(value)]
 
 
