@@ -312,7 +312,11 @@ class StaggerEditor(_Editor):
         effectors = [n for n in names if _EFFECTOR.search(n)]
         c = {}
         c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"),
-                                                      ("picked", "keep")], description="cull poses", style=_STYLE)
+                                                      ("picked", "keep")], description="cull poses",
+                                             style={**_STYLE, "button_width": "90px"},
+                                             tooltips=["keep a percentage of the poses, by priority",
+                                                       "keep a number of poses, by priority",
+                                                       "keep the poses you pick (click the probability plot)"])
         c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=5.0, readout_format=".0f")
         c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep count (0 = all)", style=_STYLE,
                                             layout=widgets.Layout(width="230px"))
@@ -334,7 +338,9 @@ class StaggerEditor(_Editor):
         c["pose"] = _slider(widgets.IntSlider, "pose k", min=0, max=1)
         c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
         c["edit_mode"] = widgets.ToggleButtons(options=["staggered", "unstaggered"], description="edit mode",
-                                               style=_STYLE)
+                                               style={**_STYLE, "button_width": "100px"},
+                                               tooltips=["the edit follows each joint's own timing (Fig. 6a)",
+                                                         "the edit lands at the pose time for every joint (Fig. 6b)"])
         for a in "xyz":
             c["r" + a] = _slider(widgets.FloatSlider, f"nudge {a} (°)", min=-90.0, max=90.0, step=1.0)
         c["pose_time"] = widgets.BoundedFloatText(min=0.0, max=m.duration, step=m.frame_time,
@@ -358,11 +364,13 @@ class StaggerEditor(_Editor):
         self._precompute = precompute
         self._defer = precompute and callable(getattr(session, "warm", None))
         layout = [
-            widgets.HBox([c["cull_by"], c["percent"], c["count"], c["keep"]]),
+            widgets.HBox([c["cull_by"], c["keep_contacts"]]),
+            widgets.HBox([c["percent"], c["count"], c["keep"]]),
             widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
             widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
-            widgets.HBox([c["w_r"], c["w_r_reference"], c["keep_contacts"]]),
-            widgets.HBox([c["pose"], c["joint"], c["edit_mode"]]),
+            widgets.HBox([c["w_r"], c["w_r_reference"]]),
+            widgets.HBox([c["pose"], c["joint"]]),
+            widgets.HBox([c["edit_mode"]]),
             widgets.HBox([c["rx"], c["ry"], c["rz"]]),
             widgets.HBox([c["pose_time"], self.insert_button, self.delete_button]),
             widgets.HBox([c["ik_joint"], c["ik_x"], c["ik_y"], c["ik_z"]]),
