@@ -32,7 +32,7 @@ def _quickstart(m):
 def stagger_editor(walk):
     from stagger_nb.widgets import StaggerEditor
     e = StaggerEditor(walk, precompute=False)
-    e.model.keep_contacts = False      # the op needs the session's keep_contacts (checked separately)
+    e.model.keep_contacts = False      # bit-exact comparisons with the bare technique calls (the op: below)
     yield e
     e.close()
 
