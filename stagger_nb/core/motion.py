@@ -13,9 +13,45 @@ from ._arrays import readonly
 from .rotations import quat_continuous, quat_normalize, slerp
 from .skeleton import Skeleton
 
-__all__ = ["Motion", "concatenate"]
+__all__ = ["Motion", "concatenate", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "MAX_FRAME_JOINTS"]
 
 _UNIT_TOL = 1e-12  # |norm - 1| above which a quaternion is renormalised on construction
+
+#: Shortest frame time accepted (seconds): 10 kHz. The fastest optical capture systems record at 1-2 kHz,
+#: and the techniques' costs grow with the frame rate (smoothing passes in ``staggered.extract`` grow as
+#: 1/frame_time^2), so a shorter frame time is a corrupt file, not a capture.
+MIN_FRAME_TIME = 1e-4
+#: Longest frame time accepted (seconds): one frame an hour. Longer ones overflow durations and rates.
+MAX_FRAME_TIME = 3600.0
+#: Most frames x joints a core function allocates from a user-given number (resampling): 10^7 joint
+#: samples (320 MB of quaternions, ~1.5 GB with the temporaries of slerp); a 100,000-frame, 31-joint
+#: take holds 3.1 x 10^6.
+MAX_FRAME_JOINTS = 10_000_000
+
+
+def check_frame_time(frame_time, name: str = "frame_time") -> float:
+    """``frame_time`` as a float within [MIN_FRAME_TIME, MAX_FRAME_TIME] seconds; ``ValueError`` naming
+    ``name`` otherwise."""
+    try:
+        ft = float(frame_time)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number of seconds, got {frame_time!r}") from None
+    if not np.isfinite(ft) or ft <= 0:
+        raise ValueError(f"{name} must be a positive number of seconds, got {frame_time!r}")
+    if not MIN_FRAME_TIME <= ft <= MAX_FRAME_TIME:
+        raise ValueError(f"{name} must be between {MIN_FRAME_TIME:g} s ({1 / MIN_FRAME_TIME:g} Hz) and "
+                         f"{MAX_FRAME_TIME:g} s, got {ft:g}")
+    return ft
+
+
+def check_frame_count(frames: int, joints: int, name: str) -> int:
+    """``frames`` if ``frames * joints`` is within :data:`MAX_FRAME_JOINTS`; else a ``ValueError`` naming
+    ``name``, the size and the remedy, raised before anything is allocated."""
+    if frames * max(joints, 1) > MAX_FRAME_JOINTS:
+        raise ValueError(f"{name} asks for {frames:,} frames x {joints} joints, more than the "
+                         f"{MAX_FRAME_JOINTS:,} joint samples supported: use a longer frame time or a shorter "
+                         f"clip (Motion.slice)")
+    return frames
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,9 +81,7 @@ class Motion:
     local_translations: np.ndarray | None = None
 
     def __post_init__(self):
-        ft = float(self.frame_time)
-        if not np.isfinite(ft) or ft <= 0:
-            raise ValueError(f"Motion: frame_time must be a positive number of seconds, got {self.frame_time!r}")
+        ft = check_frame_time(self.frame_time, "Motion: frame_time")
         if not isinstance(self.skeleton, Skeleton):
             raise ValueError(f"Motion: skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
         J = self.skeleton.num_joints
@@ -151,11 +185,14 @@ class Motion:
         return self.sample(np.asarray(times, dtype=float) / self.frame_time, frame_time)
 
     def resample(self, frame_time: float) -> "Motion":
-        """Resample to a new frame time (seconds) covering the same duration (slerp / linear)."""
-        frame_time = float(frame_time)
-        if not np.isfinite(frame_time) or frame_time <= 0:
-            raise ValueError(f"Motion.resample: frame_time must be > 0 seconds, got {frame_time!r}")
+        """Resample to a new frame time (seconds) covering the same duration (slerp / linear).
+
+        Raises ``ValueError`` naming ``frame_time`` when it is outside [MIN_FRAME_TIME, MAX_FRAME_TIME] or
+        the result would hold more than :data:`MAX_FRAME_JOINTS` frames x joints (checked before
+        allocating)."""
+        frame_time = check_frame_time(frame_time, "Motion.resample: frame_time")
         n = int(np.floor(self.duration / frame_time + 1e-9)) + 1
+        check_frame_count(n, self.num_joints, f"Motion.resample: frame_time={frame_time:g}")
         return self.sample_times(np.arange(n) * frame_time, frame_time)
 
     def __len__(self) -> int:

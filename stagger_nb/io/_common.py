@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import stat
 import tempfile
 
@@ -81,20 +82,31 @@ def read_bytes(path: str, error: type[FormatError]) -> bytes:
         raise error(path, None, msg[len(prefix):] if msg.startswith(prefix) else msg) from None
 
 
-def decode(raw: bytes) -> str:
-    """UTF-8 text, or Latin-1 where the bytes are not UTF-8 (old exporters)."""
+UTF8_BOM = b"\xef\xbb\xbf"
+
+
+def decode(raw: bytes | memoryview) -> str:
+    """UTF-8 text without a leading byte-order mark, or Latin-1 where the bytes are not UTF-8 (old
+    exporters). A ``memoryview`` is decoded in place (no copy of a large slice)."""
+    if raw[:3] == UTF8_BOM:
+        raw = raw[3:]
     try:
-        return raw.decode("utf-8")
+        return str(raw, "utf-8")
     except UnicodeDecodeError:
-        return raw.decode("latin-1")
+        return str(raw, "latin-1")
+
+
+#: A decimal number as files write it: ASCII digits only. ``float`` also takes ``1_000``, Arabic-Indic or
+#: full-width digits, which no exporter writes and which would read differently elsewhere.
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.ASCII | re.I)
 
 
 def finite_number(tok: str, what: str, source: str, line: int, error: type[FormatError]) -> float:
-    """``float(tok)``, raising ``error`` naming ``what`` was expected if it is not a finite number."""
-    try:
-        v = float(tok)
-    except ValueError:
-        raise error(source, line, f"expected a number for {what}, found {tok!r}") from None
+    """``float(tok)`` of an ASCII decimal token, raising ``error`` naming ``what`` was expected if it is not
+    a finite number."""
+    if not _NUMBER.fullmatch(tok):
+        raise error(source, line, f"expected a number for {what}, found {tok!r}")
+    v = float(tok)
     if not math.isfinite(v):
         raise error(source, line, f"expected a finite number for {what}, found {tok!r}")
     return v
@@ -165,9 +177,72 @@ def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     return q
 
 
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view[:1 << 24]):]
+
+
+_UNNAMED_OK = True  # becomes False once naming an unnamed file failed here (then named temporaries are used)
+
+
+def _unnamed_file(folder: str, mode: int) -> int | None:
+    """A file descriptor of a new, unnamed file in ``folder`` (Linux ``O_TMPFILE``): a process killed
+    while writing it leaves nothing behind. ``None`` where the platform or file system has none."""
+    flag = getattr(os, "O_TMPFILE", 0)
+    if not flag or not _UNNAMED_OK:
+        return None
+    try:
+        return os.open(folder, flag | os.O_WRONLY | getattr(os, "O_CLOEXEC", 0), mode)
+    except OSError:  # EOPNOTSUPP / EISDIR / EINVAL: a file system without unnamed files
+        return None
+
+
+def _link_unnamed(fd: int, name: str) -> bool:
+    """Give the unnamed file ``fd`` the name ``name`` (``linkat``); ``False`` if this system cannot.
+    ``FileExistsError`` when ``name`` exists."""
+    try:
+        os.link(f"/proc/self/fd/{fd}", name)  # the documented way (open(2)); needs /proc
+        return True
+    except FileExistsError:
+        raise
+    except OSError:
+        pass
+    try:  # linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH): where /proc links are refused (sandboxes)
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.linkat(fd, b"", -100, os.fsencode(name), 0x1000) == 0:
+            return True
+        if ctypes.get_errno() == 17:  # EEXIST
+            raise FileExistsError(name)
+    except (OSError, AttributeError):
+        pass
+    return False
+
+
+def _fsync_folder(folder: str) -> None:
+    """Make a rename in ``folder`` durable (best effort: some platforms cannot open folders)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then a rename, so readers
-    never see half a file. The file gets the usual permissions (umask, or the mode of the file it replaces)."""
+    """Write ``data`` to ``path`` atomically and durably: readers see the old file or the new one, never
+    half of one, and after a crash the new file is complete or absent.
+
+    The data goes to an unnamed file in the same folder (``O_TMPFILE``: a killed writer leaves no
+    temporary file), is synced (``fsync``), then given a hidden name and renamed over ``path``, and the
+    folder is synced. Where unnamed files are not available, a hidden temporary file (``.tmp-*``) is used
+    instead and removed on any error. The file gets the usual permissions (umask, or the mode of the file
+    it replaces)."""
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
     try:
@@ -176,13 +251,40 @@ def atomic_write_bytes(path, data: bytes) -> None:
         umask = os.umask(0)
         os.umask(umask)
         mode = 0o666 & ~umask
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+    global _UNNAMED_OK
+    fd = _unnamed_file(folder, mode)
+    tmp = None
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, mode)
+        if fd is not None:
+            try:
+                _write_all(fd, data)
+                os.fchmod(fd, mode)
+                os.fsync(fd)
+                for _ in range(100):  # name it only now that it is complete: linkat(2) does not overwrite
+                    cand = os.path.join(folder, f".tmp-{os.urandom(6).hex()}{os.path.splitext(path)[1]}")
+                    try:
+                        if not _link_unnamed(fd, cand):
+                            _UNNAMED_OK = False
+                            break
+                    except FileExistsError:
+                        continue
+                    tmp = cand
+                    break
+                else:
+                    raise FileExistsError(f"no free temporary name in {folder}")
+            finally:
+                os.close(fd)
+        if tmp is None:
+            fd2, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+            try:
+                _write_all(fd2, data)
+                os.fchmod(fd2, mode) if hasattr(os, "fchmod") else os.chmod(tmp, mode)
+                os.fsync(fd2)
+            finally:
+                os.close(fd2)
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+        tmp = None
+    finally:
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
-        raise
+    _fsync_folder(folder)

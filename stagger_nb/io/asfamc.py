@@ -304,7 +304,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             continue
         toks = s.split()
         head = toks[0]
-        if len(toks) == 1 and head.isdigit():
+        if len(toks) == 1 and head.isascii() and head.isdigit():  # '¹', '١' are digits to isdigit()
             if current is not None and len(seen) != need:
                 missing = next(n for n in names if n not in seen)
                 raise AMCError(source, ln, f"frame {expect_no - 1} has no line for {missing!r}")
@@ -337,11 +337,15 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
         missing = next(n for n in names if n not in seen)
         raise AMCError(source, ln, f"file ends early: frame {expect_no - 1} has no line for {missing!r}")
     flat = [t for r in rows for t in r]
-    try:
-        data = np.array(flat, dtype=float).reshape(len(rows), width)
-        ok = bool(np.all(np.isfinite(data)))
-    except ValueError:
-        ok = False
+    joined = "".join(flat)
+    # numpy, like float, reads '1_000' and non-ASCII digits: such tokens go to the checked path
+    ok = joined.isascii() and "_" not in joined
+    if ok:
+        try:
+            data = np.array(flat, dtype=float).reshape(len(rows), width)
+            ok = bool(np.all(np.isfinite(data)))
+        except ValueError:
+            ok = False
     if not ok:
         _locate_bad_number(lines, frame_lines, source)
     if to_deg:

@@ -16,13 +16,15 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 
 import numpy as np
 
-from ..core.motion import Motion
-from ..core.rotations import quat_to_euler
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import FormatError, atomic_write_bytes, decode, euler_deg_to_quat, finite_number, read_bytes
+from ._common import (UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_deg_to_quat, finite_number,
+                      read_bytes)
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, parse_table
 
@@ -37,28 +39,40 @@ class BVHError(FormatError):
     """A malformed BVH file; the message names the file, the line and what was expected."""
 
 
-class _Tokens:
-    """Whitespace tokens of the header with their 1-based line numbers; ``end_line`` is the line of the
-    ``MOTION`` keyword that ends the header."""
+_TOKEN = re.compile(r"\S+")
 
-    def __init__(self, lines: list[str], source: str, end_line: int):
-        self.items = []
+
+class _Tokens:
+    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (a header
+    of millions of junk tokens is never held as a list: the first bad one is reported at once);
+    ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
+
+    def __init__(self, head: str, source: str, end_line: int):
+        self._it = _TOKEN.finditer(head)
+        self._head = head
+        self._line, self._at = 1, 0  # line number of position self._at
         self.source = source
         self.end_line = end_line
-        for ln, line in enumerate(lines, 1):
-            for tok in line.split():
-                self.items.append((tok, ln))
-        self.pos = 0
+        self._next = self._advance()
+
+    def _advance(self) -> tuple[str, int] | None:
+        m = next(self._it, None)
+        if m is None:
+            return None
+        self._line += self._head.count("\n", self._at, m.start())
+        self._at = m.start()
+        return m.group(), self._line
 
     def next(self, expected: str) -> tuple[str, int]:
-        if self.pos >= len(self.items):
+        if self._next is None:
             raise BVHError(self.source, self.end_line, f"hierarchy ends early: expected {expected} before 'MOTION'")
-        tok = self.items[self.pos]
-        self.pos += 1
+        tok = self._next
+        self._next = self._advance()
         return tok
 
-    def peek(self) -> str | None:
-        return self.items[self.pos][0] if self.pos < len(self.items) else None
+    def peek(self) -> tuple[str, int] | None:
+        """The next token and its line, or ``None`` at the end of the header."""
+        return self._next
 
     def number(self, expected: str) -> float:
         tok, ln = self.next(expected)
@@ -74,6 +88,7 @@ class _Tokens:
 def _parse_hierarchy(tok: _Tokens) -> Skeleton:
     """The ``HIERARCHY`` section (iterative: deep chains cannot exhaust Python's recursion limit)."""
     names, parents, offsets, channels, end_sites = [], [], [], [], {}
+    name_line: dict[str, int] = {}
     src = tok.source
     tok.keyword("HIERARCHY")
     t, ln = tok.next("'ROOT'")
@@ -87,12 +102,16 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
         if name_tok == "{":
             raise BVHError(src, ln, "expected a joint name before '{'")
         parts = [name_tok]  # some exporters put spaces in names: join tokens up to '{' on the line
-        while tok.peek() is not None and tok.peek() != "{" and tok.items[tok.pos][1] == ln:
+        while tok.peek() is not None and tok.peek()[0] != "{" and tok.peek()[1] == ln:
             parts.append(tok.next("'{'")[0])
         if len(names) >= _MAX_JOINTS:
             raise BVHError(src, ln, f"more than {_MAX_JOINTS} joints")
         j = len(names)
-        names.append(" ".join(parts))
+        name = " ".join(parts)
+        if name in name_line:
+            raise BVHError(src, ln, f"joint name {name!r} is used twice (first on line {name_line[name]})")
+        name_line[name] = ln
+        names.append(name)
         parents.append(parent)
         tok.keyword("{")
         tok.keyword("OFFSET")
@@ -121,6 +140,9 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
                 parent = stack[-1]
                 break
             if u == "END":
+                if stack[-1] in end_sites:
+                    raise BVHError(src, ln, f"a second 'End Site' under joint {names[stack[-1]]!r} "
+                                            "(a joint has at most one)")
                 tok.keyword("Site")
                 tok.keyword("{")
                 tok.keyword("OFFSET")
@@ -130,7 +152,7 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
                 stack.pop()
                 if not stack:
                     if tok.peek() is not None:
-                        t, ln = tok.items[tok.pos]
+                        t, ln = tok.peek()
                         raise BVHError(src, ln, f"expected 'MOTION' after the hierarchy, found {t!r}")
                     return Skeleton(names, parents, np.array(offsets).reshape(-1, 3), tuple(channels), end_sites)
             else:
@@ -198,14 +220,17 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     """Parse BVH text (``str`` or the file's ``bytes``) into a :class:`Motion`; ``source`` names the file
     in error messages."""
     raw = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+    if raw[:3] == UTF8_BOM:  # a byte-order mark some Windows tools write
+        raw = raw[3:]
     raw = _normalise_breaks(raw)
     m = _MOTION_LINE.search(raw)
     if m is None:
         last = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
         raise BVHError(source, max(last, 1), "no 'MOTION' section found")
-    head = decode(raw[:m.start()])
+    head = decode(memoryview(raw)[:m.start()])
     ln = head.count("\n") + 1  # the MOTION line
-    skel = _parse_hierarchy(_Tokens(head.split("\n"), source, ln))
+    skel = _parse_hierarchy(_Tokens(head, source, ln))
+    del head
     line, pos = _next_line(raw, m.start())
     while True:  # blank lines may precede 'Frames:'
         if pos >= len(raw):
@@ -227,6 +252,9 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     ft = _header_value(line, "Frame Time", source, ln)
     if ft <= 0:
         raise BVHError(source, ln, f"frame time must be positive, found {ft:g}")
+    if not MIN_FRAME_TIME <= ft <= MAX_FRAME_TIME:  # see core.motion: a corrupt value, not a capture rate
+        raise BVHError(source, ln, f"frame time {ft:g} s is outside the {MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s "
+                                   f"supported (at most {1 / MIN_FRAME_TIME:g} frames per second)")
     num_channels = sum(len(c) for c in skel.channels)
     block = raw[pos:]
     data = None
@@ -307,6 +335,20 @@ def _position_decimals(motion: Motion) -> int:
     return int(np.clip(8 - np.floor(np.log10(scale)), 6, 12))
 
 
+_MAX_INDENT = 16  # tabs: deeper joints are not indented further, so the text grows linearly with depth
+
+
+def _check_names(skel: Skeleton) -> None:
+    """``ValueError`` naming the joint whose name the format cannot hold: BVH names are the tokens between
+    ``JOINT`` and ``{`` on one line, joined by single spaces on reading."""
+    for j, name in enumerate(skel.names):
+        toks = name.split()
+        if not toks or " ".join(toks) != name or "{" in toks or "}" in toks or not name.isprintable():
+            raise ValueError(f"write_bvh: joint {j} has the name {name!r}, which BVH cannot hold (names need "
+                             "printable characters, single spaces between words, no line breaks or tabs, "
+                             "no lone braces): rename the joint")
+
+
 def _hierarchy_lines(skel: Skeleton) -> tuple[list[str], list[int]]:
     """The HIERARCHY section (iterative depth-first walk; children in index order) and the joints in
     the order written, which is the order of their channels in each frame line."""
@@ -318,7 +360,7 @@ def _hierarchy_lines(skel: Skeleton) -> tuple[list[str], list[int]]:
     stack = [(0, 0, False)]
     while stack:
         j, depth, closing = stack.pop()
-        ind = "\t" * depth
+        ind = "\t" * min(depth, _MAX_INDENT)
         if closing:
             if j in skel.end_sites:
                 e = skel.end_sites[j]
@@ -380,7 +422,57 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
     return table, np.array(dec, dtype=np.int64)
 
 
+_ROT_TOL = 1e-8  # rad: a rotation further than this from what a joint's channels can express needs more
+_POS_TOL = 1e-9  # of the largest translation: likewise for a translation on an axis without a channel
+
+
+def _faithful(motion: Motion) -> Motion:
+    """``motion`` with channels added to the joints whose channels cannot express their motion (an edit
+    about z on a ``CHANNELS 1 Xrotation`` joint, a translation of a joint without position channels),
+    each said in a ``UserWarning`` naming the joint; unchanged when every joint's channels suffice."""
+    skel = motion.skeleton
+    trans = None
+    scale = max(float(np.max(np.abs(motion.root_positions))), float(np.max(np.abs(skel.offsets))), 1e-12)
+    new_channels = list(skel.channels)
+    for j, chans in enumerate(skel.channels):
+        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
+        have_pos = {c[0].upper() for c in chans if c.lower().endswith("position")}
+        add_rot = ""
+        if len(order) < 3:
+            q = motion.local_quats[:, j]
+            back = (euler_deg_to_quat(_partial_euler(q, order)[:, :len(order)], order) if order
+                    else np.broadcast_to([0.0, 0.0, 0.0, 1.0], q.shape))
+            if float(np.max(quat_angle(q, back))) > _ROT_TOL:
+                add_rot = "".join(a for a in "ZXY" if a not in order)
+        add_pos = ""
+        if len(have_pos) < 3 and (j == 0 or motion.local_translations is not None):
+            if trans is None:
+                trans = motion.translations()
+            moved = np.max(np.abs(trans[:, j] - skel.offsets[j]), axis=0) > _POS_TOL * scale
+            add_pos = "".join(a for k, a in enumerate("XYZ") if moved[k] and a not in have_pos)
+            if add_pos:
+                add_pos = "".join(a for a in "XYZ" if a not in have_pos)
+        if not (add_rot or add_pos):
+            continue
+        chans = list(chans)
+        pos_at = max((k + 1 for k, c in enumerate(chans) if c.lower().endswith("position")), default=0)
+        chans[pos_at:pos_at] = [a + "position" for a in add_pos]
+        rot_at = max((k + 1 for k, c in enumerate(chans) if c.lower().endswith("rotation")), default=len(chans))
+        chans[rot_at:rot_at] = [a + "rotation" for a in add_rot]
+        new_channels[j] = tuple(chans)
+        what = " and ".join(w for w, a in (("rotates about other axes", add_rot), ("moves", add_pos)) if a)
+        warnings.warn(f"write_bvh: joint {skel.names[j]!r} {what} than its channels "
+                      f"({' '.join(skel.channels[j]) or 'none'}) can express; written with CHANNELS "
+                      f"{len(chans)} {' '.join(chans)} so the file holds the motion", UserWarning, stacklevel=4)
+    if new_channels == list(skel.channels):
+        return motion
+    return motion.replace(skeleton=Skeleton(skel.names, skel.parents, skel.offsets, tuple(new_channels),
+                                            skel.end_sites))
+
+
 def _format_bytes(motion: Motion) -> bytes:
+    _check_names(motion.skeleton)
+    motion = _faithful(motion)
     head, joint_order = _hierarchy_lines(motion.skeleton)
     head += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {motion.frame_time:.9g}"]
     table, dec = _channel_table(motion, joint_order)
@@ -394,12 +486,19 @@ def format_bvh(motion: Motion) -> str:
     """BVH text of ``motion``: each joint's channel order and the end-site offsets kept; rotations with
     6 decimals (degrees), positions with 6-12 decimals by their size (see :func:`_position_decimals`).
     BVH lists joints depth-first, so a skeleton stored in another parents-first order reads back with
-    its joints in depth-first order (same names, same motion)."""
+    its joints in depth-first order (same names, same motion). Channels are added where needed, and
+    bad joint names refused, as in :func:`write_bvh`."""
     return _format_bytes(motion).decode("utf-8")
 
 
 def write_bvh(motion: Motion, path) -> None:
-    """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: a temporary file in the same folder,
-    then a rename, so readers never see half a file; the file gets the usual permissions (umask, or the
-    mode of the file it replaces)."""
+    """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: the text is written to an unnamed
+    file in the destination folder, synced, then renamed over ``path`` (see
+    :func:`._common.atomic_write_bytes`), so readers see the old file or the new one, never half of one;
+    the file gets the usual permissions (umask, or the mode of the file it replaces).
+
+    A joint whose channels cannot express its motion (fewer than three rotation channels and a rotation
+    about another axis, or a translation without position channels) is written with the channels it
+    needs, and a ``UserWarning`` names it. A joint name the format cannot hold (line breaks, tabs, runs
+    of spaces, lone braces) raises ``ValueError`` naming the joint; nothing is written then."""
     atomic_write_bytes(path, _format_bytes(motion))
