@@ -114,6 +114,25 @@ class Motion:
         object.__setattr__(self, "root_positions", readonly(rp))
         object.__setattr__(self, "local_translations", lt)
 
+    @classmethod
+    def _from_owned(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray,
+                    local_quats: np.ndarray, local_translations: np.ndarray | None = None) -> "Motion":
+        """Package-internal constructor for arrays the caller has just made and hands over (the readers):
+        finite, float64, C-contiguous, of the right shapes, quaternions unit to rounding. They are taken
+        without copies (made hemisphere-continuous in place, then read-only), so reading a long take
+        holds one quaternion table, not three."""
+        ft = check_frame_time(frame_time, "Motion: frame_time")
+        _continuous_inplace(local_quats)
+        obj = object.__new__(cls)
+        for name, a in (("root_positions", root_positions), ("local_quats", local_quats),
+                        ("local_translations", local_translations)):
+            if a is not None:
+                a.setflags(write=False)
+            object.__setattr__(obj, name, a)
+        object.__setattr__(obj, "skeleton", skeleton)
+        object.__setattr__(obj, "frame_time", ft)
+        return obj
+
     # -- basic properties -------------------------------------------------------------------------
     @property
     def num_frames(self) -> int:
@@ -201,6 +220,22 @@ class Motion:
     def __repr__(self) -> str:
         return (f"Motion({self.num_frames} frames @ {self.fps:.4g} Hz = {self.duration:.3f} s, "
                 f"{self.num_joints} joints)")
+
+
+def _continuous_inplace(q: np.ndarray, block: int = 4096) -> None:
+    """Flip signs of ``q (F, J, 4)`` in place so consecutive frames have dot >= 0 (as
+    :func:`.rotations.quat_continuous`), in blocks of frames so the temporaries stay small."""
+    F = q.shape[0]
+    for f0 in range(0, F, block):
+        f1 = min(F, f0 + block)
+        lo = max(f0 - 1, 0)
+        seg = q[lo:f1]
+        neg = np.einsum("fji,fji->fj", seg[1:], seg[:-1]) < 0  # against the (already fixed) previous frame
+        if lo == f0:  # first block: frame 0 is never flipped
+            neg = np.concatenate([np.zeros((1,) + neg.shape[1:], dtype=bool), neg])
+        flips = np.cumsum(neg, axis=0) % 2 == 1
+        if flips.any():
+            q[f0:f1][flips] *= -1.0
 
 
 def concatenate(motions: list[Motion]) -> Motion:

@@ -39,16 +39,19 @@ def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None)
             raise ValueError(f"{what} {name}: not a regular file (devices, pipes and folders are not read)")
         if st.st_size > limit:
             raise ValueError(f"{what} {name}: {st.st_size} bytes is over the {limit}-byte limit")
-        chunks, total = [], 0
-        while True:   # read to EOF, but never past the limit (a file growing while we read)
+        # one read of the whole file into one buffer (no second copy from joining pieces), then to EOF in
+        # pieces should it have grown, never past the limit
+        first = os.read(fd, min(st.st_size + 1, limit + 1))
+        chunks, total = [first], len(first)
+        while first and total <= limit:
             chunk = os.read(fd, min(1 << 24, limit + 1 - total))
             if not chunk:
                 break
             chunks.append(chunk)
             total += len(chunk)
-            if total > limit:
-                raise ValueError(f"{what} {name}: over the {limit}-byte limit")
-        return b"".join(chunks)
+        if total > limit:
+            raise ValueError(f"{what} {name}: over the {limit}-byte limit")
+        return first if len(chunks) == 1 else b"".join(chunks)
     except OSError as e:
         raise ValueError(f"{what} {name}: cannot read: {e.strerror or e}") from None
     finally:
@@ -139,12 +142,13 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     return t, den
 
 
-def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
+def euler_deg_to_quat(angles_deg: np.ndarray, axes: str, out: np.ndarray | None = None) -> np.ndarray:
     """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
     ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
     (x, y, z, w). Three distinct axes use the closed-form product of the elementary quaternions
     (scipy's ``from_euler`` is ~20x slower here); agrees with ``Rotation.from_euler(axes.upper(), ...)``
-    (checked in tests/test_io_bvh.py)."""
+    (checked in tests/test_io_bvh.py). ``out``: an optional C-contiguous ``(..., 4)`` array to write into
+    (three distinct axes only)."""
     axes = axes.upper()
     idx = ["XYZ".index(ax) for ax in axes]
     if len(axes) == 3 and len(set(axes)) == 3:
@@ -152,18 +156,21 @@ def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
         eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
         ang = np.asarray(angles_deg, dtype=float)
         flat = ang.reshape(-1, 3)
-        q = np.empty((flat.shape[0], 4))
+        q = np.empty((flat.shape[0], 4)) if out is None else out.reshape(-1, 4)
         # blocks of rows: the temporaries stay small (cache, no fresh pages) whatever the clip length
         for r0 in range(0, flat.shape[0], _EULER_BLOCK):
             a = np.array(flat[r0:r0 + _EULER_BLOCK].T)  # angle index first: contiguous components
             (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
             c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-            out = q[r0:r0 + _EULER_BLOCK]
-            out[:, i] = s1c2 * c3 + eps * c1s2 * s3
-            out[:, j] = c1s2 * c3 - eps * s1c2 * s3
-            out[:, k] = c1c2 * s3 + eps * s1s2 * c3
-            out[:, 3] = c1c2 * c3 - eps * s1s2 * s3
-        return q.reshape(ang.shape[:-1] + (4,))
+            dst = q[r0:r0 + _EULER_BLOCK]
+            dst[:, i] = s1c2 * c3 + eps * c1s2 * s3
+            dst[:, j] = c1s2 * c3 - eps * s1c2 * s3
+            dst[:, k] = c1c2 * s3 + eps * s1s2 * c3
+            dst[:, 3] = c1c2 * c3 - eps * s1s2 * s3
+        return q.reshape(ang.shape[:-1] + (4,)) if out is None else out
+    if out is not None:
+        out[...] = euler_deg_to_quat(angles_deg, axes)
+        return out
     a = np.radians(np.asarray(angles_deg, dtype=float))
     a *= 0.5
     s, c = np.sin(a), np.cos(a)

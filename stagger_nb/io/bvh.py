@@ -256,56 +256,122 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
         raise BVHError(source, ln, f"frame time {ft:g} s is outside the {MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s "
                                    f"supported (at most {1 / MIN_FRAME_TIME:g} frames per second)")
     num_channels = sum(len(c) for c in skel.channels)
-    block = raw[pos:]
-    data = None
+    layout = _Layout(skel)
+    stop = _data_end(raw, pos)
+    out = None
     if num_channels == 0:
-        data = np.zeros((nf, 0)) if not block.strip() else None
-    elif len(block) >= nf * num_channels:  # cannot hold the declared values otherwise
-        data = parse_table(block, nf, num_channels)
-    if data is None:
-        data = _parse_motion_lines(block, ln + 1, nf, num_channels, source)
-    return _channels_to_motion(skel, float(ft), data)
+        if stop == pos:
+            out = layout.empty(nf)
+    elif stop - pos >= nf * num_channels:  # cannot hold the declared values otherwise: allocate nothing
+        out = layout.empty(nf)
+        if not _read_chunks(raw, pos, stop, nf, num_channels, layout, out):
+            out = None
+    if out is None:  # the line-by-line parser finds and reports the first bad line
+        data = _parse_motion_lines(bytes(memoryview(raw)[pos:]), ln + 1, nf, num_channels, source)
+        out = layout.empty(nf)
+        layout.fill(data, 0, out)
+    root_pos, quats, trans = out
+    return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
 
-def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> Motion:
-    """Motion from the ``(F, C)`` channel table: rotations grouped by channel order and converted in one
-    vectorised call per order."""
-    F = data.shape[0]
-    J = skel.num_joints
-    trans = None
-    root_pos = np.broadcast_to(skel.offsets[0], (F, 3)).copy()
-    groups: dict[str, tuple[list, list]] = {}
-    col = 0
-    for j, chans in enumerate(skel.channels):
-        rot_cols, order = [], ""
-        for c in chans:
-            axis = "XYZ".index(c[0].upper())
-            if c[1:].lower() == "position":
-                if j == 0:
-                    root_pos[:, axis] = data[:, col]
+_CHUNK_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size
+
+
+def _data_end(raw: bytes, pos: int) -> int:
+    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed), found
+    from the end in chunks so nothing large is copied."""
+    end = len(raw)
+    while end > pos:
+        start = max(pos, end - _CHUNK_BYTES)
+        kept = len(raw[start:end].rstrip())
+        if kept:
+            return start + kept
+        end = start
+    return pos
+
+
+def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> bool:
+    """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
+    :func:`._numparse.parse_table`, each piece converted into ``out`` at once; ``False`` when a piece cannot
+    be certified or the line count disagrees (the caller then runs the line-by-line parser)."""
+    row = 0
+    while pos < stop:
+        nl = raw.find(b"\n", min(pos + _CHUNK_BYTES, stop), stop)
+        end = stop if nl < 0 else nl + 1
+        chunk = raw[pos:end]
+        rows = chunk.count(b"\n") + (0 if chunk.endswith(b"\n") else 1)
+        if row + rows > nf:
+            return False
+        data = parse_table(chunk, rows, C)
+        if data is None:
+            return False
+        layout.fill(data, row, out)
+        row += rows
+        pos = end
+    return row == nf
+
+
+class _Layout:
+    """Where each column of the ``(F, C)`` channel table goes: root position axes, animated joint
+    translations, and rotations grouped by channel order (one vectorised conversion per order)."""
+
+    def __init__(self, skel: Skeleton):
+        self.skel = skel
+        self.root_pos, self.trans = [], []  # (axis, col), (joint, axis, col)
+        groups: dict[str, tuple[list, list]] = {}
+        col = 0
+        for j, chans in enumerate(skel.channels):
+            rot_cols, order = [], ""
+            for c in chans:
+                axis = "XYZ".index(c[0].upper())
+                if c[1:].lower() == "position":
+                    (self.root_pos.append((axis, col)) if j == 0 else self.trans.append((j, axis, col)))
                 else:
-                    if trans is None:
-                        trans = np.broadcast_to(skel.offsets, (F, J, 3)).copy()
-                    trans[:, j, axis] = data[:, col]
+                    rot_cols.append(col)
+                    order += c[0].upper()
+                col += 1
+            if order:
+                joints, cols = groups.setdefault(order, ([], []))
+                joints.append(j)
+                cols.append(rot_cols)
+        J = skel.num_joints
+        self.groups = [(order, joints, np.array(cols)) for order, (joints, cols) in groups.items()]
+        # every joint in one order and in file order: the conversion writes the output rows directly
+        self.direct = len(self.groups) == 1 and self.groups[0][1] == list(range(J))
+
+    def empty(self, F: int):
+        """Output arrays for ``F`` frames: root positions ``(F, 3)`` (the root OFFSET where not animated),
+        local quaternions ``(F, J, 4)`` (identity where a joint has no rotation channels) and joint
+        translations ``(F, J, 3)`` or ``None``."""
+        skel, J = self.skel, self.skel.num_joints
+        root_pos = np.empty((F, 3))
+        root_pos[:] = skel.offsets[0]
+        if self.direct:
+            quats = np.empty((F, J, 4))
+        else:
+            quats = np.zeros((F, J, 4))
+            quats[..., 3] = 1.0
+        trans = None
+        if self.trans:
+            trans = np.empty((F, J, 3))
+            trans[:] = skel.offsets
+        return root_pos, quats, trans
+
+    def fill(self, data: np.ndarray, row: int, out) -> None:
+        """Convert the table rows ``data (n, C)`` into frames ``[row, row + n)`` of ``out``."""
+        root_pos, quats, trans = out
+        sl = slice(row, row + data.shape[0])
+        for axis, col in self.root_pos:
+            root_pos[sl, axis] = data[:, col]
+        for j, axis, col in self.trans:
+            trans[sl, j, axis] = data[:, col]
+        if trans is not None:
+            trans[sl, 0] = root_pos[sl]
+        for order, joints, cols in self.groups:
+            if self.direct:
+                euler_deg_to_quat(data[:, cols], order, out=quats[sl])
             else:
-                rot_cols.append(col)
-                order += c[0].upper()
-            col += 1
-        if order:
-            joints, cols = groups.setdefault(order, ([], []))
-            joints.append(j)
-            cols.append(rot_cols)
-    if len(groups) == 1 and next(iter(groups.values()))[0] == list(range(J)):
-        order, (_, cols) = next(iter(groups.items()))  # every joint, one order: no scatter needed
-        quats = euler_deg_to_quat(data[:, np.array(cols)], order)
-    else:
-        quats = np.zeros((F, J, 4))  # identity for joints without rotation channels
-        quats[..., 3] = 1.0
-        for order, (joints, cols) in groups.items():
-            quats[:, joints] = euler_deg_to_quat(data[:, np.array(cols)], order)
-    if trans is not None:
-        trans[:, 0] = root_pos
-    return Motion(skel, frame_time, root_pos, quats, trans)
+                quats[sl, joints] = euler_deg_to_quat(data[:, cols], order)
 
 
 def read_bvh(path) -> Motion:
