@@ -142,35 +142,41 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     return t, den
 
 
-def euler_deg_to_quat(angles_deg: np.ndarray, axes: str, out: np.ndarray | None = None) -> np.ndarray:
+def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
+    """Component-major form of :func:`euler_deg_to_quat` for three distinct axes: ``angles (3, ...)``
+    degrees (first index: the angle about ``axes[k]``) -> ``(4, ...)`` quaternion components x, y, z, w.
+    Every step is one contiguous numpy operation on a block of ``_EULER_BLOCK`` rotations (the
+    temporaries stay in cache and are reused: fresh pages are expensive in VMs)."""
+    i, j, k = ("XYZ".index(ax) for ax in axes.upper())
+    eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
+    flat = np.asarray(angles, dtype=float).reshape(3, -1)
+    q = np.empty((4, flat.shape[1]))
+    for r0 in range(0, flat.shape[1], _EULER_BLOCK):
+        r1 = r0 + _EULER_BLOCK
+        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(np.array(flat[:, r0:r1]))
+        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+        q[i, r0:r1] = s1c2 * c3 + eps * c1s2 * s3
+        q[j, r0:r1] = c1s2 * c3 - eps * s1c2 * s3
+        q[k, r0:r1] = c1c2 * s3 + eps * s1s2 * c3
+        q[3, r0:r1] = c1c2 * c3 - eps * s1s2 * s3
+    return q.reshape((4,) + np.shape(angles)[1:])
+
+
+def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
     ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
     (x, y, z, w). Three distinct axes use the closed-form product of the elementary quaternions
-    (scipy's ``from_euler`` is ~20x slower here); agrees with ``Rotation.from_euler(axes.upper(), ...)``
-    (checked in tests/test_io_bvh.py). ``out``: an optional C-contiguous ``(..., 4)`` array to write into
-    (three distinct axes only)."""
+    (:func:`euler_components`; scipy's ``from_euler`` is ~20x slower here); agrees with
+    ``Rotation.from_euler(axes.upper(), ...)`` (checked in tests/test_io_bvh.py)."""
     axes = axes.upper()
     idx = ["XYZ".index(ax) for ax in axes]
     if len(axes) == 3 and len(set(axes)) == 3:
-        i, j, k = idx
-        eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
         ang = np.asarray(angles_deg, dtype=float)
-        flat = ang.reshape(-1, 3)
-        q = np.empty((flat.shape[0], 4)) if out is None else out.reshape(-1, 4)
-        # blocks of rows: the temporaries stay small (cache, no fresh pages) whatever the clip length
-        for r0 in range(0, flat.shape[0], _EULER_BLOCK):
-            a = np.array(flat[r0:r0 + _EULER_BLOCK].T)  # angle index first: contiguous components
-            (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
-            c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-            dst = q[r0:r0 + _EULER_BLOCK]
-            dst[:, i] = s1c2 * c3 + eps * c1s2 * s3
-            dst[:, j] = c1s2 * c3 - eps * s1c2 * s3
-            dst[:, k] = c1c2 * s3 + eps * s1s2 * c3
-            dst[:, 3] = c1c2 * c3 - eps * s1s2 * s3
-        return q.reshape(ang.shape[:-1] + (4,)) if out is None else out
-    if out is not None:
-        out[...] = euler_deg_to_quat(angles_deg, axes)
-        return out
+        comps = euler_components(ang.reshape(-1, 3).T, axes)
+        q = np.empty((comps.shape[1], 4))
+        for c in range(4):
+            q[:, c] = comps[c]
+        return q.reshape(ang.shape[:-1] + (4,))
     a = np.radians(np.asarray(angles_deg, dtype=float))
     a *= 0.5
     s, c = np.sin(a), np.cos(a)

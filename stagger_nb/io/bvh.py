@@ -23,10 +23,10 @@ import numpy as np
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import (UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_deg_to_quat, finite_number,
-                      read_bytes)
+from ._common import (UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components, euler_deg_to_quat,
+                      finite_number, read_bytes)
 from ._numformat import format_table
-from ._numparse import NUMBER_RE, parse_table
+from ._numparse import NUMBER_RE, parse_columns
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -269,7 +269,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     if out is None:  # the line-by-line parser finds and reports the first bad line
         data = _parse_motion_lines(bytes(memoryview(raw)[pos:]), ln + 1, nf, num_channels, source)
         out = layout.empty(nf)
-        layout.fill(data, 0, out)
+        layout.fill(data.T, 0, out)
     root_pos, quats, trans = out
     return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
@@ -302,7 +302,7 @@ def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Lay
         rows = chunk.count(b"\n") + (0 if chunk.endswith(b"\n") else 1)
         if row + rows > nf:
             return False
-        data = parse_table(chunk, rows, C)
+        data = parse_columns(chunk, rows, C)
         if data is None:
             return False
         layout.fill(data, row, out)
@@ -358,20 +358,26 @@ class _Layout:
         return root_pos, quats, trans
 
     def fill(self, data: np.ndarray, row: int, out) -> None:
-        """Convert the table rows ``data (n, C)`` into frames ``[row, row + n)`` of ``out``."""
+        """Convert the table ``data (C, n)`` (column-major: one row per channel) into frames
+        ``[row, row + n)`` of ``out``."""
         root_pos, quats, trans = out
-        sl = slice(row, row + data.shape[0])
+        sl = slice(row, row + data.shape[1])
         for axis, col in self.root_pos:
-            root_pos[sl, axis] = data[:, col]
+            root_pos[sl, axis] = data[col]
         for j, axis, col in self.trans:
-            trans[sl, j, axis] = data[:, col]
+            trans[sl, j, axis] = data[col]
         if trans is not None:
             trans[sl, 0] = root_pos[sl]
         for order, joints, cols in self.groups:
-            if self.direct:
-                euler_deg_to_quat(data[:, cols], order, out=quats[sl])
+            dst = quats[sl] if self.direct else np.empty((data.shape[1], len(joints), 4))
+            if len(order) == 3 and len(set(order)) == 3:  # (3, joints, n) angles -> (4, joints, n) components
+                comps = euler_components(data[cols.T], order)
+                for c in range(4):  # one 2-D transpose per component: ~4x faster than numpy's 3-D one
+                    dst[..., c] = comps[c].T
             else:
-                quats[sl, joints] = euler_deg_to_quat(data[:, cols], order)
+                dst[...] = euler_deg_to_quat(data[cols].transpose(2, 0, 1), order)
+            if not self.direct:
+                quats[sl, joints] = dst
 
 
 def read_bvh(path) -> Motion:
