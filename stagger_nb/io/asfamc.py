@@ -30,7 +30,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from ..core.motion import Motion
+from ..core.motion import Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
 from ._common import FormatError, euler_deg_to_quat, finite_number, read_text
@@ -446,9 +446,7 @@ def read_asf_amc(asf_path, amc_path, frame_time: float = 1 / 120, units: str = "
     ValueError
         For a bad ``frame_time`` or ``units``.
     """
-    ft = float(frame_time)
-    if not np.isfinite(ft) or ft <= 0:
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time!r}")
+    ft = check_frame_time(frame_time)
     if units not in _UNIT_SCALE:
         raise ValueError(f"units must be one of {', '.join(_UNIT_SCALE)}, got {units!r}")
     asf_path, amc_path = os.fspath(asf_path), os.fspath(amc_path)
