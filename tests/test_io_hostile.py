@@ -365,3 +365,27 @@ def test_huge_and_tiny_quaternions_normalise(scale):
     lq[0, 1] = q
     np.testing.assert_allclose(m.replace(local_quats=lq).local_quats[0, 1], expect, rtol=1e-14)
     np.testing.assert_array_equal(quat_normalize(np.zeros(4)), [0, 0, 0, 1])  # zero stays the identity
+
+
+@pytest.mark.parametrize("unnamed", [True, False])
+def test_atomic_write_both_ways_leaves_old_or_new(tmp_path, monkeypatch, unnamed):
+    """With unnamed files (O_TMPFILE) and without (a named hidden temporary): a failed rename keeps the old
+    file and leaves no temporary; a good write replaces the file and keeps its mode."""
+    from stagger_nb.io import _common
+    monkeypatch.setattr(_common, "_UNNAMED_OK", unnamed)
+    out = tmp_path / "x.bvh"
+    out.write_text("previous")
+    os.chmod(out, 0o640)
+    real_replace = os.replace
+
+    def boom(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError, match="disk full"):
+        sn.write_bvh(parse_bvh(TINY), out)
+    assert out.read_text() == "previous" and [q.name for q in tmp_path.iterdir()] == ["x.bvh"]
+    monkeypatch.setattr(os, "replace", real_replace)
+    sn.write_bvh(parse_bvh(TINY), out)
+    assert sn.read_bvh(out).num_frames == 2 and [q.name for q in tmp_path.iterdir()] == ["x.bvh"]
+    assert out.stat().st_mode & 0o777 == 0o640

@@ -5,7 +5,6 @@ import math
 import os
 import re
 import stat
-import tempfile
 
 import numpy as np
 
@@ -288,6 +287,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
             finally:
                 os.close(fd)
         if tmp is None:
+            import tempfile  # only here: it pulls in random and shutil (~10 ms of import time)
             fd2, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
             try:
                 _write_all(fd2, data)
