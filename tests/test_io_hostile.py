@@ -389,3 +389,21 @@ def test_atomic_write_both_ways_leaves_old_or_new(tmp_path, monkeypatch, unnamed
     sn.write_bvh(parse_bvh(TINY), out)
     assert sn.read_bvh(out).num_frames == 2 and [q.name for q in tmp_path.iterdir()] == ["x.bvh"]
     assert out.stat().st_mode & 0o777 == 0o640
+
+
+def test_many_frames_of_many_channel_less_joints_refused_before_allocating():
+    """10,000 joints without channels cost no text but 32 bytes a frame each: the header is refused."""
+    J = 5000
+    text = ("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n"
+            + "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 0\n" for k in range(1, J))
+            + "}\n" * J + "MOTION\nFrames: 100000\nFrame Time: 0.01\n" + "0\n" * 100000)
+    _raises_within(64 << 20, BVHError, r"line %d: declared 100000 frames x 5000 joints" % _line(text, "Frames:"),
+                   parse_bvh, text.encode(), "wide.bvh")
+    asf = TINY_ASF.replace(":hierarchy", "".join(f"  begin\n     name x{k}\n     direction 0 1 0\n     length 1\n"
+                                                   f"  end\n" for k in range(2000)) + ":hierarchy")
+    asf = asf.replace("    a b\n", "    a b " + " ".join(f"x{k}" for k in range(2000)) + "\n")
+    amc = ":DEGREES\n" + "".join(f"{f}\nroot 0 0 0 0 0 0\na 0\nb 0\n" for f in range(1, 6001))
+    from stagger_nb.io.asfamc import parse_amc, parse_asf
+    skel = parse_asf(asf)
+    with pytest.raises(AMCError, match=r"line \d+: more than \d+ frames of 2003 joints"):
+        parse_amc(amc, skel, "wide.amc")

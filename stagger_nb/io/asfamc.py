@@ -30,7 +30,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from ..core.motion import Motion, check_frame_time
+from ..core.motion import MAX_FRAME_JOINTS, Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
 from ._common import FormatError, euler_deg_to_quat, finite_number, read_text
@@ -311,8 +311,9 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             no = int(head)
             if expect_no is not None and no != expect_no:
                 raise AMCError(source, ln, f"expected frame number {expect_no}, found {no}")
-            if len(rows) >= _MAX_FRAMES:
-                raise AMCError(source, ln, f"more than {_MAX_FRAMES} frames")
+            if len(rows) >= _MAX_FRAMES or (len(rows) + 1) * (len(asf.bones) + 1) > MAX_FRAME_JOINTS:
+                raise AMCError(source, ln, f"more than {min(_MAX_FRAMES, MAX_FRAME_JOINTS // (len(asf.bones) + 1))}"
+                                           f" frames of {len(asf.bones) + 1} joints")
             expect_no = no + 1
             current = [None] * width
             rows.append(current)

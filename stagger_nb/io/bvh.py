@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
 from ._common import (UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components, euler_deg_to_quat,
@@ -245,6 +245,9 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     if nf > _MAX_FRAMES:
         raise BVHError(source, ln, f"declared {nf:g} frames, more than the {_MAX_FRAMES} supported")
     nf = int(nf)
+    if nf * skel.num_joints > MAX_FRAME_JOINTS:  # joints without channels cost memory but no text
+        raise BVHError(source, ln, f"declared {nf} frames x {skel.num_joints} joints, more than the "
+                                   f"{MAX_FRAME_JOINTS:,} joint samples supported")
     if pos >= len(raw):
         raise BVHError(source, ln, "file ends early: expected 'Frame Time: <seconds>'")
     line, pos = _next_line(raw, pos)
