@@ -407,3 +407,14 @@ def test_many_frames_of_many_channel_less_joints_refused_before_allocating():
     skel = parse_asf(asf)
     with pytest.raises(AMCError, match=r"line \d+: more than \d+ frames of 2003 joints"):
         parse_amc(amc, skel, "wide.amc")
+
+
+@pytest.mark.parametrize("body", [b"0 0 0\n" + b"\n" * (8 << 20) + b"0 0 0\n",  # 8 M blank lines
+                                  b"0 " * (8 << 20) + b"\n0 0 0\n"])  # one line of 8 M values
+def test_hostile_motion_blocks_cost_no_more_than_the_file(body):
+    head = b"HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n}\nMOTION\n"
+    raw = head + b"Frames: 2\nFrame Time: 0.1\n" + body
+    t0 = time.perf_counter()
+    _raises_within(len(raw) // 2, BVHError, r"line 11: expected 3 values on frame 1, found 0|line 10: expected 3 "
+                   r"values on frame 0, found more than 3", parse_bvh, raw, "hostile.bvh")
+    assert time.perf_counter() - t0 < 10

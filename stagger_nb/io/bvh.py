@@ -180,31 +180,45 @@ def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
     return finite_number(m.group(1), f"'{key}:'", source, ln, BVHError)
 
 
-def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str):
-    """Line-by-line parse of the frame lines into ``(F, C)`` floats; raises :class:`BVHError` at the
-    first bad line (the reference for :func:`parse_table`, and its fallback)."""
-    lines = block.split(b"\n")
-    end = len(lines)
-    while end > 0 and not lines[end - 1].strip():
-        end -= 1
-    out = np.empty((min(end, num_frames), num_channels))
-    for k in range(end):
+_MAX_TOKEN = 1024  # characters of one value in the motion block (real files: <= 25)
+
+
+def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str,
+                        start: int = 0):
+    """Line-by-line parse of the frame lines ``block[start:]`` into ``(F, C)`` floats; raises
+    :class:`BVHError` at the first bad line (the reference for :func:`parse_table`, and its fallback).
+    Lines are taken one at a time and split into at most ``C + 1`` pieces, so a hostile block (millions
+    of blank lines, a line of millions of values) costs no more memory than its output."""
+    stop = _data_end(block, start)
+    out = np.empty((min(num_frames, block.count(b"\n", start, stop) + 1), num_channels))
+    k, pos = 0, start
+    longest = (num_channels + 1) * (_MAX_TOKEN + 1)
+    while pos < stop:
+        nl = block.find(b"\n", pos, stop)
+        end = stop if nl < 0 else nl
+        line = block[pos:min(end, pos + longest)]  # a prefix: enough to find C + 1 tokens of sane length
+        pos = end + 1
         ln = first_ln + k
-        toks = lines[k].split()
         if k >= num_frames:
             raise BVHError(source, ln, f"more frame lines than 'Frames: {num_frames}' declares")
+        toks = line.split(None, num_channels)
+        if len(toks) <= num_channels and len(line) == longest:
+            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found a value of more than "
+                                       f"{_MAX_TOKEN} characters")
         if len(toks) != num_channels:
-            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found {len(toks)}")
+            found = f"more than {num_channels}" if len(toks) > num_channels else str(len(toks))
+            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found {found}")
         for c, t in enumerate(toks):
             if not NUMBER_RE.match(t):
-                raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t)!r}")
+                raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t[:40])!r}")
             v = float(t)
             if not np.isfinite(v):
-                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t)!r}")
+                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t[:40])!r}")
             out[k, c] = v
-    if end < num_frames:
-        raise BVHError(source, first_ln + max(end - 1, 0),
-                       f"file ends early: 'Frames: {num_frames}' declared, {end} frame lines found")
+        k += 1
+    if k < num_frames:
+        raise BVHError(source, first_ln + max(k - 1, 0),
+                       f"file ends early: 'Frames: {num_frames}' declared, {k} frame lines found")
     return out
 
 
@@ -270,7 +284,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
         if not _read_chunks(raw, pos, stop, nf, num_channels, layout, out):
             out = None
     if out is None:  # the line-by-line parser finds and reports the first bad line
-        data = _parse_motion_lines(bytes(memoryview(raw)[pos:]), ln + 1, nf, num_channels, source)
+        data = _parse_motion_lines(raw, ln + 1, nf, num_channels, source, start=pos)
         out = layout.empty(nf)
         layout.fill(data.T, 0, out)
     root_pos, quats, trans = out
@@ -301,10 +315,10 @@ def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Lay
     while pos < stop:
         nl = raw.find(b"\n", min(pos + _CHUNK_BYTES, stop), stop)
         end = stop if nl < 0 else nl + 1
-        chunk = raw[pos:end]
-        rows = chunk.count(b"\n") + (0 if chunk.endswith(b"\n") else 1)
-        if row + rows > nf:
+        rows = raw.count(b"\n", pos, end) + (0 if raw[end - 1:end] == b"\n" else 1)
+        if row + rows > nf or end - pos > 64 * rows * C:  # lines cannot hold C numbers of sane length
             return False
+        chunk = raw[pos:end]
         data = parse_columns(chunk, rows, C)
         if data is None:
             return False
