@@ -418,3 +418,20 @@ def test_hostile_motion_blocks_cost_no_more_than_the_file(body):
     _raises_within(len(raw) // 2, BVHError, r"line 11: expected 3 values on frame 1, found 0|line 10: expected 3 "
                    r"values on frame 0, found more than 3", parse_bvh, raw, "hostile.bvh")
     assert time.perf_counter() - t0 < 10
+
+
+@pytest.mark.parametrize("junk", ["\n" * (1 << 16), "root " + "0 " * (4 << 20) + "\n"])
+def test_hostile_amc_costs_little_memory(tmp_path, junk):
+    """Millions of empty lines (once a list of lines) or a line of millions of values (once a list of tokens)."""
+    amc = TINY_AMC.replace("root 1 2 3 0 0 0\n", "root 1 2 3 0 0 0\n" + junk if junk[0] == "\n" else junk)
+    from stagger_nb.io.asfamc import parse_amc, parse_asf
+    skel = parse_asf(TINY_ASF)
+    match = "frame 1 has no line|expected 6 values for 'root', found more than 6"
+    if junk[0] == "\n":  # the blank lines are skipped: the motion is read
+        tracemalloc.start()
+        parse_amc(amc, skel, "t.amc")
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert peak < len(amc)  # a list of the lines alone would be 8 bytes a line, 8x the file
+    else:
+        _raises_within(len(amc), AMCError, match, parse_amc, amc, skel, "t.amc")

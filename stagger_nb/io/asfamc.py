@@ -39,6 +39,7 @@ __all__ = ["AMCError", "read_asf_amc", "parse_asf", "parse_amc", "AsfSkeleton"]
 
 _MAX_BONES = 10_000
 _MAX_FRAMES = 10_000_000
+_MAX_TOKEN = 1024  # characters of one AMC value (real files: <= 12)
 _ROT_DOFS = ("rx", "ry", "rz")
 _TRANS_DOFS = ("tx", "ty", "tz")
 _UNIT_SCALE = {"file": None, "inches": 1.0, "meters": 0.0254}
@@ -95,6 +96,21 @@ class AsfSkeleton:
         self.parents = parents
 
 
+def _iter_lines(text: str, limit: int | None = None):
+    """``(line number, line)`` pairs of ``text`` one at a time (``\\n``, ``\\r\\n`` or lone ``\\r`` breaks),
+    so a file of millions of empty lines is never held as a list; with ``limit``, only the first ``limit``
+    characters of each line (a line of millions of values is not copied whole)."""
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    pos, ln, n = 0, 0, len(text)
+    while pos < n:
+        nl = text.find("\n", pos)
+        end = n if nl < 0 else nl
+        ln += 1
+        yield ln, text[pos:end if limit is None else min(end, pos + limit)]
+        pos = end + 1
+
+
 def _floats(toks: list[str], n: int, what: str, source: str, ln: int) -> list[float]:
     if len(toks) != n:
         raise AMCError(source, ln, f"expected {n} numbers for {what}, found {len(toks)}")
@@ -121,8 +137,8 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
     bone = None
     in_hier = False
     seen_root = seen_bonedata = seen_hierarchy = False
-    lines = text.splitlines()
-    for ln, raw in enumerate(lines, 1):
+    ln = 0
+    for ln, raw in _iter_lines(text):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
@@ -234,7 +250,7 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
         elif section == "hierarchy-done":
             raise AMCError(source, ln, f"unexpected {toks[0]!r} after the ':hierarchy' 'end'")
         # other sections (:version, :name, :documentation, unknown) are free text
-    last = len(lines) or 1
+    last = ln or 1
     if bone is not None:
         raise AMCError(source, last, f"file ends early: expected 'end' of the bone begun on line {bone.line}")
     if in_hier:
@@ -282,14 +298,14 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
         else:
             bone_cols.append(None)
     need = len(names)
-    lines = text.splitlines()
     rows: list[list[str]] = []  # per frame: the value tokens laid out by `col`
     frame_lines: list[int] = []
     current = None
     seen: set = set()
     expect_no = None
     ln = 0
-    for ln, raw in enumerate(lines, 1):
+    longest = (width + 2) * (_MAX_TOKEN + 1)  # characters of a line that can matter: the rest is an error
+    for ln, raw in _iter_lines(text, longest):
         s = raw.strip()
         if not s or s[0] == "#":
             continue
@@ -302,7 +318,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             elif kw == ":RADIANS":
                 to_deg = True
             continue
-        toks = s.split()
+        toks = s.split(None, 1)  # the head, then the values split below with a bound
         head = toks[0]
         if len(toks) == 1 and head.isascii() and head.isdigit():  # '¹', '١' are digits to isdigit()
             if current is not None and len(seen) != need:
@@ -327,11 +343,16 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             raise AMCError(source, ln, f"unknown bone {head!r} (expected root or a bone with dof)")
         if head in seen:
             raise AMCError(source, ln, f"second line for {head!r} in frame {expect_no - 1}")
-        if len(toks) != n + 1:
-            raise AMCError(source, ln, f"expected {n} values for {head!r}, found {len(toks) - 1}")
+        vals = toks[1].split(None, n) if len(toks) > 1 else []  # at most n + 1 pieces, whatever the line
+        if len(vals) <= n and len(raw) == longest:
+            raise AMCError(source, ln, f"expected {n} values for {head!r}, found a value of more than "
+                                       f"{_MAX_TOKEN} characters")
+        if len(vals) != n:
+            found = f"more than {n}" if len(vals) > n else str(len(vals))
+            raise AMCError(source, ln, f"expected {n} values for {head!r}, found {found}")
         seen.add(head)
         c = col[head]
-        current[c:c + n] = toks[1:]
+        current[c:c + n] = vals
     if current is None:
         raise AMCError(source, ln or 1, "no frames found (expected a frame number line)")
     if len(seen) != need:
@@ -348,7 +369,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
         except ValueError:
             ok = False
     if not ok:
-        _locate_bad_number(lines, frame_lines, source)
+        _locate_bad_number(text, frame_lines, source)
     if to_deg:
         rot = np.array([t.startswith("r") for t in asf.root_order] + [True] * (width - len(asf.root_order)))
         data = np.where(rot, np.degrees(data), data)
@@ -358,9 +379,11 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
     return root, dofs
 
 
-def _locate_bad_number(lines, frame_lines, source):
-    for ln in range(frame_lines[0], len(lines) + 1):
-        toks = lines[ln - 1].split()
+def _locate_bad_number(text, frame_lines, source):
+    for ln, line in _iter_lines(text):
+        if ln < frame_lines[0]:
+            continue
+        toks = line.split()
         if len(toks) < 2 or toks[0].startswith("#"):
             continue
         for t in toks[1:]:
