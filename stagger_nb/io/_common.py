@@ -114,6 +114,22 @@ def finite_number(tok: str, what: str, source: str, line: int, error: type[Forma
     return v
 
 
+MAX_TOKEN = 1024  # characters of one value in a motion line (real files: <= 25)
+
+
+def split_values(text, n: int, truncated: bool, what: str, source: str, line: int, error: type[FormatError]):
+    """The ``n`` whitespace-separated values of ``text`` (``str`` or ``bytes``: a line, or its first
+    characters when ``truncated``), split into at most ``n + 1`` pieces whatever the line holds; ``error``
+    naming ``what`` (e.g. ``"on frame 3"``) when there are not exactly ``n``."""
+    vals = text.split(None, n)
+    if len(vals) <= n and truncated:
+        raise error(source, line, f"expected {n} values {what}, found a value of more than {MAX_TOKEN} characters")
+    if len(vals) != n:
+        found = f"more than {n}" if len(vals) > n else str(len(vals))
+        raise error(source, line, f"expected {n} values {what}, found {found}")
+    return vals
+
+
 _EULER_BLOCK = 4096  # rows per block in euler_deg_to_quat (32 KB per temporary)
 
 

@@ -33,13 +33,12 @@ import numpy as np
 from ..core.motion import MAX_FRAME_JOINTS, Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
-from ._common import FormatError, euler_deg_to_quat, finite_number, read_text
+from ._common import MAX_TOKEN, FormatError, euler_deg_to_quat, finite_number, read_text, split_values
 
 __all__ = ["AMCError", "read_asf_amc", "parse_asf", "parse_amc", "AsfSkeleton"]
 
 _MAX_BONES = 10_000
 _MAX_FRAMES = 10_000_000
-_MAX_TOKEN = 1024  # characters of one AMC value (real files: <= 12)
 _ROT_DOFS = ("rx", "ry", "rz")
 _TRANS_DOFS = ("tx", "ty", "tz")
 _UNIT_SCALE = {"file": None, "inches": 1.0, "meters": 0.0254}
@@ -304,7 +303,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
     seen: set = set()
     expect_no = None
     ln = 0
-    longest = (width + 2) * (_MAX_TOKEN + 1)  # characters of a line that can matter: the rest is an error
+    longest = (width + 2) * (MAX_TOKEN + 1)  # characters of a line that can matter: the rest is an error
     for ln, raw in _iter_lines(text, longest):
         s = raw.strip()
         if not s or s[0] == "#":
@@ -343,13 +342,8 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             raise AMCError(source, ln, f"unknown bone {head!r} (expected root or a bone with dof)")
         if head in seen:
             raise AMCError(source, ln, f"second line for {head!r} in frame {expect_no - 1}")
-        vals = toks[1].split(None, n) if len(toks) > 1 else []  # at most n + 1 pieces, whatever the line
-        if len(vals) <= n and len(raw) == longest:
-            raise AMCError(source, ln, f"expected {n} values for {head!r}, found a value of more than "
-                                       f"{_MAX_TOKEN} characters")
-        if len(vals) != n:
-            found = f"more than {n}" if len(vals) > n else str(len(vals))
-            raise AMCError(source, ln, f"expected {n} values for {head!r}, found {found}")
+        vals = split_values(toks[1] if len(toks) > 1 else "", n, len(raw) == longest, f"for {head!r}", source, ln,
+                            AMCError)
         seen.add(head)
         c = col[head]
         current[c:c + n] = vals

@@ -23,8 +23,8 @@ import numpy as np
 from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import (UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components, euler_deg_to_quat,
-                      finite_number, read_bytes)
+from ._common import (MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
+                      euler_deg_to_quat, finite_number, read_bytes, split_values)
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, parse_columns
 
@@ -180,9 +180,6 @@ def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
     return finite_number(m.group(1), f"'{key}:'", source, ln, BVHError)
 
 
-_MAX_TOKEN = 1024  # characters of one value in the motion block (real files: <= 25)
-
-
 def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str,
                         start: int = 0):
     """Line-by-line parse of the frame lines ``block[start:]`` into ``(F, C)`` floats; raises
@@ -192,7 +189,7 @@ def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channe
     stop = _data_end(block, start)
     out = np.empty((min(num_frames, block.count(b"\n", start, stop) + 1), num_channels))
     k, pos = 0, start
-    longest = (num_channels + 1) * (_MAX_TOKEN + 1)
+    longest = (num_channels + 1) * (MAX_TOKEN + 1)
     while pos < stop:
         nl = block.find(b"\n", pos, stop)
         end = stop if nl < 0 else nl
@@ -201,13 +198,7 @@ def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channe
         ln = first_ln + k
         if k >= num_frames:
             raise BVHError(source, ln, f"more frame lines than 'Frames: {num_frames}' declares")
-        toks = line.split(None, num_channels)
-        if len(toks) <= num_channels and len(line) == longest:
-            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found a value of more than "
-                                       f"{_MAX_TOKEN} characters")
-        if len(toks) != num_channels:
-            found = f"more than {num_channels}" if len(toks) > num_channels else str(len(toks))
-            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found {found}")
+        toks = split_values(line, num_channels, len(line) == longest, f"on frame {k}", source, ln, BVHError)
         for c, t in enumerate(toks):
             if not NUMBER_RE.match(t):
                 raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t[:40])!r}")
