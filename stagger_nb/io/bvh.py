@@ -6,10 +6,14 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (pyarrow's CSV reader,
-bit-identical to ``float``; blocks with tabs or runs of spaces are rewritten single-spaced first); when
-that cannot certify the block, a line-by-line parser finds the first bad line and raises :class:`BVHError` naming the file, the
-line and what was expected. Writing formats the channel table with a vectorised fixed-point formatter
+Reading is fast and lean: the motion block is parsed in ~1 MB pieces by :func:`._numparse.parse_columns`
+(pyarrow's CSV reader, bit-identical to ``float``; pieces with tabs or runs of spaces are rewritten
+single-spaced first), each piece converted straight into the output arrays, which the Motion takes without
+copies; when a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line
+and raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
+:data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
+:data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
+are refused. Writing formats the channel table with a vectorised fixed-point formatter
 (rotations to 1e-6 degree, positions to 1e-8 of the largest translation) and replaces the file atomically.
 """
 from __future__ import annotations
