@@ -110,3 +110,38 @@ def test_long_tent_kernels_by_fft_equal_direct_convolution(rng, F, width, ft):
     assert k.size > 255
     np.testing.assert_allclose(tent_filter(x, ft, width), convolve1d(x, k / k.sum(), mode="nearest"),
                                rtol=0, atol=1e-12)
+
+
+def _slow_contacts(motion, tolerance, min_duration=0.25):
+    """Appendix B the straightforward way (the previous loop): for each effector, grow a still window
+    frame by frame while the bounding box of its positions stays within ``tolerance``."""
+    from stagger_nb.core.kinematics import forward_kinematics
+    from stagger_nb.staggered.contacts import end_effectors
+    sk = motion.skeleton
+    pos, _ = forward_kinematics(motion)
+    F = motion.num_frames
+    L = max(int(np.ceil(min_duration / motion.frame_time - 1e-9)) + 1, 2)
+    out = []
+    for j in [sk.index(n) if isinstance(n, str) else int(n) for n in end_effectors(sk)]:
+        p = pos[:, j]
+        s = 0
+        while s <= F - L:
+            lo, hi = p[s:s + L].min(axis=0), p[s:s + L].max(axis=0)
+            if np.linalg.norm(hi - lo) > tolerance:
+                s += 1
+                continue
+            e = s + L
+            while e < F and np.linalg.norm(np.maximum(hi, p[e]) - np.minimum(lo, p[e])) <= tolerance:
+                lo, hi = np.minimum(lo, p[e]), np.maximum(hi, p[e])
+                e += 1
+            out.append((sk.names[j], s, e))
+            s = e
+    return sorted(out, key=lambda c: (c[1], c[0]))
+
+
+@pytest.mark.parametrize("name,tol", [("walk", 2.0), ("run", 4.0), ("jump", 1.0)])
+def test_contact_detection_in_blocks_equals_the_frame_by_frame_loop(name, tol):
+    from stagger_nb import data
+    m = data.load(name)
+    got = staggered.detect_contacts(m, tol, hand_support=None)
+    assert got == _slow_contacts(m, tol) and len(got) > 0

@@ -233,3 +233,52 @@ def arcs_of(c0, c1, c2, c3) -> list:
     N = c0.shape[1]
     tmp, z = np.empty(N), np.empty(N)
     return [arc_into(a, b, np.empty((3, N)), tmp, z) for a, b in ((c0, c1), (c1, c2), (c2, c3))]
+
+
+CHUNK = 8192   # samples per block of the chunked kernels: their scratch stays in cache (~2x faster than whole)
+
+
+def take_cols_into(a, idx, out):
+    """``out[r] = a[r, idx]`` for each row of ``a (R, P)`` (1-D gathers, much faster than ``take(axis=1)``)."""
+    for r in range(a.shape[0]):
+        np.take(a[r], idx, out=out[r])
+    return out
+
+
+def _pair_arcs(c0, c1, c2, c3, work: Workspace, tag: str) -> np.ndarray:
+    """The three first-level arcs of per-pair control polygons ``(4, P)`` as one ``(9, P)`` workspace array."""
+    P = c0.shape[1]
+    arcs = work.get(tag + "arcs", (9, P))
+    tmp, z = work.get(tag + "atmp", P), work.get(tag + "az", P)
+    for i, (a, b) in enumerate(((c0, c1), (c1, c2), (c2, c3))):
+        arc_into(a, b, arcs[3 * i:3 * i + 3], tmp, z)
+    return arcs
+
+
+def _spline_blocks(c0, c1, c2, c3, pair, t, work: Workspace, tag: str):
+    """Yield ``(start, stop, spline (4, n))`` blocks of ``CHUNK`` samples of per-pair Béziers: controls and
+    their first-level arcs computed once per pair and gathered per block (a pair's arcs do not depend on t)."""
+    arcs = _pair_arcs(c0, c1, c2, c3, work, tag)
+    N = t.shape[0]
+    for s in range(0, N, CHUNK):
+        e = min(N, s + CHUNK)
+        idx = pair[s:e]
+        g = [take_cols_into(c, idx, work.get(f"{tag}c{i}", (4, e - s))) for i, c in enumerate((c0, c1, c2, c3))]
+        a = take_cols_into(arcs, idx, work.get(tag + "ga", (9, e - s)))
+        yield s, e, bezier_into(*g, t[s:e], (a[0:3], a[3:6], a[6:9]), work, tag=tag)
+
+
+def spline_residual_into(targets, c0, c1, c2, c3, pair, t, out, work: Workspace = WORK) -> np.ndarray:
+    """``out (3, N)``: rotation vectors from ``targets (4, N)`` to the quaternion Béziers of per-pair controls
+    ``c0..c3 (4, P)`` at ``t (N,)`` for pair ``pair (N,)`` (``log(q^-1 s(t))``), in blocks of ``CHUNK``."""
+    for s, e, sp in _spline_blocks(c0, c1, c2, c3, pair, t, work, "sr_"):
+        rotvec_between_into(targets[:, s:e], sp, out[:, s:e], work, tag="sr_rv")
+    return out
+
+
+def spline_into(c0, c1, c2, c3, pair, t, out, work: Workspace = WORK) -> np.ndarray:
+    """``out (4, N)``: quaternion Béziers of per-pair controls ``c0..c3 (4, P)`` at ``t (N,)`` for pair
+    ``pair (N,)``, in blocks of ``CHUNK``."""
+    for s, e, sp in _spline_blocks(c0, c1, c2, c3, pair, t, work, "sp_"):
+        out[:, s:e] = sp
+    return out

@@ -245,11 +245,14 @@ def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_windo
     return PoseEvidence(frames, P, evidence, weights, ref, tuple(contacts))
 
 
-def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", **options) -> StaggeredMotion:
+def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
+            progress=None, **options) -> StaggeredMotion:
     """Staggered-pose representation of dense ``motion`` with all candidate poses (§4).
 
-    ``options`` go to :func:`locate_poses`; ``iterations`` and ``continuity`` ("C1" or "C0") to
-    :func:`~.fitting.fit_staggered`. The result reproduces the
+    ``options`` go to :func:`locate_poses`; ``iterations``, ``continuity`` ("C1" or "C0") and ``fit_samples``
+    to :func:`~.fitting.fit_staggered`. ``progress``: callable(fraction in [0, 1]) or None, called as the
+    work advances (the notebook/session layer draws the bar). Every option is checked (ValueError naming
+    it); frame times below 0.1 ms are refused (resample first). The result reproduces the
     input exactly at its frames (displacement maps, §4.1.1); ``sm.metadata`` holds ``"probability"``
     (F,), ``"evidence"`` (F, J + 2), ``"weights"`` (J + 2,) and the fit statistics ``"fit"``.
     """
@@ -263,19 +266,25 @@ def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", **op
         if k not in known or known[k].kind is not inspect.Parameter.KEYWORD_ONLY:
             raise ValueError(f"extract: unknown option {k!r}; options are iterations, continuity, "
                              f"{', '.join(n for n, p in known.items() if p.kind is p.KEYWORD_ONLY)}")
+    fit_samples = _checks.integer("extract", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
     _checks.frame_time("extract", motion.frame_time)
+    report = progress if progress is not None else (lambda f: None)
+    report(0.0)
     loc = locate_poses(motion, **options)
+    report(0.3)
     ft = motion.frame_time
     J = motion.num_joints
     meta = {"probability": loc.probability, "evidence": loc.evidence, "weights": loc.weights,
             "candidate_frames": loc.frames}
     return fit_staggered(motion, loc.frames * ft, loc.refinement_frames[:, :J] * ft,
                          loc.refinement_frames[:, J] * ft, pose_probability=loc.probability[loc.frames],
-                         contacts=loc.contacts, iterations=iterations, continuity=continuity, metadata=meta)
+                         contacts=loc.contacts, iterations=iterations, continuity=continuity,
+                         fit_samples=fit_samples, metadata=meta, progress=lambda f: report(0.3 + 0.7 * f))
 
 
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
-         interval=None, iterations: int = 2, continuity: str = "C1") -> StaggeredMotion:
+         interval=None, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
+         progress=None) -> StaggeredMotion:
     """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
 
     Parameters
@@ -289,7 +298,8 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     interval : (start, stop) seconds, optional
         Choose poses only from this time interval (plus the first and last); without ``percent``/``count``
         every pose inside is kept.
-    iterations, continuity : passed to the refit (:func:`~.fitting.fit_staggered`)
+    iterations, continuity, fit_samples : passed to the refit (:func:`~.fitting.fit_staggered`)
+    progress : callable(fraction in [0, 1]) or None, called as the refit advances
 
     Returns
     -------
@@ -306,6 +316,7 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
         raise ValueError(f"cull: continuity must be 'C0' or 'C1', got {continuity!r}")
     percent = _checks.real("cull", "percent", percent, 0.0, 100.0, lo_open=True, none_ok=True)
     count = _checks.integer("cull", "count", count, 2, 2 ** 62, none_ok=True)
+    fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
     K = sm.num_poses
     t = sm.pose_times
     eligible = np.ones(K, dtype=bool)
@@ -345,7 +356,8 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     return fit_staggered(sm, tk, ref, rref,
                          pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
                          iterations=iterations, continuity=continuity, oversample=1 if on_grid else 4,
-                         metadata={k: v for k, v in sm.metadata.items() if k != "fit"})
+                         fit_samples=fit_samples, metadata={k: v for k, v in sm.metadata.items() if k != "fit"},
+                         progress=progress)
 
 
 def _strictly_increasing(knots: np.ndarray, frame_time: float) -> np.ndarray:

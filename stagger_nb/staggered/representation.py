@@ -341,20 +341,32 @@ def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.nda
     for j in range(3):
         K.arc_into(ctrl[4 * j:4 * j + 4], ctrl[4 * j + 4:4 * j + 8], arcp[3 * j:3 * j + 3],
                    W.get("ev_ptmp", P), W.get("ev_ptmp2", P))
+    M = sm.displacements.shape[2]
+    table = W.get("ev_table", (3, P * M))
+    table[...] = sm.displacements.reshape(P * M, 3).T
+    counts = sm.displacement_counts.reshape(-1)
+    out = W.get("ev_q", (4, n))
+    for s0 in range(0, n, K.CHUNK):             # blocks whose scratch stays in cache
+        s1 = min(n, s0 + K.CHUNK)
+        _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
+    return out
+
+
+def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
+    """One block of :func:`_rotations_at` into ``out (4, n)``."""
+    W = K.WORK
+    n = t.size
     c = _gather_rows(ctrl, idx, W.get("ev_c", (16, n)))
     arc = _gather_rows(arcp, idx, W.get("ev_arc", (9, n)))
     s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
     # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
-    M = sm.displacements.shape[2]
-    cnt = sm.displacement_counts.reshape(-1)[idx]
+    cnt = counts[idx]
     u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
     m0 = np.minimum(u.astype(np.int64), cnt - 2)
     a = u
     a -= m0                                                         # fractional position
     row = m0
     row += idx * M
-    table = W.get("ev_table", (3, P * M))
-    table[...] = sm.displacements.reshape(P * M, 3).T
     d0 = _gather_rows(table, row, W.get("ev_d0", (3, n)))
     row += 1
     d1 = _gather_rows(table, row, W.get("ev_d1", (3, n)))
@@ -363,7 +375,7 @@ def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.nda
     d0 += d1
     d0 *= 0.5                                                       # half rotation vectors for exp
     e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
-    return K.qmul_into(s, e, W.get("ev_q", (4, n)), W.get("ev_tmp", n))
+    return K.qmul_into(s, e, out, W.get("ev_tmp", n))
 
 
 def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
