@@ -239,9 +239,10 @@ CHUNK = 8192   # samples per block of the chunked kernels: their scratch stays i
 
 
 def take_cols_into(a, idx, out):
-    """``out[r] = a[r, idx]`` for each row of ``a (R, P)`` (1-D gathers, much faster than ``take(axis=1)``)."""
+    """``out[r] = a[r, idx]`` for each row of ``a (R, P)`` (1-D gathers, much faster than ``take(axis=1)``).
+    ``idx`` must be valid (0 <= idx < P): ``mode="wrap"`` skips the buffered bounds check (4x faster)."""
     for r in range(a.shape[0]):
-        np.take(a[r], idx, out=out[r])
+        np.take(a[r], idx, out=out[r], mode="wrap")
     return out
 
 

@@ -308,13 +308,6 @@ def translation_source_times(sm: StaggeredMotion, times) -> np.ndarray:
     return a + tn[:, 0] * (b - a)
 
 
-def _gather_rows(table, idx, out):
-    """``out[r] = table[r, idx]`` row by row (1-D gathers are much faster than ``take(axis=1)``)."""
-    for r in range(table.shape[0]):
-        np.take(table[r], idx, out=out[r])
-    return out
-
-
 def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds.
 
@@ -356,8 +349,8 @@ def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
     """One block of :func:`_rotations_at` into ``out (4, n)``."""
     W = K.WORK
     n = t.size
-    c = _gather_rows(ctrl, idx, W.get("ev_c", (16, n)))
-    arc = _gather_rows(arcp, idx, W.get("ev_arc", (9, n)))
+    c = K.take_cols_into(ctrl, idx, W.get("ev_c", (16, n)))
+    arc = K.take_cols_into(arcp, idx, W.get("ev_arc", (9, n)))
     s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
     # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
     cnt = counts[idx]
@@ -367,9 +360,9 @@ def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
     a -= m0                                                         # fractional position
     row = m0
     row += idx * M
-    d0 = _gather_rows(table, row, W.get("ev_d0", (3, n)))
+    d0 = K.take_cols_into(table, row, W.get("ev_d0", (3, n)))
     row += 1
-    d1 = _gather_rows(table, row, W.get("ev_d1", (3, n)))
+    d1 = K.take_cols_into(table, row, W.get("ev_d1", (3, n)))
     d1 -= d0
     d1 *= a
     d0 += d1
