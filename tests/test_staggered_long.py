@@ -145,3 +145,44 @@ def test_contact_detection_in_blocks_equals_the_frame_by_frame_loop(name, tol):
     m = data.load(name)
     got = staggered.detect_contacts(m, tol, hand_support=None)
     assert got == _slow_contacts(m, tol) and len(got) > 0
+
+
+def test_cull_keep_names_the_poses_cull_keeps():
+    sm = staggered.extract(chain_motion([0.3, 0.6, 0.9, 1.2, 1.5], duration=2.0))
+    for pc in (1, 30, 50, 80, 100):
+        keep = staggered.cull_keep(sm, pc)
+        out = staggered.cull(sm, pc)
+        np.testing.assert_array_equal(sm.pose_times[keep], out.pose_times)
+        assert keep[0] == 0 and keep[-1] == sm.num_poses - 1
+
+
+@pytest.mark.parametrize("fit_samples", [4, 8, 12])
+def test_subsampled_fit_equals_the_full_fit_where_pairs_are_short(fit_samples):
+    """Pairs with at most fit_samples samples are fitted from exactly the same samples: same result."""
+    m = chain_motion([0.3, 0.6, 0.9, 1.2, 1.5], duration=2.0, fps=30.0)
+    sm = staggered.extract(m, fit_samples=None)
+    short = int(sm.displacement_counts.max())
+    a = staggered.extract(m, fit_samples=max(short, fit_samples))
+    np.testing.assert_array_equal(a.tangents, sm.tangents)
+    np.testing.assert_array_equal(a.displacements, sm.displacements)
+
+
+def test_subsampled_fit_stays_exact_and_close_to_the_full_fit():
+    from stagger_nb import data
+    m = data.load("walk")
+    full = staggered.extract(m, fit_samples=None)
+    sub = staggered.extract(m, fit_samples=12)
+    assert int(full.displacement_counts.max()) > 12                  # the subsample is really used
+    assert quat_angle(staggered.evaluate(sub).local_quats, m.local_quats).max() < 1e-9
+    rf, rs = full.metadata["fit"]["mean_residual_rad"], sub.metadata["fit"]["mean_residual_rad"]
+    assert rs < 1.05 * rf                  # within 5 % of the fit to every sample
+
+
+def test_progress_reports_increasing_fractions_to_one():
+    m = chain_motion([0.3, 0.6, 0.9, 1.2, 1.5], duration=2.0)
+    seen = []
+    sm = staggered.extract(m, progress=seen.append)
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and all(b >= a for a, b in zip(seen, seen[1:]))
+    seen.clear()
+    staggered.cull(sm, 50, progress=seen.append)
+    assert seen and seen[-1] == 1.0

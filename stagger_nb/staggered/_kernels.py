@@ -11,6 +11,7 @@ length-4 last axis does not. Two measured costs shape the code:
 """
 from __future__ import annotations
 
+import bisect
 import math
 import threading
 
@@ -41,12 +42,13 @@ WORK = Workspace()
 _TAYLOR = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(10)]   # x, x^3, ..., x^19
 
 
+# |x| below _TERM_LIMITS[n - 1]: n terms leave a first omitted term xmax^(2n+1) / (2n+1)! below 1e-16
+_TERM_LIMITS = [(1e-16 * math.factorial(2 * n + 1)) ** (1.0 / (2 * n + 1)) for n in range(1, 10)]
+
+
 def _terms_for(xmax: float) -> int:
     """Fewest Taylor terms of sin whose first omitted term is below 1e-16 for |x| <= xmax (<= 10)."""
-    for n in range(1, 10):
-        if xmax ** (2 * n + 1) / math.factorial(2 * n + 1) < 1e-16:
-            return n
-    return 10
+    return bisect.bisect_right(_TERM_LIMITS, xmax) + 1
 
 
 def sin_poly(x: np.ndarray, out: np.ndarray, z: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ from .features import local_evidence
 from .fitting import fit_staggered
 from .representation import StaggeredMotion
 
-__all__ = ["extract", "cull", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
+__all__ = ["extract", "cull", "cull_keep", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
            "candidate_poses", "pose_priorities", "timing_refinements", "local_maxima"]
 
 _DIRECT_TAPS = 255   # tent kernels up to this many taps convolve directly, longer ones by FFT
@@ -282,6 +282,36 @@ def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", fit_
                          fit_samples=fit_samples, metadata=meta, progress=lambda f: report(0.3 + 0.7 * f))
 
 
+def cull_keep(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
+              interval=None) -> np.ndarray:
+    """Indices (sorted, first and last included) of the poses :func:`cull` keeps for these arguments (the
+    same meaning as there), without refitting: priorities ``w_k`` (:func:`pose_priorities`) are ranked once.
+    Callers caching culls can key them by this (many percents keep the same poses)."""
+    if not isinstance(sm, StaggeredMotion):
+        raise ValueError(f"cull: sm must be a StaggeredMotion, got {type(sm).__name__}")
+    percent = _checks.real("cull", "percent", percent, 0.0, 100.0, lo_open=True, none_ok=True)
+    count = _checks.integer("cull", "count", count, 2, 2 ** 62, none_ok=True)
+    K = sm.num_poses
+    t = sm.pose_times
+    eligible = np.ones(K, dtype=bool)
+    if interval is not None:
+        a, b = (float(x) for x in interval)
+        if not b >= a:
+            raise ValueError(f"cull: interval must be (start, stop) with stop >= start, got {interval!r}")
+        eligible = (t >= a) & (t <= b)
+    if count is not None:
+        n = count
+    elif percent is not None or interval is None:
+        pc = 50.0 if percent is None else percent
+        n = max(int(np.ceil(pc / 100.0 * K - 1e-9)), 2)
+    else:
+        n = K
+    prio = pose_priorities(t, sm.pose_probability)
+    interior = np.flatnonzero(eligible[1:-1]) + 1
+    order = interior[np.argsort(-prio[interior], kind="stable")]
+    return np.sort(np.concatenate([[0, K - 1], order[: max(n - 2, 0)]]))
+
+
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
          interval=None, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
          progress=None) -> StaggeredMotion:
@@ -309,37 +339,13 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     off-grid retiming the merged displacement maps are resampled at 4 samples per frame, which leaves
     errors of order 1e-3 rad at the frames (the retimed motion has velocity kinks at its old knots).
     """
-    if not isinstance(sm, StaggeredMotion):
-        raise ValueError(f"cull: sm must be a StaggeredMotion, got {type(sm).__name__}")
     iterations = _checks.integer("cull", "iterations", iterations, 0, _MAX_ITERATIONS)
     if continuity not in ("C0", "C1"):
         raise ValueError(f"cull: continuity must be 'C0' or 'C1', got {continuity!r}")
-    percent = _checks.real("cull", "percent", percent, 0.0, 100.0, lo_open=True, none_ok=True)
-    count = _checks.integer("cull", "count", count, 2, 2 ** 62, none_ok=True)
     fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
+    keep = cull_keep(sm, percent, count=count, interval=interval)
     K = sm.num_poses
     t = sm.pose_times
-    eligible = np.ones(K, dtype=bool)
-    if interval is not None:
-        a, b = (float(x) for x in interval)
-        if not b >= a:
-            raise ValueError(f"cull: interval must be (start, stop) with stop >= start, got {interval!r}")
-        eligible = (t >= a) & (t <= b)
-    if count is not None:
-        if int(count) < 2:
-            raise ValueError(f"cull: count must be >= 2 (first and last pose stay), got {count}")
-        n = int(count)
-    elif percent is not None or interval is None:
-        pc = 50.0 if percent is None else float(percent)
-        if not 0 < pc <= 100:
-            raise ValueError(f"cull: percent must be in (0, 100], got {percent}")
-        n = max(int(np.ceil(pc / 100.0 * K - 1e-9)), 2)
-    else:
-        n = K
-    prio = pose_priorities(t, sm.pose_probability)
-    interior = np.flatnonzero(eligible[1:-1]) + 1
-    order = interior[np.argsort(-prio[interior], kind="stable")]
-    keep = np.sort(np.concatenate([[0, K - 1], order[: max(n - 2, 0)]]))
     if keep.size == K:
         return sm
     # knots of the kept poses, made strictly increasing if edits pushed knots past each other (evaluate

@@ -506,10 +506,17 @@ def displacement_rotvecs(s, targets, pair):
     return 2.0 * quat_log(e)
 
 
+def _segment_major(seg, joint, m) -> bool:
+    """True when samples are in (segment, joint, sample) order (as :func:`sample_segments` lays them out):
+    then a stable sort by joint alone gives the (joint, segment, sample) order."""
+    dk, dj, dm = np.diff(seg), np.diff(joint), np.diff(m)
+    return bool(np.all((dk > 0) | ((dk == 0) & ((dj > 0) | ((dj == 0) & (dm > 0))))))
+
+
 def _continuous_per_joint(q, joint, seg, m):
     """Flip signs of samples ``q (N, 4)`` so each joint's samples, taken in time order (segment, then
     sample index), have non-negative consecutive dot products."""
-    order = np.lexsort((m, seg, joint))
+    order = np.argsort(joint, kind="stable") if _segment_major(seg, joint, m) else np.lexsort((m, seg, joint))
     seq = q[order]
     js = joint[order]
     d = np.sum(seq[1:] * seq[:-1], axis=1)
