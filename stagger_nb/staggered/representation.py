@@ -339,8 +339,9 @@ def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.nda
     table[...] = sm.displacements.reshape(P * M, 3).T
     counts = sm.displacement_counts.reshape(-1)
     out = W.get("ev_q", (4, n))
-    for s0 in range(0, n, K.CHUNK):             # blocks whose scratch stays in cache
-        s1 = min(n, s0 + K.CHUNK)
+    block = 4 * K.CHUNK                          # blocks bound the scratch; larger ones make fewer numpy calls
+    for s0 in range(0, n, block):
+        s1 = min(n, s0 + block)
         _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
     return out
 
