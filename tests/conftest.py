@@ -1,13 +1,15 @@
 """Shared test fixtures: the real clips in ../shared/mocap (when present) and small hand-built motions."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_MOCAP = REPO.parent / "shared" / "mocap"
+# ../shared/mocap beside the repository; STAGGER_NB_MOCAP points elsewhere (e.g. from a git worktree)
+SHARED_MOCAP = Path(os.environ.get("STAGGER_NB_MOCAP") or REPO.parent / "shared" / "mocap")
 SHARED_CLIPS = sorted(p.name for p in SHARED_MOCAP.glob("*.bvh")) if SHARED_MOCAP.is_dir() else []
 
 
