@@ -25,15 +25,25 @@ class Workspace(threading.local):
 
     def __init__(self):
         self.bufs: dict[str, np.ndarray] = {}
+        self.views: dict[str, dict] = {}      # per key: shape as asked -> view of the current buffer
 
     def get(self, key: str, shape) -> np.ndarray:
-        shape = (int(shape),) if np.isscalar(shape) else tuple(int(s) for s in shape)
-        size = math.prod(shape)
+        views = self.views.get(key)
+        if views is not None:
+            v = views.get(shape)
+            if v is not None:                  # the fit and evaluate ask the same shapes over and over
+                return v
+        dims = (int(shape),) if np.isscalar(shape) else tuple(int(s) for s in shape)
+        size = math.prod(dims)
         b = self.bufs.get(key)
         if b is None or b.size < size:
             b = np.empty(max(size, 1))
             self.bufs[key] = b
-        return b[:size].reshape(shape)
+            views = None
+        if views is None or len(views) >= 8:
+            views = self.views[key] = {}
+        v = views[shape] = b[:size].reshape(dims)
+        return v
 
 
 WORK = Workspace()
