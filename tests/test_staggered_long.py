@@ -186,3 +186,17 @@ def test_progress_reports_increasing_fractions_to_one():
     seen.clear()
     staggered.cull(sm, 50, progress=seen.append)
     assert seen and seen[-1] == 1.0
+
+
+def test_evaluate_and_cull_refuse_work_a_tiny_frame_time_would_ask_for():
+    import dataclasses
+    sm = staggered.extract(chain_motion([0.5, 1.0, 1.5], duration=2.0))
+    tiny = dataclasses.replace(sm, frame_time=1e-9)                 # 2e9 default frames
+    t = time.perf_counter()
+    with pytest.raises(ValueError, match="evaluate: .*times"):
+        staggered.evaluate(tiny)
+    with pytest.raises(ValueError, match="frame_time"):
+        staggered.cull(tiny, 50)
+    with pytest.raises(ValueError, match="evaluate: .*times"):
+        staggered.evaluate(sm, np.linspace(0, 2, 10 ** 7))
+    assert time.perf_counter() - t < 2.0

@@ -344,6 +344,7 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
         raise ValueError(f"cull: continuity must be 'C0' or 'C1', got {continuity!r}")
     fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
     keep = cull_keep(sm, percent, count=count, interval=interval)
+    _checks.frame_time("cull", sm.frame_time)
     K = sm.num_poses
     t = sm.pose_times
     if keep.size == K:

@@ -434,6 +434,16 @@ def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
     return out
 
 
+_MAX_SAMPLES = 20_000_000    # (time, joint) samples evaluate() accepts (~155 B each while evaluating: ~3 GB)
+
+
+def _check_size(n: int, sm: StaggeredMotion):
+    if n * sm.num_joints > _MAX_SAMPLES:
+        raise ValueError(f"evaluate: {n} times x {sm.num_joints} joints exceed {_MAX_SAMPLES} samples (~3 GB "
+                         f"while evaluating; frame_time {sm.frame_time!r} s): evaluate slices of the time range "
+                         f"(times=...) one at a time")
+
+
 def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     """Evaluate a staggered-pose motion: ``v_i(t) = s_i(t') ⊕ d_i(t')`` for every joint (§3).
 
@@ -453,10 +463,12 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     if not isinstance(sm, StaggeredMotion):
         raise ValueError(f"evaluate: sm must be a StaggeredMotion, got {type(sm).__name__}")
     if times is None:
+        _check_size(int(np.floor(sm.duration / sm.frame_time + 1e-6)) + 1, sm)
         times = default_times(sm)
         ft = sm.frame_time
     else:
         times = np.asarray(times, dtype=float).reshape(-1)
+        _check_size(times.size, sm)
         if times.size == 0 or not np.all(np.isfinite(times)):
             raise ValueError("evaluate: times must be a non-empty array of finite seconds")
         dt = np.diff(times)
