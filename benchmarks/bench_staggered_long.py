@@ -106,7 +106,9 @@ def main():
             n = np.log([r[0] for r in v])
             c = np.log([max(r[2], 1e-6) for r in v])
             print(f"  {k:<10} {np.polyfit(n, c, 1)[0]:.2f}")
-    print(f"# load average at the end {os.getloadavg()[0]:.1f}")
+    import resource
+    print(f"# load average at the end {os.getloadavg()[0]:.1f}; process peak RSS "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 10:.0f} MB (all sizes, clips included)")
 
 
 if __name__ == "__main__":
