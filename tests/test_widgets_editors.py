@@ -1,5 +1,5 @@
 """The three editors without a browser: move controls, compare the session's edited motion and the views'
-synced state (pythreejs arrays, FigureWidget data) with direct calls of the technique modules."""
+synced state (pythreejs arrays, PlotView figures) with direct calls of the technique modules."""
 from __future__ import annotations
 
 import numpy as np
