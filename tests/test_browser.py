@@ -118,6 +118,7 @@ def _linked_playhead_and_seek(page, page_log) -> dict:
     out = {"plot_id": plot_id, "playhead_moved": line0 != line1, "seek_frame": seek,
            "kernel_messages_to_plot_during_15_steps": len(to_plot)}
     assert not to_plot, f"the kernel sent messages to the plot while the slider drove its frame ({out})"
+    assert line1.count("|") == line0.count("|"), f"the playhead left a trail ({out}: {line0} -> {line1})"
     assert line0 != line1, f"the playhead did not move with the jsdlink ({out})"
     assert 55 <= seek <= 80, f"a click at 3/4 of a 0..2.97 s axis should seek near frame 67 ({out})"
     return out

@@ -106,8 +106,11 @@ async function render({ model, el }) {
           }
           el.dataset.draws = String(++draws);   // browser tests wait on this
         } else {
+          // attribute-wise: replacing the whole shape object leaves the old line drawn (a trail)
           const n = (((model.get("figure") || {}).layout || {}).shapes || []).length;
-          await Plotly.relayout(div, { [`shapes[${n}]`]: playheadShape(model) });
+          const s = playheadShape(model);
+          await Plotly.relayout(div, { [`shapes[${n}].x0`]: s.x0, [`shapes[${n}].x1`]: s.x1,
+                                       [`shapes[${n}].xref`]: s.xref, [`shapes[${n}].visible`]: s.visible });
         }
         el.dataset.frame = String(model.get("frame"));
       }
