@@ -229,6 +229,7 @@ _PLOT_PROBE = """(scope) => [...document.querySelectorAll(scope + ' .sn-plot-vie
   const lines = gd ? [...gd.querySelectorAll('.scatterlayer .trace path.js-line')]
                        .map(p => p.getAttribute('d') || '').filter(d => d.length > 20) : [];
   return {draws: +(el.dataset.draws || 0), error: el.dataset.error || null, frame: el.dataset.frame,
+          status: el.dataset.status || null, width: el.getBoundingClientRect().width,
           title: gd && gd.querySelector('.gtitle') ? gd.querySelector('.gtitle').textContent : null,
           lines: lines.length, line0: lines[0] || '',
           points: gd ? gd.querySelectorAll('.scatterlayer .trace .point').length : 0,

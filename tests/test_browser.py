@@ -214,7 +214,10 @@ def test_editors_render_resize_respond_and_survive_reload(tmp_path):
             with_shot = bh.ARTIFACTS / "browser_failure.png"
             bh.ARTIFACTS.mkdir(exist_ok=True)
             page.screenshot(path=str(with_shot), full_page=True, timeout=30000)
-            (bh.ARTIFACTS / "browser_failure_console.txt").write_text("\n".join(log["console"] + log["page_errors"]))
+            states = [{k: v for k, v in st.items() if k in ("draws", "error", "status", "width", "title", "lines")}
+                      for st in bh.plot_states(page)]
+            (bh.ARTIFACTS / "browser_failure_console.txt").write_text(
+                "\n".join(log["console"] + log["page_errors"] + ["plots: " + json.dumps(states)]))
             raise
         errors_shown = page.locator(", ".join(EDITORS.values())).locator("text=Error").count()
         bad = bh.console_errors(log)
