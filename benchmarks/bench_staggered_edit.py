@@ -8,6 +8,7 @@ Run: ``.venv/bin/python benchmarks/bench_staggered_edit.py``
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -23,7 +24,7 @@ from stagger_nb.staggered.constraints import apply_contact_constraints  # noqa: 
 from stagger_nb.staggered.editing import edit_pose  # noqa: E402
 from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
 
-CLIP = REPO.parent / "shared" / "mocap" / "cmu_131_01_walk_startstop.bvh"
+CLIP = Path(os.environ.get("STAGGER_NB_MOCAP") or REPO.parent / "shared" / "mocap") / "cmu_131_01_walk_startstop.bvh"
 
 
 def median_ms(fn, repeat=15):

@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-# ../shared/mocap beside the repository; STAGGER_NB_SHARED_MOCAP points elsewhere (e.g. from a git worktree)
-SHARED_MOCAP = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
+# ../shared/mocap beside the repository; STAGGER_NB_SHARED_MOCAP (or STAGGER_NB_MOCAP) points elsewhere
+# (e.g. from a git worktree)
+SHARED_MOCAP = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or os.environ.get("STAGGER_NB_MOCAP")
+                    or REPO.parent / "shared" / "mocap")
 SHARED_CLIPS = sorted(p.name for p in SHARED_MOCAP.glob("*.bvh")) if SHARED_MOCAP.is_dir() else []
 
 

@@ -21,10 +21,10 @@ import numpy as np
 
 from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
-from ..core.rotations import quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
+from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
 
 __all__ = ["apply_contact_constraints", "two_bone_ik", "contact_positions", "contact_errors", "foot_skate",
-           "attenuation_weights"]
+           "attenuation_weights", "carry_contacts", "keep_contacts"]
 
 _EPS_LEN = 1e-6  # keeps the IK triangle strictly non-degenerate (file units; far below any bone length)
 
@@ -172,13 +172,65 @@ def attenuation_weights(active: np.ndarray, blend_frames: int) -> tuple[np.ndarr
     return weight, left, right
 
 
+def _window_targets(tgt, traj, act, weight, left, right) -> None:
+    """Fill ``tgt (F, 3)`` on the window frames (weight > 0, not active) in place: the trajectory ``traj
+    (F, 3)`` plus the offset ``tgt - traj`` of the nearest active frame (interpolated across a gap), so the
+    IK solution continues smoothly out of the active range and the raised-cosine weight (zero slope at both
+    ends) fades it without a velocity kink."""
+    win = np.flatnonzero((weight > 0) & ~act)
+    if not win.size:
+        return
+    off = tgt - traj
+    l, r = left[win], right[win]
+    gl = np.where(l >= 0, win - l, np.inf)
+    gr = np.where(r >= 0, r - win, np.inf)
+    with np.errstate(invalid="ignore"):
+        alpha = np.where(np.isinf(gr), 0.0, np.where(np.isinf(gl), 1.0, gl / (gl + gr)))[:, None]
+    tgt[win] = traj[win] + (1 - alpha) * off[np.maximum(l, 0)] + alpha * off[np.maximum(r, 0)]
+
+
+_REACH = 0.999  # fraction of a chain's full length the root drop makes available (a just-bent knee)
+
+
+def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
+    """Smallest smooth downward root offset ``(F,)`` (file units, >= 0) with which every held chain reaches
+    ``_REACH`` of its length at its target on its active frames (vertical move only; a target horizontally beyond reach gets the
+    drop that brings the upper joint to the target's height)."""
+    from scipy.ndimage import maximum_filter1d
+    F = pos.shape[0]
+    need = np.zeros(F)
+    for eff, (act, tgt) in groups.items():
+        up, mid, _ = _chain(sk, eff)
+        fr = np.flatnonzero(act)                  # reach is needed while held; the windows fade out
+        length = _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid]))
+        h, t = pos[fr, up], tgt[fr]
+        horiz = np.hypot(h[:, 0] - t[:, 0], h[:, 2] - t[:, 2])
+        dy = (h[:, 1] - t[:, 1]) - np.sqrt(np.maximum(length ** 2 - horiz ** 2, 0.0))
+        need[fr] = np.maximum(need[fr], np.maximum(dy, 0.0))
+    if not np.any(need > 0):
+        return need
+    w = max(nb, 1)
+    peak = maximum_filter1d(need, 2 * w + 1, mode="nearest")      # >= need[x] over [x - w, x + w]
+    kernel = 0.5 * (1.0 + np.cos(np.pi * np.arange(-w, w + 1) / (w + 1)))
+    kernel /= kernel.sum()
+    # an average of values that are all >= need[x] stays >= need[x]: the smooth profile still reaches
+    return np.convolve(np.pad(peak, w, mode="edge"), kernel, mode="valid")
+
+
 def _chain(skeleton, j: int) -> tuple[int, int, int]:
     """(upper, middle, effector) joints that carry a contact on ``j``: toe contacts go through the ankle,
     and zero-length bones are skipped so both IK bones have a length (e.g. CMU's ``lhand`` sits on
     ``LeftWrist``; ``upper`` is the first ancestor not co-located with ``middle``). ``upper`` is -1 when the
     chain would reach the root."""
+    par = skeleton.parents
+    return _limb(skeleton, int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j)
+
+
+def _limb(skeleton, eff: int) -> tuple[int, int, int]:
+    """(upper, middle, effector) two-bone limb ending at joint ``eff`` (zero-length bones skipped, see
+    :func:`_chain`); ``upper`` is -1 when the limb would reach the root."""
     par, off = skeleton.parents, np.linalg.norm(skeleton.offsets, axis=1)
-    eff = int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j
+    eff = int(eff)
     while eff > 0 and off[eff] < 1e-9:
         eff = int(par[eff])
     mid = int(par[eff]) if eff > 0 else -1
@@ -190,7 +242,8 @@ def _chain(skeleton, j: int) -> tuple[int, int, int]:
 
 
 def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
-                              mode: str | None = None) -> Motion:
+                              mode: str | None = None, *, targets=None, lower_root: bool = False,
+                              toe_offsets=None) -> Motion:
     """Constraint displacement layer (§3): two-bone IK on legs/arms holding contacts in place.
 
     Parameters
@@ -209,6 +262,20 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         Target = the reference position averaged over the contact (a planted point) or followed per frame
         (keeps the reference's heel-toe roll exactly). Default: ``"track"`` when a ``reference`` is
         given (an edit must not move the feet), ``"mean"`` otherwise (clean-up of the motion's own skate).
+    targets : list of ndarray, optional
+        World positions the contact joints must hold instead of the reference's: one per contact, shape
+        ``(3,)`` (a planted point) or ``(stop - start, 3)``, file units (``reference``/``mode`` are then
+        ignored; see :func:`keep_contacts`, whose contacts moved in time with a timing edit).
+    toe_offsets : list of (ndarray or None), optional
+        For toe contacts (held through the ankle), the world vector toe -> ankle to place the ankle with,
+        one per contact, shape ``(stop - start, 3)`` (None: the motion's own, i.e. the foot keeps its world
+        orientation). :func:`keep_contacts` passes the source's, so the heel lifts as it did in the source.
+    lower_root : bool
+        Where a held chain cannot reach its target (the target is farther from the upper joint than the
+        two bones are long: e.g. a contact carried later than the pelvis' own timing), lower the root
+        translation just enough (along -Y, the BVH up axis) that every held leg/arm reaches, with the
+        smallest smooth profile above the need (a max filter and a raised-cosine average, both the
+        ``blend`` window wide), as footskate clean-up does (Kovar et al. 2002). Off by default.
 
     Returns
     -------
@@ -219,7 +286,7 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     """
     if mode is None:
         mode = "mean" if reference is None else "track"
-    if reference is None:
+    if reference is None or targets is not None:
         reference = motion
     if reference.num_frames != motion.num_frames or reference.num_joints != motion.num_joints:
         raise ValueError("reference must have the same number of frames and joints as motion")
@@ -232,9 +299,21 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     sk = motion.skeleton
     F = motion.num_frames
     nb = int(round(blend / motion.frame_time))
-    ref_pos = forward_kinematics(reference)[0]
-    targets = contact_positions(reference, contacts, mode=mode, positions=ref_pos)
     pos, wq = forward_kinematics(motion)
+    if targets is None:
+        ref_pos = pos if reference is motion else forward_kinematics(reference)[0]
+        targets = contact_positions(reference, contacts, mode=mode, positions=ref_pos)
+    else:
+        ref_pos = pos
+        if len(targets) != len(parsed):
+            raise ValueError(f"targets: one per contact ({len(parsed)}), got {len(targets)}")
+        given = []
+        for (j, s_, e_), t in zip(parsed, targets):
+            t = np.asarray(t, dtype=float)
+            if t.shape not in ((3,), (e_ - s_, 3)) or not np.all(np.isfinite(t)):
+                raise ValueError(f"targets: each must be 3 finite numbers or ({e_ - s_}, 3), got shape {t.shape}")
+            given.append(np.broadcast_to(t, (e_ - s_, 3)))
+        targets = given
     lq = np.array(motion.local_quats)
 
     # group contacts by effector; direct (ankle) contacts take precedence over toe contacts
@@ -248,29 +327,31 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             raise ValueError(f"contacts: joint {sk.names[j]!r} has no two-bone chain below the root")
         act, tgt = groups.setdefault(eff, (np.zeros(F, bool), np.zeros((F, 3))))
         t = targets[i]
-        if eff != j:  # toe contact: ankle target keeps the foot's world orientation
-            t = t - (pos[s:e, j] - pos[s:e, eff])
+        if eff != j:  # toe contact: ankle target keeps the foot's world orientation (or the given one)
+            given = None if toe_offsets is None else toe_offsets[i]
+            t = t - (pos[s:e, j] - pos[s:e, eff]) if given is None else t + np.asarray(given, dtype=float)
         act[s:e] = True
         tgt[s:e] = t
 
+    windows = {}
+    for eff, (act, tgt) in groups.items():
+        weight, left, right = attenuation_weights(act, nb)
+        _window_targets(tgt, ref_pos[:, eff], act, weight, left, right)
+        windows[eff] = weight
+    if lower_root:
+        drop = _root_drop(sk, pos, groups, windows, nb)
+        if np.any(drop > 0):
+            rp = np.array(motion.root_positions)
+            rp[:, 1] -= drop
+            motion = motion.replace(root_positions=rp)
+            pos = pos.copy()
+            pos[..., 1] -= drop[:, None]
     out = lq.copy()
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
         chain = [up, mid, eff]
-        weight, left, right = attenuation_weights(act, nb)
+        weight = windows[eff]
         fr = np.flatnonzero(weight > 0)
-        # Window frames aim at the reference trajectory carried by the offset of the nearest active frame
-        # (interpolated across a gap), so the IK solution continues smoothly out of the active range and
-        # the raised-cosine weight (zero slope at both ends) fades it without a velocity kink.
-        win = np.flatnonzero((weight > 0) & ~act)
-        if win.size:
-            off = tgt - ref_pos[:, eff]
-            l, r = left[win], right[win]
-            gl = np.where(l >= 0, win - l, np.inf)
-            gr = np.where(r >= 0, r - win, np.inf)
-            with np.errstate(invalid="ignore"):
-                alpha = np.where(np.isinf(gr), 0.0, np.where(np.isinf(gl), 1.0, gl / (gl + gr)))[:, None]
-            tgt[win] = ref_pos[win, eff] + (1 - alpha) * off[np.maximum(l, 0)] + alpha * off[np.maximum(r, 0)]
         a_new, b_new, bw_new = two_bone_ik(pos[fr, up], pos[fr, mid], pos[fr, eff], tgt[fr],
                                            wq[fr, up], wq[fr, mid], lq[fr, up],
                                            b_parent_world=None if sk.parents[mid] == up else wq[fr, sk.parents[mid]])
@@ -279,6 +360,26 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         ident = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape)
         disp = slerp(ident, disp, np.broadcast_to(weight[fr][:, None], (fr.size, 3)))
         out[np.ix_(fr, chain)] = quat_mul(lq[np.ix_(fr, chain)], disp)
+
+    # Toe contacts that overlap an ankle contact (foot flat): the ankle is held above; turn the foot about
+    # the ankle so the toe also lands on its target (shortest-arc aim of ankle -> toe, attenuated likewise).
+    toes: dict[int, tuple[np.ndarray, np.ndarray, int]] = {}
+    for i, (j, s, e) in enumerate(parsed):
+        eff = chains[i][2]
+        if eff != j and sk.parents[j] == eff:
+            act, tgt, _ = toes.setdefault(j, (np.zeros(F, bool), np.zeros((F, 3)), eff))
+            act[s:e] = True
+            tgt[s:e] = targets[i]
+    if toes:
+        pos2, wq2 = forward_kinematics(motion.replace(local_quats=out))
+        for j, (act, tgt, eff) in toes.items():
+            weight, left, right = attenuation_weights(act, nb)
+            fr = np.flatnonzero(weight > 0)
+            _window_targets(tgt, pos2[:, j], act, weight, left, right)
+            turn = quat_between_vectors(pos2[fr, j] - pos2[fr, eff], tgt[fr] - pos2[fr, eff])   # world frame
+            disp = quat_mul(quat_conj(wq2[fr, eff]), quat_mul(turn, wq2[fr, eff]))              # ankle's local
+            disp = slerp(np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape), disp, weight[fr])
+            out[fr, eff] = quat_mul(out[fr, eff], disp)
     return motion.replace(local_quats=out)
 
 
@@ -299,3 +400,137 @@ def foot_skate(motion: Motion, contacts, up_axis: int = 1) -> np.ndarray:
     p = forward_kinematics(motion)[0]
     horiz = [k for k in range(3) if k != up_axis]
     return np.array([np.linalg.norm(np.diff(p[s:e, j][:, horiz], axis=0), axis=-1).sum() for j, s, e in parsed])
+
+
+# -- contacts carried through staggered timing edits ------------------------------------------------------
+
+def _timeline(edited):
+    """(start time, frame time, frame count, joint names) of ``evaluate(edited)`` or of a Motion."""
+    from .representation import StaggeredMotion, default_times
+    if isinstance(edited, StaggeredMotion):
+        return float(edited.pose_times[0]), edited.frame_time, default_times(edited).size, edited.skeleton.names
+    if isinstance(edited, Motion):
+        return 0.0, edited.frame_time, edited.num_frames, edited.skeleton.names
+    raise ValueError(f"edited must be a StaggeredMotion or a Motion, got {type(edited).__name__}")
+
+
+def _carry(edited, contacts, source_frame_time: float):
+    """``[(name, joint, start, stop, source_start, source_stop)]`` of the contacts that keep a frame."""
+    from .editing import warp_times
+    from .representation import StaggeredMotion
+    ft_s = float(source_frame_time)
+    if not np.isfinite(ft_s) or ft_s <= 0:
+        raise ValueError(f"source_frame_time must be > 0 seconds, got {source_frame_time!r}")
+    t0, ft, F, names = _timeline(edited)
+    out = []
+    for item in contacts:
+        try:
+            name, a, b = item
+            a, b = int(a), int(b)
+        except (TypeError, ValueError):
+            raise ValueError(f"contacts: each entry must be (joint_name, start_frame, stop_frame), got {item!r}") from None
+        if isinstance(name, (int, np.integer)) and 0 <= int(name) < len(names):
+            name = names[int(name)]
+        if name not in names:
+            raise ValueError(f"contacts: unknown joint {name!r}")
+        if not 0 <= a < b:
+            raise ValueError(f"contacts: frame range [{a}, {b}) of {name!r} is empty or negative")
+        times = np.array([a, b - 1], dtype=float) * ft_s
+        if isinstance(edited, StaggeredMotion):
+            times = warp_times(edited, times, name)
+        start = max(int(np.ceil((times[0] - t0) / ft - 1e-6)), 0)
+        stop = min(int(np.floor((times[1] - t0) / ft + 1e-6)) + 1, F)
+        if stop > start:
+            out.append((str(name), list(names).index(name), start, stop, a, b))
+    return out
+
+
+def carry_contacts(edited, contacts, source_frame_time: float) -> list[tuple[str, int, int]]:
+    """Contacts of the source moved in time with each contact joint's own timing edit.
+
+    A contact ``(joint, start, stop)`` holds on source frames ``[start, stop)`` (times ``frame *
+    source_frame_time``). Its first and last active times are mapped through the time warp of that joint's
+    rotation (:func:`~stagger_nb.staggered.editing.warp_times`: piecewise linear from the source knot times
+    to the edited knot times, §3/§5.2), and become the frames of ``evaluate(edited)`` (times
+    ``pose_times[0] + n * frame_time``) inside the mapped interval.
+
+    Parameters
+    ----------
+    edited : StaggeredMotion (timing-edited) or Motion (no timing edit: times map to themselves)
+    contacts : list of (joint_name, start_frame, stop_frame), half-open source frames
+    source_frame_time : float, seconds
+
+    Returns
+    -------
+    list of (joint_name, start_frame, stop_frame), half-open frames of the edited motion; contacts that
+    shrink to no frame are dropped.
+    """
+    return [(n, s_, e_) for n, _, s_, e_, _, _ in _carry(edited, contacts, source_frame_time)]
+
+
+def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
+                  lower_root: bool = True) -> Motion:
+    """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
+    foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
+    :func:`apply_contact_constraints` at the source's contact positions.
+
+    Parameters
+    ----------
+    edited : StaggeredMotion or Motion
+        The current (timing- and/or pose-edited) staggered motion, or an already evaluated Motion
+        (then the contacts keep their times).
+    source : Motion
+        The motion the extraction came from (its frames at ``frame * frame_time`` seconds).
+    contacts : list of (joint_name, start_frame, stop_frame), optional
+        Source contacts, half-open source frames; default ``edited.contacts`` (found at extraction) or
+        :func:`~stagger_nb.staggered.detect_contacts` of ``source`` (feet; hands only where they support).
+    blend : float, seconds
+        Attenuation window on each side of a contact (see :func:`apply_contact_constraints`).
+    mode : {"mean", "track"}
+        Where a carried contact holds: the source contact's mean position (a planted point, default), or the
+        source's position at the source time of each edited frame (through the inverse warp: keeps the
+        heel-toe roll).
+    lower_root : bool
+        Lower the root where a leg cannot reach its carried contact (default True: a foot whose timing
+        lags the pelvis' would otherwise be dragged at the end of its contact); see
+        :func:`apply_contact_constraints`.
+
+    Returns
+    -------
+    Motion: ``evaluate(edited)`` (or ``edited``) with the contact chains' rotations displaced.
+    """
+    from .contacts import detect_contacts
+    from .editing import warp_times
+    from .representation import StaggeredMotion, evaluate
+    if not isinstance(source, Motion):
+        raise ValueError(f"source must be a Motion, got {type(source).__name__}")
+    if mode not in ("mean", "track"):
+        raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
+    t0, _, _, _ = _timeline(edited)
+    is_sm = isinstance(edited, StaggeredMotion)
+    if edited.skeleton.num_joints != source.num_joints:
+        raise ValueError("edited and source must have the same skeleton")
+    if contacts is None:
+        contacts = list(edited.contacts) if is_sm and edited.contacts else detect_contacts(source)
+    _parse_contacts(source, contacts)                        # validates frames against the source
+    motion = evaluate(edited) if is_sm else edited
+    carried = _carry(edited, contacts, source.frame_time)
+    if not carried:
+        return motion
+    src_pos = forward_kinematics(source)[0]
+    sk = source.skeleton
+    targets, toe_offsets = [], []
+    for name, j, s_, e_, a, b in carried:
+        # source positions at the source time of every carried frame (inverse of the joint's warp)
+        te = t0 + np.arange(s_, e_) * motion.frame_time
+        ts = warp_times(edited, te, name, inverse=True) if is_sm else te
+        f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
+        i0 = np.floor(f).astype(int)
+        i1 = np.minimum(i0 + 1, source.num_frames - 1)
+        w = (f - i0)[:, None, None]
+        at = src_pos[i0] * (1 - w) + src_pos[i1] * w                     # (n, J, 3)
+        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else at[:, j])
+        eff = _chain(sk, j)[2]
+        toe_offsets.append(at[:, eff] - at[:, j] if eff != j else None)
+    return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
+                                     lower_root=lower_root, toe_offsets=toe_offsets)

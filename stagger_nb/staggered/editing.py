@@ -34,7 +34,7 @@ from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, qua
 from .fitting import displacement_rotvecs
 from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline, translation_source_times
 
-__all__ = ["TimingWarning", "timing_warnings", "edit_pose", "exaggerate", "retime", "succession",
+__all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession",
            "random_timing", "insert_pose", "delete_pose", "mean_pose"]
 
 _IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
@@ -61,26 +61,106 @@ class TimingWarning:
         return dataclasses.asdict(self)
 
 
-def timing_warnings(sm: StaggeredMotion) -> tuple[TimingWarning, ...]:
-    """All knots of ``sm`` whose refined time ``t_k + r[k, i]`` is closer to ``t_{k-1}`` or ``t_{k+1}`` than
-    to ``t_k`` (§5.2: "we warn users when refined times are set large enough to be closer to a neighboring
-    staggered pose than the staggered pose with which the knot is associated")."""
+_MIN_ANGLE_DEG = 2.0   # knots around a pose spanning less than this: the joint barely moves (a 20 cm hand tip < 7 mm)
+
+
+def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -> tuple[TimingWarning, ...]:
+    """Knots of ``sm`` whose refined time is closer to a neighbouring staggered pose than to its own (§5.2).
+
+    §5.2: "care must be taken to avoid large nonlinear time warps, as this can introduce sudden
+    acceleration. We warn users when refined times are set large enough to be closer to a neighboring
+    staggered pose than the staggered pose with which the knot is associated." Read per control variable
+    ``i`` (a staggered pose happens at a different time for every joint, that is what "staggered" means):
+
+    * the neighbouring staggered pose of joint ``i`` is its knot ``T[k±1, i] = t_{k±1} + r[k±1, i]``; the
+      knot ``T[k, i]`` is flagged when ``|T[k, i] - T[k±1, i]| + frame_time < |r[k, i]|`` (closer to the
+      neighbour's knot than to its own pose time ``t_k``, by more than the frame resolution of the
+      refinements), or when the knots of the joint cross (``T[k+1, i] <= T[k, i]``: evaluation then
+      collapses the segment). A succession shifts every interior knot of a joint by the same amount, a
+      shift that keeps the knots' spacing and warps nothing, so it is not flagged unless it pushes knots
+      into each other or past the anchored first/last pose. On an unedited extraction (small neighbour
+      refinements) this is the pose-time reading ``|T[k, i] - t_{k±1}| < |r[k, i]|``.
+    * only control variables that move are checked: a joint whose knots ``v``/``v⁰`` of poses
+      ``k-1 .. k+1`` span less than ``min_angle`` degrees (fingers held still, end joints, a procedural
+      clip's fixed joints; a root translation that does not change) has no acceleration to introduce, and
+      retiming it is invisible.
+
+    Parameters
+    ----------
+    sm : StaggeredMotion
+    min_angle : float, degrees (>= 0)
+        Smallest rotation range of a knot's neighbourhood that counts as moving (0 checks every joint).
+
+    Returns
+    -------
+    tuple of :class:`TimingWarning` sorted by (pose, joint); :func:`summarize_timing_warnings` puts them in
+    one sentence.
+    """
+    min_angle = _finite(min_angle, "min_angle")
+    if min_angle < 0:
+        raise ValueError(f"min_angle must be >= 0 degrees, got {min_angle}")
     t = sm.pose_times
+    K, J = sm.num_poses, sm.num_joints
     names = list(sm.skeleton.names) + ["<root translation>"]
     r = np.concatenate([sm.refinements, sm.root_refinements[:, None]], axis=1)    # (K, J + 1)
     T = t[:, None] + r
+    bad = np.zeros((K, J + 1), bool)
+    nearer = np.full((K, J + 1), -1)
+    for side in (-1, 1):
+        n = np.arange(K) + side
+        ok = ((n >= 0) & (n < K))[:, None]
+        Tn = T[np.clip(n, 0, K - 1)]
+        close = np.abs(T - Tn) + sm.frame_time < np.abs(r)
+        crossed = (Tn <= T) if side > 0 else (Tn >= T)
+        hit = ok & (close | crossed) & ~bad
+        nearer[hit] = np.broadcast_to(np.clip(n, 0, K - 1)[:, None], hit.shape)[hit]
+        bad |= hit
+    if not bad.any():
+        return ()
+    # does the control variable move around the knot? (rotation range of the knots of poses k-1 .. k+1)
+    ks, cols = np.nonzero(bad)
+    idx = np.clip(ks[:, None] + np.array([-1, 0, 1]), 0, K - 1)                # (n, 3) neighbouring poses
+    keep = np.ones(ks.size, bool)
+    rot = cols < J
+    if rot.any():
+        c = cols[rot][:, None]
+        v = np.concatenate([sm.values[idx[rot], c], sm.editing_knots[idx[rot], c]], axis=1)   # (n, 6, 4)
+        dots = np.abs(np.einsum("nac,nbc->nab", v, v)).min(axis=(1, 2))
+        keep[rot] = 2.0 * np.degrees(np.arccos(np.clip(dots, -1.0, 1.0))) >= min_angle
+    if (~rot).any():
+        p = sm.root_values[idx[~rot]]                                                  # (n, 3, 3)
+        keep[~rot] = np.ptp(p, axis=1).max(axis=1) > 1e-9 * (1.0 + np.abs(p).max(axis=(1, 2)))
     out = []
-    for side, nb in ((-1, "previous"), (1, "next")):
-        n = np.arange(t.size) + side
-        ok = (n >= 0) & (n < t.size)
-        tn = t[np.clip(n, 0, t.size - 1)]
-        bad = ok[:, None] & (np.abs(T - tn[:, None]) < np.abs(r))
-        for k, i in zip(*np.nonzero(bad)):
-            out.append(TimingWarning(int(k), names[i], float(T[k, i]), int(n[k]),
-                                     f"pose {k}, {names[i]}: refined time {T[k, i]:.3f} s is closer to the {nb} "
-                                     f"pose ({tn[k]:.3f} s) than to its own ({t[k]:.3f} s)"))
+    for k, i in zip(ks[keep], cols[keep]):
+        nb = int(nearer[k, i])
+        where = "previous" if nb < k else "next"
+        out.append(TimingWarning(int(k), names[i], float(T[k, i]), nb,
+                                 f"pose {k}, {names[i]}: refined time {T[k, i]:.3f} s (refinement {r[k, i]:+.3f} s)"
+                                 f" reaches the {where} pose's knot ({T[nb, i]:.3f} s, pose {nb} at {t[nb]:.3f} s)"))
     out.sort(key=lambda w: (w.pose, w.joint))
     return tuple(out)
+
+
+def summarize_timing_warnings(warnings) -> str:
+    """One plain sentence for a student: how many refined times reach a neighbouring pose, where, and the
+    fix ('' when there are none). Details stay in :func:`timing_warnings` (§5.2).
+
+    Parameters
+    ----------
+    warnings : iterable of :class:`TimingWarning` (or their ``to_dict()`` dicts)
+    """
+    ws = [w if isinstance(w, TimingWarning) else TimingWarning(**w) for w in (warnings or ())]
+    if not ws:
+        return ""
+    joints = sorted({w.joint for w in ws}, key=lambda n: (-sum(w.joint == n for w in ws), n))
+    poses = sorted({w.pose for w in ws})
+    jtxt = ", ".join(joints[:3]) + (f" and {len(joints) - 3} more joints" if len(joints) > 3 else "")
+    ptxt = (f"pose {poses[0]}" if len(poses) == 1 else
+            f"poses {', '.join(map(str, poses[:4]))}" + (" …" if len(poses) > 4 else ""))
+    n = len(ws)
+    what = "refined time reaches" if n == 1 else "refined times reach"
+    return (f"{n} {what} a neighbouring pose ({jtxt}; {ptxt}), which can make those joints jump or "
+            f"speed up suddenly: lower s or l (succession), lower τ (random timing), or stagger fewer joints.")
 
 
 # -- argument helpers ---------------------------------------------------------------------------------------
@@ -284,10 +364,70 @@ def _put_rows(table: np.ndarray, index: tuple, rows: np.ndarray) -> np.ndarray:
     return out
 
 
-def _refresh(sm: StaggeredMotion, **fields) -> StaggeredMotion:
+def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
+    """Source time of every knot, shape (K, J + 1), seconds: columns ``0 .. J-1`` the joint rotations'
+    knots, column ``J`` the root translation's.
+
+    The per-control-variable time warp that the temporal edits (§5.2) applied is the piecewise-linear map
+    ``source_knot_times(sm)[:, c] -> knots[:, c]`` (splines and displacement maps live on normalised segment
+    time, so between two knots the edited motion replays the source segment linearly in time; see
+    :func:`warp_times`). The editing tools record it in ``sm.metadata["source_knots"]`` at their first
+    edit and carry it through retiming, succession, random timing and pose insertion/deletion; an
+    ``sm`` without the record (a fresh extraction), or whose record no longer matches its pose count
+    (culled after timing edits), is taken as unedited: its own knots.
+    """
+    K, J = sm.num_poses, sm.num_joints
+    rec = sm.metadata.get("source_knots")
+    if rec is not None:
+        rec = np.asarray(rec, dtype=float)
+        if rec.shape == (K, J + 1):
+            return rec
+    return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+
+
+def _current_knots(sm: StaggeredMotion) -> np.ndarray:
+    """Knot times (K, J + 1) in the column layout of :func:`source_knot_times`."""
+    return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+
+
+def warp_times(sm: StaggeredMotion, times, joint, *, inverse: bool = False) -> np.ndarray:
+    """Map source times to edited times (or back, ``inverse=True``) through the time warp of one control
+    variable: piecewise linear between its knots (§3: each segment is replayed on normalised time).
+
+    Parameters
+    ----------
+    sm : StaggeredMotion
+    times : array_like (N,), seconds
+    joint : str or int
+        Joint name or index (its rotation's knots), or ``"<root translation>"`` / ``sm.num_joints``.
+
+    Returns
+    -------
+    (N,) seconds; times outside the first/last knot move with the nearest end knot (slope 1).
+    """
+    J = sm.num_joints
+    if isinstance(joint, str):
+        c = J if joint == "<root translation>" else _joint_mask(sm, [joint]).argmax()
+    else:
+        c = int(joint)
+        if not 0 <= c <= J:
+            raise ValueError(f"joint: index {joint} outside [0, {J}]")
+    S = np.maximum.accumulate(source_knot_times(sm)[:, c])
+    T = np.maximum.accumulate(_current_knots(sm)[:, c])
+    x = np.asarray(times, dtype=float).reshape(-1)
+    a, b = (T, S) if inverse else (S, T)
+    y = np.interp(x, a, b)
+    y = np.where(x < a[0], b[0] + (x - a[0]), y)
+    return np.where(x > a[-1], b[-1] + (x - a[-1]), y)
+
+
+def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotion:
     """New StaggeredMotion with ``fields`` replaced, editing knots re-created at ``t_k`` by evaluation
-    (Figure 6c; kept equal to the extreme knots where the refinement is 0) and timing warnings attached
-    as ``metadata["warnings"]``."""
+    (Figure 6c; kept equal to the extreme knots where the refinement is 0), timing warnings attached
+    as ``metadata["warnings"]`` and the source knot times (:func:`source_knot_times`) carried as
+    ``metadata["source_knots"]`` (``source_knots`` overrides them when the poses change)."""
+    if source_knots is None:
+        source_knots = source_knot_times(sm)
     new = dataclasses.replace(sm, **fields)
     K, J = new.num_poses, new.num_joints
     # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
@@ -297,6 +437,9 @@ def _refresh(sm: StaggeredMotion, **fields) -> StaggeredMotion:
     editing.setflags(write=False)
     meta = dict(new.metadata)
     meta["warnings"] = timing_warnings(new)
+    sk = np.array(source_knots, dtype=float)
+    sk.setflags(write=False)
+    meta["source_knots"] = sk
     # the object was created above and is not shared yet: set the two derived fields in place (as
     # __post_init__ does) instead of validating and copying every array a second time
     object.__setattr__(new, "editing_knots", editing)
@@ -673,7 +816,9 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
     tt = sm.translation_times
     if tt is not None:           # animated translations keep their source time at the new knot
         tt = np.insert(tt, k + 1, translation_source_times(sm, [t])[0])
-    return _refresh(sm, translation_times=tt, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+    src = source_knot_times(sm)          # the new knot's source time: through each variable's warp
+    new_src = [warp_times(sm, [t], c, inverse=True)[0] for c in range(J + 1)]
+    return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), translation_times=tt, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v_t, axis=0),
@@ -720,7 +865,7 @@ def delete_pose(sm: StaggeredMotion, k: int) -> StaggeredMotion:
     rdc = np.delete(sm.root_displacement_counts, k)
     rdc[rseg] = rcounts
     tt = None if sm.translation_times is None else np.delete(sm.translation_times, k)
-    return _refresh(sm, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+    return _refresh(sm, source_knots=np.delete(source_knot_times(sm), k, axis=0), pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.delete(sm.editing_knots, k, axis=0),
