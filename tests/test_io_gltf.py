@@ -56,14 +56,31 @@ def node_dir():
     return NODE_DIR
 
 
+def random_rig(J=100, F=30, seed=0):
+    """A J-joint random tree with position channels on every joint (seeded), through a BVH round trip."""
+    rng = np.random.default_rng(seed)
+    parents = np.array([-1] + [int(rng.integers(0, j)) for j in range(1, J)])
+    offsets = rng.normal(size=(J, 3)) * 8.0
+    offsets[0] = 0.0
+    chans = tuple(("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation") for _ in range(J))
+    sk = sn.Skeleton(names=tuple(f"j{j:03d}" for j in range(J)), parents=parents, offsets=offsets, channels=chans)
+    q = rng.normal(size=(F, J, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return sn.Motion(skeleton=sk, frame_time=1 / 30, root_positions=rng.normal(size=(F, 3)) * 10, local_quats=q,
+                     local_translations=offsets[None] + rng.normal(size=(F, J, 3)))
+
+
 @pytest.fixture(scope="module")
 def exports(tmp_path_factory):
-    """{clip path: (Motion, .glb path)} for every real clip."""
+    """{clip path: (Motion, .glb path)} for every real clip and a 100-joint rig with position channels on every
+    joint (written as BVH and read back)."""
     out = tmp_path_factory.mktemp("gltf")
     if not real_clips():
         pytest.skip("no real clips (data/cmu_01_01.bvh, ../shared/mocap) on this machine")
+    rig = str(out / "rig100.bvh")
+    sn.write_bvh(random_rig(), rig)
     res = {}
-    for clip in real_clips():
+    for clip in real_clips() + [rig]:
         m = sn.read_bvh(clip)
         path = out / (os.path.basename(clip)[:-4] + ".glb")
         sn.write_gltf(m, path)

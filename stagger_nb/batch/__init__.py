@@ -36,6 +36,8 @@ import hashlib
 import io
 import json
 import os
+import resource
+import socket
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -133,6 +135,8 @@ def _run_task(task: dict) -> dict:
         if not isinstance(e, ValueError):
             res["error"] += " | " + traceback.format_exc(limit=3).strip().splitlines()[-2].strip()
     res["seconds"] = time.perf_counter() - t0
+    res["pid"] = f"{socket.gethostname()}:{os.getpid()}"
+    res["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
     return res
 
 
@@ -260,12 +264,14 @@ def _execute(tasks: list, executor: str, workers: int, scheduler: str | None, pr
 @dataclass
 class BatchResult:
     """What a run did: ``done`` (relative paths run now and written), ``skipped`` (finished in an earlier run),
-    ``failed`` (report rows: file, line, error), ``seconds`` (wall time), ``report`` (report JSON path)."""
+    ``failed`` (report rows: file, line, error), ``seconds`` (wall time), ``report`` (report JSON path),
+    ``worker_peak_mb`` ({"host:pid": peak resident MB of that worker process} over the clips it ran)."""
     done: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
     failed: list = field(default_factory=list)
     seconds: float = 0.0
     report: str = ""
+    worker_peak_mb: dict = field(default_factory=dict)
 
 
 def _load_manifest(path: str) -> dict:
@@ -317,6 +323,7 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
         keys[rel] = key
         tasks.append({"kind": kind, "rel": rel, "input": src, "output": out, "out_rel": out_rel, **job})
     for r in sorted(_execute(tasks, executor, workers, scheduler, progress, timeout), key=lambda r: r["file"]):
+        result.worker_peak_mb[r["pid"]] = max(result.worker_peak_mb.get(r["pid"], 0.0), r["peak_rss_mb"])
         if r["ok"]:
             result.done.append(r["file"])
             manifest[r["file"]] = {"key": keys[r["file"]], "output": r["output"]}
@@ -328,7 +335,8 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
     result.seconds = time.perf_counter() - t0
     report = {"input_dir": in_root, "output": out_root, "executor": executor, "scheduler": scheduler,
               "workers": workers, "clips": len(rels), "done": result.done, "skipped": result.skipped,
-              "failed": result.failed, "seconds": round(result.seconds, 3)}
+              "failed": result.failed, "seconds": round(result.seconds, 3),
+              "worker_peak_mb": {k: round(v, 1) for k, v in result.worker_peak_mb.items()}}
     result.report = os.path.join(out_root, REPORT_JSON)
     _dump_json(result.report, report)
     buf = io.StringIO()
