@@ -3,6 +3,7 @@ a malformed clip is reported with its line and does not stop the run, and a re-r
 from __future__ import annotations
 
 import json
+import math
 import os
 
 import pyarrow.parquet as pq
@@ -33,6 +34,18 @@ def clips(tmp_path):
     session = tmp_path / "edit.json"
     Session(sn.data.load("walk").slice(0, 30), ops=OPS).save(session)
     return src, session, len(motions)
+
+
+def write_asf_amc(folder, frames=30):
+    """``folder/07.asf`` (the tiny skeleton of test_io_asfamc) and ``folder/07_01.amc`` with a smooth swing."""
+    from test_io_asfamc import TINY_ASF
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "07.asf").write_text(TINY_ASF)
+    rows = [":FULLY-SPECIFIED", ":DEGREES"]
+    for f in range(frames):
+        a = 40 * math.sin(f / 4)
+        rows += [str(f + 1), f"root {f * 0.5} 2 3 0 {a:.4f} 0", f"a {a:.4f}", f"b {-a:.4f}"]
+    (folder / "07_01.amc").write_text("\n".join(rows) + "\n")
 
 
 def _files(root):
@@ -76,11 +89,14 @@ def bad_row_line(src) -> int:
 
 def test_extract_poses_table_and_processes_executor(clips, tmp_path):
     src, _, n = clips
+    write_asf_amc(src / "amc")
+    n += 1
     a = batch.run_extract_poses(src, tmp_path / "a.parquet", executor="serial", progress=False)
     b = batch.run_extract_poses(src, tmp_path / "b.parquet", executor="processes", workers=2, progress=False)
     ta, tb = pq.read_table(tmp_path / "a.parquet"), pq.read_table(tmp_path / "b.parquet")
     assert ta.equals(tb) and len(a.failed) == len(b.failed) == 1
-    assert sorted(set(ta.column("clip").to_pylist())) == sorted(a.done)
+    assert sorted(set(ta.column("clip").to_pylist())) == sorted(a.done) and len(a.done) == n
+    assert "amc/07_01.amc" in a.done   # ASF/AMC: NN_MM.amc read with NN.asf
     m = sn.read_bvh(src / "clip0.bvh")
     rows = [r for r in ta.to_pylist() if r["clip"] == "clip0.bvh"]
     from stagger_nb import staggered

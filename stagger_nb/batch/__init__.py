@@ -230,8 +230,8 @@ def _execute(tasks: list, executor: str, workers: int, scheduler: str | None, pr
 
             class _Bar(Callback):  # one tick per finished clip task
                 def _posttask(self, key, result, dsk, state, worker_id):
-                    if isinstance(result, dict) and "seconds" in result:
-                        bar.update(1)
+                    if isinstance(result, list) and all(isinstance(r, dict) and "seconds" in r for r in result):
+                        bar.update(len(result))   # a finished partition (one clip each)
 
             with _thread_env(), _Bar():
                 bag = db.from_sequence(tasks, npartitions=len(tasks)).map(_run_task)
@@ -367,7 +367,15 @@ def run_session_batch(session_path, input_dir, output_dir, *, executor="distribu
         session = Session.load(session_path, source=data.load("walk").slice(0, 2))  # the source is not used
     job = {"ops": session.ops, "extract_options": dict(getattr(session, "extract_options", None) or {})}
     out_root = os.path.abspath(os.fspath(output_dir))
-    return _run("session", job, input_dir, out_root, lambda rel: os.path.splitext(rel)[0] + ".bvh",
+    in_root = os.path.abspath(os.fspath(input_dir))
+
+    def out_name(rel: str) -> str:  # a/b.amc -> a/b.bvh, or a/b.amc.bvh when a/b.bvh is an input too
+        stem = os.path.splitext(rel)[0]
+        if rel.lower().endswith(".amc") and os.path.exists(os.path.join(in_root, stem + ".bvh")):
+            return rel + ".bvh"
+        return stem + ".bvh"
+
+    return _run("session", job, input_dir, out_root, out_name,
                 executor=executor, workers=workers, scheduler=scheduler, progress=progress, timeout=timeout)
 
 
