@@ -56,8 +56,12 @@ def _files(root):
 def test_local_cluster_matches_serial_and_reruns_skip(clips, tmp_path):
     src, session, n = clips
     serial = batch.run_session_batch(session, src, tmp_path / "serial", executor="serial", progress=False)
-    dist = batch.run_session_batch(session, src, tmp_path / "dist", executor="distributed", workers=2,
-                                   progress=False, timeout=120)
+    # a running scheduler named by address (--scheduler): a real 2-process LocalCluster started here
+    from distributed import LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      env=dict(batch.THREAD_ENV)) as cluster:
+        dist = batch.run_session_batch(session, src, tmp_path / "dist", scheduler=cluster.scheduler_address,
+                                       progress=False, timeout=120)
     assert len(serial.done) == len(dist.done) == n
     want = _files(tmp_path / "serial")
     assert len(want) == n and _files(tmp_path / "dist") == want   # bit for bit
