@@ -62,6 +62,12 @@ def make_clips(folder: Path, count: int, frames: int) -> int:
     return total
 
 
+def cpu_total() -> float:
+    """CPU seconds of this process and of its children that have ended (the worker processes)."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + ru.ru_utime + ru.ru_stime
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--clips", type=int, default=1008)
@@ -79,16 +85,19 @@ def main() -> None:
                          ("dask.bag, 2 processes", dict(executor="processes", workers=2)),
                          ("distributed.LocalCluster, 2 workers", dict(executor="distributed", workers=2))]:
             out = tmp / name.split()[0].strip(",.")
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), cpu_total()
             res = batch.run_session_batch(session, tmp / "in", out, progress=False, timeout=1800, **kw)
-            dt = time.perf_counter() - t0
+            dt, cpu = time.perf_counter() - t0, cpu_total() - c0
             assert not res.failed, res.failed[:3]
-            rows.append((name, dt, n / dt, res.worker_peak_mb))
+            rows.append((name, dt, n / dt, res.worker_peak_mb, cpu))
         base = rows[0][2]
-        print(f"\n{'executor':38s} {'wall s':>8s} {'clips/s':>8s} {'x serial':>8s}  peak RSS per worker (MB)")
-        for name, dt, rate, mem in rows:
+        print(f"\n{'executor':38s} {'wall s':>8s} {'clips/s':>8s} {'x serial':>8s} {'CPU s':>7s} "
+              f"{'CPU/wall':>8s}  peak RSS per worker (MB)")
+        for name, dt, rate, mem, cpu in rows:
             peaks = ", ".join(f"{v:.0f}" for v in sorted(mem.values()))
-            print(f"{name:38s} {dt:8.1f} {rate:8.2f} {rate / base:8.2f}  {peaks}")
+            print(f"{name:38s} {dt:8.1f} {rate:8.2f} {rate / base:8.2f} {cpu:7.1f} {cpu / dt:8.2f}  {peaks}")
+        print("(CPU s: this process + its finished child processes; CPU/wall well under 1 per worker means the "
+              "shared machine's load, not the executor, set the wall time)")
         same = all(open(p, "rb").read() == open(str(p).replace("/serial/", "/distributed.LocalCluster/"), "rb")
                    .read() for p in glob.glob(str(tmp / "serial" / "**" / "*.bvh"), recursive=True))
         print(f"distributed outputs == serial outputs byte for byte: {same}")

@@ -58,7 +58,7 @@ def test_local_cluster_matches_serial_and_reruns_skip(clips, tmp_path):
     serial = batch.run_session_batch(session, src, tmp_path / "serial", executor="serial", progress=False)
     # a running scheduler named by address (--scheduler): a real 2-process LocalCluster started here
     from distributed import LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                       env=dict(batch.THREAD_ENV)) as cluster:
         dist = batch.run_session_batch(session, src, tmp_path / "dist", scheduler=cluster.scheduler_address,
                                        progress=False, timeout=120)

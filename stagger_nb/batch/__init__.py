@@ -246,7 +246,7 @@ def _execute(tasks: list, executor: str, workers: int, scheduler: str | None, pr
                 else:
                     with _thread_env():
                         cluster = stack.enter_context(LocalCluster(
-                            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                             env=dict(THREAD_ENV)))
                     client = stack.enter_context(Client(cluster, timeout=timeout or 30))
                 futures = client.map(_run_task, tasks, pure=False)
