@@ -25,6 +25,7 @@ EXAMPLES = [
     {"op": "exaggerate", "w_r": 0.5, "poses": None, "reference": "mean", "mode": "staggered", "joints": None},
     {"op": "exaggerate", "w_r": -0.3, "poses": [1, 2], "reference": 4, "mode": "unstaggered", "joints": ["Hips"]},
     {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "unstaggered"},
+    {"op": "edit_pose", "pose": 2, "mode": "staggered", "targets": {"LeftUpLeg": [0.0, 0.0, 0.6, 0.8]}},
     {"op": "retime", "pose": 3, "time": 1.25},
     {"op": "insert_pose", "time": 0.7},
     {"op": "delete_pose", "pose": 2},
@@ -84,8 +85,9 @@ def test_direct_construction_checks_fields_and_replace_keeps_them_checked():
     assert dataclasses.replace(op, s=0.2).s == 0.2
     with pytest.raises(ValueError, match=r"^s:"):
         dataclasses.replace(op, s="x")
-    p = Op.from_json(EXAMPLES[17])
-    assert dataclasses.replace(p, sigma=0.5) == Op.from_json(dict(EXAMPLES[17], sigma=0.5))
+    ex = next(e for e in EXAMPLES if e["op"] == "propagate" and "frames" in e)
+    p = Op.from_json(ex)
+    assert dataclasses.replace(p, sigma=0.5) == Op.from_json(dict(ex, sigma=0.5))
 
 
 HOSTILE = [
@@ -113,6 +115,10 @@ HOSTILE = [
     ({"op": "edit_pose", "pose": 1, "deltas": {"Hips": [1, 2]}}, "deltas.Hips"),
     ({"op": "edit_pose", "pose": 1, "deltas": [[1, 2, 3]]}, "deltas"),
     ({"op": "edit_pose", "pose": -1, "deltas": {}}, "pose"),
+    ({"op": "edit_pose", "pose": 1}, "deltas"),
+    ({"op": "edit_pose", "pose": 1, "deltas": {}, "targets": {}}, "targets"),
+    ({"op": "edit_pose", "pose": 1, "targets": {"Hips": [0, 0, 0, 0]}}, "targets.Hips"),
+    ({"op": "edit_pose", "pose": 1, "targets": {"Hips": [0, 0, 1]}}, "targets.Hips"),
     ({"op": "retime", "pose": 1, "time": "1"}, "time"),
     ({"op": "insert_pose"}, "time"),
     ({"op": "ik_pose", "pose": 1, "joint": "LeftHand", "target": [1, 2]}, "target"),

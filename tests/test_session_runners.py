@@ -74,7 +74,17 @@ def test_staggered_tools_match_their_technique_calls(walk_session):
         assert s.staggered().num_poses == want.num_poses, op
         _same_motion(s.edited(), staggered.evaluate(want))
     # with deltas the two edit modes give the same motion (staggered.edit_pose applies the same change to
-    # both knots, §5.1); the mode matters for the knot the user sees and edits (Fig. 6a vs 6b)
+    # both knots, §5.1); with targets the mode chooses the knot the user edits (Fig. 6a vs 6b)
+    j = names[3]
+    q = [0.0, 0.0, np.sin(0.3), np.cos(0.3)]
+    a, b = (_fresh(walk_session, [{"op": "edit_pose", "pose": 1, "targets": {j: q}, "mode": mode}]).edited()
+            for mode in ("staggered", "unstaggered"))
+    f = int(round(sm.pose_times[1] / sm.frame_time))
+    assert abs(sm.pose_times[1] - f * sm.frame_time) < 1e-9  # extracted poses sit on frames
+    ji = names.index(j)
+    assert quat_angle(a.local_quats[f, ji], np.array(q)) < 1e-6  # staggered mode: the true pose at t_k
+    assert quat_angle(b.local_quats[f, ji], np.array(q)) > 1e-4  # unstaggered mode: the extreme values
+    assert quat_angle(a.local_quats, b.local_quats).max() > 1e-4
 
 
 def test_keep_contacts_and_ik_pose_call_the_staggered_functions(walk_session):

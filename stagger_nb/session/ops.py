@@ -21,7 +21,8 @@ cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2
 succession              root, s, l=1.0, joints?                      (§5.2, succession)
 random_timing           tau >= 0, seed=0, joints?                    (§5.2, random timing)
 exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?
-edit_pose               pose, deltas {joint: [rx, ry, rz] deg}, mode="staggered"|"unstaggered"  (§5.1)
+edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
+                        mode="staggered"|"unstaggered"               (§5.1, Fig. 6a/6b)
 retime                  pose, time (s)                               (§5.2, Fig. 6c)
 insert_pose             time (s)                                     (§5.1)
 delete_pose             pose                                         (§5.1)
@@ -167,18 +168,30 @@ _mode = choice("staggered", "unstaggered")
 _vec3 = tuple_of(_finite, "a list of 3 numbers", 3)
 
 
-def deltas(value, name) -> tuple:
-    """``{joint name: [rx, ry, rz]}`` rotation vectors in degrees -> ``((name, (rx, ry, rz)), ...)``."""
-    if isinstance(value, tuple) and all(isinstance(p, tuple) and len(p) == 2 for p in value):
-        value = dict(value)  # the stored form (already checked once; checked again cheaply)
-    if not isinstance(value, dict):
-        _fail(name, "an object {joint name: [rx, ry, rz] degrees}", value)
-    _limit(value, name)
-    out = []
-    for k, v in value.items():
-        text(k, f"{name} key")
-        out.append((k, tuple_of(_finite, "a list of 3 numbers (rotation vector, degrees)", 3)(v, f"{name}.{k}")))
-    return tuple(out)
+def joint_map(inner: Callable, what: str) -> Callable:
+    """``{joint name: value}`` with each value checked by ``inner`` -> ``((name, value), ...)`` (the stored,
+    hashable form, which is accepted again)."""
+    def check(value, name):
+        if isinstance(value, tuple) and all(isinstance(p, tuple) and len(p) == 2 for p in value):
+            value = dict(value)  # the stored form
+        if not isinstance(value, dict):
+            _fail(name, f"an object {{joint name: {what}}}", value)
+        _limit(value, name)
+        return tuple((text(k, f"{name} key"), inner(v, f"{name}.{k}")) for k, v in value.items())
+    return check
+
+
+def _quaternion(value, name) -> tuple:
+    q = tuple_of(_finite, "a quaternion [x, y, z, w]", 4)(value, name)
+    if sum(c * c for c in q) < 1e-12:
+        _fail(name, "a non-zero quaternion [x, y, z, w]", value)
+    return q
+
+
+#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame.
+deltas = joint_map(tuple_of(_finite, "a list of 3 numbers (rotation vector, degrees)", 3), "[rx, ry, rz] degrees")
+#: ``{joint name: [x, y, z, w]}`` local rotations (non-zero quaternions).
+quaternions = joint_map(_quaternion, "[x, y, z, w]")
 
 
 def _deltas_json(d: tuple) -> dict:
@@ -398,14 +411,26 @@ class Exaggerate(Op):
 
 @dataclass(frozen=True)
 class EditPose(Op):
-    """Geometric edit of pose ``pose`` (§5.1, Fig. 6a/6b): joint rotations by ``deltas`` (degrees) at the
-    staggered pose (``mode="staggered"``) or at the non-staggered extreme values (``"unstaggered"``)."""
+    """Geometric edit of pose ``pose`` (§5.1, Fig. 6a/6b), by exactly one of
+
+    - ``deltas``: joint rotations (rotation vectors, degrees, local frames) applied to both knots of each
+      joint — the same change whichever knot the user looks at, so ``mode`` does not change the result;
+    - ``targets``: new local rotations ``{joint: [x, y, z, w]}`` of the knot the user edits: the true pose
+      at ``t_k`` (``mode="staggered"``, Fig. 6a) or the non-staggered extreme values (``"unstaggered"``,
+      Fig. 6b); the other knot follows by the same change. Here the two modes give different motions.
+    """
 
     name: ClassVar[str] = "edit_pose"
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
-    deltas: tuple = _spec(deltas, to_json=_deltas_json)
+    deltas: tuple | None = _spec(optional(deltas), None, to_json=_deltas_json, omit_none=True)
     mode: str = _spec(_mode, "staggered")
+    targets: tuple | None = _spec(optional(quaternions), None, to_json=_deltas_json, omit_none=True)
+
+    def _validate(self):
+        if (self.deltas is None) == (self.targets is None):
+            raise ValueError(f"{'deltas' if self.deltas is None else 'targets'}: give exactly one of deltas "
+                             "or targets")
 
 
 @dataclass(frozen=True)

@@ -266,7 +266,13 @@ def _radians(deltas) -> dict:
 
 
 def _edit_pose(sm, op: O.EditPose, run):
-    return _staggered().edit_pose(sm, _pose(sm, op.pose), deltas=_radians(op.deltas), mode=op.mode)
+    k = _pose(sm, op.pose)
+    if op.targets is not None:
+        for name, _ in op.targets:
+            _joint(sm.skeleton, name, f"targets.{name}")
+        return _staggered().edit_pose(sm, k, target={n: np.asarray(q, dtype=float) for n, q in op.targets},
+                                      mode=op.mode)
+    return _staggered().edit_pose(sm, k, deltas=_radians(op.deltas), mode=op.mode)
 
 
 def _retime(sm, op: O.Retime, run):
