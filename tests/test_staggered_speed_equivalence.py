@@ -31,8 +31,10 @@ def edited():
     return m, ed
 
 
-def _full_fk(motion, joints, local_quats=None):
-    return forward_kinematics(motion if local_quats is None else motion.replace(local_quats=local_quats))
+def _full_fk(motion, joints, local_quats=None, root_positions=None):
+    """The replaced code: a new Motion with the changed arrays, forward kinematics of every joint."""
+    change = {k: v for k, v in (("local_quats", local_quats), ("root_positions", root_positions)) if v is not None}
+    return forward_kinematics(motion.replace(**change) if change else motion)
 
 
 def test_chain_fk_equals_full_fk_on_the_chains(edited):

@@ -34,10 +34,10 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.where(n > 0, n, 1.0), n[..., 0]
 
 
-def _fk_joints(motion: Motion, joints, local_quats=None) -> tuple[np.ndarray, np.ndarray]:
+def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None) -> tuple[np.ndarray, np.ndarray]:
     """``forward_kinematics(motion)`` computed only for ``joints`` and their ancestors (the chains the
     constraint layer reads: a few legs' joints of a 30-joint body, about a third of the work);
-    ``local_quats`` (F, J, 4) replaces the motion's rotations (no new Motion to validate).
+    ``local_quats`` (F, J, 4) / ``root_positions`` (F, 3) replace the motion's (no new Motion to validate).
 
     Returns full-shaped ``(F, J, 3)`` positions and ``(F, J, 4)`` world rotations, equal (bit for bit: the
     same products in the same order) to :func:`forward_kinematics` on the computed joints and NaN on the
@@ -59,7 +59,7 @@ def _fk_joints(motion: Motion, joints, local_quats=None) -> tuple[np.ndarray, np
         trans[:] = motion.skeleton.offsets[sub]
     else:
         trans[:] = motion.local_translations[:, sub]
-    trans[:, 0] = motion.root_positions                 # row 0 of fk_arrays' translations: the root's position
+    trans[:, 0] = motion.root_positions if root_positions is None else root_positions   # fk_arrays: row 0 = root
     lq = motion.local_quats if local_quats is None else local_quats
     p, w = fk_arrays(lq[:, sub], trans, sub_par)
     pos = np.full((F, motion.num_joints, 3), np.nan)
@@ -399,14 +399,13 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         weight, left, right = attenuation_weights(act, nb)
         _window_targets(tgt, ref_pos[:, eff], act, weight, left, right)
         windows[eff] = weight
+    rp = motion.root_positions           # lowered below: one new Motion at the end, not one per change
     if lower_root:
         drop = _root_drop(sk, pos, groups, windows, nb)
         if np.any(drop > 0):
-            rp = np.array(motion.root_positions)
+            rp = np.array(rp)
             rp[:, 1] -= drop
-            motion = motion.replace(root_positions=rp)
-            pos = pos.copy()
-            pos[..., 1] -= drop[:, None]
+            pos[..., 1] -= drop[:, None]  # pos is this call's own array (ref_pos, its alias, is not read again)
     out = np.array(lq)
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
@@ -432,7 +431,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             act[s:e] = True
             tgt[s:e] = targets[i]
     if toes:
-        pos2, wq2 = _fk_joints(motion, set(toes) | {eff for _, _, eff in toes.values()}, local_quats=out)
+        pos2, wq2 = _fk_joints(motion, set(toes) | {eff for _, _, eff in toes.values()}, local_quats=out,
+                               root_positions=rp)
         for j, (act, tgt, eff) in toes.items():
             weight, left, right = attenuation_weights(act, nb)
             fr = np.flatnonzero(weight > 0)
@@ -441,7 +441,9 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             disp = quat_mul(quat_conj(wq2[fr, eff]), quat_mul(turn, wq2[fr, eff]))              # ankle's local
             disp = slerp(np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape), disp, weight[fr])
             out[fr, eff] = quat_mul(out[fr, eff], disp)
-    return motion.replace(local_quats=out)
+    if rp is motion.root_positions:
+        return motion.replace(local_quats=out)
+    return motion.replace(local_quats=out, root_positions=rp)
 
 
 def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:
