@@ -57,10 +57,10 @@ def test_stagger_sliders_replay_the_technique_calls(stagger_editor, run):
     # float32 over the wire
     np.testing.assert_allclose(_view_frame_positions(e), _fk(direct, 61), rtol=1e-6, atol=1e-3)
     j = run.skeleton.index(e.joint.value)
-    np.testing.assert_allclose(e.curves.figure.data[0].y, joint_rotation_degrees(direct, j)[:, 0], atol=1e-9)
+    np.testing.assert_allclose(e.curves.figure["data"][0]["y"], joint_rotation_degrees(direct, j)[:, 0], atol=1e-9)
     sm = e.session.staggered()
-    assert len(e.probability.figure.data[2].x) == sm.num_poses < len(e.probability.figure.data[1].x)
-    np.testing.assert_allclose(e.curves.figure.data[6].x[::3], sm.pose_times + sm.refinements[:, j])
+    assert len(e.probability.figure["data"][2]["x"]) == sm.num_poses < len(e.probability.figure["data"][1]["x"])
+    np.testing.assert_allclose(e.curves.figure["data"][6]["x"][::3], sm.pose_times + sm.refinements[:, j])
 
 
 def test_stagger_l_tau_cull_change_plot_and_view(stagger_editor):
@@ -68,10 +68,10 @@ def test_stagger_l_tau_cull_change_plot_and_view(stagger_editor):
     e.session.clear()
     e.s.value = 0.05
     e.view.frame = 70
-    before_view, before_plot = _view_frame_positions(e).copy(), np.array(e.curves.figure.data[0].y)
+    before_view, before_plot = _view_frame_positions(e).copy(), np.array(e.curves.figure["data"][0]["y"])
     for w, v in [(e.l, 3.0), (e.tau, 0.08), (e.cull, 40.0)]:
         w.value = v
-        after_view, after_plot = _view_frame_positions(e).copy(), np.array(e.curves.figure.data[0].y)
+        after_view, after_plot = _view_frame_positions(e).copy(), np.array(e.curves.figure["data"][0]["y"])
         assert np.abs(after_view - before_view).max() > 1e-3, w.description  # the skeleton moved
         assert len(after_plot) != len(before_plot) or np.abs(after_plot - before_plot).max() > 1e-6, w.description
         before_view, before_plot = after_view, after_plot
@@ -129,16 +129,16 @@ def test_wand_sigma_and_propagate(shared_motion):
             direct = wand.propagate(m, 40, edited_pose, sigma=sigma)
             # same basis computation via the cached pose graph: equal to round-off
             np.testing.assert_allclose(e.session.edited().local_quats, direct.local_quats, atol=1e-12)
-            np.testing.assert_allclose(e.falloff_plot.figure.data[0].y, wand.falloff(m, 40, sigma=sigma), atol=1e-12)
+            np.testing.assert_allclose(e.falloff_plot.figure["data"][0]["y"], wand.falloff(m, 40, sigma=sigma), atol=1e-12)
         assert e.message.value == ""
-        y0 = np.array(e.falloff_plot.figure.data[0].y)
+        y0 = np.array(e.falloff_plot.figure["data"][0]["y"])
         v0 = _view_frame_positions(e).copy()
         e.sigma.value = e.sigma.value / 2.5
-        assert np.abs(np.array(e.falloff_plot.figure.data[0].y) - y0).max() > 1e-3
+        assert np.abs(np.array(e.falloff_plot.figure["data"][0]["y"]) - y0).max() > 1e-3
         assert np.abs(_view_frame_positions(e) - v0).max() > 1e-3  # view is off the edited frame: it moves
         e.compare["isomap"].value = True
         e.compare["spline"].value = True
-        assert len(e.falloff_plot.figure.data[1].y) == m.num_frames and len(e.falloff_plot.figure.data[3].y) == m.num_frames
+        assert len(e.falloff_plot.figure["data"][1]["y"]) == m.num_frames and len(e.falloff_plot.figure["data"][2]["y"]) == m.num_frames
         e.propagate.value = False
         assert e.session.ops[0]["op"] == "edit_frame"
         diff = np.abs(e.session.edited().local_quats - m.local_quats).max(axis=(1, 2))
@@ -158,12 +158,12 @@ def test_warp_editor_guided_linear_and_errors(shared_motion):
         n = int(round(1.8 / m.frame_time)) + 1
         out, warp = timewarp.guided_warp(m, m, n, skip=8)
         assert e.view.motion.num_frames == n
-        np.testing.assert_allclose(e.warp_plot.figure.data[1].y, warp, atol=1e-12)  # same tables, same DP
+        np.testing.assert_allclose(e.warp_plot.figure["data"][1]["y"], warp, atol=1e-12)  # same tables, same DP
         np.testing.assert_allclose(e.session.edited().local_quats, out.local_quats, atol=1e-12)
-        speed = np.array(e.warp_plot.figure.data[3].y)
+        speed = np.array(e.warp_plot.figure["data"][3]["y"])
         np.testing.assert_allclose(speed, np.clip(timewarp.warp_speed(warp, m.frame_time), 0.1, 10), atol=1e-12)
         e.mode.value = "linear"
-        y = np.array(e.warp_plot.figure.data[1].y)
+        y = np.array(e.warp_plot.figure["data"][1]["y"])
         np.testing.assert_allclose(np.diff(y, 2), 0.0, atol=1e-9)  # a straight line
         e.keytimes.value = "1.0:0.4"
         assert e.session.ops[0]["keytimes"] == [[1.0, 0.4]]

@@ -1,5 +1,4 @@
-"""SkeletonView and the plot views without a browser: synced pythreejs arrays, FigureWidget data, and what
-goes over the comm per frame step (counted by wrapping each widget's ``_send``)."""
+"""SkeletonView without a browser: synced pythreejs arrays and what goes over the comm per frame step (counted by wrapping each widget's ``_send``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +7,7 @@ import pytest
 import stagger_nb as sn
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.skeleton import Skeleton
-from stagger_nb.widgets import FalloffPlot, JointCurvesPlot, ProbabilityPlot, SkeletonView, WarpPlot
+from stagger_nb.widgets import SkeletonView
 
 
 def _record_sends(widgets_by_name):
@@ -113,80 +112,3 @@ def test_view_highlights_selection_contacts_and_poses(shared_motion):
     assert v._bone_material.color == "#dd6b20"
     v.frame = 11
     assert v._bone_material.color == "#2b6cb0"
-
-
-def test_plots_update_in_place_and_report_clicks():
-    t = np.arange(31) / 30
-    jp = JointCurvesPlot(1 / 30)
-    fig = jp.figure
-    traces_before = [id(tr) for tr in fig.data]
-    jp.update(t, np.stack([t, 2 * t, 3 * t], 1), np.zeros((31, 3)), pose_times=[0.2, 0.6], knot_times=[0.25])
-    assert [id(tr) for tr in fig.data] == traces_before  # same trace objects, updated in place
-    np.testing.assert_allclose(fig.data[1].y, 2 * t)
-    np.testing.assert_allclose(fig.data[6].y, [0.25, 0.5, 0.75])  # knots sit on the curves (linear: exact)
-    assert [s.x0 for s in fig.layout.shapes] == [0.2, 0.6]
-
-    pp = ProbabilityPlot(1 / 30)
-    pp.update(t, np.sin(t), [0.1, 0.5, 0.9], [0.3, 0.8, 0.4], [0.5], [0.8])
-    assert list(pp.figure.data[2].x) == [0.5] and "1 of 3" in pp.figure.layout.title.text
-
-    wp = WarpPlot(1 / 30)
-    wp.update(t, 1.5 * t, np.array([0.01] + [1.5] * 30), keytimes=[[0, 0], [1.5, 1.0]])
-    assert wp.figure.data[3].y[0] == 0.1 and wp.figure.data[3].y[1] == 1.5  # speeds clipped to [0.1, 10]
-    assert wp.figure.layout.yaxis2.type == "log"
-
-    fp = FalloffPlot(1 / 30, sweep=2)
-    fp.update(t, {"green": t, "isomap": 1 - t}, frame=6, sweep=[("σ=1", t), ("σ=2", t)])
-    assert fp.figure.data[1].visible is True and len(fp.figure.data[2].x) == 0  # diffusion missing -> empty
-    assert fp.figure.layout.shapes[0].x0 == pytest.approx(0.2)
-
-    got = []
-    for p in (jp, pp, wp, fp):
-        p.on_frame_click(got.append)
-        p._clicked(p.figure.data[1], type("Points", (), {"xs": [0.5]})())
-    assert got == [15, 15, 15, 15]
-
-
-def test_plot_view_drawn_without_traces_gets_them_again(monkeypatch):
-    """A view that reports fewer traces than the figure (drawn before its state arrived) is sent the
-    missing traces and the layout; a complete view is left alone; without plotly's private senders the
-    repair is skipped (logged), never an exception in the comm handler."""
-    from stagger_nb.widgets import plots
-    p = plots.ProbabilityPlot(1 / 30)
-    p.update(np.arange(5) / 30, np.linspace(0, 1, 5), [0.1], [0.5], [0.1], [0.5])
-    sent = []
-    p.figure.observe(lambda c: c["new"] is not None and sent.append(("add", c["new"])), names="_py2js_addTraces")
-    p.figure.observe(lambda c: c["new"] is not None and sent.append(("layout", c["new"])), names="_py2js_relayout")
-    uids = [t.uid for t in p.figure.data]
-    edit_id = p.figure._last_trace_edit_id
-
-    def report(n):  # what plotly's front end sends after drawing n traces
-        p.figure._js2py_traceDeltas = {"trace_deltas": [{"uid": u} for u in uids[:n]], "trace_edit_id": edit_id}
-
-    report(3)
-    assert sent == [] and p.repairs == 0
-    # drawn before the model's data arrived, reported after: one empty delta per trace it lacks, which
-    # plotly's own handler (running after ours) would fail on
-    p.figure._js2py_traceDeltas = {"trace_deltas": [{"uid": uids[0]}, {}, {}], "trace_edit_id": edit_id}
-    assert p.repairs == 1 and [k for k, _ in sent] == ["add", "layout"]
-    added = sent[0][1]["trace_data"]
-    assert [t["uid"] for t in added] == uids[1:] and list(added[1]["x"]) == [0.1]
-    assert sent[1][1]["relayout_data"]["title"]["text"] == p.figure.layout.title.text
-    sent.clear()
-    monkeypatch.setattr(type(p.figure), "_send_addTraces_msg", None)
-    monkeypatch.setattr(plots, "_REPAIR_SKIPPED", [])
-    report(0)
-    assert sent == [] and p.repairs == 1 and plots._REPAIR_SKIPPED == [True]
-
-
-def test_sync_state_gives_new_views_the_current_data():
-    """A view created after in-place updates renders from ``_widget_data``/``_widget_layout``: sync_state
-    must copy the current figure there (plotly does it only when the figure itself is displayed)."""
-    from stagger_nb.widgets import plots
-    p = plots.ProbabilityPlot(1 / 30)
-    p.update(np.arange(5) / 30, np.linspace(0, 1, 5), [0.1], [0.5], [0.1], [0.5])
-    assert len(p.figure._widget_data) == 0  # plotly never copied it: a new view would be empty
-    p.sync_state()
-    assert len(p.figure._widget_data) == 3
-    assert list(p.figure._widget_data[1]["x"]) == [0.1]
-    assert p.figure._widget_layout["title"]["text"].startswith("pose probability P(t): 1 of 1")

@@ -2,9 +2,9 @@
 skeleton view and plotly plots updated in place. No math here: numbers come from the technique packages
 and the session."""
 from .skeleton_view import SkeletonView
-from .plots import FalloffPlot, JointCurvesPlot, ProbabilityPlot, WarpPlot
+from .plots import FalloffPlot, JointCurvesPlot, PlotView, ProbabilityPlot, WarpPlot
 
-__all__ = ["SkeletonView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
+__all__ = ["SkeletonView", "PlotView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
            "StaggerEditor", "WandEditor", "WarpEditor"]
 
 

@@ -68,16 +68,14 @@ class _Editor(widgets.VBox):
         session.observe(self._on_session)
         session.observe_busy(self._on_busy)
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
-        body = widgets.HBox([view, widgets.VBox([p.figure for p in plots])])
+        # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
+        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
+                                                                           max_width="100%"))],
+                            layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
         self.children = [top, widgets.VBox(controls), self.message, body]
         self._controls_from_ops(session.ops)
         self._update_buttons()
         self._refresh()
-
-    def _repr_mimebundle_(self, **kwargs):
-        for p in self.plots:   # new views of the plots must start from their current data
-            p.sync_state()
-        return super()._repr_mimebundle_(**kwargs)
 
     def _start_warm(self, work: Callable[[Callable[[], bool]], Any]) -> None:
         """Run ``work(stop)`` in a daemon thread (cache warm-up: every result is also computed on demand,

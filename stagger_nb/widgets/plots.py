@@ -1,322 +1,232 @@
-"""plotly ``FigureWidget`` views, updated in place under ``batch_update()`` (never rebuilt).
+"""Plot views: :class:`PlotView`, one plotly figure drawn by plotly.js in the browser, fed from Python.
 
-Each view draws arrays it is given (no math here beyond unit conversion for display) and reports clicks
-as frame indices through ``on_frame_click(callback)`` so an editor can move its 3D view there.
+Why a small view of our own rather than plotly's ``FigureWidget``: a FigureWidget keeps its browser state
+(``_widget_data``) apart from the Python figure and updates views with one-shot messages, so a view created
+later (a figure inside a box, a page reload) starts from stale or empty data unless private senders are
+called (``_send_addTraces_msg``…), and it ships its 4.8 MB bundle with every instance. Here the whole figure
+is one synced trait: every view, whenever it is created, draws the model's current ``figure`` with
+``Plotly.react``; a change of ``figure`` redraws every view. Numpy arrays travel as plotly.js typed-array
+specs (``{"dtype": "f4", "bdata": base64}``), not as JSON number lists. plotly.js itself (the installed
+plotly package's bundle, never a CDN) is sent by the kernel once per page, as one binary message, to the
+first view that asks; it is never part of the widget state, so restoring the widgets after a page
+reload moves kilobytes, not megabytes (JupyterLab gives that restore 4 s before a slower fallback).
 
-- :class:`JointCurvesPlot` — a joint's rotation curves (edited vs original) with the staggered pose
-  times and the joint's refinement knots ``t_k + r_{k,j}`` (Coleman et al. 2008, §3, Fig. 1/3).
-- :class:`ProbabilityPlot` — the pose probability signal with candidate and kept poses (§4.1, Fig. 5).
-- :class:`FalloffPlot` — Green's-function falloff / distance curves and comparisons (Dean et al. 2018,
-  Fig. 1, 3, 5).
-- :class:`WarpPlot` — a time-warp curve and its derivative on a log scale (Hsu et al. 2007, Fig. 5).
+- ``view.figure = fig_dict``: plotly JSON ``{"data": [...], "layout": {...}}`` (builders in
+  :mod:`stagger_nb.plotting`); replaced whole, redrawn in place (zoom and legend clicks are kept through
+  ``layout.uirevision``).
+- ``view.frame``: the playhead, a vertical red line at ``x = frame * frame_time`` or at
+  ``playhead_x[frame]`` when ``playhead_x`` (one x per frame) is given; moved browser-side without a
+  redraw. The frame trait is not echoed back to the browser (ipywidgets ``echo_update=False``): a
+  ``jsdlink`` from a Play widget can drive it during playback without any kernel message out.
+- a click sets ``view.frame`` to the nearest frame of the clicked x (seek; off with
+  ``seek_on_click=False``) and calls the ``on_click(x, y, frame)`` callbacks.
+
+The classes ``JointCurvesPlot``, ``ProbabilityPlot``, ``FalloffPlot`` and ``WarpPlot`` are PlotViews with
+the former ``update(...)`` methods (deprecated: build with :mod:`stagger_nb.plotting` and assign
+``view.figure``).
 """
 from __future__ import annotations
 
-import logging
+import base64
+from pathlib import Path
 from typing import Callable
 
+import anywidget
 import numpy as np
-import plotly.graph_objects as go
-from plotly.subplots import make_subplots
+import traitlets as t
 
-__all__ = ["JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot"]
+from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 
-_log = logging.getLogger(__name__)
-_REPAIR_SKIPPED: list = []  # non-empty once the missing-private-method warning was given
+__all__ = ["PlotView", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
+           "WarpPlot"]
 
-_COMPONENT_COLOURS = ("#e53e3e", "#38a169", "#3182ce")
-_COMPARISON_COLOURS = {"green": "#2f855a", "isomap": "#c05621", "diffusion": "#6b46c1", "spline": "#718096"}
-
-
-PLOT_WIDTH = 520  # px: a 3D view and a plot side by side fit JupyterLab's default notebook width
-
-
-def _layout(title: str, height: int, **kw) -> dict:
-    return dict(title=dict(text=title, font=dict(size=13)), height=height, width=PLOT_WIDTH,
-                margin=dict(l=50, r=10, t=35, b=35), legend=dict(orientation="h", y=-0.25), **kw)
+_JS = (Path(__file__).with_name("plot_view.js")).read_text(encoding="utf-8")
+_CSS = """
+.sn-plot-view { width: 100%; max-width: 100%; min-width: 0; box-sizing: border-box; }
+.sn-plot-view .sn-plot { width: 100%; max-width: 100%; }
+"""
+_TYPED = {"f": ("f4", np.float32), "i": ("i4", np.int32), "u": ("u4", np.uint32), "b": ("u1", np.uint8)}
 
 
-def _same(a, b) -> bool:
-    if a is b:
-        return True
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        a, b = np.asarray(a), np.asarray(b)
-        return a.shape == b.shape and a.dtype.kind == b.dtype.kind and bool(np.array_equal(a, b))
-    return a == b
+def _typed_array(a: np.ndarray):
+    """A 1-D numeric array as a plotly.js typed-array spec; other arrays as nested lists."""
+    kind = a.dtype.kind
+    if a.ndim != 1 or kind not in _TYPED:
+        return a.tolist()
+    if kind in "iu" and a.size and (a.max() > np.iinfo(np.int32).max or a.min() < np.iinfo(np.int32).min):
+        return {"dtype": "f8", "bdata": base64.b64encode(np.ascontiguousarray(a, "<f8")).decode("ascii")}
+    code, dt = _TYPED[kind]
+    return {"dtype": code, "bdata": base64.b64encode(np.ascontiguousarray(a, dtype=np.dtype(dt).newbyteorder("<"))
+                                                     ).decode("ascii")}
 
 
-class _ClickablePlot:
-    """Common part: a FigureWidget whose traces report clicked x (seconds) as frame indices, and which sets
-    a property only when its value changed (plotly validates every assignment: skipping the unchanged ones
-    keeps a slider move cheap)."""
+def figure_to_json(value, widget=None):
+    """The JSON the browser gets for a figure dict: numpy arrays as typed-array specs (float32 for floats:
+    ~7 significant digits, enough to draw), numpy scalars as numbers, tuples as lists."""
+    if isinstance(value, dict):
+        return {str(k): figure_to_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [figure_to_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _typed_array(value)
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
-    def __init__(self, fig: go.FigureWidget, frame_time: float):
-        self.figure = fig
-        self.frame_time = float(frame_time)
-        self._callbacks: list[Callable] = []
-        self._last: dict = {}
-        self.repairs = 0  # views repaired by _on_view_rendered
-        self._wire_clicks()
-        # before plotly's own handler of the same report: that one raises KeyError on the empty delta of
-        # a trace the view never drew, and the observers after it would not run
-        own = getattr(type(fig), "_handler_js2py_traceDeltas", None)
-        if own is not None:
-            fig.unobserve(own, names="_js2py_traceDeltas")
-        fig.observe(self._on_view_rendered, names="_js2py_traceDeltas")
-        if own is not None:
-            fig.observe(own, names="_js2py_traceDeltas")
 
-    def _on_view_rendered(self, change) -> None:
-        """Repair a front-end view drawn with fewer traces than the figure.
+_PLOTLY_JS: list = []   # the installed plotly.js bundle, UTF-8, read on first request
 
-        A view reports one trace delta per trace of its model's data after its first draw; a trace the
-        view did not draw gives an empty delta (no ``uid``), and the model's data may have arrived between
-        the draw and the report, so the drawn traces are the deltas with a ``uid``. plotly's widget state
-        (``_widget_data``/``_widget_layout``) is set only by ``FigureWidget._repr_mimebundle_``, and edits
-        made before a view exists travel as one-shot messages that view never sees (plotly.py #4933, fixed
-        for a displayed figure by #4956); under load a view nested in a box can also be drawn before its
-        model received the state, and then shows empty default axes. Such a view gets the missing traces
-        and the layout again. This needs two private plotly methods (no public call re-sends traces without
-        adding them to the Python figure); without them the repair is skipped and logged once (re-running
-        the cell redraws the view). Messages go to every view of the figure: a second, complete view of
-        the same figure would draw the re-sent traces twice."""
-        msg = change.get("new") or {}
-        if "trace_deltas" not in msg:  # plotly resets the trait to None after handling it
+
+def plotly_js_bytes() -> bytes:
+    """The installed plotly package's plotly.js bundle (what the views run), UTF-8 encoded."""
+    if not _PLOTLY_JS:
+        from plotly.offline import get_plotlyjs
+        _PLOTLY_JS.append(get_plotlyjs().encode("utf-8"))
+    return _PLOTLY_JS[0]
+
+
+class PlotView(anywidget.AnyWidget):
+    """A view of one plotly figure on plotly.js, fed from Python.
+
+    Traits
+    ------
+    figure : dict, plotly JSON ``{"data": [...], "layout": {...}}``; numpy arrays allowed
+    frame : int >= 0, the playhead frame (set by a click when ``seek_on_click``)
+    frame_time : float > 0, seconds per frame: the playhead is drawn at ``x = frame * frame_time``
+    playhead_x : list of float, optional x of each frame (for a plot whose x axis is not the frame's time,
+        e.g. a warp's input time); clicks seek to the frame with the nearest x
+    playhead_xref : str, the x axis the playhead is drawn on (``"x"``; ``"x2"`` for a lower subplot)
+    show_playhead, seek_on_click : bool
+    """
+
+    _esm = _JS
+    _css = _CSS
+    figure = t.Dict().tag(sync=True, to_json=figure_to_json)
+    frame = t.Int(0, min=0).tag(sync=True, echo_update=False)
+    frame_time = t.Float(1 / 30).tag(sync=True)
+    playhead_x = t.List(t.Float()).tag(sync=True)
+    playhead_xref = t.Unicode("x").tag(sync=True)
+    show_playhead = t.Bool(True).tag(sync=True)
+    seek_on_click = t.Bool(True).tag(sync=True)
+
+    def __init__(self, figure: dict | None = None, **kwargs):
+        if figure is not None:
+            kwargs["figure"] = figure
+        super().__init__(**kwargs)
+        self._click_callbacks: list[Callable] = []
+        self.on_msg(self._on_custom_msg)
+
+    @t.validate("frame_time")
+    def _check_frame_time(self, proposal):
+        if not proposal["value"] > 0:
+            raise t.TraitError(f"frame_time: must be > 0 seconds, got {proposal['value']}")
+        return proposal["value"]
+
+    @t.validate("figure")
+    def _check_figure(self, proposal):
+        fig = proposal["value"]
+        if set(fig) - {"data", "layout", "frames"} or not isinstance(fig.get("data", []), (list, tuple)):
+            raise t.TraitError("figure: expected a plotly dict {'data': [...], 'layout': {...}}, got keys "
+                               f"{sorted(fig)}")
+        return fig
+
+    def on_click(self, callback: Callable[[float, float | None, int], None], remove: bool = False) -> None:
+        """Call ``callback(x, y, frame)`` when the plot is clicked in a browser (x, y in data units of the
+        clicked point; frame as for the seek)."""
+        if remove:
+            self._click_callbacks.remove(callback)
+        else:
+            self._click_callbacks.append(callback)
+
+    def _on_custom_msg(self, _widget, content, _buffers) -> None:
+        if not isinstance(content, dict):
             return
-        fig = self.figure
-        drawn = [d for d in msg["trace_deltas"] if isinstance(d, dict) and "uid" in d]
-        if len(drawn) < len(msg["trace_deltas"]):
-            msg["trace_deltas"] = drawn  # the message plotly's handler reads next: empty deltas say nothing
-        have = len(drawn)
-        if have >= len(fig.data):
-            return
-        add = getattr(fig, "_send_addTraces_msg", None)
-        relayout = getattr(fig, "_send_relayout_msg", None)
-        if add is None or relayout is None:
-            if not _REPAIR_SKIPPED:
-                _REPAIR_SKIPPED.append(True)
-                _log.warning("a plot view was drawn without its data and this plotly version offers no way to "
-                             "re-send it; re-run the cell to redraw it")
-            return
-        from copy import deepcopy
-        self.repairs += 1
-        add([deepcopy(t) for t in fig._data[have:]])
-        relayout(deepcopy(fig._layout))
+        if content.get("event") == "click":
+            self.click(float(content["x"]), content.get("y"), seek=False)
+        elif content.get("event") == "need_plotly":   # the first view of a page asks, once
+            self.send({"event": "plotly.js"}, buffers=[plotly_js_bytes()])
 
-    def _put(self, i, **props) -> None:
-        """``figure.data[i].<prop> = value`` for the props whose value changed (call inside batch_update)."""
-        tr = self.figure.data[i]
-        for k, v in props.items():
-            if isinstance(v, np.ndarray):
-                v = np.array(v)  # own copy: the caller's array may be a view that changes later
-            key = (i, k)
-            if key in self._last and _same(self._last[key], v):
-                continue
-            self._last[key] = v
-            setattr(tr, k, v)
+    def frame_of_x(self, x: float) -> int:
+        """The frame a click at data x seeks to (what the browser computes)."""
+        if self.playhead_x:
+            return int(np.argmin(np.abs(np.asarray(self.playhead_x) - x)))
+        return max(0, int(round(x / self.frame_time)))
 
-    def _put_layout(self, **props) -> None:
-        for k, v in props.items():
-            key = ("layout", k)
-            if key in self._last and _same(self._last[key], v):
-                continue
-            self._last[key] = v
-            if k == "title":
-                self.figure.layout.title.text = v
-            else:
-                setattr(self.figure.layout, k, v)
+    def click(self, x: float, y: float | None = None, seek: bool = True) -> int:
+        """What a click at data x does (the browser calls it; tests and code may too): seek (``frame``)
+        when ``seek`` and ``seek_on_click``, then the ``on_click`` callbacks. Returns the frame."""
+        frame = self.frame_of_x(x)
+        if seek and self.seek_on_click:
+            self.frame = frame
+        for cb in list(self._click_callbacks):
+            cb(x, y, frame)
+        return frame
 
-    def _wire_clicks(self):
-        for tr in self.figure.data:
-            tr.on_click(self._clicked)
-
-    def sync_state(self) -> None:
-        """Copy the figure's current data/layout into the widget state that a *new* front-end view renders
-        from. plotly does this in ``FigureWidget._repr_mimebundle_`` only, i.e. when the figure itself is
-        displayed (plotly.py #4956); inside an editor (a VBox) the editor calls this when it is displayed,
-        through that same display hook (no private attributes of plotly touched here)."""
-        self.figure._repr_mimebundle_()
-
+    # --- deprecated names of the FigureWidget views (kept while the editors switch) -----------------
     def on_frame_click(self, callback: Callable[[int], None]) -> None:
-        """Call ``callback(frame_index)`` when a point of any trace is clicked."""
-        self._callbacks.append(callback)
-
-    def _clicked(self, trace, points, state=None):
-        xs = getattr(points, "xs", None) or []
-        if xs:
-            self.click_time(float(xs[0]))
+        """Deprecated: ``on_click`` with only the frame."""
+        self.on_click(lambda x, y, frame: callback(frame))
 
     def click_time(self, seconds: float) -> None:
-        """What a click at x = ``seconds`` does (also callable from code and tests)."""
-        frame = int(round(seconds / self.frame_time))
-        for cb in self._callbacks:
-            cb(frame)
+        """Deprecated: ``click(seconds)``."""
+        self.click(seconds)
 
-    def _ipython_display_(self):  # pragma: no cover - display hook
-        from IPython.display import display
-        display(self.figure)
+    def sync_state(self) -> None:
+        """Deprecated no-op: every view draws the current figure."""
 
 
-class JointCurvesPlot(_ClickablePlot):
-    """Rotation of one joint over time as a rotation vector (x, y, z components, degrees): the edited
-    motion solid, the original dotted; pose times as vertical lines and the joint's refinement knots as
-    diamonds on the edited curve."""
+class JointCurvesPlot(PlotView):
+    """Deprecated: ``PlotView(plotting.joint_curves_figure(...))``."""
 
-    def __init__(self, frame_time: float, height: int = 260):
-        fig = go.FigureWidget(layout=_layout("joint rotation (rotation vector, degrees)", height,
-                                             xaxis_title="time (s)"))
-        for c, col in zip("xyz", _COMPONENT_COLOURS):
-            fig.add_scatter(x=[], y=[], mode="lines", name=f"{c} edited", line=dict(color=col))
-        for c, col in zip("xyz", _COMPONENT_COLOURS):
-            fig.add_scatter(x=[], y=[], mode="lines", name=f"{c} original", line=dict(color=col, dash="dot", width=1))
-        fig.add_scatter(x=[], y=[], mode="markers", name="refinement knots",
-                        marker=dict(symbol="diamond", size=8, color="#1a202c"))
-        super().__init__(fig, frame_time)
+    def __init__(self, frame_time: float, height: int = 280, **kwargs):
+        self._height = height
+        super().__init__(joint_curves_figure(np.zeros(0), np.zeros((0, 3)), height=height),
+                         frame_time=frame_time, **kwargs)
 
-    def update(self, times: np.ndarray, edited_deg: np.ndarray, original_deg: np.ndarray | None,
-               pose_times: np.ndarray | None = None, knot_times: np.ndarray | None = None,
-               title: str | None = None) -> None:
-        """Redraw in place.
-
-        Parameters
-        ----------
-        times : (F,) seconds of ``edited_deg`` (the original may have another length)
-        edited_deg : (F, 3) rotation vector of the joint, degrees
-        original_deg : (F0, 3) or None, sampled every ``frame_time`` seconds
-        pose_times : (K,) seconds, drawn as vertical lines
-        knot_times : (K,) seconds ``t_k + r_{k,j}`` for this joint, drawn on the edited curve
-        """
-        with self.figure.batch_update():
-            for i in range(3):
-                self._put(i, x=np.asarray(times, dtype=float), y=np.asarray(edited_deg[:, i], dtype=float))
-            for i in range(3):
-                if original_deg is None:
-                    self._put(3 + i, x=(), y=())
-                else:
-                    self._put(3 + i, x=np.arange(len(original_deg)) * self.frame_time,
-                              y=np.asarray(original_deg[:, i], dtype=float))
-            if knot_times is not None and len(knot_times):
-                kt = np.asarray(knot_times, dtype=float)
-                ys = np.stack([np.interp(kt, times, edited_deg[:, i]) for i in range(3)], axis=1)
-                self._put(6, x=np.repeat(kt, 3), y=ys.reshape(-1))
-            else:
-                self._put(6, x=(), y=())
-            self._put_layout(shapes=tuple(dict(type="line", xref="x", yref="paper", x0=float(t), x1=float(t), y0=0,
-                                               y1=1, line=dict(color="#dd6b20", width=1, dash="dash"))
-                                          for t in (pose_times if pose_times is not None else [])))
-            if title is not None:
-                self._put_layout(title=title)
+    def update(self, times, edited_deg, original_deg=None, pose_times=None, knot_times=None, title=None) -> None:
+        """See :func:`stagger_nb.plotting.joint_curves_figure`; the original is sampled every frame_time."""
+        ot = None if original_deg is None else np.arange(len(original_deg)) * self.frame_time
+        self.figure = joint_curves_figure(times, edited_deg, original_deg, ot,
+                                          pose_times=() if pose_times is None else pose_times,
+                                          knot_times=() if knot_times is None else knot_times,
+                                          title=title, height=self._height)
 
 
-class ProbabilityPlot(_ClickablePlot):
-    """The aggregate pose probability ``P(t)`` with all candidate peaks and the poses kept after culling
-    (staggered poses, §4.1 and Fig. 5)."""
+class ProbabilityPlot(PlotView):
+    """Deprecated: ``PlotView(plotting.pose_probability_figure(...))``."""
 
-    def __init__(self, frame_time: float, height: int = 220):
-        fig = go.FigureWidget(layout=_layout("pose probability P(t)", height, xaxis_title="time (s)"))
-        fig.add_scatter(x=[], y=[], mode="lines", name="P(t)", line=dict(color="#2b6cb0"))
-        fig.add_scatter(x=[], y=[], mode="markers", name="candidates",
-                        marker=dict(size=7, color="rgba(0,0,0,0)", line=dict(color="#4a5568", width=1)))
-        fig.add_scatter(x=[], y=[], mode="markers", name="kept poses", marker=dict(size=9, color="#dd6b20"))
-        super().__init__(fig, frame_time)
+    def __init__(self, frame_time: float, height: int = 240, **kwargs):
+        self._height = height
+        super().__init__(pose_probability_figure(None, None, (), (), (), (), height=height),
+                         frame_time=frame_time, **kwargs)
 
-    def update(self, times: np.ndarray | None, signal: np.ndarray | None,
-               candidate_times: np.ndarray, candidate_values: np.ndarray,
-               kept_times: np.ndarray, kept_values: np.ndarray) -> None:
-        """``times, signal`` (F,) the sampled ``P(t)`` (None when not available); candidates and kept
-        poses as (K,) times in seconds and probability values."""
-        f = lambda a: np.asarray(a, dtype=float)  # noqa: E731
-        with self.figure.batch_update():
-            if signal is None:
-                self._put(0, x=(), y=())
-            else:
-                self._put(0, x=f(times), y=f(signal))
-            self._put(1, x=f(candidate_times), y=f(candidate_values))
-            self._put(2, x=f(kept_times), y=f(kept_values))
-            self._put_layout(title=f"pose probability P(t): {len(kept_times)} of "
-                                   f"{len(candidate_times)} candidate poses kept")
+    def update(self, times, signal, candidate_times, candidate_values, kept_times, kept_values) -> None:
+        """See :func:`stagger_nb.plotting.pose_probability_figure`."""
+        self.figure = pose_probability_figure(None if signal is None else times, signal, candidate_times,
+                                              candidate_values, kept_times, kept_values, height=self._height)
 
 
-class FalloffPlot(_ClickablePlot):
-    """Falloff weights (or distances) from the edited frame over the timeline: Green's function and
-    optional comparison curves (magic wand, Fig. 1/3), plus an optional σ sweep (Fig. 5)."""
+class FalloffPlot(PlotView):
+    """Deprecated: ``PlotView(plotting.falloff_figure(...))``."""
 
-    def __init__(self, frame_time: float, height: int = 240, sweep: int = 0):
-        fig = go.FigureWidget(layout=_layout("falloff from the edited frame", height, xaxis_title="time (s)",
-                                             yaxis=dict(range=[-0.05, 1.05])))
-        for name, col in _COMPARISON_COLOURS.items():
-            fig.add_scatter(x=[], y=[], mode="lines", name=name, line=dict(color=col, width=3 if name == "green" else 1.5),
-                            visible=True if name == "green" else "legendonly")
-        for k in range(sweep):
-            fig.add_scatter(x=[], y=[], mode="lines", showlegend=False, line=dict(width=1), opacity=0.6)
-        self._names = list(_COMPARISON_COLOURS)
-        super().__init__(fig, frame_time)
+    def __init__(self, frame_time: float, height: int = 260, sweep: int = 0, **kwargs):
+        self._height = height
+        super().__init__(falloff_figure(np.zeros(0), {}, height=height), frame_time=frame_time, **kwargs)
 
-    def update(self, times: np.ndarray, curves: dict, frame: int | None = None, sweep: list | None = None,
-               title: str | None = None) -> None:
-        """``curves`` maps ``"green" / "isomap" / "diffusion" / "spline"`` to (F,) values in [0, 1]; names
-        missing are hidden. ``sweep``: list of ``(label, (F,) values)`` drawn thin (blue = small σ)."""
-        times = np.asarray(times, dtype=float)
-        with self.figure.batch_update():
-            for i, name in enumerate(self._names):
-                y = curves.get(name)
-                if y is None:
-                    self._put(i, x=(), y=())
-                else:
-                    self._put(i, x=times, y=np.asarray(y, dtype=float))
-                    if name != "green":
-                        self._put(i, visible=True)
-            sweep = sweep or []
-            n_sweep = len(self.figure.data) - len(self._names)
-            for k in range(n_sweep):
-                i = len(self._names) + k
-                if k < len(sweep):
-                    label, y = sweep[k]
-                    a = k / max(1, n_sweep - 1)
-                    self._put(i, x=times, y=np.asarray(y, dtype=float), name=label,
-                              line=dict(color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})",
-                                        width=1))
-                else:
-                    self._put(i, x=(), y=())
-            self._put_layout(shapes=() if frame is None else (
-                dict(type="line", xref="x", yref="paper", x0=frame * self.frame_time, x1=frame * self.frame_time,
-                     y0=0, y1=1, line=dict(color="#d69e2e", width=3)),))
-            if title is not None:
-                self._put_layout(title=title)
+    def update(self, times, curves: dict, frame: int | None = None, sweep=None, title=None) -> None:
+        """See :func:`stagger_nb.plotting.falloff_figure`; ``frame`` is the edited frame (index)."""
+        self.figure = falloff_figure(times, curves, edited_times=() if frame is None else [frame * self.frame_time],
+                                     sweep=sweep, title=title, height=self._height)
 
 
-class WarpPlot(_ClickablePlot):
-    """A time warp (input time of each output frame) and its derivative on a log scale, with the unit
-    line and the tenfold slow-motion / fast-forward limits (guided time warping, Fig. 5)."""
+class WarpPlot(PlotView):
+    """Deprecated: ``PlotView(plotting.warp_figure(...))``."""
 
-    def __init__(self, frame_time: float, height: int = 380):
-        fig = go.FigureWidget(make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.12,
-                                            subplot_titles=("warp: input time of each output frame",
-                                                            "speed d(input)/d(output), log scale")))
-        fig.add_scatter(x=[], y=[], mode="lines", name="linear", line=dict(color="#a0aec0", dash="dot"), row=1, col=1)
-        fig.add_scatter(x=[], y=[], mode="lines", name="warp", line=dict(color="#2b6cb0"), row=1, col=1)
-        fig.add_scatter(x=[], y=[], mode="markers", name="keytimes", marker=dict(size=9, color="#dd6b20"), row=1, col=1)
-        fig.add_scatter(x=[], y=[], mode="lines", name="speed", line=dict(color="#2f855a"), row=2, col=1)
-        fig.update_yaxes(type="log", range=[-1, 1], row=2, col=1)
-        fig.update_xaxes(title_text="output time (s)", row=2, col=1)
-        fig.update_layout(**_layout("time warp", height))
-        super().__init__(fig, frame_time)
+    def __init__(self, frame_time: float, height: int = 420, **kwargs):
+        self._height = height
+        super().__init__(warp_figure(np.zeros(0), np.zeros(0), np.zeros(0), height=height),
+                         frame_time=frame_time, **kwargs)
 
-    def update(self, out_times: np.ndarray, warp: np.ndarray, speed: np.ndarray,
-               keytimes: np.ndarray | None = None, title: str | None = None) -> None:
-        """``out_times, warp`` (N,) seconds; ``speed`` (N,) the warp's derivative (dimensionless,
-        drawn on a log axis clipped to [0.1, 10]); ``keytimes`` (M, 2) (input, output) seconds."""
-        out_times = np.asarray(out_times, dtype=float)
-        warp = np.asarray(warp, dtype=float)
-        with self.figure.batch_update():
-            if len(out_times):
-                self._put(0, x=(float(out_times[0]), float(out_times[-1])), y=(float(warp[0]), float(warp[-1])))
-            self._put(1, x=out_times, y=warp)
-            kt = np.zeros((0, 2)) if keytimes is None else np.asarray(keytimes, dtype=float).reshape(-1, 2)
-            self._put(2, x=kt[:, 1], y=kt[:, 0])
-            self._put(3, x=out_times, y=np.clip(np.asarray(speed, dtype=float), 0.1, 10.0))
-            self._put_layout(shapes=(dict(type="line", xref="x2", yref="y2", x0=float(out_times[0]),
-                                          x1=float(out_times[-1]), y0=1, y1=1,
-                                          line=dict(color="#a0aec0", width=1)),) if len(out_times) else ())
-            if title is not None:
-                self._put_layout(title=title)
+    def update(self, out_times, warp, speed, keytimes=None, title=None) -> None:
+        """See :func:`stagger_nb.plotting.warp_figure`."""
+        self.figure = warp_figure(out_times, warp, speed, keytimes=keytimes, title=title, height=self._height)

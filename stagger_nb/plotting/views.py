@@ -1,0 +1,193 @@
+"""The editors' recurring views as plotly figure dicts (pure functions, no browser, no widgets).
+
+Glossary: F frames, K staggered poses, N output frames of a time warp, M keytimes. Times in seconds,
+rotations as rotation vectors in degrees (x, y, z components). Every builder returns
+``{"data": [...], "layout": {...}}`` whose trace order is fixed and documented (views and tests index it).
+
+- :func:`pose_probability_figure` — P(t) with candidate and kept poses (Coleman et al. 2008, §4.1, Fig. 5).
+- :func:`joint_curves_figure` — one joint's rotation, edited vs original, pose times and the joint's
+  refinement knots ``t_k + r_{k,j}`` (Coleman et al. 2008, §3, Fig. 1/3).
+- :func:`falloff_figure` — falloff from the edited frames: Green's function beside ISOMAP, diffusion and
+  spline comparisons, optional σ sweep (Dean et al. 2018, Fig. 1, 3, 5).
+- :func:`warp_figure` — a time warp (input time of each output frame) with keytimes, and its speed on a log
+  axis (Hsu et al. 2007, §4 and Fig. 5).
+"""
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, METHOD_COLOURS, METHOD_NAMES, POSE_COLOUR, base_layout,
+                     floats, same_length, vline)
+
+__all__ = ["pose_probability_figure", "joint_curves_figure", "falloff_figure", "warp_figure",
+           "SPEED_LIMITS"]
+
+SPEED_LIMITS = (0.1, 10.0)   # speed axis range: tenfold slow motion to tenfold fast forward (Hsu et al. 2007, §4.3)
+
+
+def pose_probability_figure(times, probability, candidate_times, candidate_values, kept_times, kept_values, *,
+                            title: str | None = None, height: int = 240) -> dict:
+    """Pose probability ``P(t)`` with the candidate poses and the staggered poses kept after culling.
+
+    Parameters
+    ----------
+    times, probability : (F,) seconds and P(t) in [0, 1], or both None when the signal is not available
+    candidate_times, candidate_values : (C,) seconds and P at each candidate pose (all peaks, §4.1)
+    kept_times, kept_values : (K,) seconds and P at each kept (staggered) pose
+    title : str, default "pose probability P(t): K of C candidate poses kept"
+
+    Traces: 0 ``P(t)`` line, 1 candidates (hollow circles), 2 kept poses (filled, also drawn as dashed
+    vertical lines).
+    """
+    ct, cv = floats(candidate_times, "candidate_times"), floats(candidate_values, "candidate_values")
+    kt, kv = floats(kept_times, "kept_times"), floats(kept_values, "kept_values")
+    same_length(candidate_times=ct, candidate_values=cv)
+    same_length(kept_times=kt, kept_values=kv)
+    if (times is None) != (probability is None):
+        raise ValueError("times, probability: give both or neither")
+    if times is None:
+        t, p = np.zeros(0), np.zeros(0)
+    else:
+        t, p = floats(times, "times"), floats(probability, "probability")
+        same_length(times=t, probability=p)
+    data = [
+        dict(type="scatter", x=t, y=p, mode="lines", name="P(t)", line=dict(color="#2b6cb0", width=2)),
+        dict(type="scatter", x=ct, y=cv, mode="markers", name=f"candidates ({len(ct)})",
+             marker=dict(size=7, color="rgba(0,0,0,0)", line=dict(color="#4a5568", width=1.5))),
+        dict(type="scatter", x=kt, y=kv, mode="markers", name=f"staggered poses ({len(kt)})",
+             marker=dict(size=10, color=POSE_COLOUR, symbol="diamond")),
+    ]
+    if title is None:
+        title = f"pose probability P(t): {len(kt)} of {len(ct)} candidate poses kept"
+    layout = base_layout(title, height, y_title="P(t)", yaxis=dict(title=dict(text="P(t)"), rangemode="tozero",
+                                                                   automargin=True),
+                         shapes=[vline(x, POSE_COLOUR, "dot") for x in kt])
+    return dict(data=data, layout=layout)
+
+
+def joint_curves_figure(times, edited_deg, original_deg=None, original_times=None, *, pose_times=(),
+                        knot_times=(), title: str | None = None, height: int = 280) -> dict:
+    """One joint's rotation over time as a rotation vector, edited (solid) against original (dotted).
+
+    Parameters
+    ----------
+    times : (F,) seconds of ``edited_deg``
+    edited_deg : (F, 3) rotation vector (x, y, z) of the joint in degrees, edited motion
+    original_deg : (F0, 3) degrees or None; the original may have another length (time warps)
+    original_times : (F0,) seconds of ``original_deg`` (required with it)
+    pose_times : (K,) seconds, staggered pose times ``t_k`` drawn as dashed vertical lines
+    knot_times : (K,) seconds, this joint's refinement knots ``t_k + r_{k,j}``, drawn on the edited curves
+
+    Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None); 6 knots.
+    """
+    t = floats(times, "times")
+    e = floats(edited_deg, "edited_deg", ndim=2)
+    if e.shape != (len(t), 3):
+        raise ValueError(f"edited_deg: expected shape ({len(t)}, 3), got {e.shape}")
+    if original_deg is not None:
+        o = floats(original_deg, "original_deg", ndim=2)
+        if original_times is None:
+            raise ValueError("original_times: required with original_deg")
+        ot = floats(original_times, "original_times")
+        if o.shape != (len(ot), 3):
+            raise ValueError(f"original_deg: expected shape ({len(ot)}, 3), got {o.shape}")
+    else:
+        o, ot = np.zeros((0, 3)), np.zeros(0)
+    pt, kt = floats(pose_times, "pose_times"), floats(knot_times, "knot_times")
+    data = [dict(type="scatter", x=t, y=e[:, i], mode="lines", name=f"{c} edited", legendgroup=c,
+                 line=dict(color=col, width=2)) for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
+    data += [dict(type="scatter", x=ot, y=o[:, i], mode="lines", name=f"{c} original", legendgroup=c,
+                  line=dict(color=col, width=1.2, dash="dot")) for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
+    if len(kt) and len(t):
+        ky = np.stack([np.interp(kt, t, e[:, i]) for i in range(3)], axis=1)   # (K, 3) on the edited curves
+        kx, ky = np.repeat(kt, 3), ky.reshape(-1)
+    else:
+        kx, ky = np.zeros(0), np.zeros(0)
+    data.append(dict(type="scatter", x=kx, y=ky, mode="markers", name="knots t_k + r_kj",
+                     marker=dict(symbol="diamond", size=7, color="#1a202c")))
+    layout = base_layout(title or "joint rotation: edited (solid) vs original (dotted)", height,
+                         y_title="rotation (°)", shapes=[vline(x, POSE_COLOUR) for x in pt])
+    return dict(data=data, layout=layout)
+
+
+def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times=(), sweep=None,
+                   title: str | None = None, height: int = 260) -> dict:
+    """Falloff weights from the edited frames over the timeline, one named curve per method.
+
+    Parameters
+    ----------
+    times : (F,) seconds
+    curves : maps ``"green"`` / ``"isomap"`` / ``"diffusion"`` / ``"spline"`` to (F,) weights in [0, 1];
+        missing names are left out. Other names are drawn too, after those four, named as given.
+    edited_times : (E,) seconds of the edited frames, drawn as solid vertical lines (w = 1 there)
+    sweep : list of ``(label, (F,) weights)``, drawn thin from blue (first) to orange (last), e.g. a σ sweep
+        (Dean et al. 2018, Fig. 5)
+
+    Traces: the present methods in the order green, isomap, diffusion, spline, others; then the sweep.
+    Every trace has a legend entry.
+    """
+    t = floats(times, "times")
+    names = [n for n in METHOD_COLOURS if n in curves] + [n for n in curves if n not in METHOD_COLOURS]
+    data = []
+    for n in names:
+        y = floats(curves[n], f"curves[{n!r}]")
+        same_length(times=t, **{f"curves[{n!r}]": y})
+        data.append(dict(type="scatter", x=t, y=y, mode="lines", name=METHOD_NAMES.get(n, n), meta=n,
+                         line=dict(color=METHOD_COLOURS.get(n), width=3 if n == "green" else 1.8)))
+    sweep = list(sweep or [])
+    for k, (label, y) in enumerate(sweep):
+        y = floats(y, f"sweep[{k}]")
+        same_length(times=t, **{f"sweep[{k}]": y})
+        a = k / max(1, len(sweep) - 1)
+        data.append(dict(type="scatter", x=t, y=y, mode="lines", name=str(label), meta=f"sweep{k}", opacity=0.8,
+                         line=dict(width=1.2, color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
+    et = floats(edited_times, "edited_times")
+    layout = base_layout(title or "falloff from the edited frame", height, y_title="weight",
+                         yaxis=dict(title=dict(text="weight"), range=[-0.05, 1.05], automargin=True),
+                         shapes=[vline(x, EDIT_COLOUR, "solid", 3) for x in et])
+    return dict(data=data, layout=layout)
+
+
+def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = None, height: int = 420) -> dict:
+    """A time warp and its speed: top, input time against output time with the linear warp and the
+    keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1×, 0.5×, 1×, 2×, 10× (clipped
+    to [0.1, 10]).
+
+    Parameters
+    ----------
+    out_times : (N,) seconds, output time of each output frame
+    warp : (N,) seconds, input time shown at each output frame
+    speed : (N,) dimensionless warp derivative (1 = original speed)
+    keytimes : (M, 2) (input, output) seconds or None
+
+    Traces: 0 linear warp (dotted), 1 warp, 2 keytimes, 3 speed (on x2/y2). Both rows share the x axis, so a
+    playhead at x = output time spans both.
+    """
+    x, w, s = floats(out_times, "out_times"), floats(warp, "warp"), floats(speed, "speed")
+    same_length(out_times=x, warp=w, speed=s)
+    kt = np.zeros((0, 2)) if keytimes is None or np.size(keytimes) == 0 else floats(keytimes, "keytimes", ndim=2)
+    if kt.shape[1:] != (2,):
+        raise ValueError(f"keytimes: expected shape (M, 2), got {kt.shape}")
+    lo, hi = SPEED_LIMITS
+    linear = dict(x=x[[0, -1]], y=w[[0, -1]]) if len(x) else dict(x=np.zeros(0), y=np.zeros(0))
+    data = [
+        dict(type="scatter", mode="lines", name="linear", line=dict(color="#a0aec0", dash="dot"), **linear),
+        dict(type="scatter", x=x, y=w, mode="lines", name="warp", line=dict(color="#2b6cb0", width=2.5)),
+        dict(type="scatter", x=kt[:, 1], y=kt[:, 0], mode="markers", name="keytimes",
+             marker=dict(size=11, color=POSE_COLOUR, symbol="x-thin", line=dict(width=3, color=POSE_COLOUR))),
+        dict(type="scatter", x=x, y=np.clip(s, lo, hi), mode="lines", name="speed", xaxis="x2", yaxis="y2",
+             line=dict(color="#2f855a", width=2)),
+    ]
+    ticks = [0.1, 0.5, 1, 2, 10]   # five labels fit the lower row's ~120 px
+    layout = base_layout(title or "time warp", height, x_title="",
+                         xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False, automargin=True),
+                         yaxis=dict(domain=[0.48, 1], anchor="x", title=dict(text="input time (s)"), automargin=True),
+                         xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="output time (s)"), automargin=True),
+                         yaxis2=dict(domain=[0, 0.36], anchor="x2", type="log", range=[np.log10(lo), np.log10(hi)],
+                                     tickvals=ticks, ticktext=[f"{v:g}×" for v in ticks],
+                                     title=dict(text="speed"), automargin=True),
+                         shapes=[dict(type="line", xref="x2 domain", yref="y2", x0=0, x1=1, y0=1, y1=1,
+                                      line=dict(color="#a0aec0", width=1), layer="below")])
+    return dict(data=data, layout=layout)

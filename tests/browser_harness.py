@@ -1,0 +1,281 @@
+"""A small harness for browser tests: a private JupyterLab, headless Debian Chromium through playwright,
+notebooks written at test time, and probes of what the page shows (plots, canvases, widths).
+
+Used by tests/test_browser.py; reusable by any browser test::
+
+    from browser_harness import jupyter_lab, chromium_page, write_notebook, open_notebook, run_all_cells
+    with jupyter_lab(tmp_path) as url, chromium_page() as (page, log):
+        write_notebook(tmp_path / "nb.ipynb", ["print('ALL CELLS DONE')"])
+        open_notebook(page, url, "nb.ipynb")
+        run_all_cells(page)
+
+Every step has a timeout; a failed step raises with what was seen. Never downloads a browser: it drives
+/usr/bin/chromium (``apt-get install chromium``); callers skip with :func:`skip_reason` when it is missing.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+ARTIFACTS = REPO / "artifacts"
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 # a page under load must not be throttled as if it were in the background
+                 "--disable-background-timer-throttling", "--disable-renderer-backgrounding",
+                 "--disable-backgrounding-occluded-windows"]
+KNOWN_HARMLESS = ("t.on is not a function",          # pythreejs DirectionalLight state (shared harness README)
+                  "@lumino/coreutils",                # jupyter-threejs version warning
+                  "Failed to load resource",          # JupyterLab probes optional endpoints (e.g. lab/api/news)
+                  "favicon")
+DONE = "ALL CELLS DONE"
+
+
+def skip_reason() -> str | None:
+    """Why a browser test cannot run here, or None."""
+    if not Path(CHROMIUM).is_file():
+        return f"{CHROMIUM} is missing (apt-get install chromium): the browser test cannot run here"
+    try:
+        import playwright  # noqa: F401
+    except ImportError:
+        return "playwright is not installed (pip install playwright; never `playwright install`)"
+    return None
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def jupyter_lab(folder: Path, timeout: float = 90.0):
+    """A token-less JupyterLab on a free 127.0.0.1 port serving ``folder``, all Jupyter state under
+    ``folder/jupyter-state`` (no user settings, no news, no virtual scrolling: every cell stays in the
+    DOM). Yields the base URL; stops the server (and its kernels) after, by its process group."""
+    state = folder / "jupyter-state"
+    env = dict(os.environ, JUPYTER_CONFIG_DIR=str(state / "config"), JUPYTER_RUNTIME_DIR=str(state / "runtime"),
+               JUPYTER_DATA_DIR=str(state / "data"), IPYTHONDIR=str(state / "ipython"), JUPYTER_PLATFORM_DIRS="1",
+               JUPYTERLAB_SETTINGS_DIR=str(state / "lab-settings"), JUPYTERLAB_WORKSPACES_DIR=str(state / "ws"))
+    settings = {("notebook-extension", "tracker"): {"windowingMode": "none", "autoStartDefaultKernel": True},
+                ("apputils-extension", "notification"): {"fetchNews": "false", "checkForUpdates": False}}
+    for (ext, name), value in settings.items():
+        p = state / "lab-settings" / "@jupyterlab" / ext / f"{name}.jupyterlab-settings"
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(json.dumps(value))
+    port = _free_port()
+    log_path = folder / "lab.log"
+    log = open(log_path, "w")
+    proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
+                             "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
+                             f"--ServerApp.root_dir={folder}", "--LabApp.news_url=None",
+                             "--ServerApp.disable_check_xsrf=True"],
+                            cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                urllib.request.urlopen(url + "/api/status", timeout=2)
+                break
+            except Exception:
+                if proc.poll() is not None:
+                    raise RuntimeError("jupyter lab exited: " + log_path.read_text()[-2000:])
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"jupyter lab did not answer within {timeout} s: " + log_path.read_text()[-2000:])
+                time.sleep(0.5)
+        yield url
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=10)
+        log.close()
+
+
+@contextlib.contextmanager
+def chromium_page(width: int = 1280, height: int = 800):
+    """A headless Chromium page of ``width`` × ``height`` CSS px. Yields ``(page, log)`` where
+    ``log = {"console": [...], "page_errors": [...]}`` collects what the page printed."""
+    from playwright.sync_api import sync_playwright
+    log = {"console": [], "page_errors": []}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS, timeout=60000)
+        try:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.set_default_timeout(30000)
+            page.on("console", lambda m: log["console"].append(f"{m.type}: {m.text[:300]}"))
+            page.on("pageerror", lambda e: log["page_errors"].append(str(e)[:300]))
+            yield page, log
+        finally:
+            browser.close()
+
+
+def console_errors(log: dict) -> list[str]:
+    """Console errors that are not known to be harmless."""
+    return [c for c in log["console"] if c.startswith("error") and not any(k in c for k in KNOWN_HARMLESS)]
+
+
+def write_notebook(path: Path, cells: list[str]) -> None:
+    """A python3 notebook of code cells (no outputs)."""
+    import nbformat
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(c) for c in cells]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nbformat.write(nb, str(path))
+
+
+def wait_kernel_idle(page, timeout: float = 90.0) -> None:
+    """Until the notebook's kernel reports idle (the toolbar status)."""
+    page.wait_for_function("""() => { const s = document.querySelector('.jp-Notebook-ExecutionIndicator');
+                                      return s && s.getAttribute('data-status') === 'idle'; }""",
+                           timeout=timeout * 1000)
+
+
+def open_notebook(page, url: str, name: str, timeout: float = 90.0) -> None:
+    """Open ``name`` in JupyterLab (a reset workspace: the file browser sidebar open) and wait for its
+    kernel to be idle."""
+    page.goto(f"{url}/lab/tree/{name}?reset", wait_until="domcontentloaded", timeout=timeout * 1000)
+    page.wait_for_selector(".jp-Notebook", timeout=timeout * 1000)
+    _accept_kernel_dialog(page)
+    wait_kernel_idle(page, timeout)
+
+
+def _accept_kernel_dialog(page, wait_ms: int = 3000) -> None:
+    """Press "Select" in a "Select Kernel" dialog if one shows up within ``wait_ms`` (JupyterLab asks
+    when it is not told to start the preferred kernel; the settings above tell it, this is the fallback)."""
+    button = page.locator(".jp-Dialog .jp-Dialog-button.jp-mod-accept")
+    try:
+        button.first.wait_for(state="visible", timeout=wait_ms)
+    except Exception:
+        return
+    button.first.click(timeout=10000)
+
+
+def sidebar_open(page) -> bool:
+    """Whether the left sidebar (file browser) takes room beside the notebook; opens it if not."""
+    visible = page.evaluate("() => { const s = document.querySelector('#jp-left-stack');"
+                            " return !!s && !s.classList.contains('lm-mod-hidden') && s.getBoundingClientRect().width > 100; }")
+    if not visible:
+        page.locator(".jp-SideBar.jp-mod-left [data-id='filebrowser']").first.click(timeout=10000)
+        page.wait_for_timeout(500)
+        visible = page.evaluate("() => document.querySelector('#jp-left-stack').getBoundingClientRect().width > 100")
+    return bool(visible)
+
+
+def run_all_cells(page, done: str = DONE, timeout: float = 240.0) -> None:
+    """Run > Run All Cells, then wait for an output reading ``done`` (print it in the last cell)."""
+    page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
+    page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
+    page.wait_for_selector(f".jp-OutputArea-output >> text={done}", timeout=timeout * 1000)
+
+
+MODEL_NOT_FOUND = "Error displaying widget: model not found"
+
+
+def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 3) -> int:
+    """Save the notebook (so its outputs, the widget views, come back), reload the tab with the kernel
+    alive and wait until the JS condition ``ready`` holds (e.g. every editor's plots drawn).
+
+    JupyterLab's widget manager (jupyterlab_widgets 3.0) sometimes restores the kernel's widgets after a
+    reload without some of them and then shows "Error displaying widget: model not found" for good (two
+    restores race: one started by the notebook, one by the kernel connection; seen under load, for plain
+    ipywidgets too, ipywidgets#2748/#3231). That is outside this project; a user reloads once more, and
+    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
+    page.keyboard.press("Control+s")
+    page.wait_for_function("() => !document.querySelector('.jp-mod-dirty')", timeout=30000)
+    for attempt in range(1, attempts + 1):
+        page.reload(wait_until="domcontentloaded", timeout=timeout * 1000)
+        page.wait_for_selector(".jp-Notebook", timeout=timeout * 1000)
+        _accept_kernel_dialog(page)
+        wait_kernel_idle(page, timeout)
+        page.wait_for_function(f"""() => document.body.textContent.includes({MODEL_NOT_FOUND!r}) || ({ready})()""",
+                               timeout=timeout * 1000)
+        if not page.evaluate(f"() => document.body.textContent.includes({MODEL_NOT_FOUND!r})"):
+            return attempt
+    raise AssertionError(f"after {attempts} reloads JupyterLab still shows {MODEL_NOT_FOUND!r}")
+
+
+_PLOT_PROBE = """(scope) => [...document.querySelectorAll(scope + ' .sn-plot-view')].map(el => {
+  const gd = el.querySelector('.js-plotly-plot');
+  const svg = gd && gd.querySelector('.main-svg');
+  const out = el.closest('.jp-OutputArea-output') || el.parentElement;
+  const box = e => { if (!e) return null; const r = e.getBoundingClientRect();
+                     return {left: r.left, right: r.right, top: r.top, bottom: r.bottom, width: r.width}; };
+  const lines = gd ? [...gd.querySelectorAll('.scatterlayer .trace path.js-line')]
+                       .map(p => p.getAttribute('d') || '').filter(d => d.length > 20) : [];
+  return {draws: +(el.dataset.draws || 0), error: el.dataset.error || null, frame: el.dataset.frame,
+          title: gd && gd.querySelector('.gtitle') ? gd.querySelector('.gtitle').textContent : null,
+          lines: lines.length, line0: lines[0] || '',
+          points: gd ? gd.querySelectorAll('.scatterlayer .trace .point').length : 0,
+          legend_items: gd ? gd.querySelectorAll('.legend .traces').length : 0,
+          svg: box(svg), output: box(out), title_box: box(gd && gd.querySelector('.gtitle')),
+          legend: box(gd && gd.querySelector('.legend')),
+          xaxis_title: box(gd && gd.querySelector('.xtitle, .x2title'))};
+})"""
+
+
+def plot_states(page, scope: str = "") -> list[dict]:
+    """One dict per PlotView inside ``scope`` (a CSS selector): draws (how often it was drawn), error,
+    title text, number of drawn lines and markers, first line's SVG path, legend entries, and the
+    bounding boxes (CSS px) of the plot, its output area, title, legend and x-axis title."""
+    return page.evaluate(_PLOT_PROBE, scope)
+
+
+PLOTS_DRAWN = """([scope, count]) => { const v = [...document.querySelectorAll(scope + ' .sn-plot-view')];
+     if (!v.length || (count !== null && v.length !== count)) return false;
+     return v.every(el => { const gd = el.querySelector('.js-plotly-plot');
+       return +(el.dataset.draws || 0) > 0 && gd && gd.querySelector('.gtitle') &&
+         (gd.querySelector('.scatterlayer .trace path.js-line') || gd.querySelector('.scatterlayer .point')); }); }"""
+
+
+def plots_drawn_js(scopes: dict) -> str:
+    """A JS function (source) true when every scope (CSS selector -> number of plots) has its plots drawn
+    as :func:`wait_plots_drawn` requires."""
+    checks = " && ".join(f"({PLOTS_DRAWN})([{json.dumps(k)}, {json.dumps(v)}])" for k, v in scopes.items())
+    return f"() => {checks}"
+
+
+def wait_plots_drawn(page, scope: str, count: int | None = None, timeout: float = 90.0) -> list[dict]:
+    """Until every PlotView inside ``scope`` is drawn with data (a title, and at least one line or
+    marker), and there are ``count`` of them when given. Returns :func:`plot_states`."""
+    page.wait_for_function(PLOTS_DRAWN, arg=[scope, count], timeout=timeout * 1000)
+    return plot_states(page, scope)
+
+
+def overflowing(states: list[dict], slack: float = 1.0) -> list[dict]:
+    """The plots whose SVG, title, legend or x-axis title reach outside the plot's output area
+    horizontally, or whose title/legend/axis title leave the SVG (cropped)."""
+    bad = []
+    for s in states:
+        out, svg = s["output"], s["svg"]
+        if not svg or not out:
+            bad.append(s)
+            continue
+        parts = [svg] + [b for b in (s["title_box"], s["legend"], s["xaxis_title"]) if b]
+        if any(b["left"] < out["left"] - slack or b["right"] > out["right"] + slack for b in parts) or \
+                any(b["left"] < svg["left"] - slack or b["right"] > svg["right"] + slack or
+                    b["top"] < svg["top"] - slack or b["bottom"] > svg["bottom"] + slack for b in parts[1:]):
+            bad.append(s)
+    return bad
+
+
+def screenshot(target, name: str) -> Path:
+    """Save a PNG of a page or locator under artifacts/ (git-ignored)."""
+    ARTIFACTS.mkdir(exist_ok=True)
+    path = ARTIFACTS / f"{name}.png"
+    target.screenshot(path=str(path), timeout=30000)
+    return path

@@ -1,0 +1,76 @@
+"""Figure builders of stagger_nb.plotting without a browser: plotly accepts every figure (its validators
+reject unknown properties), trace order and values are what the docstrings say, bad input names itself."""
+from __future__ import annotations
+
+import numpy as np
+import plotly.graph_objects as go
+import pytest
+
+from stagger_nb import plotting
+
+T = np.arange(31) / 30   # 1 s at 30 fps
+
+
+def _valid(fig: dict) -> go.Figure:
+    assert set(fig) == {"data", "layout"}
+    assert "width" not in fig["layout"]   # the view gives it the width of its output area
+    return go.Figure(fig)   # raises ValueError on any property plotly does not know
+
+
+def test_pose_probability_marks_candidates_and_kept_poses():
+    f = plotting.pose_probability_figure(T, np.sin(T), [0.1, 0.5, 0.9], [0.3, 0.8, 0.4], [0.5], [0.8])
+    g = _valid(f)
+    assert [tr.mode for tr in g.data] == ["lines", "markers", "markers"]
+    assert list(g.data[2].x) == [0.5] and "1 of 3" in g.layout.title.text
+    assert [s.x0 for s in g.layout.shapes] == [0.5]   # each kept pose also a vertical line
+    empty = _valid(plotting.pose_probability_figure(None, None, [0.1], [0.3], [], []))
+    assert len(empty.data[0].x) == 0
+    with pytest.raises(ValueError, match="times, probability"):
+        plotting.pose_probability_figure(T, None, [], [], [], [])
+    with pytest.raises(ValueError, match="kept_times=1, kept_values=2"):
+        plotting.pose_probability_figure(T, T, [], [], [0.1], [0.1, 0.2])
+
+
+def test_joint_curves_knots_sit_on_the_edited_curves():
+    edited = np.stack([T, 2 * T, 3 * T], 1)
+    f = plotting.joint_curves_figure(T, edited, np.zeros((10, 3)), np.arange(10) / 10,
+                                     pose_times=[0.2, 0.6], knot_times=[0.25])
+    g = _valid(f)
+    assert [tr.name for tr in g.data][:6] == ["x edited", "y edited", "z edited", "x original", "y original",
+                                             "z original"]
+    np.testing.assert_allclose(g.data[1].y, 2 * T)
+    np.testing.assert_allclose(g.data[6].y, [0.25, 0.5, 0.75])   # linear curves: interpolation is exact
+    assert [s.x0 for s in g.layout.shapes] == [0.2, 0.6]
+    assert g.layout.yaxis.title.text == "rotation (°)" and g.layout.xaxis.title.text == "time (s)"
+    with pytest.raises(ValueError, match="edited_deg"):
+        plotting.joint_curves_figure(T, edited[:5])
+    with pytest.raises(ValueError, match="original_times"):
+        plotting.joint_curves_figure(T, edited, edited)
+
+
+def test_falloff_every_curve_has_a_legend_and_the_edited_frames_are_marked():
+    curves = {"spline": 1 - T, "green": T, "diffusion": T ** 2, "isomap": T / 2}
+    f = plotting.falloff_figure(T, curves, edited_times=[0.2, 0.7], sweep=[("σ=1", T), ("σ=2", T)])
+    g = _valid(f)
+    assert [tr.meta for tr in g.data] == ["green", "isomap", "diffusion", "spline", "sweep0", "sweep1"]
+    assert all(tr.name and tr.showlegend is not False for tr in g.data)
+    assert [s.x0 for s in g.layout.shapes] == [0.2, 0.7]
+    assert len(_valid(plotting.falloff_figure(T, {"green": T})).data) == 1
+    with pytest.raises(ValueError, match=r"curves\['isomap'\]"):
+        plotting.falloff_figure(T, {"isomap": T[:3]})
+
+
+def test_warp_speed_is_clipped_on_a_labelled_log_axis():
+    speed = np.array([0.01] + [1.5] * 29 + [50.0])
+    f = plotting.warp_figure(T, 1.5 * T, speed, keytimes=[[0, 0], [1.5, 1.0]])
+    g = _valid(f)
+    assert list(g.data[3].y[:2]) == [0.1, 1.5] and g.data[3].y[-1] == 10.0
+    assert g.layout.yaxis2.type == "log" and list(g.layout.yaxis2.ticktext) == ["0.1×", "0.5×", "1×", "2×", "10×"]
+    assert list(g.data[2].x) == [0, 1.0] and list(g.data[2].y) == [0, 1.5]   # (input, output) -> x=output
+    assert list(g.data[0].x) == [0, 1] and list(g.data[0].y) == [0, 1.5]      # the linear warp
+    assert g.layout.xaxis2.title.text == "output time (s)" and g.layout.yaxis.title.text == "input time (s)"
+    _valid(plotting.warp_figure(T, T, np.ones(31), keytimes=[]))
+    with pytest.raises(ValueError, match="keytimes"):
+        plotting.warp_figure(T, T, np.ones(31), keytimes=[[1, 2, 3]])
+    with pytest.raises(ValueError, match="speed=3"):
+        plotting.warp_figure(T, T, np.ones(3))
