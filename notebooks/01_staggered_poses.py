@@ -59,11 +59,13 @@ def channel(quats, j):
     return np.degrees(quat_to_rotvec(quats[..., j, :])[..., axis])
 
 
-def strobe(motions, frames, names, colors, title, spacing=80.0, view="front"):
-    """Skeletons of several motions at given frames, placed side by side along x."""
+def strobe(motions, frames, names, colors, title, slots=None, spacing=80.0, view="front"):
+    """Skeletons of several motions at given frames, each over its own root, placed in `slots` (default:
+    one each) side by side across the view (along x for the front view, along z for the side view)."""
     pos = np.concatenate([sn.forward_kinematics(m)[0][[f]] for m, f in zip(motions, frames)])
-    pos = pos - pos[:, :1] * [1, 0, 1]                      # each pose over its own root
-    shift = np.arange(len(pos))[:, None] * [spacing, 0, 0]
+    pos = pos - pos[:, :1] * [1, 0, 1]
+    across = [1, 0, 0] if view == "front" else [0, 0, 1]
+    shift = np.asarray(range(len(pos)) if slots is None else slots)[:, None] * spacing * np.asarray(across)
     return plotting.skeleton_strobe_figure(pos, motions[0].skeleton.parents, range(len(pos)), shift=shift,
                                            names=names, colors=colors, title=title, view=view)
 
@@ -78,7 +80,7 @@ print(f"hops: {hops.num_frames} frames at 30 Hz, {len(sm.pose_times)} candidate 
 # elbow are reached at slightly different times (b).
 #
 # **Look at** one hop: in (a) every knot sits on a pose line, where the curves are *not* at their extremes;
-# in (b) each knot sits on its own curve's extreme, a few frames off the pose line.
+# in (b) each knot moves towards its own curve's turning point, a few frames off the pose line.
 
 # %%
 win = (hops.times > 1.3) & (hops.times < 3.0)              # the first hop
@@ -97,19 +99,23 @@ pio.show(plotting.knots_figure(hops.times[win], curves, staggered_t, staggered_v
 # ## Figure 2 — rough poses vs refined timing
 #
 # **Claim (§1, Fig. 2).** Blocking a motion out with rough, aligned poses gives curves that all turn at
-# once (b); the captured timing (c) turns each curve at its own time, and the coordination becomes hard
-# to read in a spline editor. Staggered poses keep both: the poses of (b) *and* the timing of (c).
+# once (b); refining the timing (c) turns each curve at its own time, and the coordination becomes hard
+# to read in a spline editor. Staggered poses keep both: the poses of (b) *and* the timing of (c). Both
+# plots show the splines through 40 % of the poses, without the displacement maps.
 #
-# **Look at** how in (b) all four curves peak together at each dashed line; in (c) the peaks spread out.
+# **Look at** how in (b) all four curves turn together at each dashed line; in (c) the turns spread out.
 # **Try:** `staggered.random_timing(rough, tau=0.05, seed=1)` and watch coordination dissolve.
 
 # %%
-rough = dataclasses.replace(staggered.cull(sm, percent=40), refinements=np.zeros_like(
-    staggered.cull(sm, percent=40).refinements))          # the same poses, every knot at t_k
-rough_m, full_m = staggered.evaluate(rough), staggered.evaluate(staggered.cull(sm, percent=40))
-for label, m in (("(b) rough poses, aligned knots", rough_m), ("(c) captured timing refinements", full_m)):
-    series = {n: (m.times, channel(m.local_quats, j)) for n, j in zip(dofs, js)}
-    pio.show(plotting.lines_figure(series, vlines=rough.pose_times, y_title="rotation (°)",
+culled = staggered.cull(sm, percent=40)
+bare = dataclasses.replace(culled, displacements=np.zeros_like(culled.displacements),
+                           root_displacements=np.zeros_like(culled.root_displacements))   # splines only
+rough = dataclasses.replace(bare, refinements=np.zeros_like(bare.refinements))            # every knot at t_k
+for label, v in (("(b) rough poses: knots aligned", rough), ("(c) refined timing: knots staggered", bare)):
+    m = staggered.evaluate(v)
+    keep = m.times < 5.6                                   # the first three hops
+    series = {n: (m.times[keep], channel(m.local_quats[keep], j)) for n, j in zip(dofs, js)}
+    pio.show(plotting.lines_figure(series, vlines=v.pose_times[v.pose_times < 5.6], y_title="rotation (°)",
                                    title=f"Fig. 2{label}", height=280))
 
 # %% [markdown]
@@ -208,11 +214,11 @@ assert err < 1e-6
 # `edit_pose` edits either and carries the change to the other, so the motion stays continuous.
 #
 # **Look at** the landing pose of the first hop: yellow is the true pose, orange the non-staggered one;
-# right, both after turning the upper arms 0.35 rad outward. **Try** `mode="unstaggered"`.
+# right, both after turning the upper arms 0.6 rad outward. **Try** `mode="unstaggered"`.
 
 # %%
 k = int(np.argmin(np.abs(sm.pose_times - events[1])))    # the pose nearest the first landing
-arms = {"LeftArm": [0.0, 0.0, -0.35], "RightArm": [0.0, 0.0, 0.35]}
+arms = {"LeftArm": [0.0, 0.0, -0.6], "RightArm": [0.0, 0.0, 0.6]}
 edited = staggered.edit_pose(sm, k, deltas=arms, mode="staggered")
 f_k = int(round(sm.pose_times[k] / hops.frame_time))
 poses = [hops.replace(local_quats=q[None], root_positions=hops.root_positions[[f_k]]) for q in
@@ -261,7 +267,7 @@ f_low, f_rise = int(round(sg.pose_times[low] * 30)), int(round(sg.pose_times[min
 pio.show(strobe([get_down, out, get_down, out], [f_low, f_low, f_rise, f_rise],
                 ["original, crouch", "edited, crouch", "original, rising", "edited, rising"],
                 ["#90cdf4", "#805ad5", "#90cdf4", "#805ad5"], "Fig. 8: anticipation and a looser rise (MocapBank)",
-                view="side", spacing=0.0))
+                slots=[0, 0, 1, 1], spacing=120.0, view="side"))
 
 # %% [markdown]
 # ## Contacts kept planted

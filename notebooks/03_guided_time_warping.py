@@ -172,7 +172,9 @@ assert abs(speeds(w3, air[:360], part)[0] - 1) < 0.25
 # (a teaching aid, a "performer" whose timing was programmed); reference: the real hops of CMU 01_01
 # (same skeleton layout).
 #
-# **Look at** the flights: do they take the real performer's flight time? **Try** `reference=walk`.
+# **Look at** the flights: do they take the real performer's flight time? (Measured: the input's
+# flights last 0.37 s, the reference's 0.31 s, the output's 0.27 s — shorter, past the reference.)
+# **Try** `reference=walk`.
 
 # %%
 hops = cmu.slice(0, 255)
@@ -234,7 +236,8 @@ assert speeds(w8, air, cmu)[0] < 0.6 and 0.8 < speeds(w8, air, cmu)[1] < 1.25
 # **Claim (§4, Fig. 5).** The warps' speeds tell the story: 1× is real time, the limits are tenfold slow
 # motion and fast forward. Linear warps would be flat lines.
 #
-# **Look at** V1 (fast between hops, 1× in flight) against V8 (slow in flight, 1× between).
+# **Look at** V1 (fast between hops, 1× in flight) against V8 (0.4× in flight). Between flights V8 is
+# not a steady 1×: it alternates slow stretches and 2–3× bursts that only *average* about 1×.
 
 # %%
 rows = {"V1 compress": w1, "V2 silence": w2, "V3 expand": w3, "V6 style": w6, "V7 limp": w7, "V8 slow-mo": w8}
