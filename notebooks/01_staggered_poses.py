@@ -101,21 +101,21 @@ pio.show(plotting.knots_figure(hops.times[win], curves, staggered_t, staggered_v
 # **Claim (§1, Fig. 2).** Blocking a motion out with rough, aligned poses gives curves that all turn at
 # once (b); refining the timing (c) turns each curve at its own time, and the coordination becomes hard
 # to read in a spline editor. Staggered poses keep both: the poses of (b) *and* the timing of (c). Both
-# plots show the splines through 40 % of the poses, without the displacement maps.
+# plots show the splines through all candidate poses of the first two hops, without displacement maps.
 #
 # **Look at** how in (b) all four curves turn together at each dashed line; in (c) the turns spread out.
 # **Try:** `staggered.random_timing(rough, tau=0.05, seed=1)` and watch coordination dissolve.
 
 # %%
-culled = staggered.cull(sm, percent=40)
-bare = dataclasses.replace(culled, displacements=np.zeros_like(culled.displacements),
-                           root_displacements=np.zeros_like(culled.root_displacements))   # splines only
+bare = dataclasses.replace(sm, displacements=np.zeros_like(sm.displacements),
+                           root_displacements=np.zeros_like(sm.root_displacements))   # splines only
 rough = dataclasses.replace(bare, refinements=np.zeros_like(bare.refinements))            # every knot at t_k
 for label, v in (("(b) rough poses: knots aligned", rough), ("(c) refined timing: knots staggered", bare)):
     m = staggered.evaluate(v)
-    keep = m.times < 5.6                                   # the first three hops
+    keep = (m.times > 1.3) & (m.times < 4.3)               # the first two hops
     series = {n: (m.times[keep], channel(m.local_quats[keep], j)) for n, j in zip(dofs, js)}
-    pio.show(plotting.lines_figure(series, vlines=v.pose_times[v.pose_times < 5.6], y_title="rotation (°)",
+    pio.show(plotting.lines_figure(series, vlines=v.pose_times[(v.pose_times > 1.3) & (v.pose_times < 4.3)],
+                                   y_title="rotation (°)",
                                    title=f"Fig. 2{label}", height=280))
 
 # %% [markdown]
@@ -214,7 +214,8 @@ assert err < 1e-6
 # `edit_pose` edits either and carries the change to the other, so the motion stays continuous.
 #
 # **Look at** the landing pose of the first hop: yellow is the true pose, orange the non-staggered one;
-# right, both after turning the upper arms 0.6 rad outward. **Try** `mode="unstaggered"`.
+# right, both after turning the upper arms 0.6 rad about their local z axes (here: in towards the body).
+# **Try** `mode="unstaggered"`, or the opposite signs.
 
 # %%
 k = int(np.argmin(np.abs(sm.pose_times - events[1])))    # the pose nearest the first landing
@@ -255,7 +256,7 @@ pio.show(plotting.lines_figure(series, y_title="elbow rotation (°)", title="Fig
 # exaggerate the lowest pose) and a looser rise (temporal: succession up from the hips). Original frames
 # light blue, edited violet, as in the paper.
 #
-# **Look at** the lowest crouch (left pair) and the moment of rising (right pair). **Try** `l=2`.
+# **Look at** the lowest pose (left pair) and half-way up (right pair). **Try** `l=2`.
 
 # %%
 sg = staggered.extract(get_down)
@@ -263,9 +264,11 @@ low = int(np.argmin(staggered.evaluate(sg, sg.pose_times).root_positions[:, 1]))
 lifted = staggered.exaggerate(sg, [low], 0.6, reference="mean", mode="staggered")
 lifted = staggered.succession(lifted, root="Hips", s=0.04, l=1.0)
 out = staggered.evaluate(lifted)
-f_low, f_rise = int(round(sg.pose_times[low] * 30)), int(round(sg.pose_times[min(low + 2, len(sg.pose_times) - 1)] * 30))
+y = get_down.root_positions[:, 1]
+f_low = int(round(sg.pose_times[low] / get_down.frame_time))
+f_rise = int(np.flatnonzero((y > (y.min() + y.max()) / 2) & (np.arange(len(y)) > f_low))[0])   # half-way up
 pio.show(strobe([get_down, out, get_down, out], [f_low, f_low, f_rise, f_rise],
-                ["original, crouch", "edited, crouch", "original, rising", "edited, rising"],
+                ["original, lowest", "edited, lowest", "original, half-way up", "edited, half-way up"],
                 ["#90cdf4", "#805ad5", "#90cdf4", "#805ad5"], "Fig. 8: anticipation and a looser rise (MocapBank)",
                 slots=[0, 0, 1, 1], spacing=120.0, view="side"))
 
