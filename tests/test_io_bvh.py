@@ -327,7 +327,7 @@ def test_parser_reads_real_clips_bit_identically(name, spacing):
     assert np.array_equal(got, np.array(block.split(), dtype=float).reshape(m.num_frames, C))
     if spacing == "as stored":  # pyarrow took the stored block as it is (no rewriting pass)
         from stagger_nb.io._numparse import _parse_with_arrow
-        assert np.array_equal(_parse_with_arrow(block, m.num_frames, C), got)
+        assert np.array_equal(_parse_with_arrow(block, m.num_frames, C).T, got)  # column-major
 
 
 @pytest.mark.parametrize("block,expect", [

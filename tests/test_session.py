@@ -5,14 +5,18 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pytest
 
 import stagger_nb as sn
 from stagger_nb.core.rotations import quat_angle
-from stagger_nb.session import OP_REGISTRY, Session, register_op, validate_op
+from stagger_nb.session import OPS, Session, validate_op
+from stagger_nb.session.ops import Op, number
+from stagger_nb.session.runners import RUNNERS
 
 CLIP = "bandai_run_cycle.bvh"  # 24 frames, small and fast
 REPO = Path(__file__).resolve().parents[1]
@@ -20,16 +24,23 @@ REPO = Path(__file__).resolve().parents[1]
 
 @pytest.fixture
 def counting_op():
-    """A registered motion op that shifts the root by ``dx`` and counts its calls (removed afterwards)."""
+    """A motion op (an Op subclass + its runner) that shifts the root by ``dx`` and counts its calls
+    (removed afterwards)."""
     calls = []
 
-    def run(m, p, ctx):
-        calls.append(p["dx"])
-        return m.replace(root_positions=m.root_positions + np.array([p["dx"], 0.0, 0.0]))
+    @dataclass(frozen=True)
+    class Shift(Op):
+        name: ClassVar[str] = "_test_shift"
+        needs: ClassVar[str] = "motion"
+        dx: float = field(metadata={"check": number()})
 
-    register_op("_test_shift", "motion", {"dx": (None, Session.REQUIRED)}, run)
+    def run(m, op, ctx):
+        calls.append(op.dx)
+        return m.replace(root_positions=m.root_positions + np.array([op.dx, 0.0, 0.0]))
+
+    RUNNERS[Shift] = run
     yield calls
-    del OP_REGISTRY["_test_shift"]
+    del OPS["_test_shift"], RUNNERS[Shift]
 
 
 @pytest.fixture
@@ -326,50 +337,32 @@ def test_expensive_heads_are_cached_and_reported(shared_motion):
     assert s.staggered() is s.states()[0] and s.extraction().num_poses == s.staggered().num_poses
 
 
-def test_cache_computes_once_across_threads_and_never_blocks_other_entries(session):
-    """A background warm-up and the foreground share the caches: an entry asked for by two threads is
-    computed once; while one entry is being computed, another one can be read (no global lock held)."""
-    import threading
-    ctx, m = session._ctx, session.source
-    calls, release = [], threading.Event()
-
-    def slow():
-        calls.append("slow")
-        assert release.wait(10)  # held until the main thread has read the other entry
-        return "A"
-
-    results = []
-    workers = [threading.Thread(target=lambda: results.append(ctx._cached("cull", m, 1.0, slow)))
-               for _ in range(2)]
-    for w in workers:
-        w.start()
-    ctx._cached("cull", m, 2.0, lambda: "B")  # would deadlock with a lock held around make()
-    assert ctx._cached("cull", m, 2.0, lambda: "other") == "B"  # cached
-    release.set()
-    for w in workers:
-        w.join(10)
-    assert results == ["A", "A"] and calls == ["slow"]
-    assert not ctx._pending
-
-
-def test_cache_entry_whose_computation_failed_is_computed_again(session):
-    ctx, m = session._ctx, session.source
-
-    def boom():
-        raise RuntimeError("no")
-
-    with pytest.raises(RuntimeError):
-        ctx._cached("cull", m, 3.0, boom)
-    assert ctx._cached("cull", m, 3.0, lambda: "ok") == "ok" and not ctx._pending
-
-
 def test_in_memory_reference_under_any_name(session):
     """``use_reference`` resolves the path reference to the given Motion (non-ASCII names included: the
     key is the op's canonical JSON, where such names are escaped)."""
     ref_motion = session.source.slice(0, 12)
     ref = session.use_reference("<memory:référence>", ref_motion)
     session.set_ops([{"op": "guided_warp", "duration": 0.5, "skip": 4, "reference": ref}])
-    assert session._ctx.reference(ref, session.source) is ref_motion
-    assert session.edited().num_frames == int(round(0.5 / session.source.frame_time)) + 1
+    n = int(round(0.5 / session.source.frame_time)) + 1
+    assert session.edited().num_frames == n
+    from stagger_nb import timewarp
+    _, warp = timewarp.guided_warp(session.source, ref_motion, n, skip=4)
+    np.testing.assert_array_equal(session.warp_curve(), warp)  # the warp was guided by ref_motion
     with pytest.raises(ValueError, match="^motion"):
         session.use_reference("<memory:x>", "not a motion")
+
+
+def test_deprecated_register_op_and_op_registry_still_work(session):
+    import stagger_nb.session as S
+    with pytest.warns(DeprecationWarning, match="register_op"):
+        cls = S.register_op("_old_shift", "motion", {"dx": (None, Session.REQUIRED), "k": (None, 2)},
+                            lambda st, p, ctx: st.replace(root_positions=st.root_positions + [p["dx"] * p["k"], 0, 0]))
+    try:
+        with pytest.warns(DeprecationWarning, match="OP_REGISTRY"):
+            assert S.OP_REGISTRY["_old_shift"] is cls
+        session.set_ops([{"op": "_old_shift", "dx": 1.5}])
+        assert session.ops == [{"op": "_old_shift", "dx": 1.5, "k": 2}]
+        d = session.edited().root_positions - session.source.root_positions
+        np.testing.assert_allclose(d, np.broadcast_to([3.0, 0, 0], d.shape))
+    finally:
+        del OPS["_old_shift"], RUNNERS[cls]

@@ -13,9 +13,45 @@ from ._arrays import readonly
 from .rotations import quat_continuous, quat_normalize, slerp
 from .skeleton import Skeleton
 
-__all__ = ["Motion", "concatenate"]
+__all__ = ["Motion", "concatenate", "MIN_FRAME_TIME", "MAX_FRAME_TIME", "MAX_FRAME_JOINTS"]
 
 _UNIT_TOL = 1e-12  # |norm - 1| above which a quaternion is renormalised on construction
+
+#: Shortest frame time accepted (seconds): 10 kHz. The fastest optical capture systems record at 1-2 kHz,
+#: and the techniques' costs grow with the frame rate (smoothing passes in ``staggered.extract`` grow as
+#: 1/frame_time^2), so a shorter frame time is a corrupt file, not a capture.
+MIN_FRAME_TIME = 1e-4
+#: Longest frame time accepted (seconds): one frame an hour. Longer ones overflow durations and rates.
+MAX_FRAME_TIME = 3600.0
+#: Most frames x joints a core function allocates from a user-given number (resampling): 10^7 joint
+#: samples (320 MB of quaternions, ~1.5 GB with the temporaries of slerp); a 100,000-frame, 31-joint
+#: take holds 3.1 x 10^6.
+MAX_FRAME_JOINTS = 10_000_000
+
+
+def check_frame_time(frame_time, name: str = "frame_time") -> float:
+    """``frame_time`` as a float within [MIN_FRAME_TIME, MAX_FRAME_TIME] seconds; ``ValueError`` naming
+    ``name`` otherwise."""
+    try:
+        ft = float(frame_time)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number of seconds, got {frame_time!r}") from None
+    if not np.isfinite(ft) or ft <= 0:
+        raise ValueError(f"{name} must be a positive number of seconds, got {frame_time!r}")
+    if not MIN_FRAME_TIME <= ft <= MAX_FRAME_TIME:
+        raise ValueError(f"{name} must be between {MIN_FRAME_TIME:g} s ({1 / MIN_FRAME_TIME:g} Hz) and "
+                         f"{MAX_FRAME_TIME:g} s, got {ft:g}")
+    return ft
+
+
+def check_frame_count(frames: int, joints: int, name: str) -> int:
+    """``frames`` if ``frames * joints`` is within :data:`MAX_FRAME_JOINTS`; else a ``ValueError`` naming
+    ``name``, the size and the remedy, raised before anything is allocated."""
+    if frames * max(joints, 1) > MAX_FRAME_JOINTS:
+        raise ValueError(f"{name} asks for {frames:,} frames x {joints} joints, more than the "
+                         f"{MAX_FRAME_JOINTS:,} joint samples supported: use a longer frame time or a shorter "
+                         f"clip (Motion.slice)")
+    return frames
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,9 +81,7 @@ class Motion:
     local_translations: np.ndarray | None = None
 
     def __post_init__(self):
-        ft = float(self.frame_time)
-        if not np.isfinite(ft) or ft <= 0:
-            raise ValueError(f"Motion: frame_time must be a positive number of seconds, got {self.frame_time!r}")
+        ft = check_frame_time(self.frame_time, "Motion: frame_time")
         if not isinstance(self.skeleton, Skeleton):
             raise ValueError(f"Motion: skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
         J = self.skeleton.num_joints
@@ -79,6 +113,25 @@ class Motion:
         object.__setattr__(self, "local_quats", q)
         object.__setattr__(self, "root_positions", readonly(rp))
         object.__setattr__(self, "local_translations", lt)
+
+    @classmethod
+    def _from_owned(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray,
+                    local_quats: np.ndarray, local_translations: np.ndarray | None = None) -> "Motion":
+        """Package-internal constructor for arrays the caller has just made and hands over (the readers):
+        finite, float64, C-contiguous, of the right shapes, quaternions unit to rounding. They are taken
+        without copies (made hemisphere-continuous in place, then read-only), so reading a long take
+        holds one quaternion table, not three."""
+        ft = check_frame_time(frame_time, "Motion: frame_time")
+        _continuous_inplace(local_quats)
+        obj = object.__new__(cls)
+        for name, a in (("root_positions", root_positions), ("local_quats", local_quats),
+                        ("local_translations", local_translations)):
+            if a is not None:
+                a.setflags(write=False)
+            object.__setattr__(obj, name, a)
+        object.__setattr__(obj, "skeleton", skeleton)
+        object.__setattr__(obj, "frame_time", ft)
+        return obj
 
     # -- basic properties -------------------------------------------------------------------------
     @property
@@ -151,11 +204,14 @@ class Motion:
         return self.sample(np.asarray(times, dtype=float) / self.frame_time, frame_time)
 
     def resample(self, frame_time: float) -> "Motion":
-        """Resample to a new frame time (seconds) covering the same duration (slerp / linear)."""
-        frame_time = float(frame_time)
-        if not np.isfinite(frame_time) or frame_time <= 0:
-            raise ValueError(f"Motion.resample: frame_time must be > 0 seconds, got {frame_time!r}")
+        """Resample to a new frame time (seconds) covering the same duration (slerp / linear).
+
+        Raises ``ValueError`` naming ``frame_time`` when it is outside [MIN_FRAME_TIME, MAX_FRAME_TIME] or
+        the result would hold more than :data:`MAX_FRAME_JOINTS` frames x joints (checked before
+        allocating)."""
+        frame_time = check_frame_time(frame_time, "Motion.resample: frame_time")
         n = int(np.floor(self.duration / frame_time + 1e-9)) + 1
+        check_frame_count(n, self.num_joints, f"Motion.resample: frame_time={frame_time:g}")
         return self.sample_times(np.arange(n) * frame_time, frame_time)
 
     def __len__(self) -> int:
@@ -164,6 +220,22 @@ class Motion:
     def __repr__(self) -> str:
         return (f"Motion({self.num_frames} frames @ {self.fps:.4g} Hz = {self.duration:.3f} s, "
                 f"{self.num_joints} joints)")
+
+
+def _continuous_inplace(q: np.ndarray, block: int = 4096) -> None:
+    """Flip signs of ``q (F, J, 4)`` in place so consecutive frames have dot >= 0 (as
+    :func:`.rotations.quat_continuous`), in blocks of frames so the temporaries stay small."""
+    F = q.shape[0]
+    for f0 in range(0, F, block):
+        f1 = min(F, f0 + block)
+        lo = max(f0 - 1, 0)
+        seg = q[lo:f1]
+        neg = np.einsum("fji,fji->fj", seg[1:], seg[:-1]) < 0  # against the (already fixed) previous frame
+        if lo == f0:  # first block: frame 0 is never flipped
+            neg = np.concatenate([np.zeros((1,) + neg.shape[1:], dtype=bool), neg])
+        flips = np.cumsum(neg, axis=0) % 2 == 1
+        if flips.any():
+            q[f0:f1][flips] *= -1.0
 
 
 def concatenate(motions: list[Motion]) -> Motion:

@@ -11,7 +11,13 @@ Angles are radians, Euler angles at the I/O boundary are degrees.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+
+def _rotation_class():
+    """``scipy.spatial.transform.Rotation``, imported on first use: it takes ~0.4 s to import, more than
+    the rest of ``import stagger_nb`` together, and only the Euler / matrix converters need it."""
+    from scipy.spatial.transform import Rotation
+    return Rotation
 
 __all__ = [
     "IDENTITY", "quat_identity", "quat_normalize", "quat_mul", "quat_conj", "quat_inv",
@@ -32,12 +38,19 @@ def quat_identity(shape=()) -> np.ndarray:
 
 
 def quat_normalize(q: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)``; a zero quaternion becomes the identity."""
+    """Unit quaternions ``(..., 4)``; a zero quaternion becomes the identity.
+
+    Each quaternion is first divided by its largest absolute component, so the squared norm neither
+    overflows (``|q| > 1e154`` would give ``inf`` and then zeros) nor underflows (``|q| < 1e-154``)."""
     q = np.asarray(q, dtype=float)
-    n = np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
-    if np.all(n > 0):
+    m = np.max(np.abs(q), axis=-1, keepdims=True)
+    if np.all((m > 1e-100) & (m < 1e100)):  # the usual case: no rescaling needed
+        n = np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
         return q / n
-    return np.where(n > 0, q / np.where(n > 0, n, 1.0), IDENTITY)
+    ok = m > 0
+    s = q / np.where(ok, m, 1.0)
+    n = np.sqrt(np.einsum("...i,...i->...", s, s))[..., None]
+    return np.where(ok, s / np.where(ok, n, 1.0), IDENTITY)
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -181,7 +194,7 @@ def euler_to_quat(angles_deg: np.ndarray, order: str) -> np.ndarray:
     channel order, first channel outermost) -> quaternions ``(..., 4)``."""
     a = np.asarray(angles_deg, dtype=float)
     shape = a.shape[:-1]
-    q = Rotation.from_euler(order.upper(), a.reshape(-1, 3), degrees=True).as_quat()
+    q = _rotation_class().from_euler(order.upper(), a.reshape(-1, 3), degrees=True).as_quat()
     return q.reshape(shape + (4,))
 
 
@@ -192,20 +205,20 @@ def quat_to_euler(q: np.ndarray, order: str) -> np.ndarray:
     import warnings
     with warnings.catch_warnings():  # gimbal lock is fine for I/O: any valid triple is returned
         warnings.simplefilter("ignore", UserWarning)
-        e = Rotation.from_quat(q.reshape(-1, 4)).as_euler(order.upper(), degrees=True)
+        e = _rotation_class().from_quat(q.reshape(-1, 4)).as_euler(order.upper(), degrees=True)
     return e.reshape(shape + (3,))
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices ``(..., 3, 3)``."""
     q = np.asarray(q, dtype=float)
-    return Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(q.shape[:-1] + (3, 3))
+    return _rotation_class().from_quat(q.reshape(-1, 4)).as_matrix().reshape(q.shape[:-1] + (3, 3))
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     """Rotation matrices ``(..., 3, 3)`` -> quaternions ``(..., 4)``."""
     m = np.asarray(m, dtype=float)
-    return Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat().reshape(m.shape[:-2] + (4,))
+    return _rotation_class().from_matrix(m.reshape(-1, 3, 3)).as_quat().reshape(m.shape[:-2] + (4,))
 
 
 def quat_between_vectors(u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -42,6 +42,10 @@ class Skeleton:
         J = len(names)
         if parents.shape != (J,) or offsets.shape != (J, 3):
             raise ValueError(f"Skeleton: names ({J}), parents {parents.shape} and offsets {offsets.shape} disagree")
+        if len(set(names)) != J:
+            seen = set()
+            dup = next(n for n in names if n in seen or seen.add(n))
+            raise ValueError(f"Skeleton: names must be unique, {dup!r} is used twice")
         if J == 0 or parents[0] != -1:
             raise ValueError("Skeleton: joint 0 must be the root (parent -1)")
         if np.any(parents[1:] < 0) or np.any(parents[1:] >= np.arange(1, J)):

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import stat
-import tempfile
 
 import numpy as np
 
@@ -38,16 +38,19 @@ def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None)
             raise ValueError(f"{what} {name}: not a regular file (devices, pipes and folders are not read)")
         if st.st_size > limit:
             raise ValueError(f"{what} {name}: {st.st_size} bytes is over the {limit}-byte limit")
-        chunks, total = [], 0
-        while True:   # read to EOF, but never past the limit (a file growing while we read)
+        # one read of the whole file into one buffer (no second copy from joining pieces), then to EOF in
+        # pieces should it have grown, never past the limit
+        first = os.read(fd, min(st.st_size + 1, limit + 1))
+        chunks, total = [first], len(first)
+        while first and total <= limit:
             chunk = os.read(fd, min(1 << 24, limit + 1 - total))
             if not chunk:
                 break
             chunks.append(chunk)
             total += len(chunk)
-            if total > limit:
-                raise ValueError(f"{what} {name}: over the {limit}-byte limit")
-        return b"".join(chunks)
+        if total > limit:
+            raise ValueError(f"{what} {name}: over the {limit}-byte limit")
+        return first if len(chunks) == 1 else b"".join(chunks)
     except OSError as e:
         raise ValueError(f"{what} {name}: cannot read: {e.strerror or e}") from None
     finally:
@@ -81,23 +84,50 @@ def read_bytes(path: str, error: type[FormatError]) -> bytes:
         raise error(path, None, msg[len(prefix):] if msg.startswith(prefix) else msg) from None
 
 
-def decode(raw: bytes) -> str:
-    """UTF-8 text, or Latin-1 where the bytes are not UTF-8 (old exporters)."""
+UTF8_BOM = b"\xef\xbb\xbf"
+
+
+def decode(raw: bytes | memoryview) -> str:
+    """UTF-8 text without a leading byte-order mark, or Latin-1 where the bytes are not UTF-8 (old
+    exporters). A ``memoryview`` is decoded in place (no copy of a large slice)."""
+    if raw[:3] == UTF8_BOM:
+        raw = raw[3:]
     try:
-        return raw.decode("utf-8")
+        return str(raw, "utf-8")
     except UnicodeDecodeError:
-        return raw.decode("latin-1")
+        return str(raw, "latin-1")
+
+
+#: A decimal number as files write it: ASCII digits only. ``float`` also takes ``1_000``, Arabic-Indic or
+#: full-width digits, which no exporter writes and which would read differently elsewhere.
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.ASCII | re.I)
 
 
 def finite_number(tok: str, what: str, source: str, line: int, error: type[FormatError]) -> float:
-    """``float(tok)``, raising ``error`` naming ``what`` was expected if it is not a finite number."""
-    try:
-        v = float(tok)
-    except ValueError:
-        raise error(source, line, f"expected a number for {what}, found {tok!r}") from None
+    """``float(tok)`` of an ASCII decimal token, raising ``error`` naming ``what`` was expected if it is not
+    a finite number."""
+    if not _NUMBER.fullmatch(tok):
+        raise error(source, line, f"expected a number for {what}, found {tok!r}")
+    v = float(tok)
     if not math.isfinite(v):
         raise error(source, line, f"expected a finite number for {what}, found {tok!r}")
     return v
+
+
+MAX_TOKEN = 1024  # characters of one value in a motion line (real files: <= 25)
+
+
+def split_values(text, n: int, truncated: bool, what: str, source: str, line: int, error: type[FormatError]):
+    """The ``n`` whitespace-separated values of ``text`` (``str`` or ``bytes``: a line, or its first
+    characters when ``truncated``), split into at most ``n + 1`` pieces whatever the line holds; ``error``
+    naming ``what`` (e.g. ``"on frame 3"``) when there are not exactly ``n``."""
+    vals = text.split(None, n)
+    if len(vals) <= n and truncated:
+        raise error(source, line, f"expected {n} values {what}, found a value of more than {MAX_TOKEN} characters")
+    if len(vals) != n:
+        found = f"more than {n}" if len(vals) > n else str(len(vals))
+        raise error(source, line, f"expected {n} values {what}, found {found}")
+    return vals
 
 
 _EULER_BLOCK = 4096  # rows per block in euler_deg_to_quat (32 KB per temporary)
@@ -127,30 +157,40 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     return t, den
 
 
+def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
+    """Component-major form of :func:`euler_deg_to_quat` for three distinct axes: ``angles (3, ...)``
+    degrees (first index: the angle about ``axes[k]``) -> ``(4, ...)`` quaternion components x, y, z, w.
+    Every step is one contiguous numpy operation on a block of ``_EULER_BLOCK`` rotations (the
+    temporaries stay in cache and are reused: fresh pages are expensive in VMs)."""
+    i, j, k = ("XYZ".index(ax) for ax in axes.upper())
+    eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
+    flat = np.asarray(angles, dtype=float).reshape(3, -1)
+    q = np.empty((4, flat.shape[1]))
+    for r0 in range(0, flat.shape[1], _EULER_BLOCK):
+        r1 = r0 + _EULER_BLOCK
+        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(np.array(flat[:, r0:r1]))
+        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+        q[i, r0:r1] = s1c2 * c3 + eps * c1s2 * s3
+        q[j, r0:r1] = c1s2 * c3 - eps * s1c2 * s3
+        q[k, r0:r1] = c1c2 * s3 + eps * s1s2 * c3
+        q[3, r0:r1] = c1c2 * c3 - eps * s1s2 * s3
+    return q.reshape((4,) + np.shape(angles)[1:])
+
+
 def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     """Intrinsic rotations about ``axes`` (e.g. ``"ZXY"``: the BVH channel order, first axis outermost,
     ``R = Rz Rx Ry``) by ``angles_deg (..., len(axes))`` degrees -> unit quaternions ``(..., 4)``
     (x, y, z, w). Three distinct axes use the closed-form product of the elementary quaternions
-    (scipy's ``from_euler`` is ~20x slower here); agrees with ``Rotation.from_euler(axes.upper(), ...)``
-    (checked in tests/test_io_bvh.py)."""
+    (:func:`euler_components`; scipy's ``from_euler`` is ~20x slower here); agrees with
+    ``Rotation.from_euler(axes.upper(), ...)`` (checked in tests/test_io_bvh.py)."""
     axes = axes.upper()
     idx = ["XYZ".index(ax) for ax in axes]
     if len(axes) == 3 and len(set(axes)) == 3:
-        i, j, k = idx
-        eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
         ang = np.asarray(angles_deg, dtype=float)
-        flat = ang.reshape(-1, 3)
-        q = np.empty((flat.shape[0], 4))
-        # blocks of rows: the temporaries stay small (cache, no fresh pages) whatever the clip length
-        for r0 in range(0, flat.shape[0], _EULER_BLOCK):
-            a = np.array(flat[r0:r0 + _EULER_BLOCK].T)  # angle index first: contiguous components
-            (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(a)
-            c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-            out = q[r0:r0 + _EULER_BLOCK]
-            out[:, i] = s1c2 * c3 + eps * c1s2 * s3
-            out[:, j] = c1s2 * c3 - eps * s1c2 * s3
-            out[:, k] = c1c2 * s3 + eps * s1s2 * c3
-            out[:, 3] = c1c2 * c3 - eps * s1s2 * s3
+        comps = euler_components(ang.reshape(-1, 3).T, axes)
+        q = np.empty((comps.shape[1], 4))
+        for c in range(4):
+            q[:, c] = comps[c]
         return q.reshape(ang.shape[:-1] + (4,))
     a = np.radians(np.asarray(angles_deg, dtype=float))
     a *= 0.5
@@ -165,9 +205,72 @@ def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:
     return q
 
 
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view[:1 << 24]):]
+
+
+_UNNAMED_OK = True  # becomes False once naming an unnamed file failed here (then named temporaries are used)
+
+
+def _unnamed_file(folder: str, mode: int) -> int | None:
+    """A file descriptor of a new, unnamed file in ``folder`` (Linux ``O_TMPFILE``): a process killed
+    while writing it leaves nothing behind. ``None`` where the platform or file system has none."""
+    flag = getattr(os, "O_TMPFILE", 0)
+    if not flag or not _UNNAMED_OK:
+        return None
+    try:
+        return os.open(folder, flag | os.O_WRONLY | getattr(os, "O_CLOEXEC", 0), mode)
+    except OSError:  # EOPNOTSUPP / EISDIR / EINVAL: a file system without unnamed files
+        return None
+
+
+def _link_unnamed(fd: int, name: str) -> bool:
+    """Give the unnamed file ``fd`` the name ``name`` (``linkat``); ``False`` if this system cannot.
+    ``FileExistsError`` when ``name`` exists."""
+    try:
+        os.link(f"/proc/self/fd/{fd}", name)  # the documented way (open(2)); needs /proc
+        return True
+    except FileExistsError:
+        raise
+    except OSError:
+        pass
+    try:  # linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH): where /proc links are refused (sandboxes)
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.linkat(fd, b"", -100, os.fsencode(name), 0x1000) == 0:
+            return True
+        if ctypes.get_errno() == 17:  # EEXIST
+            raise FileExistsError(name)
+    except (OSError, AttributeError):
+        pass
+    return False
+
+
+def _fsync_folder(folder: str) -> None:
+    """Make a rename in ``folder`` durable (best effort: some platforms cannot open folders)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then a rename, so readers
-    never see half a file. The file gets the usual permissions (umask, or the mode of the file it replaces)."""
+    """Write ``data`` to ``path`` atomically and durably: readers see the old file or the new one, never
+    half of one, and after a crash the new file is complete or absent.
+
+    The data goes to an unnamed file in the same folder (``O_TMPFILE``: a killed writer leaves no
+    temporary file), is synced (``fsync``), then given a hidden name and renamed over ``path``, and the
+    folder is synced. Where unnamed files are not available, a hidden temporary file (``.tmp-*``) is used
+    instead and removed on any error. The file gets the usual permissions (umask, or the mode of the file
+    it replaces)."""
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
     try:
@@ -176,13 +279,41 @@ def atomic_write_bytes(path, data: bytes) -> None:
         umask = os.umask(0)
         os.umask(umask)
         mode = 0o666 & ~umask
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+    global _UNNAMED_OK
+    fd = _unnamed_file(folder, mode)
+    tmp = None
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, mode)
+        if fd is not None:
+            try:
+                _write_all(fd, data)
+                os.fchmod(fd, mode)
+                os.fsync(fd)
+                for _ in range(100):  # name it only now that it is complete: linkat(2) does not overwrite
+                    cand = os.path.join(folder, f".tmp-{os.urandom(6).hex()}{os.path.splitext(path)[1]}")
+                    try:
+                        if not _link_unnamed(fd, cand):
+                            _UNNAMED_OK = False
+                            break
+                    except FileExistsError:
+                        continue
+                    tmp = cand
+                    break
+                else:
+                    raise FileExistsError(f"no free temporary name in {folder}")
+            finally:
+                os.close(fd)
+        if tmp is None:
+            import tempfile  # only here: it pulls in random and shutil (~10 ms of import time)
+            fd2, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+            try:
+                _write_all(fd2, data)
+                os.fchmod(fd2, mode) if hasattr(os, "fchmod") else os.chmod(tmp, mode)
+                os.fsync(fd2)
+            finally:
+                os.close(fd2)
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+        tmp = None
+    finally:
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
-        raise
+    _fsync_folder(folder)

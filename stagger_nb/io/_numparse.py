@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-__all__ = ["parse_table", "NUMBER_RE"]
+__all__ = ["parse_table", "parse_columns", "NUMBER_RE"]
 
 NUMBER_RE = re.compile(rb"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
 
@@ -59,12 +59,12 @@ def _parse_with_arrow(block: bytes, rows: int, cols: int) -> np.ndarray | None:
         return None
     if t.num_columns == cols + 1 and t.column(cols).null_count != rows:  # only a trailing space allowed
         return None
-    out = np.empty((rows, cols))
+    out = np.empty((cols, rows))  # column-major: each column is one contiguous copy
     for k in range(cols):
         c = t.column(k)
         if c.null_count or c.type != _ARROW.float64():
             return None
-        out[:, k] = c.to_numpy()
+        out[k] = c.to_numpy()
     if not np.all(np.isfinite(out)):
         return None
     return out
@@ -84,7 +84,14 @@ def _single_spaced(block: bytes) -> bytes:
 
 def parse_table(block: bytes, rows: int, cols: int) -> np.ndarray | None:
     """``(rows, cols)`` float64 table of the numbers in ``block`` (``cols`` per ``\\n``-separated line,
-    trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it."""
+    trailing blank lines allowed), bit-identical to ``float``; ``None`` when it cannot certify it.
+    (A transposed view of :func:`parse_columns`.)"""
+    table = parse_columns(block, rows, cols)
+    return None if table is None else table.T
+
+
+def parse_columns(block: bytes, rows: int, cols: int) -> np.ndarray | None:
+    """Like :func:`parse_table`, laid out column by column: a C-contiguous ``(cols, rows)`` array."""
     if rows < 1 or cols < 1 or not block or block.translate(None, _ALLOWED) or _load_arrow() is None:
         return None
     table = _parse_with_arrow(block, rows, cols)

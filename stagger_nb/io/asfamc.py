@@ -30,10 +30,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from ..core.motion import Motion
+from ..core.motion import MAX_FRAME_JOINTS, Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
-from ._common import FormatError, euler_deg_to_quat, finite_number, read_text
+from ._common import MAX_TOKEN, FormatError, euler_deg_to_quat, finite_number, read_text, split_values
 
 __all__ = ["AMCError", "read_asf_amc", "parse_asf", "parse_amc", "AsfSkeleton"]
 
@@ -95,6 +95,21 @@ class AsfSkeleton:
         self.parents = parents
 
 
+def _iter_lines(text: str, limit: int | None = None):
+    """``(line number, line)`` pairs of ``text`` one at a time (``\\n``, ``\\r\\n`` or lone ``\\r`` breaks),
+    so a file of millions of empty lines is never held as a list; with ``limit``, only the first ``limit``
+    characters of each line (a line of millions of values is not copied whole)."""
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    pos, ln, n = 0, 0, len(text)
+    while pos < n:
+        nl = text.find("\n", pos)
+        end = n if nl < 0 else nl
+        ln += 1
+        yield ln, text[pos:end if limit is None else min(end, pos + limit)]
+        pos = end + 1
+
+
 def _floats(toks: list[str], n: int, what: str, source: str, ln: int) -> list[float]:
     if len(toks) != n:
         raise AMCError(source, ln, f"expected {n} numbers for {what}, found {len(toks)}")
@@ -121,8 +136,8 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
     bone = None
     in_hier = False
     seen_root = seen_bonedata = seen_hierarchy = False
-    lines = text.splitlines()
-    for ln, raw in enumerate(lines, 1):
+    ln = 0
+    for ln, raw in _iter_lines(text):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
@@ -234,7 +249,7 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
         elif section == "hierarchy-done":
             raise AMCError(source, ln, f"unexpected {toks[0]!r} after the ':hierarchy' 'end'")
         # other sections (:version, :name, :documentation, unknown) are free text
-    last = len(lines) or 1
+    last = ln or 1
     if bone is not None:
         raise AMCError(source, last, f"file ends early: expected 'end' of the bone begun on line {bone.line}")
     if in_hier:
@@ -282,14 +297,14 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
         else:
             bone_cols.append(None)
     need = len(names)
-    lines = text.splitlines()
     rows: list[list[str]] = []  # per frame: the value tokens laid out by `col`
     frame_lines: list[int] = []
     current = None
     seen: set = set()
     expect_no = None
     ln = 0
-    for ln, raw in enumerate(lines, 1):
+    longest = (width + 2) * (MAX_TOKEN + 1)  # characters of a line that can matter: the rest is an error
+    for ln, raw in _iter_lines(text, longest):
         s = raw.strip()
         if not s or s[0] == "#":
             continue
@@ -302,17 +317,18 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             elif kw == ":RADIANS":
                 to_deg = True
             continue
-        toks = s.split()
+        toks = s.split(None, 1)  # the head, then the values split below with a bound
         head = toks[0]
-        if len(toks) == 1 and head.isdigit():
+        if len(toks) == 1 and head.isascii() and head.isdigit():  # '¹', '١' are digits to isdigit()
             if current is not None and len(seen) != need:
                 missing = next(n for n in names if n not in seen)
                 raise AMCError(source, ln, f"frame {expect_no - 1} has no line for {missing!r}")
             no = int(head)
             if expect_no is not None and no != expect_no:
                 raise AMCError(source, ln, f"expected frame number {expect_no}, found {no}")
-            if len(rows) >= _MAX_FRAMES:
-                raise AMCError(source, ln, f"more than {_MAX_FRAMES} frames")
+            if len(rows) >= _MAX_FRAMES or (len(rows) + 1) * (len(asf.bones) + 1) > MAX_FRAME_JOINTS:
+                raise AMCError(source, ln, f"more than {min(_MAX_FRAMES, MAX_FRAME_JOINTS // (len(asf.bones) + 1))}"
+                                           f" frames of {len(asf.bones) + 1} joints")
             expect_no = no + 1
             current = [None] * width
             rows.append(current)
@@ -326,24 +342,28 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             raise AMCError(source, ln, f"unknown bone {head!r} (expected root or a bone with dof)")
         if head in seen:
             raise AMCError(source, ln, f"second line for {head!r} in frame {expect_no - 1}")
-        if len(toks) != n + 1:
-            raise AMCError(source, ln, f"expected {n} values for {head!r}, found {len(toks) - 1}")
+        vals = split_values(toks[1] if len(toks) > 1 else "", n, len(raw) == longest, f"for {head!r}", source, ln,
+                            AMCError)
         seen.add(head)
         c = col[head]
-        current[c:c + n] = toks[1:]
+        current[c:c + n] = vals
     if current is None:
         raise AMCError(source, ln or 1, "no frames found (expected a frame number line)")
     if len(seen) != need:
         missing = next(n for n in names if n not in seen)
         raise AMCError(source, ln, f"file ends early: frame {expect_no - 1} has no line for {missing!r}")
     flat = [t for r in rows for t in r]
-    try:
-        data = np.array(flat, dtype=float).reshape(len(rows), width)
-        ok = bool(np.all(np.isfinite(data)))
-    except ValueError:
-        ok = False
+    joined = "".join(flat)
+    # numpy, like float, reads '1_000' and non-ASCII digits: such tokens go to the checked path
+    ok = joined.isascii() and "_" not in joined
+    if ok:
+        try:
+            data = np.array(flat, dtype=float).reshape(len(rows), width)
+            ok = bool(np.all(np.isfinite(data)))
+        except ValueError:
+            ok = False
     if not ok:
-        _locate_bad_number(lines, frame_lines, source)
+        _locate_bad_number(text, frame_lines, source)
     if to_deg:
         rot = np.array([t.startswith("r") for t in asf.root_order] + [True] * (width - len(asf.root_order)))
         data = np.where(rot, np.degrees(data), data)
@@ -353,9 +373,11 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
     return root, dofs
 
 
-def _locate_bad_number(lines, frame_lines, source):
-    for ln in range(frame_lines[0], len(lines) + 1):
-        toks = lines[ln - 1].split()
+def _locate_bad_number(text, frame_lines, source):
+    for ln, line in _iter_lines(text):
+        if ln < frame_lines[0]:
+            continue
+        toks = line.split()
         if len(toks) < 2 or toks[0].startswith("#"):
             continue
         for t in toks[1:]:
@@ -442,9 +464,7 @@ def read_asf_amc(asf_path, amc_path, frame_time: float = 1 / 120, units: str = "
     ValueError
         For a bad ``frame_time`` or ``units``.
     """
-    ft = float(frame_time)
-    if not np.isfinite(ft) or ft <= 0:
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time!r}")
+    ft = check_frame_time(frame_time)
     if units not in _UNIT_SCALE:
         raise ValueError(f"units must be one of {', '.join(_UNIT_SCALE)}, got {units!r}")
     asf_path, amc_path = os.fspath(asf_path), os.fspath(amc_path)

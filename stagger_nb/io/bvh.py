@@ -6,25 +6,31 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast: the motion block is parsed by :func:`._numparse.parse_table` (pyarrow's CSV reader,
-bit-identical to ``float``; blocks with tabs or runs of spaces are rewritten single-spaced first); when
-that cannot certify the block, a line-by-line parser finds the first bad line and raises :class:`BVHError` naming the file, the
-line and what was expected. Writing formats the channel table with a vectorised fixed-point formatter
+Reading is fast and lean: the motion block is parsed in ~1 MB pieces by :func:`._numparse.parse_columns`
+(pyarrow's CSV reader, bit-identical to ``float``; pieces with tabs or runs of spaces are rewritten
+single-spaced first), each piece converted straight into the output arrays, which the Motion takes without
+copies; when a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line
+and raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
+:data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
+:data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
+are refused. Writing formats the channel table with a vectorised fixed-point formatter
 (rotations to 1e-6 degree, positions to 1e-8 of the largest translation) and replaces the file atomically.
 """
 from __future__ import annotations
 
 import os
 import re
+import warnings
 
 import numpy as np
 
-from ..core.motion import Motion
-from ..core.rotations import quat_to_euler
+from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import FormatError, atomic_write_bytes, decode, euler_deg_to_quat, finite_number, read_bytes
+from ._common import (MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
+                      euler_deg_to_quat, finite_number, read_bytes, split_values)
 from ._numformat import format_table
-from ._numparse import NUMBER_RE, parse_table
+from ._numparse import NUMBER_RE, parse_columns
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -37,28 +43,40 @@ class BVHError(FormatError):
     """A malformed BVH file; the message names the file, the line and what was expected."""
 
 
-class _Tokens:
-    """Whitespace tokens of the header with their 1-based line numbers; ``end_line`` is the line of the
-    ``MOTION`` keyword that ends the header."""
+_TOKEN = re.compile(r"\S+")
 
-    def __init__(self, lines: list[str], source: str, end_line: int):
-        self.items = []
+
+class _Tokens:
+    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (a header
+    of millions of junk tokens is never held as a list: the first bad one is reported at once);
+    ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
+
+    def __init__(self, head: str, source: str, end_line: int):
+        self._it = _TOKEN.finditer(head)
+        self._head = head
+        self._line, self._at = 1, 0  # line number of position self._at
         self.source = source
         self.end_line = end_line
-        for ln, line in enumerate(lines, 1):
-            for tok in line.split():
-                self.items.append((tok, ln))
-        self.pos = 0
+        self._next = self._advance()
+
+    def _advance(self) -> tuple[str, int] | None:
+        m = next(self._it, None)
+        if m is None:
+            return None
+        self._line += self._head.count("\n", self._at, m.start())
+        self._at = m.start()
+        return m.group(), self._line
 
     def next(self, expected: str) -> tuple[str, int]:
-        if self.pos >= len(self.items):
+        if self._next is None:
             raise BVHError(self.source, self.end_line, f"hierarchy ends early: expected {expected} before 'MOTION'")
-        tok = self.items[self.pos]
-        self.pos += 1
+        tok = self._next
+        self._next = self._advance()
         return tok
 
-    def peek(self) -> str | None:
-        return self.items[self.pos][0] if self.pos < len(self.items) else None
+    def peek(self) -> tuple[str, int] | None:
+        """The next token and its line, or ``None`` at the end of the header."""
+        return self._next
 
     def number(self, expected: str) -> float:
         tok, ln = self.next(expected)
@@ -74,6 +92,7 @@ class _Tokens:
 def _parse_hierarchy(tok: _Tokens) -> Skeleton:
     """The ``HIERARCHY`` section (iterative: deep chains cannot exhaust Python's recursion limit)."""
     names, parents, offsets, channels, end_sites = [], [], [], [], {}
+    name_line: dict[str, int] = {}
     src = tok.source
     tok.keyword("HIERARCHY")
     t, ln = tok.next("'ROOT'")
@@ -87,12 +106,16 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
         if name_tok == "{":
             raise BVHError(src, ln, "expected a joint name before '{'")
         parts = [name_tok]  # some exporters put spaces in names: join tokens up to '{' on the line
-        while tok.peek() is not None and tok.peek() != "{" and tok.items[tok.pos][1] == ln:
+        while tok.peek() is not None and tok.peek()[0] != "{" and tok.peek()[1] == ln:
             parts.append(tok.next("'{'")[0])
         if len(names) >= _MAX_JOINTS:
             raise BVHError(src, ln, f"more than {_MAX_JOINTS} joints")
         j = len(names)
-        names.append(" ".join(parts))
+        name = " ".join(parts)
+        if name in name_line:
+            raise BVHError(src, ln, f"joint name {name!r} is used twice (first on line {name_line[name]})")
+        name_line[name] = ln
+        names.append(name)
         parents.append(parent)
         tok.keyword("{")
         tok.keyword("OFFSET")
@@ -121,6 +144,9 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
                 parent = stack[-1]
                 break
             if u == "END":
+                if stack[-1] in end_sites:
+                    raise BVHError(src, ln, f"a second 'End Site' under joint {names[stack[-1]]!r} "
+                                            "(a joint has at most one)")
                 tok.keyword("Site")
                 tok.keyword("{")
                 tok.keyword("OFFSET")
@@ -130,7 +156,7 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
                 stack.pop()
                 if not stack:
                     if tok.peek() is not None:
-                        t, ln = tok.items[tok.pos]
+                        t, ln = tok.peek()
                         raise BVHError(src, ln, f"expected 'MOTION' after the hierarchy, found {t!r}")
                     return Skeleton(names, parents, np.array(offsets).reshape(-1, 3), tuple(channels), end_sites)
             else:
@@ -158,31 +184,36 @@ def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
     return finite_number(m.group(1), f"'{key}:'", source, ln, BVHError)
 
 
-def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str):
-    """Line-by-line parse of the frame lines into ``(F, C)`` floats; raises :class:`BVHError` at the
-    first bad line (the reference for :func:`parse_table`, and its fallback)."""
-    lines = block.split(b"\n")
-    end = len(lines)
-    while end > 0 and not lines[end - 1].strip():
-        end -= 1
-    out = np.empty((min(end, num_frames), num_channels))
-    for k in range(end):
+def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str,
+                        start: int = 0):
+    """Line-by-line parse of the frame lines ``block[start:]`` into ``(F, C)`` floats; raises
+    :class:`BVHError` at the first bad line (the reference for :func:`parse_table`, and its fallback).
+    Lines are taken one at a time and split into at most ``C + 1`` pieces, so a hostile block (millions
+    of blank lines, a line of millions of values) costs no more memory than its output."""
+    stop = _data_end(block, start)
+    out = np.empty((min(num_frames, block.count(b"\n", start, stop) + 1), num_channels))
+    k, pos = 0, start
+    longest = (num_channels + 1) * (MAX_TOKEN + 1)
+    while pos < stop:
+        nl = block.find(b"\n", pos, stop)
+        end = stop if nl < 0 else nl
+        line = block[pos:min(end, pos + longest)]  # a prefix: enough to find C + 1 tokens of sane length
+        pos = end + 1
         ln = first_ln + k
-        toks = lines[k].split()
         if k >= num_frames:
             raise BVHError(source, ln, f"more frame lines than 'Frames: {num_frames}' declares")
-        if len(toks) != num_channels:
-            raise BVHError(source, ln, f"expected {num_channels} values on frame {k}, found {len(toks)}")
+        toks = split_values(line, num_channels, len(line) == longest, f"on frame {k}", source, ln, BVHError)
         for c, t in enumerate(toks):
             if not NUMBER_RE.match(t):
-                raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t)!r}")
+                raise BVHError(source, ln, f"expected a number on frame {k}, found {decode(t[:40])!r}")
             v = float(t)
             if not np.isfinite(v):
-                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t)!r}")
+                raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t[:40])!r}")
             out[k, c] = v
-    if end < num_frames:
-        raise BVHError(source, first_ln + max(end - 1, 0),
-                       f"file ends early: 'Frames: {num_frames}' declared, {end} frame lines found")
+        k += 1
+    if k < num_frames:
+        raise BVHError(source, first_ln + max(k - 1, 0),
+                       f"file ends early: 'Frames: {num_frames}' declared, {k} frame lines found")
     return out
 
 
@@ -198,14 +229,17 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     """Parse BVH text (``str`` or the file's ``bytes``) into a :class:`Motion`; ``source`` names the file
     in error messages."""
     raw = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+    if raw[:3] == UTF8_BOM:  # a byte-order mark some Windows tools write
+        raw = raw[3:]
     raw = _normalise_breaks(raw)
     m = _MOTION_LINE.search(raw)
     if m is None:
         last = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
         raise BVHError(source, max(last, 1), "no 'MOTION' section found")
-    head = decode(raw[:m.start()])
+    head = decode(memoryview(raw)[:m.start()])
     ln = head.count("\n") + 1  # the MOTION line
-    skel = _parse_hierarchy(_Tokens(head.split("\n"), source, ln))
+    skel = _parse_hierarchy(_Tokens(head, source, ln))
+    del head
     line, pos = _next_line(raw, m.start())
     while True:  # blank lines may precede 'Frames:'
         if pos >= len(raw):
@@ -220,6 +254,9 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     if nf > _MAX_FRAMES:
         raise BVHError(source, ln, f"declared {nf:g} frames, more than the {_MAX_FRAMES} supported")
     nf = int(nf)
+    if nf * skel.num_joints > MAX_FRAME_JOINTS:  # joints without channels cost memory but no text
+        raise BVHError(source, ln, f"declared {nf} frames x {skel.num_joints} joints, more than the "
+                                   f"{MAX_FRAME_JOINTS:,} joint samples supported")
     if pos >= len(raw):
         raise BVHError(source, ln, "file ends early: expected 'Frame Time: <seconds>'")
     line, pos = _next_line(raw, pos)
@@ -227,57 +264,132 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     ft = _header_value(line, "Frame Time", source, ln)
     if ft <= 0:
         raise BVHError(source, ln, f"frame time must be positive, found {ft:g}")
+    if not MIN_FRAME_TIME <= ft <= MAX_FRAME_TIME:  # see core.motion: a corrupt value, not a capture rate
+        raise BVHError(source, ln, f"frame time {ft:g} s is outside the {MIN_FRAME_TIME:g}-{MAX_FRAME_TIME:g} s "
+                                   f"supported (at most {1 / MIN_FRAME_TIME:g} frames per second)")
     num_channels = sum(len(c) for c in skel.channels)
-    block = raw[pos:]
-    data = None
+    layout = _Layout(skel)
+    stop = _data_end(raw, pos)
+    out = None
     if num_channels == 0:
-        data = np.zeros((nf, 0)) if not block.strip() else None
-    elif len(block) >= nf * num_channels:  # cannot hold the declared values otherwise
-        data = parse_table(block, nf, num_channels)
-    if data is None:
-        data = _parse_motion_lines(block, ln + 1, nf, num_channels, source)
-    return _channels_to_motion(skel, float(ft), data)
+        if stop == pos:
+            out = layout.empty(nf)
+    elif stop - pos >= nf * num_channels:  # cannot hold the declared values otherwise: allocate nothing
+        out = layout.empty(nf)
+        if not _read_chunks(raw, pos, stop, nf, num_channels, layout, out):
+            out = None
+    if out is None:  # the line-by-line parser finds and reports the first bad line
+        data = _parse_motion_lines(raw, ln + 1, nf, num_channels, source, start=pos)
+        out = layout.empty(nf)
+        layout.fill(data.T, 0, out)
+    root_pos, quats, trans = out
+    return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
 
-def _channels_to_motion(skel: Skeleton, frame_time: float, data: np.ndarray) -> Motion:
-    """Motion from the ``(F, C)`` channel table: rotations grouped by channel order and converted in one
-    vectorised call per order."""
-    F = data.shape[0]
-    J = skel.num_joints
-    trans = None
-    root_pos = np.broadcast_to(skel.offsets[0], (F, 3)).copy()
-    groups: dict[str, tuple[list, list]] = {}
-    col = 0
-    for j, chans in enumerate(skel.channels):
-        rot_cols, order = [], ""
-        for c in chans:
-            axis = "XYZ".index(c[0].upper())
-            if c[1:].lower() == "position":
-                if j == 0:
-                    root_pos[:, axis] = data[:, col]
+_CHUNK_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size
+
+
+def _data_end(raw: bytes, pos: int) -> int:
+    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed), found
+    from the end in chunks so nothing large is copied."""
+    end = len(raw)
+    while end > pos:
+        start = max(pos, end - _CHUNK_BYTES)
+        kept = len(raw[start:end].rstrip())
+        if kept:
+            return start + kept
+        end = start
+    return pos
+
+
+def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> bool:
+    """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
+    :func:`._numparse.parse_table`, each piece converted into ``out`` at once; ``False`` when a piece cannot
+    be certified or the line count disagrees (the caller then runs the line-by-line parser)."""
+    row = 0
+    while pos < stop:
+        nl = raw.find(b"\n", min(pos + _CHUNK_BYTES, stop), stop)
+        end = stop if nl < 0 else nl + 1
+        rows = raw.count(b"\n", pos, end) + (0 if raw[end - 1:end] == b"\n" else 1)
+        if row + rows > nf or end - pos > 64 * rows * C:  # lines cannot hold C numbers of sane length
+            return False
+        chunk = raw[pos:end]
+        data = parse_columns(chunk, rows, C)
+        if data is None:
+            return False
+        layout.fill(data, row, out)
+        row += rows
+        pos = end
+    return row == nf
+
+
+class _Layout:
+    """Where each column of the ``(F, C)`` channel table goes: root position axes, animated joint
+    translations, and rotations grouped by channel order (one vectorised conversion per order)."""
+
+    def __init__(self, skel: Skeleton):
+        self.skel = skel
+        self.root_pos, self.trans = [], []  # (axis, col), (joint, axis, col)
+        groups: dict[str, tuple[list, list]] = {}
+        col = 0
+        for j, chans in enumerate(skel.channels):
+            rot_cols, order = [], ""
+            for c in chans:
+                axis = "XYZ".index(c[0].upper())
+                if c[1:].lower() == "position":
+                    (self.root_pos.append((axis, col)) if j == 0 else self.trans.append((j, axis, col)))
                 else:
-                    if trans is None:
-                        trans = np.broadcast_to(skel.offsets, (F, J, 3)).copy()
-                    trans[:, j, axis] = data[:, col]
+                    rot_cols.append(col)
+                    order += c[0].upper()
+                col += 1
+            if order:
+                joints, cols = groups.setdefault(order, ([], []))
+                joints.append(j)
+                cols.append(rot_cols)
+        J = skel.num_joints
+        self.groups = [(order, joints, np.array(cols)) for order, (joints, cols) in groups.items()]
+        # every joint in one order and in file order: the conversion writes the output rows directly
+        self.direct = len(self.groups) == 1 and self.groups[0][1] == list(range(J))
+
+    def empty(self, F: int):
+        """Output arrays for ``F`` frames: root positions ``(F, 3)`` (the root OFFSET where not animated),
+        local quaternions ``(F, J, 4)`` (identity where a joint has no rotation channels) and joint
+        translations ``(F, J, 3)`` or ``None``."""
+        skel, J = self.skel, self.skel.num_joints
+        root_pos = np.empty((F, 3))
+        root_pos[:] = skel.offsets[0]
+        if self.direct:
+            quats = np.empty((F, J, 4))
+        else:
+            quats = np.zeros((F, J, 4))
+            quats[..., 3] = 1.0
+        trans = None
+        if self.trans:
+            trans = np.empty((F, J, 3))
+            trans[:] = skel.offsets
+        return root_pos, quats, trans
+
+    def fill(self, data: np.ndarray, row: int, out) -> None:
+        """Convert the table ``data (C, n)`` (column-major: one row per channel) into frames
+        ``[row, row + n)`` of ``out``."""
+        root_pos, quats, trans = out
+        sl = slice(row, row + data.shape[1])
+        for axis, col in self.root_pos:
+            root_pos[sl, axis] = data[col]
+        for j, axis, col in self.trans:
+            trans[sl, j, axis] = data[col]
+        if trans is not None:
+            trans[sl, 0] = root_pos[sl]
+        for order, joints, cols in self.groups:
+            dst = quats[sl] if self.direct else np.empty((data.shape[1], len(joints), 4))
+            if len(order) == 3 and len(set(order)) == 3:  # (3, joints, n) angles -> (4, joints, n) components
+                comps = euler_components(data[cols.T], order)
+                for c in range(4):  # one 2-D transpose per component: ~4x faster than numpy's 3-D one
+                    dst[..., c] = comps[c].T
             else:
-                rot_cols.append(col)
-                order += c[0].upper()
-            col += 1
-        if order:
-            joints, cols = groups.setdefault(order, ([], []))
-            joints.append(j)
-            cols.append(rot_cols)
-    if len(groups) == 1 and next(iter(groups.values()))[0] == list(range(J)):
-        order, (_, cols) = next(iter(groups.items()))  # every joint, one order: no scatter needed
-        quats = euler_deg_to_quat(data[:, np.array(cols)], order)
-    else:
-        quats = np.zeros((F, J, 4))  # identity for joints without rotation channels
-        quats[..., 3] = 1.0
-        for order, (joints, cols) in groups.items():
-            quats[:, joints] = euler_deg_to_quat(data[:, np.array(cols)], order)
-    if trans is not None:
-        trans[:, 0] = root_pos
-    return Motion(skel, frame_time, root_pos, quats, trans)
+                dst[...] = euler_deg_to_quat(data[cols].transpose(2, 0, 1), order)
+            if not self.direct:
+                quats[sl, joints] = dst
 
 
 def read_bvh(path) -> Motion:
@@ -307,6 +419,20 @@ def _position_decimals(motion: Motion) -> int:
     return int(np.clip(8 - np.floor(np.log10(scale)), 6, 12))
 
 
+_MAX_INDENT = 16  # tabs: deeper joints are not indented further, so the text grows linearly with depth
+
+
+def _check_names(skel: Skeleton) -> None:
+    """``ValueError`` naming the joint whose name the format cannot hold: BVH names are the tokens between
+    ``JOINT`` and ``{`` on one line, joined by single spaces on reading."""
+    for j, name in enumerate(skel.names):
+        toks = name.split()
+        if not toks or " ".join(toks) != name or "{" in toks or "}" in toks or not name.isprintable():
+            raise ValueError(f"write_bvh: joint {j} has the name {name!r}, which BVH cannot hold (names need "
+                             "printable characters, single spaces between words, no line breaks or tabs, "
+                             "no lone braces): rename the joint")
+
+
 def _hierarchy_lines(skel: Skeleton) -> tuple[list[str], list[int]]:
     """The HIERARCHY section (iterative depth-first walk; children in index order) and the joints in
     the order written, which is the order of their channels in each frame line."""
@@ -318,7 +444,7 @@ def _hierarchy_lines(skel: Skeleton) -> tuple[list[str], list[int]]:
     stack = [(0, 0, False)]
     while stack:
         j, depth, closing = stack.pop()
-        ind = "\t" * depth
+        ind = "\t" * min(depth, _MAX_INDENT)
         if closing:
             if j in skel.end_sites:
                 e = skel.end_sites[j]
@@ -380,7 +506,57 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
     return table, np.array(dec, dtype=np.int64)
 
 
+_ROT_TOL = 1e-8  # rad: a rotation further than this from what a joint's channels can express needs more
+_POS_TOL = 1e-9  # of the largest translation: likewise for a translation on an axis without a channel
+
+
+def _faithful(motion: Motion) -> Motion:
+    """``motion`` with channels added to the joints whose channels cannot express their motion (an edit
+    about z on a ``CHANNELS 1 Xrotation`` joint, a translation of a joint without position channels),
+    each said in a ``UserWarning`` naming the joint; unchanged when every joint's channels suffice."""
+    skel = motion.skeleton
+    trans = None
+    scale = max(float(np.max(np.abs(motion.root_positions))), float(np.max(np.abs(skel.offsets))), 1e-12)
+    new_channels = list(skel.channels)
+    for j, chans in enumerate(skel.channels):
+        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
+        have_pos = {c[0].upper() for c in chans if c.lower().endswith("position")}
+        add_rot = ""
+        if len(order) < 3:
+            q = motion.local_quats[:, j]
+            back = (euler_deg_to_quat(_partial_euler(q, order)[:, :len(order)], order) if order
+                    else np.broadcast_to([0.0, 0.0, 0.0, 1.0], q.shape))
+            if float(np.max(quat_angle(q, back))) > _ROT_TOL:
+                add_rot = "".join(a for a in "ZXY" if a not in order)
+        add_pos = ""
+        if len(have_pos) < 3 and (j == 0 or motion.local_translations is not None):
+            if trans is None:
+                trans = motion.translations()
+            moved = np.max(np.abs(trans[:, j] - skel.offsets[j]), axis=0) > _POS_TOL * scale
+            add_pos = "".join(a for k, a in enumerate("XYZ") if moved[k] and a not in have_pos)
+            if add_pos:
+                add_pos = "".join(a for a in "XYZ" if a not in have_pos)
+        if not (add_rot or add_pos):
+            continue
+        chans = list(chans)
+        pos_at = max((k + 1 for k, c in enumerate(chans) if c.lower().endswith("position")), default=0)
+        chans[pos_at:pos_at] = [a + "position" for a in add_pos]
+        rot_at = max((k + 1 for k, c in enumerate(chans) if c.lower().endswith("rotation")), default=len(chans))
+        chans[rot_at:rot_at] = [a + "rotation" for a in add_rot]
+        new_channels[j] = tuple(chans)
+        what = " and ".join(w for w, a in (("rotates about other axes", add_rot), ("moves", add_pos)) if a)
+        warnings.warn(f"write_bvh: joint {skel.names[j]!r} {what} than its channels "
+                      f"({' '.join(skel.channels[j]) or 'none'}) can express; written with CHANNELS "
+                      f"{len(chans)} {' '.join(chans)} so the file holds the motion", UserWarning, stacklevel=4)
+    if new_channels == list(skel.channels):
+        return motion
+    return motion.replace(skeleton=Skeleton(skel.names, skel.parents, skel.offsets, tuple(new_channels),
+                                            skel.end_sites))
+
+
 def _format_bytes(motion: Motion) -> bytes:
+    _check_names(motion.skeleton)
+    motion = _faithful(motion)
     head, joint_order = _hierarchy_lines(motion.skeleton)
     head += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {motion.frame_time:.9g}"]
     table, dec = _channel_table(motion, joint_order)
@@ -394,12 +570,19 @@ def format_bvh(motion: Motion) -> str:
     """BVH text of ``motion``: each joint's channel order and the end-site offsets kept; rotations with
     6 decimals (degrees), positions with 6-12 decimals by their size (see :func:`_position_decimals`).
     BVH lists joints depth-first, so a skeleton stored in another parents-first order reads back with
-    its joints in depth-first order (same names, same motion)."""
+    its joints in depth-first order (same names, same motion). Channels are added where needed, and
+    bad joint names refused, as in :func:`write_bvh`."""
     return _format_bytes(motion).decode("utf-8")
 
 
 def write_bvh(motion: Motion, path) -> None:
-    """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: a temporary file in the same folder,
-    then a rename, so readers never see half a file; the file gets the usual permissions (umask, or the
-    mode of the file it replaces)."""
+    """Write ``motion`` as BVH (see :func:`format_bvh`) atomically: the text is written to an unnamed
+    file in the destination folder, synced, then renamed over ``path`` (see
+    :func:`._common.atomic_write_bytes`), so readers see the old file or the new one, never half of one;
+    the file gets the usual permissions (umask, or the mode of the file it replaces).
+
+    A joint whose channels cannot express its motion (fewer than three rotation channels and a rotation
+    about another axis, or a translation without position channels) is written with the channels it
+    needs, and a ``UserWarning`` names it. A joint name the format cannot hold (line breaks, tabs, runs
+    of spaces, lone braces) raises ``ValueError`` naming the joint; nothing is written then."""
     atomic_write_bytes(path, _format_bytes(motion))

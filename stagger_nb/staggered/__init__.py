@@ -15,12 +15,13 @@ from .contacts import detect_contacts, end_effectors
 from .editing import (TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose, random_timing,
                       retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
 from .ik import IKPoseResult, ik_pose, solve_limb
-from .extraction import PoseEvidence, cull, extract, locate_poses, pose_priorities
+from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
 from .representation import StaggeredMotion, evaluate, evaluate_arrays, knot_times
 
-__all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "detect_contacts", "end_effectors", "locate_poses",
+__all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
+           "locate_poses",
            "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
            "knot_times",
            "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession", "random_timing",

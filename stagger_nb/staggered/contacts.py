@@ -42,6 +42,24 @@ def _box_extent(p: np.ndarray, length: int) -> np.ndarray:
     return np.linalg.norm(hi - lo, axis=-1)[: p.shape[0] - length + 1]
 
 
+def _grow_box(p: np.ndarray, s: int, e: int, tolerance: float, block: int = 64) -> int:
+    """Largest ``e' >= e`` such that the bounding box of ``p[s:e']`` (positions (F, 3)) has a diagonal
+    ``<= tolerance`` (the box of ``p[s:e]`` must already fit): frames are added one at a time, tested in
+    blocks of ``block`` with running minima and maxima."""
+    F = p.shape[0]
+    lo, hi = p[s:e].min(axis=0), p[s:e].max(axis=0)
+    while e < F:
+        seg = p[e:e + block]
+        nlo = np.minimum(np.minimum.accumulate(seg, axis=0), lo)
+        nhi = np.maximum(np.maximum.accumulate(seg, axis=0), hi)
+        bad = np.flatnonzero(np.linalg.norm(nhi - nlo, axis=1) > tolerance)
+        if bad.size:
+            return e + int(bad[0])
+        lo, hi = nlo[-1], nhi[-1]
+        e += seg.shape[0]
+    return e
+
+
 def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration: float = 0.25,
                     joints=None, positions: np.ndarray | None = None, *,
                     hand_support: float | None = DEFAULT_HAND_SUPPORT) -> list[tuple[str, int, int]]:
@@ -103,23 +121,16 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
         is_hand = support is not None and bool(_HAND.search(sk.names[j])) and j not in feet
         p = positions[:, j]
         ok = _box_extent(p, L) <= tolerance                    # window [s, s + L) is still
+        starts = np.flatnonzero(ok)
         s = 0
         while s <= F - L:
             if not ok[s]:
-                nxt = np.flatnonzero(ok[s:])
-                if nxt.size == 0:
+                i = np.searchsorted(starts, s)                 # the next still window
+                if i == starts.size:
                     break
-                s += int(nxt[0])
+                s = int(starts[i])
                 continue
-            lo = p[s:s + L].min(axis=0)
-            hi = p[s:s + L].max(axis=0)
-            e = s + L
-            while e < F:                                       # expand while the box stays within tolerance
-                nlo, nhi = np.minimum(lo, p[e]), np.maximum(hi, p[e])
-                if np.linalg.norm(nhi - nlo) > tolerance:
-                    break
-                lo, hi = nlo, nhi
-                e += 1
+            e = _grow_box(p, s, s + L, tolerance)
             if not is_hand or p[s:e, 1].mean() - floor[s:e].min() <= support:
                 out.append((sk.names[j], s, e))
             s = e

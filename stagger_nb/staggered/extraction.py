@@ -9,6 +9,7 @@ each joint's own evidence (within ±0.25 s and closer to its pose than to the ne
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,14 +17,16 @@ from scipy.ndimage import convolve1d
 from scipy.signal import find_peaks
 
 from ..core.motion import Motion
+from . import _checks
 from .contacts import contact_events, detect_contacts
 from .features import local_evidence
 from .fitting import fit_staggered
 from .representation import StaggeredMotion
 
-__all__ = ["extract", "cull", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
+__all__ = ["extract", "cull", "cull_keep", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
            "candidate_poses", "pose_priorities", "timing_refinements", "local_maxima"]
 
+_DIRECT_TAPS = 255   # tent kernels up to this many taps convolve directly, longer ones by FFT
 _ROUND = 12   # decimals kept before peak picking, so plateaus of the tent filter stay exactly flat
 
 
@@ -41,7 +44,13 @@ def tent_filter(signal: np.ndarray, frame_time: float, width: float = 0.15) -> n
     tau = np.arange(-n, n + 1)
     k = np.maximum(0.0, 1.0 - np.abs(tau) / R)
     k /= k.sum()
-    return convolve1d(np.asarray(signal, dtype=float), k, axis=0, mode="nearest")
+    x = np.asarray(signal, dtype=float)
+    if k.size <= _DIRECT_TAPS:
+        return convolve1d(x, k, axis=0, mode="nearest")
+    # long kernels (high frame rates, wide filters): the same "nearest"-edged convolution by FFT, O(F log F)
+    from scipy.signal import oaconvolve
+    pad = np.concatenate([np.repeat(x[:1], n, axis=0), x, np.repeat(x[-1:], n, axis=0)])
+    return oaconvolve(pad, k.reshape((-1,) + (1,) * (x.ndim - 1)), mode="valid", axes=0)
 
 
 def local_maxima(x: np.ndarray, prominence: float = 0.0) -> np.ndarray:
@@ -123,6 +132,54 @@ def timing_refinements(evidence: np.ndarray, pose_frames: np.ndarray, frame_time
     return out
 
 
+_MAX_SMOOTHING_PASSES = 10 ** 12   # passes cost O(F log F) whatever their number (see laplacian_smooth)
+_MAX_ITERATIONS = 100             # Levenberg-Marquardt steps of the fit (each costs ~7 spline evaluations)
+
+
+def _check_contacts(where: str, contacts, motion: Motion):
+    if contacts is None:
+        return None
+    try:
+        items = list(contacts)
+    except TypeError:
+        raise ValueError(f"{where}: contacts must be a list of (joint_name, start_frame, stop_frame), "
+                         f"got {contacts!r}") from None
+    names = set(motion.skeleton.names)
+    out = []
+    for c in items:
+        ok = isinstance(c, (tuple, list)) and len(c) == 3 and isinstance(c[0], str) and c[0] in names
+        if ok:
+            try:
+                a = _checks.integer(where, "contacts[].start_frame", c[1], 0, motion.num_frames - 1)
+                b = _checks.integer(where, "contacts[].stop_frame", c[2], a + 1, motion.num_frames)
+            except ValueError:
+                ok = False
+        if not ok:
+            raise ValueError(f"{where}: contacts must hold (joint_name, start_frame, stop_frame) with a joint of "
+                             f"the skeleton and 0 <= start < stop <= {motion.num_frames}, got {c!r}")
+        out.append((c[0], a, b))
+    return out
+
+
+def _check_locate_options(where: str, motion: Motion, o: dict) -> dict:
+    """The options of :func:`locate_poses`, checked (type and range; ValueError naming the option)."""
+    R, I = _checks.real, _checks.integer
+    return dict(
+        filter_width=R(where, "filter_width", o["filter_width"], 0.0, 10.0, lo_open=True),
+        refinement_window=R(where, "refinement_window", o["refinement_window"], 0.0, 10.0),
+        smoothing_iterations=I(where, "smoothing_iterations", o["smoothing_iterations"], 0, _MAX_SMOOTHING_PASSES,
+                               none_ok=True),
+        smoothing_lambda=R(where, "smoothing_lambda", o["smoothing_lambda"], 0.0, 1.0, lo_open=True),
+        root_translation_weight=R(where, "root_translation_weight", o["root_translation_weight"], 0.0, 1e6),
+        contacts=_check_contacts(where, o["contacts"], motion),
+        contact_weight=R(where, "contact_weight", o["contact_weight"], 0.0, 1e6),
+        contact_tolerance=R(where, "contact_tolerance", o["contact_tolerance"], 0.0, None, lo_open=True,
+                            none_ok=True),
+        contact_min_duration=R(where, "contact_min_duration", o["contact_min_duration"], 0.0,
+                               max(motion.duration, 1.0), lo_open=True),
+        min_prominence=R(where, "min_prominence", o["min_prominence"], 0.0, 1.0))
+
+
 @dataclass(frozen=True, eq=False)
 class PoseEvidence:
     """Everything §4.1 computes before fitting.
@@ -163,13 +220,19 @@ def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_windo
     contact_tolerance, contact_min_duration : passed to :func:`detect_contacts`
     min_prominence : fraction of max P below which a local maximum of P is a ripple, not a candidate
     """
+    if not isinstance(motion, Motion):
+        raise ValueError(f"locate_poses: motion must be a Motion, got {type(motion).__name__}")
     F, J = motion.num_frames, motion.num_joints
     if F < 2:
         raise ValueError(f"locate_poses: motion needs at least 2 frames, got {F}")
-    if not refinement_window >= 0:
-        raise ValueError(f"locate_poses: refinement_window must be >= 0 seconds, got {refinement_window}")
-    if not contact_weight >= 0:
-        raise ValueError(f"locate_poses: contact_weight must be >= 0, got {contact_weight}")
+    _checks.frame_time("locate_poses", motion.frame_time)
+    opts = _check_locate_options("locate_poses", motion, dict(
+        filter_width=filter_width, refinement_window=refinement_window, smoothing_iterations=smoothing_iterations,
+        smoothing_lambda=smoothing_lambda, root_translation_weight=root_translation_weight, contacts=contacts,
+        contact_weight=contact_weight, contact_tolerance=contact_tolerance,
+        contact_min_duration=contact_min_duration, min_prominence=min_prominence))
+    (filter_width, refinement_window, smoothing_iterations, smoothing_lambda, root_translation_weight, contacts,
+     contact_weight, contact_tolerance, contact_min_duration, min_prominence) = opts.values()
     p, w = local_evidence(motion, smoothing_iterations, smoothing_lambda, root_translation_weight)
     if contacts is None:
         contacts = detect_contacts(motion, contact_tolerance, contact_min_duration)
@@ -182,28 +245,76 @@ def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_windo
     return PoseEvidence(frames, P, evidence, weights, ref, tuple(contacts))
 
 
-def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", **options) -> StaggeredMotion:
+def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
+            progress=None, **options) -> StaggeredMotion:
     """Staggered-pose representation of dense ``motion`` with all candidate poses (§4).
 
-    ``options`` go to :func:`locate_poses`; ``iterations`` and ``continuity`` ("C1" or "C0") to
-    :func:`~.fitting.fit_staggered`. The result reproduces the
+    ``options`` go to :func:`locate_poses`; ``iterations``, ``continuity`` ("C1" or "C0") and ``fit_samples``
+    to :func:`~.fitting.fit_staggered`. ``progress``: callable(fraction in [0, 1]) or None, called as the
+    work advances (the notebook/session layer draws the bar). Every option is checked (ValueError naming
+    it); frame times below 0.1 ms are refused (resample first). The result reproduces the
     input exactly at its frames (displacement maps, §4.1.1); ``sm.metadata`` holds ``"probability"``
     (F,), ``"evidence"`` (F, J + 2), ``"weights"`` (J + 2,) and the fit statistics ``"fit"``.
     """
     if not isinstance(motion, Motion):
         raise ValueError(f"extract: motion must be a Motion, got {type(motion).__name__}")
+    iterations = _checks.integer("extract", "iterations", iterations, 0, _MAX_ITERATIONS)
+    if continuity not in ("C0", "C1"):
+        raise ValueError(f"extract: continuity must be 'C0' or 'C1', got {continuity!r}")
+    known = inspect.signature(locate_poses).parameters
+    for k in options:
+        if k not in known or known[k].kind is not inspect.Parameter.KEYWORD_ONLY:
+            raise ValueError(f"extract: unknown option {k!r}; options are iterations, continuity, "
+                             f"{', '.join(n for n, p in known.items() if p.kind is p.KEYWORD_ONLY)}")
+    fit_samples = _checks.integer("extract", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
+    _checks.frame_time("extract", motion.frame_time)
+    report = progress if progress is not None else (lambda f: None)
+    report(0.0)
     loc = locate_poses(motion, **options)
+    report(0.3)
     ft = motion.frame_time
     J = motion.num_joints
     meta = {"probability": loc.probability, "evidence": loc.evidence, "weights": loc.weights,
             "candidate_frames": loc.frames}
     return fit_staggered(motion, loc.frames * ft, loc.refinement_frames[:, :J] * ft,
                          loc.refinement_frames[:, J] * ft, pose_probability=loc.probability[loc.frames],
-                         contacts=loc.contacts, iterations=iterations, continuity=continuity, metadata=meta)
+                         contacts=loc.contacts, iterations=iterations, continuity=continuity,
+                         fit_samples=fit_samples, metadata=meta, progress=lambda f: report(0.3 + 0.7 * f))
+
+
+def cull_keep(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
+              interval=None) -> np.ndarray:
+    """Indices (sorted, first and last included) of the poses :func:`cull` keeps for these arguments (the
+    same meaning as there), without refitting: priorities ``w_k`` (:func:`pose_priorities`) are ranked once.
+    Callers caching culls can key them by this (many percents keep the same poses)."""
+    if not isinstance(sm, StaggeredMotion):
+        raise ValueError(f"cull: sm must be a StaggeredMotion, got {type(sm).__name__}")
+    percent = _checks.real("cull", "percent", percent, 0.0, 100.0, lo_open=True, none_ok=True)
+    count = _checks.integer("cull", "count", count, 2, 2 ** 62, none_ok=True)
+    K = sm.num_poses
+    t = sm.pose_times
+    eligible = np.ones(K, dtype=bool)
+    if interval is not None:
+        a, b = (float(x) for x in interval)
+        if not b >= a:
+            raise ValueError(f"cull: interval must be (start, stop) with stop >= start, got {interval!r}")
+        eligible = (t >= a) & (t <= b)
+    if count is not None:
+        n = count
+    elif percent is not None or interval is None:
+        pc = 50.0 if percent is None else percent
+        n = max(int(np.ceil(pc / 100.0 * K - 1e-9)), 2)
+    else:
+        n = K
+    prio = pose_priorities(t, sm.pose_probability)
+    interior = np.flatnonzero(eligible[1:-1]) + 1
+    order = interior[np.argsort(-prio[interior], kind="stable")]
+    return np.sort(np.concatenate([[0, K - 1], order[: max(n - 2, 0)]]))
 
 
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
-         interval=None, iterations: int = 2, continuity: str = "C1") -> StaggeredMotion:
+         interval=None, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
+         progress=None) -> StaggeredMotion:
     """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
 
     Parameters
@@ -217,7 +328,8 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     interval : (start, stop) seconds, optional
         Choose poses only from this time interval (plus the first and last); without ``percent``/``count``
         every pose inside is kept.
-    iterations, continuity : passed to the refit (:func:`~.fitting.fit_staggered`)
+    iterations, continuity, fit_samples : passed to the refit (:func:`~.fitting.fit_staggered`)
+    progress : callable(fraction in [0, 1]) or None, called as the refit advances
 
     Returns
     -------
@@ -227,29 +339,14 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     off-grid retiming the merged displacement maps are resampled at 4 samples per frame, which leaves
     errors of order 1e-3 rad at the frames (the retimed motion has velocity kinks at its old knots).
     """
+    iterations = _checks.integer("cull", "iterations", iterations, 0, _MAX_ITERATIONS)
+    if continuity not in ("C0", "C1"):
+        raise ValueError(f"cull: continuity must be 'C0' or 'C1', got {continuity!r}")
+    fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
+    keep = cull_keep(sm, percent, count=count, interval=interval)
+    _checks.frame_time("cull", sm.frame_time)
     K = sm.num_poses
     t = sm.pose_times
-    eligible = np.ones(K, dtype=bool)
-    if interval is not None:
-        a, b = (float(x) for x in interval)
-        if not b >= a:
-            raise ValueError(f"cull: interval must be (start, stop) with stop >= start, got {interval!r}")
-        eligible = (t >= a) & (t <= b)
-    if count is not None:
-        if int(count) < 2:
-            raise ValueError(f"cull: count must be >= 2 (first and last pose stay), got {count}")
-        n = int(count)
-    elif percent is not None or interval is None:
-        pc = 50.0 if percent is None else float(percent)
-        if not 0 < pc <= 100:
-            raise ValueError(f"cull: percent must be in (0, 100], got {percent}")
-        n = max(int(np.ceil(pc / 100.0 * K - 1e-9)), 2)
-    else:
-        n = K
-    prio = pose_priorities(t, sm.pose_probability)
-    interior = np.flatnonzero(eligible[1:-1]) + 1
-    order = interior[np.argsort(-prio[interior], kind="stable")]
-    keep = np.sort(np.concatenate([[0, K - 1], order[: max(n - 2, 0)]]))
     if keep.size == K:
         return sm
     # knots of the kept poses, made strictly increasing if edits pushed knots past each other (evaluate
@@ -266,7 +363,8 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     return fit_staggered(sm, tk, ref, rref,
                          pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
                          iterations=iterations, continuity=continuity, oversample=1 if on_grid else 4,
-                         metadata={k: v for k, v in sm.metadata.items() if k != "fit"})
+                         fit_samples=fit_samples, metadata={k: v for k, v in sm.metadata.items() if k != "fit"},
+                         progress=progress)
 
 
 def _strictly_increasing(knots: np.ndarray, frame_time: float) -> np.ndarray:

@@ -21,11 +21,12 @@ import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
                               quat_bezier, slerp)
+from . import _kernels
 from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
                              rotation_spline, translation_source_times)
 
-__all__ = ["fit_staggered", "velocity_jumps", "displacement_rotvecs", "match_tangents",
+__all__ = ["fit_staggered", "fit_subset", "velocity_jumps", "displacement_rotvecs", "match_tangents",
            "match_translation_tangents", "fit_rotation_tangents_c1", "velocities_from_tangents",
            "fit_rotation_tangents", "fit_translation_tangents", "fit_rotation_tangents_nelder_mead",
            "sample_segments", "rotation_residuals"]
@@ -66,6 +67,20 @@ def sample_segments(knots: np.ndarray, frame_time: float, start_time: float = 0.
     tn = m / (counts[pair] - 1.0)
     t = a[pair] + tn * (b - a)[pair]
     return pair, m, counts, tn, (t - start_time) / frame_time
+
+
+def fit_subset(m: np.ndarray, counts: np.ndarray, pair: np.ndarray, max_samples: int | None) -> np.ndarray:
+    """Boolean (N,) mask of the samples the splines are fitted to: every sample of a pair with at most
+    ``max_samples`` samples, else ``max_samples`` evenly spaced ones, ``m = round(j (n - 1) / (S - 1))``,
+    ``j = 0 .. S - 1`` (first and last included). ``None`` selects all."""
+    n = counts[pair]
+    if max_samples is None:
+        return np.ones(pair.size, dtype=bool)
+    S = int(max_samples)
+    step = (n - 1.0) / (S - 1.0)
+    big = n > S
+    j = np.rint(m / np.where(big, step, 1.0))        # step > 1: each m is near at most one grid point j
+    return ~big | (np.rint(j * step) == m)
 
 
 def _read(arr: np.ndarray, frames: np.ndarray, cols: np.ndarray | None, quat: bool) -> np.ndarray:
@@ -149,10 +164,11 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     """
     P = num_pairs
     T4 = np.ascontiguousarray(targets.T)
-    V0, V3 = np.ascontiguousarray(v0[pair].T), np.ascontiguousarray(v3[pair].T)
+    V0, V3 = np.ascontiguousarray(v0.T), np.ascontiguousarray(v3.T)
+    tn = np.ascontiguousarray(tn, dtype=float)
 
     def residual(a1, a2):                      # (3, N) rotation vectors target -> spline
-        return K.rotvec_between(T4, K.bezier(V0, a1[:, pair], a2[:, pair], V3, tn))
+        return K.spline_residual_into(T4, V0, a1, a2, V3, pair, tn, np.empty((3, tn.size)))
 
     def pair_cost(r):
         return np.bincount(pair, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], P)
@@ -354,14 +370,15 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     P = (Kn - 1) * C
     d = np.diff(knots, axis=0)
     T4 = np.ascontiguousarray(targets.T)
-    V0 = np.ascontiguousarray(values[:-1].reshape(P, 4)[pair].T)
-    V3 = np.ascontiguousarray(values[1:].reshape(P, 4)[pair].T)
+    V0 = np.ascontiguousarray(values[:-1].reshape(P, 4).T)
+    V3 = np.ascontiguousarray(values[1:].reshape(P, 4).T)
+    tn = np.ascontiguousarray(tn, dtype=float)
     seg = pair // C
     col = pair % C
 
     def residual(om):
         a, b = _tangents_from_velocities(values, om, d)
-        return K.rotvec_between(T4, K.bezier(V0, a[:, pair], b[:, pair], V3, tn))
+        return K.spline_residual_into(T4, V0, a, b, V3, pair, tn, np.empty((3, tn.size)))
 
     def joint_cost(r):
         return np.bincount(col, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], C)
@@ -489,10 +506,17 @@ def displacement_rotvecs(s, targets, pair):
     return 2.0 * quat_log(e)
 
 
+def _segment_major(seg, joint, m) -> bool:
+    """True when samples are in (segment, joint, sample) order (as :func:`sample_segments` lays them out):
+    then a stable sort by joint alone gives the (joint, segment, sample) order."""
+    dk, dj, dm = np.diff(seg), np.diff(joint), np.diff(m)
+    return bool(np.all((dk > 0) | ((dk == 0) & ((dj > 0) | ((dj == 0) & (dm > 0))))))
+
+
 def _continuous_per_joint(q, joint, seg, m):
     """Flip signs of samples ``q (N, 4)`` so each joint's samples, taken in time order (segment, then
     sample index), have non-negative consecutive dot products."""
-    order = np.lexsort((m, seg, joint))
+    order = np.argsort(joint, kind="stable") if _segment_major(seg, joint, m) else np.lexsort((m, seg, joint))
     seq = q[order]
     js = joint[order]
     d = np.sum(seq[1:] * seq[:-1], axis=1)
@@ -506,8 +530,8 @@ def _continuous_per_joint(q, joint, seg, m):
 
 def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
                   pose_probability=None, contacts=(), start_time: float = 0.0, iterations: int = 2,
-                  continuity: str = "C1", oversample: int = 1,
-                  metadata: dict | None = None) -> StaggeredMotion:
+                  continuity: str = "C1", oversample: int = 1, fit_samples: int | None = 12,
+                  metadata: dict | None = None, progress=None) -> StaggeredMotion:
     """Fit splines and displacement maps for given staggered poses (§4.1.1).
 
     Parameters
@@ -528,6 +552,14 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         jumps at joins). Values are continuous either way, and the displacement map absorbs the residual,
         so the reconstruction is exact in both cases.
     oversample : int >= 1, displacement samples per source frame (1: grid points on source frames)
+    fit_samples : int >= 4 or None
+        Samples per (segment, joint) pair the splines are fitted to (evenly spaced, ends included; see
+        :func:`fit_subset`); None fits all. The displacement maps are measured at every sample either way,
+        so the reconstruction stays exact; the spline is a least-squares fit to 12 points of a smooth
+        segment instead of to all (the residual it leaves is in ``metadata["fit"]``). Pairs with at most
+        ``fit_samples`` samples are fitted exactly as with None. Keeps the fit's cost at
+        O(K J fit_samples) whatever the frame rate and segment lengths (long takes, culls).
+    progress : callable(fraction in [0, 1]) or None, called as the fit advances
 
     Returns
     -------
@@ -589,14 +621,27 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         raise ValueError(f"fit_staggered: oversample must be an integer >= 1, got {oversample!r}")
     if continuity not in ("C0", "C1"):
         raise ValueError(f"fit_staggered: continuity must be 'C0' or 'C1', got {continuity!r}")
+    if fit_samples is not None and not (isinstance(fit_samples, (int, np.integer)) and fit_samples >= 4):
+        raise ValueError(f"fit_staggered: fit_samples must be an integer >= 4 or None, got {fit_samples!r}")
+    report = progress if progress is not None else (lambda f: None)
+    report(0.1)
+    sub = fit_subset(m, counts, pair, fit_samples)
+    tn_f, targets_f, pair_f = (tn, targets, pair) if sub.all() else (tn[sub], targets[sub], pair[sub])
     if continuity == "C1":
-        start, _ = fit_rotation_tangents(tn, targets, pair, v0, v3, P, 0)
+        start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
+        report(0.3)
         omega = velocities_from_tangents(values, start.reshape(K - 1, J, 2, 4), knots)
-        omega, tangents, cost = fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations)
+        omega, tangents, cost = fit_rotation_tangents_c1(tn_f, targets_f, pair_f, values, knots, omega, iterations)
     else:
-        tangents, cost = fit_rotation_tangents(tn, targets, pair, v0, v3, P, iterations)
-    s = rotation_spline(v0[pair], tangents[pair, 0], tangents[pair, 1], v3[pair], tn)
+        tangents, cost = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, iterations)
+    report(0.7)
+    del tn_f, targets_f, pair_f
+    s = _kernels.spline_into(np.ascontiguousarray(v0.T), np.ascontiguousarray(tangents[:, 0].T),
+                      np.ascontiguousarray(tangents[:, 1].T), np.ascontiguousarray(v3.T), pair,
+                      np.ascontiguousarray(tn), np.empty((4, tn.size))).T
     disp = displacement_rotvecs(s, targets, pair)
+    del s
+    report(0.9)
     M = int(counts.max())
     table = np.zeros((P, M, 3))
     table[pair, m] = disp
@@ -634,7 +679,7 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         "iterations": iterations,
         "continuity": continuity,
     }
-    return StaggeredMotion(
+    out = StaggeredMotion(
         skeleton=source.skeleton, frame_time=ft, pose_times=pose_times, refinements=refinements,
         values=values, tangents=tangents.reshape(K - 1, J, 2, 4),
         displacements=table.reshape(K - 1, J, M, 3), displacement_counts=counts.reshape(K - 1, J),
@@ -642,3 +687,5 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         root_displacements=rtable, root_displacement_counts=rcounts,
         editing_knots=editing, pose_probability=np.ones(K) if pose_probability is None else pose_probability,
         contacts=tuple(contacts), local_translations=lt, translation_times=tt, metadata=meta)
+    report(1.0)
+    return out

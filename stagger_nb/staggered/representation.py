@@ -308,13 +308,6 @@ def translation_source_times(sm: StaggeredMotion, times) -> np.ndarray:
     return a + tn[:, 0] * (b - a)
 
 
-def _gather_rows(table, idx, out):
-    """``out[r] = table[r, idx]`` row by row (1-D gathers are much faster than ``take(axis=1)``)."""
-    for r in range(table.shape[0]):
-        np.take(table[r], idx, out=out[r])
-    return out
-
-
 def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds.
 
@@ -341,29 +334,42 @@ def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.nda
     for j in range(3):
         K.arc_into(ctrl[4 * j:4 * j + 4], ctrl[4 * j + 4:4 * j + 8], arcp[3 * j:3 * j + 3],
                    W.get("ev_ptmp", P), W.get("ev_ptmp2", P))
-    c = _gather_rows(ctrl, idx, W.get("ev_c", (16, n)))
-    arc = _gather_rows(arcp, idx, W.get("ev_arc", (9, n)))
+    M = sm.displacements.shape[2]
+    table = W.get("ev_table", (3, P * M))
+    table[...] = sm.displacements.reshape(P * M, 3).T
+    counts = sm.displacement_counts.reshape(-1)
+    out = W.get("ev_q", (4, n))
+    block = 4 * K.CHUNK                          # blocks bound the scratch; larger ones make fewer numpy calls
+    for s0 in range(0, n, block):
+        s1 = min(n, s0 + block)
+        _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
+    return out
+
+
+def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
+    """One block of :func:`_rotations_at` into ``out (4, n)``."""
+    W = K.WORK
+    n = t.size
+    c = K.take_cols_into(ctrl, idx, W.get("ev_c", (16, n)))
+    arc = K.take_cols_into(arcp, idx, W.get("ev_arc", (9, n)))
     s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
     # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
-    M = sm.displacements.shape[2]
-    cnt = sm.displacement_counts.reshape(-1)[idx]
+    cnt = counts[idx]
     u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
     m0 = np.minimum(u.astype(np.int64), cnt - 2)
     a = u
     a -= m0                                                         # fractional position
     row = m0
     row += idx * M
-    table = W.get("ev_table", (3, P * M))
-    table[...] = sm.displacements.reshape(P * M, 3).T
-    d0 = _gather_rows(table, row, W.get("ev_d0", (3, n)))
+    d0 = K.take_cols_into(table, row, W.get("ev_d0", (3, n)))
     row += 1
-    d1 = _gather_rows(table, row, W.get("ev_d1", (3, n)))
+    d1 = K.take_cols_into(table, row, W.get("ev_d1", (3, n)))
     d1 -= d0
     d1 *= a
     d0 += d1
     d0 *= 0.5                                                       # half rotation vectors for exp
     e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
-    return K.qmul_into(s, e, W.get("ev_q", (4, n)), W.get("ev_tmp", n))
+    return K.qmul_into(s, e, out, W.get("ev_tmp", n))
 
 
 def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
@@ -428,6 +434,16 @@ def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
     return out
 
 
+_MAX_SAMPLES = 20_000_000    # (time, joint) samples evaluate() accepts (~155 B each while evaluating: ~3 GB)
+
+
+def _check_size(n: int, sm: StaggeredMotion):
+    if n * sm.num_joints > _MAX_SAMPLES:
+        raise ValueError(f"evaluate: {n} times x {sm.num_joints} joints exceed {_MAX_SAMPLES} samples (~3 GB "
+                         f"while evaluating; frame_time {sm.frame_time!r} s): evaluate slices of the time range "
+                         f"(times=...) one at a time")
+
+
 def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     """Evaluate a staggered-pose motion: ``v_i(t) = s_i(t') ⊕ d_i(t')`` for every joint (§3).
 
@@ -447,10 +463,12 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     if not isinstance(sm, StaggeredMotion):
         raise ValueError(f"evaluate: sm must be a StaggeredMotion, got {type(sm).__name__}")
     if times is None:
+        _check_size(int(np.floor(sm.duration / sm.frame_time + 1e-6)) + 1, sm)
         times = default_times(sm)
         ft = sm.frame_time
     else:
         times = np.asarray(times, dtype=float).reshape(-1)
+        _check_size(times.size, sm)
         if times.size == 0 or not np.all(np.isfinite(times)):
             raise ValueError("evaluate: times must be a non-empty array of finite seconds")
         dt = np.diff(times)

@@ -1,10 +1,11 @@
 """Interactive editors for Jupyter: evented controls over a :class:`stagger_nb.session.Session`, a pythreejs
 skeleton view and plotly plots updated in place. No math here: numbers come from the technique packages
 and the session."""
+from .export import export_html
 from .skeleton_view import SkeletonView
 from .plots import FalloffPlot, JointCurvesPlot, PlotView, ProbabilityPlot, WarpPlot
 
-__all__ = ["SkeletonView", "PlotView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
+__all__ = ["SkeletonView", "export_html", "PlotView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
            "StaggerEditor", "WandEditor", "WarpEditor"]
 
 

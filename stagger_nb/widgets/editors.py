@@ -1,30 +1,33 @@
-"""One editor per technique: controls + a :class:`SkeletonView` + plots over a :class:`~stagger_nb.session.Session`.
+"""One editor per technique: controls linked to an evented model, a 3D view and plots that observe it.
 
-The controls only write op dicts into the session (``session.set_ops``); the session replays them, re-running
-only the tail that changed (its prefix memo and cached heads: extraction, pose graph/eigenbases, warp tables).
-A session change (a control, undo/redo, or code calling ``editor.session.set_ops``) redraws the views in
-place. Errors from the technique modules are shown in the editor's ``message`` HTML, never as a traceback.
+State lives in one place, the editor's model (:mod:`stagger_nb.session.models`): controls are attached with
+``link``, the :class:`~stagger_nb.session.models.ModelBinding` writes the model into the session's op list (keeping
+every op the editor does not own, in place) and sets the model back from it on undo/redo/load. Views observe the
+model (``model.frame`` is the one playhead: the 3D view, every plot and the selected pose / edited frame follow it)
+and the session (a new op list redraws them in place). No math and no threads here: heavy heads are warmed by
+``Session.warm`` when the session offers it.
 """
 from __future__ import annotations
 
 import html
-import logging
-import threading
-from typing import Any, Callable
+import re
 
 import ipywidgets as widgets
 import numpy as np
+import traitlets
 
+from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees
-from .plots import FalloffPlot, JointCurvesPlot, ProbabilityPlot, WarpPlot
+from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
+from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
+from .plots import PlotView
 from .skeleton_view import SkeletonView
 
 __all__ = ["StaggerEditor", "WandEditor", "WarpEditor"]
 
-_log = logging.getLogger(__name__)
-
-_SLIDER = dict(continuous_update=True, style={"description_width": "110px"}, layout=widgets.Layout(width="340px"))
+_STYLE = {"description_width": "120px"}
+_WIDE = widgets.Layout(width="340px")
 
 
 def _session_for(motion, session: Session | None, source_path=None) -> Session:
@@ -37,14 +40,99 @@ def _session_for(motion, session: Session | None, source_path=None) -> Session:
     return Session(motion, source_path=source_path)
 
 
-class _Editor(widgets.VBox):
-    """Common plumbing: message line, progress bar, undo/redo, session <-> controls sync."""
+def _default_joint(names, *preferred) -> str:
+    for p in preferred:
+        for n in names:
+            if n.lower() == p.lower():
+                return n
+    return names[min(len(names) - 1, 1)]
 
-    def _setup(self, session: Session, view: SkeletonView, plots: list, controls: list, op_controls: list,
-               view_controls: list = ()):
+
+def _slider(cls, description, **kw):
+    return cls(description=description, continuous_update=True, style=_STYLE, layout=widgets.Layout(width="340px"),
+               **kw)
+
+
+def _grow_range(model, name, control, log=False):
+    """Let ``control``'s range grow to show whatever value the model holds (a session's skip = 100 is shown as
+    100, never clamped and written back). Registered before the link, so it runs first."""
+    def grow(change=None):
+        v = getattr(model, name)
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            return
+        x = float(np.log10(v)) if log else v
+        if x > control.max:
+            control.max = x
+        if x < control.min:
+            control.min = x
+    grow()
+    model.observe(grow, names=name)
+
+
+def _link(model, name, control, log=False):
+    if hasattr(control, "max") and hasattr(control, "min") and not isinstance(control, widgets.IntRangeSlider):
+        _grow_range(model, name, control, log=log)
+    return widgets.link((model, name), (control, "value"))
+
+
+def _session_knows(op: dict) -> bool:
+    """Whether this version of the session package accepts ``op`` (a tool whose op it lacks is disabled)."""
+    from .. import session as _s
+    check = getattr(_s, "validate_op", None)
+    if check is None:
+        return True
+    try:
+        check(op)
+        return True
+    except ValueError:
+        return False
+
+
+def _on_kernel_thread(fn, *args) -> None:
+    """Run ``fn(*args)`` on the kernel's own thread (the IOLoop, where widget messages and user edits run) when
+    called from the session's warm-up worker; directly outside a kernel (scripts, tests)."""
+    try:
+        from IPython import get_ipython
+        loop = getattr(getattr(get_ipython(), "kernel", None), "io_loop", None)
+    except ImportError:
+        loop = None
+    if loop is None:
+        fn(*args)
+    else:
+        loop.add_callback(fn, *args)
+
+
+def _inert(control, inert: bool, why: str, tip: str = "") -> None:
+    """Disable ``control`` with a tooltip saying why (or enable it with its normal tooltip)."""
+    control.disabled = bool(inert)
+    control.tooltip = why if inert else tip
+
+
+class _Editor(widgets.VBox):
+    """Common plumbing: message line, progress bar, undo/redo, model <-> session binding, the shared playhead."""
+
+    _css = ""
+    _ALIASES: dict = {}   # former attribute names of controls (deprecated): name -> key in self.controls
+
+    def __getattr__(self, name):
+        """Deprecated aliases: ``editor.s`` etc. are the controls ``editor.controls["s"]`` (set the model instead:
+        ``editor.model.s = 0.03``)."""
+        controls = self.__dict__.get("controls")
+        if controls is not None and not name.startswith("_"):
+            key = self._ALIASES.get(name, name)
+            if isinstance(key, tuple):
+                return [controls[k] for k in key]
+            if key in controls:
+                return controls[key]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls: list,
+               references: dict | None = None):
+        self.model = model
         self.session = session
         self.view = view
         self.plots = plots
+        self.error = ""
         self.message = widgets.HTML("", layout=widgets.Layout(min_height="20px"))
         self.progress = widgets.IntProgress(value=0, min=0, max=1, description="computing",
                                             layout=widgets.Layout(visibility="hidden", width="300px"))
@@ -52,88 +140,66 @@ class _Editor(widgets.VBox):
         self.redo_button = widgets.Button(description="redo", icon="repeat", layout=widgets.Layout(width="90px"))
         self.undo_button.on_click(lambda _: self.session.undo())
         self.redo_button.on_click(lambda _: self.session.redo())
-        self._syncing = False
-        self.warm_thread = self.warm_error = None
-        self._lock = threading.RLock()
-        for w in op_controls:
-            w.observe(self._on_control, names="value")
-        for w in view_controls:
-            w.observe(self._on_view_control, names="value")
+        self.binding = ModelBinding(model, session, references=references)
+        # the shared playhead: model.frame <-> the 3D view (its Play and slider follow the view)
+        self.frame_slider = getattr(view, "frame_slider", None) or view.slider
+        self.player = getattr(view, "player", None) or view.play
+        self.frame_slider.add_class("sn-frame")
+        self._links = [widgets.link((model, "frame"), (view, "frame"))]
         for p in plots:
-            p.on_frame_click(self._goto)
-        if not session.ops:   # initial control values (e.g. a rotation given to the constructor) become ops
-            initial = self._ops_from_controls()
-            if initial:
-                session.set_ops(initial)
+            self._links.append(widgets.link((model, "frame"), (p, "frame")))   # a click on a plot seeks
+            if hasattr(view, "link_frame"):
+                view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
+        if model.has_trait("joint") and view.has_trait("selected_joint"):
+            view.observe(self._on_picked, names="selected_joint")
+        model.observe(self._show_message, names="message")
         session.observe(self._on_session)
-        session.observe_busy(self._on_busy)
+        if hasattr(session, "observe_busy"):
+            session.observe_busy(self._on_busy)
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
         # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
         body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
                                                                            max_width="100%"))],
                             layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
         self.children = [top, widgets.VBox(controls), self.message, body]
-        self._controls_from_ops(session.ops)
+        self.add_class(self._css)
         self._update_buttons()
         self._refresh()
 
-    def _start_warm(self, work: Callable[[Callable[[], bool]], Any]) -> None:
-        """Run ``work(stop)`` in a daemon thread (cache warm-up: every result is also computed on demand,
-        so a failure only means a cache miss later). ``stop()`` turns true when the editor is closed.
-        A failure is kept in ``warm_error`` and logged, never lost; ``warm_thread`` is the thread."""
-        self._closed = False
-        self.warm_error = None
+    def _on_picked(self, change) -> None:
+        """Clicking a joint in the 3D view selects it in the editor."""
+        if change["new"] and change["new"] in self.model.joint_names:
+            self.model.joint = change["new"]
 
-        def run():
-            try:
-                work(lambda: self._closed)
-            except Exception as e:  # noqa: BLE001 - reported below; the foreground computes on demand
-                self.warm_error = e
-                _log.warning("%s: cache warm-up stopped: %s: %s", type(self).__name__, type(e).__name__, e)
-
-        self.warm_thread = threading.Thread(target=run, name=f"{type(self).__name__}-warm-up", daemon=True)
-        self.warm_thread.start()
-
-    def close(self):
-        self._closed = True   # a running warm-up stops after its current item
-        super().close()
-
-    def _tag(self, editor_class: str, **controls) -> None:
-        """CSS classes for notebooks and the browser test: ``sn-<name>`` on each named control."""
-        self.add_class(editor_class)
-        for name, w in controls.items():
-            w.add_class(f"sn-{name.replace('_', '-')}")
-
-    # -- plumbing -------------------------------------------------------------------------------------
-    def _goto(self, frame: int) -> None:
-        self.view.frame = int(frame)
-
-    def _show_error(self, e: Exception) -> None:
-        self.message.value = (f'<span style="color:#c53030">&#9888; {html.escape(type(e).__name__)}: '
-                              f'{html.escape(str(e))}</span>')
-
-    def _on_control(self, change=None) -> None:
-        if self._syncing:
+    def _show_motion(self, edited: Motion, pose_frames=None, contacts=None) -> None:
+        """Send the edited motion to the 3D view once per edit (not again for a view-only change); the pose
+        frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
+        pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
+        ct = None if contacts is None else tuple(tuple(c) for c in contacts)
+        last = getattr(self, "_shown", (None, None, None))
+        pf_new = pf if pf is not None and pf != last[1] else None
+        ct_new = ct if ct is not None and ct != last[2] else None
+        if self.view.motion is edited and pf_new is None and ct_new is None:
             return
-        try:
-            ops = self._ops_from_controls()
-            with self._lock:
-                changed = self.session.set_ops(ops)
-            if not changed:
-                self._refresh()
-        except Exception as e:  # the UI boundary: report, never raise into the frontend
-            self._show_error(e)
+        self._shown = (id(edited), pf if pf is not None else last[1], ct if ct is not None else last[2])
+        if self.view.motion is edited:   # only the highlights changed
+            if pf_new is not None:
+                self.view.set_pose_frames(pf_new)
+            if ct_new is not None:
+                self.view.set_contacts(ct_new)
+            return
+        self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
 
-    def _on_view_control(self, change=None) -> None:
-        if not self._syncing:
-            self._refresh()
+    def seek(self, frame: int) -> None:
+        """Move the playhead (what a click on a plot does)."""
+        self.model.frame = max(0, int(frame))
 
+    def figures(self) -> list:
+        """The plots' current figures as plotly JSON dicts (for ``export_html``)."""
+        return [p.figure for p in self.plots]
+
+    # -- session -> views ---------------------------------------------------------------------------
     def _on_session(self, session) -> None:
-        self._syncing = True
-        try:
-            self._controls_from_ops(session.ops)
-        finally:
-            self._syncing = False
         self._update_buttons()
         self._refresh()
 
@@ -142,243 +208,391 @@ class _Editor(widgets.VBox):
         self.redo_button.disabled = not self.session.can_redo
 
     def _on_busy(self, kind: str, started: bool) -> None:
-        if threading.current_thread() is self.warm_thread:
-            return  # the background warm-up: nobody waits for it, and it must not hide a foreground bar
         labels = {"extract": "extracting poses", "graph": "pose graph", "basis": "eigenvectors",
-                  "warp": "kNN tables"}
+                  "warp": "kNN tables", "cull": "culling poses"}
         if started:
             self.progress.description = labels.get(kind, kind)
             self.progress.value = 0
             self.progress.layout.visibility = "visible"
         else:
-            self.progress.value = 1
+            self.progress.value = self.progress.max
             self.progress.layout.visibility = "hidden"
 
     def _on_progress(self, done, total, label) -> None:
-        if total > 1 and self.progress.layout.visibility == "visible":
+        if total > 1:
             self.progress.max = total
             self.progress.value = done
 
     def _refresh(self) -> None:
+        """Replay (memoised) and redraw the views; an error is shown, never raised into the front end, and
+        cleared when its cause is gone."""
         try:
-            with self._lock:
-                edited = self.session.edited(progress=self._on_progress)
-                self._update_views(edited)
-            if not self._message_is_warning():
-                self.message.value = ""
-        except Exception as e:  # the UI boundary
-            self._show_error(e)
+            edited = self.session.edited(progress=self._on_progress)
+            self._update_views(edited)
+            self.error = ""
+        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+            self.error = f"{type(e).__name__}: {e}"
+        self._show_message()
 
-    def _message_is_warning(self) -> bool:
-        return False
+    def _notes(self) -> list:
+        """Plain notes of the last replay (``Session.messages`` when the session has it)."""
+        get = getattr(self.session, "messages", None)
+        return list(get()) if callable(get) else []
 
-    # -- per editor -----------------------------------------------------------------------------------
-    def _ops_from_controls(self) -> list:
-        raise NotImplementedError
+    def _warnings_html(self) -> str:
+        return ""
 
-    def _controls_from_ops(self, ops: list) -> None:
-        raise NotImplementedError
+    def _show_message(self, change=None) -> None:
+        parts = []
+        for text, colour in ((self.error, "#c53030"), (self.model.message, "#c53030")):
+            if text:
+                parts.append(f'<div style="color:{colour}">&#9888; {html.escape(text)}</div>')
+        for text in self._notes():
+            parts.append(f'<div style="color:#b7791f">{html.escape(text)}</div>')
+        w = self._warnings_html()
+        if w:
+            parts.append(w)
+        self.message.value = "".join(parts)
 
     def _update_views(self, edited: Motion) -> None:
         raise NotImplementedError
 
-    def _set(self, widget, value) -> None:
-        """Set a control without triggering a session change."""
-        old, self._syncing = self._syncing, True
-        try:
-            widget.value = value
-        finally:
-            self._syncing = old
+    def _warm(self, *jobs, then=None):
+        """Fill the session's caches after first paint (``Session.warm``: a cancellable future on the session's
+        executor, never a thread of ours); ``then()`` runs when it is done (e.g. draw what needed it). The
+        progress bar shows meanwhile. Returns the future (also ``editor.warm_future``), None without warm."""
+        warm = getattr(self.session, "warm", None)
+        if warm is None:
+            return None
+        self.progress.layout.visibility = "visible"
+        fut = warm(*jobs, progress=self._on_progress)
+        self.warm_future = fut
+
+        def done(f):
+            if f is self.warm_future:
+                self.progress.layout.visibility = "hidden"
+            if not f.cancelled() and f.exception() is None and then is not None:
+                then()
+        fut.add_done_callback(lambda f: _on_kernel_thread(done, f))
+        return fut
+
+    def _futures(self):
+        return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
+
+    def close(self):
+        for fut in self._futures():
+            fut.cancel()
+        super().close()
 
 
-def _joint_options(motion: Motion):
-    return list(motion.skeleton.names)
-
-
-def _default_joint(motion: Motion, *preferred) -> str:
-    names = motion.skeleton.names
-    for p in preferred:
-        for n in names:
-            if n.lower() == p.lower():
-                return n
-    return names[min(len(names) - 1, 1)]
+_EFFECTOR = re.compile(r"(hand|foot|wrist|ankle)$", re.IGNORECASE)
 
 
 class StaggerEditor(_Editor):
-    """Staggered-pose editor (Coleman et al. 2008): cull %, succession (root, s, l), random timing (τ, seed,
-    joints), pose nudges and exaggeration ``w_r``; a 3D view with the original as ghost, the joint curves
-    with pose times and refinement knots, and the pose probability with candidate and kept poses.
+    """Staggered-pose editor (Coleman et al. 2008): cull by %, count or picked poses (§4.3); succession root,
+    joint subset, ``s``, ``l`` and random ``τ`` with joints and seed (§5.2); exaggeration ``w_r`` against the
+    previous / next / mean / a chosen pose (§5.3); geometric pose edits in staggered or non-staggered mode, retime,
+    insert and delete a pose (§5.1, Fig. 6); keep contacts (on by default); IK posing of a hand or foot.
 
-    Parameters
-    ----------
-    motion : Motion or Session
-    session : Session, optional
-        Edit this session (its op list is shown and edited); default a new one on ``motion``.
-    precompute : bool
-        Warm the cull cache for every slider position in a background thread (each cull is a refit).
-    show_ghost : bool
-        Start with the original shown as a grey ghost beside the edit (off: playback then streams only
-        J * 3 floats per frame; the checkbox under the view turns it on).
+    ``editor.model`` is a :class:`~stagger_nb.session.models.StaggerModel`; ``editor.session`` the Session.
     """
 
-    _CULL_STEP = 5.0
+    _css = "sn-stagger-editor"
+    _ALIASES = {"cull": "percent", "joint_set": "tau_joints", "nudge": ("rx", "ry", "rz")}
 
     def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
                  show_ghost: bool = False, **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
-        names = _joint_options(m)
-        self.cull = widgets.FloatSlider(value=100.0, min=self._CULL_STEP, max=100.0, step=self._CULL_STEP,
-                                        description="keep poses %", readout_format=".0f", **_SLIDER)
-        self.root = widgets.Dropdown(options=names, value=_default_joint(m, "LeftShoulder", "LeftArm", "lShldr"),
-                                     description="succession root", style=_SLIDER["style"])
-        self.s = widgets.FloatSlider(value=0.0, min=-0.1, max=0.1, step=0.005, description="s (s/bone)",
-                                     readout_format=".3f", **_SLIDER)
-        self.l = widgets.FloatSlider(value=1.0, min=0.25, max=4.0, step=0.05, description="exponent l", **_SLIDER)
-        self.tau = widgets.FloatSlider(value=0.0, min=0.0, max=0.15, step=0.005, description="random τ (s)",
-                                       readout_format=".3f", **_SLIDER)
-        self.seed = widgets.BoundedIntText(value=0, min=0, max=2**31 - 1, description="seed",
-                                           layout=widgets.Layout(width="160px"))
-        self.joint_set = widgets.SelectMultiple(options=names, value=(), rows=5, description="τ joints",
-                                                layout=widgets.Layout(width="260px"))
-        self.w_r = widgets.FloatSlider(value=0.0, min=-1.0, max=2.0, step=0.05, description="exaggerate w_r",
-                                       **_SLIDER)
-        self.pose = widgets.IntSlider(value=0, min=0, max=1, description="pose k", **_SLIDER)
-        self.joint = widgets.Dropdown(options=names, value=_default_joint(m, "LeftElbow", "LeftForeArm", "lForeArm"),
-                                      description="joint", style=_SLIDER["style"])
-        self.nudge = [widgets.FloatSlider(value=0.0, min=-90, max=90, step=1, description=f"nudge {c} (°)",
-                                          **_SLIDER) for c in "xyz"]
-        self._nudges: dict = {}   # {pose k: {joint: [rx, ry, rz] degrees}}
-        self._closed = False
-        self._warning = False
+        names = list(m.skeleton.names)
+        model = StaggerModel(root=_default_joint(names, "Hips", "LeftShoulder", "LeftArm", "lShldr"),
+                             joint=_default_joint(names, "LeftForeArm", "LeftElbow", "lForeArm"),
+                             frame_time=m.frame_time)
+        effectors = [n for n in names if _EFFECTOR.search(n)]
+        c = {}
+        c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"),
+                                                      ("picked", "keep")], description="cull poses",
+                                             style={**_STYLE, "button_width": "90px"},
+                                             tooltips=["keep a percentage of the poses, by priority",
+                                                       "keep a number of poses, by priority",
+                                                       "keep the poses you pick (click the probability plot)"])
+        c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=5.0, readout_format=".0f")
+        c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep count (0 = all)", style=_STYLE,
+                                            layout=widgets.Layout(width="230px"))
+        c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", style=_STYLE,
+                                           layout=widgets.Layout(width="260px"))
+        c["root"] = widgets.Dropdown(options=names, description="succession root", style=_STYLE)
+        c["joints"] = widgets.SelectMultiple(options=names, rows=4, description="delayed joints", style=_STYLE,
+                                             layout=widgets.Layout(width="280px"))
+        c["s"] = _slider(widgets.FloatSlider, "s (s/bone)", min=-0.1, max=0.1, step=0.005, readout_format=".3f")
+        c["l"] = _slider(widgets.FloatSlider, "exponent l", min=0.25, max=4.0, step=0.05)
+        c["tau"] = _slider(widgets.FloatSlider, "random τ (s)", min=0.0, max=0.15, step=0.005, readout_format=".3f")
+        c["seed"] = widgets.BoundedIntText(min=0, max=2**31 - 1, description="seed", style=_STYLE,
+                                           layout=widgets.Layout(width="200px"))
+        c["tau_joints"] = widgets.SelectMultiple(options=names, rows=4, description="τ joints", style=_STYLE,
+                                                 layout=widgets.Layout(width="280px"))
+        c["w_r"] = _slider(widgets.FloatSlider, "exaggerate w_r", min=-1.0, max=2.0, step=0.05)
+        c["w_r_reference"] = widgets.Dropdown(options=[("previous", "previous"), ("next", "next"), ("mean", "mean")],
+                                              description="against", style=_STYLE)
+        c["pose"] = _slider(widgets.IntSlider, "pose k", min=0, max=1)
+        c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
+        c["edit_mode"] = widgets.ToggleButtons(options=["staggered", "unstaggered"], description="edit mode",
+                                               style={**_STYLE, "button_width": "100px"},
+                                               tooltips=["the edit follows each joint's own timing (Fig. 6a)",
+                                                         "the edit lands at the pose time for every joint (Fig. 6b)"])
+        for a in "xyz":
+            c["r" + a] = _slider(widgets.FloatSlider, f"nudge {a} (°)", min=-90.0, max=90.0, step=1.0)
+        c["pose_time"] = widgets.BoundedFloatText(min=0.0, max=m.duration, step=m.frame_time,
+                                                  description="pose time (s)", style=_STYLE,
+                                                  layout=widgets.Layout(width="230px"))
+        c["keep_contacts"] = widgets.Checkbox(description="keep foot contacts", indent=False)
+        c["ik_joint"] = widgets.Dropdown(options=[("(none)", "")] + [(n, n) for n in effectors],
+                                         description="IK effector", style=_STYLE)
+        for a in "xyz":
+            c["ik_" + a] = _slider(widgets.FloatSlider, f"target {a}", min=-1.0, max=1.0, step=0.005,
+                                   readout_format=".3f")
+        self.controls = c
+        self.insert_button = widgets.Button(description="insert pose at playhead", layout=widgets.Layout(width="200px"))
+        self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
+        self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
+        self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.curves = JointCurvesPlot(m.frame_time)
-        self.probability = ProbabilityPlot(m.frame_time)
-        for w in self.nudge:
-            w.observe(self._on_nudge, names="value")
-        self.pose.observe(self._on_pose_or_joint, names="value")
-        self.joint.observe(self._on_pose_or_joint, names="value")
-        controls = [
-            widgets.HBox([self.cull, self.w_r]),
-            widgets.HBox([self.root, self.s, self.l]),
-            widgets.HBox([self.tau, self.seed, self.joint_set]),
-            widgets.HBox([self.pose, self.joint]),
-            widgets.HBox(self.nudge),
+        self.curves = PlotView(frame_time=m.frame_time)
+        self.probability = PlotView(frame_time=m.frame_time)
+        self._precompute = precompute
+        self._defer = precompute and callable(getattr(session, "warm", None))
+        layout = [
+            widgets.HBox([c["cull_by"], c["keep_contacts"]]),
+            widgets.HBox([c["percent"], c["count"], c["keep"]]),
+            widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
+            widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
+            widgets.HBox([c["w_r"], c["w_r_reference"]]),
+            widgets.HBox([c["pose"], c["joint"]]),
+            widgets.HBox([c["edit_mode"]]),
+            widgets.HBox([c["rx"], c["ry"], c["rz"]]),
+            widgets.HBox([c["pose_time"], self.insert_button, self.delete_button]),
+            widgets.HBox([c["ik_joint"], c["ik_x"], c["ik_y"], c["ik_z"]]),
         ]
-        self._tag("sn-stagger-editor", cull=self.cull, s=self.s, l=self.l, tau=self.tau, w_r=self.w_r)
-        self._setup(session, view, [self.curves, self.probability], controls,
-                    op_controls=[self.cull, self.root, self.s, self.l, self.tau, self.seed, self.joint_set, self.w_r])
-        if precompute:
-            self._start_warm(self._warm_cull)
+        # the model first (binding: the session's ops set it), then the controls attached to it
+        self.model = model
+        self.session = session
+        self._fk_cache = (None, None)
+        self._setup_links = lambda: [_link(model, k, w) if not isinstance(w, widgets.SelectMultiple) else
+                                     traitlets.link((model, k), (w, "value"), transform=(tuple, list))
+                                     for k, w in c.items() if k not in ("w_r_reference", "keep")]
+        self.probability.on_click(self._on_probability_click)
+        for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
+            c[k].add_class(f"sn-{k.replace('_', '-')}")
+        c["percent"].add_class("sn-cull")   # its former name (browser checks)
+        self._setup(model, session, view, [self.curves, self.probability], layout)
+        self._links += self._setup_links()
+        self._links.append(traitlets.link((model, "keep"), (c["keep"], "value"), transform=(tuple, list)))
+        self._links.append(traitlets.link((model, "w_r_reference"), (c["w_r_reference"], "value")))
+        self._missing = {name for name, op in [
+            ("keep_contacts", {"op": "keep_contacts"}),
+            ("ik", {"op": "ik_pose", "pose": 0, "joint": names[0], "target": [0.0, 0.0, 0.0]}),
+            ("retime", {"op": "retime", "pose": 0, "time": 0.0}),
+            ("insert", {"op": "insert_pose", "time": 0.0})] if not _session_knows(op)}
+        if "keep_contacts" in self._missing and not any(o["op"] == "keep_contacts" for o in session.ops):
+            model.keep_contacts = False
+        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint"])
+        model.observe(self._on_selection, names=["joint"])
+        model.observe(self._on_pose, names=["pose", "ik_joint"])
+        self._on_inert()
+        self._on_pose()
+        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position
+            self._first_future = self._warm("extract", then=self._refresh)
+            pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
+            self._warm(("cull", pcs))
 
-    # -- ops ------------------------------------------------------------------------------------------
-    def _ops_from_controls(self) -> list:
-        ops = []
-        if self.cull.value < 100.0:
-            ops.append({"op": "cull", "percent": float(self.cull.value)})
-        for k in sorted(self._nudges):
-            deltas = {j: list(v) for j, v in self._nudges[k].items() if any(v)}
-            if deltas:
-                ops.append({"op": "edit_pose", "pose": int(k), "deltas": deltas})
-        if self.w_r.value != 0.0:
-            ops.append({"op": "exaggerate", "w_r": float(self.w_r.value)})
-        if self.s.value != 0.0:
-            ops.append({"op": "succession", "root": self.root.value, "s": float(self.s.value),
-                        "l": float(self.l.value)})
-        if self.tau.value > 0.0:
-            ops.append({"op": "random_timing", "tau": float(self.tau.value), "seed": int(self.seed.value),
-                        "joints": list(self.joint_set.value) or None})
-        return ops
+    # -- actions ---------------------------------------------------------------------------------------
+    def _insert_action(self, op: dict) -> None:
+        """Add an action op (insert/delete pose) after the staggered edits of the list, before the timing ops."""
+        ops = self.session.ops
+        pos = 0
+        for i, o in enumerate(ops):
+            if o["op"] in ("extract", "cull", "edit_pose", "retime", "ik_pose", "insert_pose", "delete_pose"):
+                pos = i + 1
+        ops.insert(pos, op)
+        try:
+            self.session.set_ops(ops)
+        except ValueError as e:
+            self.error = str(e)
+            self._show_message()
 
-    def _controls_from_ops(self, ops: list) -> None:
-        by = {}
-        nudges = {}
-        for op in ops:
-            if op["op"] == "edit_pose":
-                nudges[op["pose"]] = {j: list(v) for j, v in op["deltas"].items()}
-            else:
-                by[op["op"]] = op
-        self._nudges = nudges
-        self._set(self.cull, by.get("cull", {}).get("percent", 100.0))
-        self._set(self.w_r, by.get("exaggerate", {}).get("w_r", 0.0))
-        succ = by.get("succession")
-        self._set(self.s, succ["s"] if succ else 0.0)
-        if succ:
-            self._set(self.root, succ["root"])
-            self._set(self.l, succ["l"])
-        rt = by.get("random_timing")
-        self._set(self.tau, rt["tau"] if rt else 0.0)
-        if rt:
-            self._set(self.seed, rt["seed"])
-            self._set(self.joint_set, tuple(rt["joints"] or ()))
-        self._show_nudge()
+    def insert_pose(self, time: float) -> None:
+        """Insert a staggered pose at ``time`` seconds (op ``insert_pose``)."""
+        self._insert_action({"op": "insert_pose", "time": float(time)})
 
-    def _show_nudge(self):
-        v = self._nudges.get(self.pose.value, {}).get(self.joint.value, [0.0, 0.0, 0.0])
-        for w, x in zip(self.nudge, v):
-            self._set(w, x)
+    def delete_pose(self, k: int) -> None:
+        """Delete pose ``k`` (op ``delete_pose``)."""
+        self._insert_action({"op": "delete_pose", "pose": int(k)})
 
-    def _on_pose_or_joint(self, change):
-        if self._syncing:
+    def _on_probability_click(self, x, y, frame) -> None:
+        """With cull = "picked", a click on the probability plot toggles the nearest candidate pose (§4.3)."""
+        if self.model.cull_by != "keep":
             return
-        self._show_nudge()
-        self._refresh()
+        times = np.asarray(self.session.extraction().pose_times)
+        k = int(np.argmin(np.abs(times - float(x))))
+        keep = set(self.model.keep)
+        keep.symmetric_difference_update({k})
+        self.model.keep = sorted(keep)
 
-    def _on_nudge(self, change):
-        if self._syncing:
+    # -- view state ------------------------------------------------------------------------------------
+    def _on_inert(self, change=None) -> None:
+        m, c = self.model, self.controls
+        _inert(c["l"], m.s == 0, "l shapes the succession delay: inert while s = 0")
+        _inert(c["joints"], m.s == 0, "the delayed joints apply to the succession: inert while s = 0")
+        _inert(c["root"], m.s == 0, "the root of the succession: inert while s = 0")
+        _inert(c["seed"], m.tau == 0, "the seed draws the random timing: inert while τ = 0")
+        _inert(c["tau_joints"], m.tau == 0, "joints of the random timing: inert while τ = 0")
+        _inert(c["w_r_reference"], m.w_r == 0, "the pose exaggeration is measured against: inert while w_r = 0")
+        _inert(c["percent"], m.cull_by != "percent", "choose 'by %' to cull by percentage")
+        _inert(c["count"], m.cull_by != "count", "choose 'by count' to keep a number of poses")
+        _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
+        for a in "xyz":
+            _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+        why = "this version of the session has no {} op"
+        if "keep_contacts" in self._missing:
+            _inert(c["keep_contacts"], True, why.format("keep_contacts"))
+        if "ik" in self._missing:
+            for k in ("ik_joint", "ik_x", "ik_y", "ik_z"):
+                _inert(c[k], True, why.format("ik_pose"))
+        if "retime" in self._missing:
+            _inert(c["pose_time"], True, why.format("retime"))
+        if "insert" in self._missing:
+            _inert(self.insert_button, True, why.format("insert_pose / delete_pose"))
+            _inert(self.delete_button, True, why.format("insert_pose / delete_pose"))
+
+    def _on_selection(self, change=None) -> None:
+        try:
+            self._draw_curves(self.session.edited())
+        except Exception as e:  # noqa: BLE001 - shown
+            self.error = f"{type(e).__name__}: {e}"
+            self._show_message()
+
+    def _effector_positions(self, edited: Motion):
+        if self._fk_cache[0] is not edited:
+            self._fk_cache = (edited, forward_kinematics(edited)[0])
+        return self._fk_cache[1]
+
+    def _on_pose(self, change=None) -> None:
+        """The IK target sliders start at the effector's place at the selected pose (no edit recorded)."""
+        m = self.model
+        if not m.ik_joint or not m.pose_times or m._ik_entry() is not None:
             return
-        self._nudges.setdefault(self.pose.value, {})[self.joint.value] = [float(w.value) for w in self.nudge]
-        self._on_control()
+        try:
+            edited = self.session.edited()
+        except Exception:  # noqa: BLE001 - the message line already shows it
+            return
+        pos = self._effector_positions(edited)
+        f = min(m.pose_frame(min(m.pose, len(m.pose_times) - 1)), len(pos) - 1)
+        p = pos[f, edited.skeleton.index(m.ik_joint)]
+        ext = float(np.ptp(pos[f], axis=0).max()) or 1.0
+        for a, v in zip("xyz", p):
+            w = self.controls["ik_" + a]
+            w.min, w.max = min(w.min, float(v) - ext), max(w.max, float(v) + ext)
+        m.show_ik_target(p)
 
-    def _warm_cull(self, stop):
-        """Cache the cull result of every slider position (background thread; each cull is a refit)."""
-        pcs = np.arange(100.0 - self._CULL_STEP, self._CULL_STEP - 1e-9, -self._CULL_STEP)
-        self.session.precompute_cull([float(p) for p in pcs], stop=stop)
+    def _timing_summary(self):
+        """(summary sentence, warnings) of the current staggered state (``staggered.timing_warnings``)."""
+        sm = getattr(self, "_last_staggered", None)
+        if sm is None:
+            return "", []
+        from .. import staggered
+        warnings = list(staggered.timing_warnings(sm))
+        if not warnings:
+            return "", []
+        summarize = getattr(staggered, "summarize_timing_warnings", None)
+        summary = summarize(warnings) if summarize else (f"{len(warnings)} refined times cross a neighbouring "
+                                                         f"pose: lower s, l or τ.")
+        return summary, warnings
 
-    # -- views ----------------------------------------------------------------------------------------
-    def _message_is_warning(self) -> bool:
-        return self._warning
+    def _notes(self) -> list:
+        summary, _ = self._timing_summary()
+        return [n for n in super()._notes() if n != summary]
+
+    def _warnings_html(self) -> str:
+        """The timing warnings: one sentence (cause and fix), the details on demand."""
+        summary, warnings = self._timing_summary()
+        if not summary:
+            return ""
+        details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
+        return (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
+                f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
+
+    # -- views -----------------------------------------------------------------------------------------
+    def _needs_staggered(self) -> bool:
+        from ..session.models import STAGGER_OPS
+        return any(o["op"] in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.ops)
 
     def _update_views(self, edited: Motion) -> None:
-        sm = self.session.staggered()
-        full = self.session.extraction()
         m = self.session.source
-        ft = m.frame_time
+        self._draw_curves(edited)
+        if not self._needs_staggered() and not self._extraction_ready():
+            self._last_staggered = None
+            if not self.probability.figure:
+                self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
+                                                                  title="pose probability: extracting poses…")
+            self._show_motion(edited)
+            return   # first paint: the extraction is computed after it (warm), then this draws the rest
+        sm = self.session.staggered()
+        self._last_staggered = sm
+        full = self.session.extraction()
         K = sm.num_poses
-        with self.pose.hold_trait_notifications():
-            self._set(self.pose, min(self.pose.value, K - 1))
-            self.pose.max = K - 1
-        j = m.skeleton.index(self.joint.value)
-        kept = np.asarray(sm.pose_times)
+        with self.model.loading():
+            self.model.pose_times = [float(t) for t in sm.pose_times]
+        c = self.controls
+        c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
+        opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(full.pose_times)]
+        if [o[1] for o in c["keep"].options] != [o[1] for o in opts]:
+            c["keep"].options = opts
+            c["keep"].value = tuple(k for k in self.model.keep if k < len(opts))
+        refs = [("previous", "previous"), ("next", "next"), ("mean", "mean")] + [(f"pose {k}", k) for k in range(K)]
+        if isinstance(self.model.w_r_reference, int) and self.model.w_r_reference >= K:
+            refs.append((f"pose {self.model.w_r_reference}", self.model.w_r_reference))
+        if c["w_r_reference"].options != tuple(refs):
+            c["w_r_reference"].options = refs
+            c["w_r_reference"].value = self.model.w_r_reference
+        ft = m.frame_time
         prob = full.metadata.get("probability")
         times = np.arange(m.num_frames) * ft
-        cand_t = np.asarray(full.pose_times)
-        self.probability.update(times if prob is not None else None, prob, cand_t, full.pose_probability,
-                                kept, np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
-        knots = kept + np.asarray(sm.refinements)[:, j]
-        self.curves.update(edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j),
-                           pose_times=kept, knot_times=knots,
-                           title=f"{self.joint.value}: rotation vector (°), edited vs original; pose k={self.pose.value} "
-                                 f"at {kept[self.pose.value]:.2f} s")
-        self.view.set_motion(edited)
-        self.view.set_pose_frames(np.round(kept / ft).astype(int))
-        self.view.set_contacts(list(getattr(sm, "contacts", ())))
-        self.view.highlight_joints([self.joint.value])
-        warnings = sm.metadata.get("warnings") or ()
-        self._warning = bool(warnings)
-        if warnings:
-            w0 = warnings[0]
-            text = getattr(w0, "message", str(w0))
-            self.message.value = (f'<span style="color:#b7791f">&#9888; {len(warnings)} timing warning(s): '
-                                  f'{html.escape(text)}</span>')
+        kept = np.asarray(sm.pose_times)
+        self.probability.figure = pose_probability_figure(
+            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
+            np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
+        self._draw_curves(edited, sm)
+        self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
+                          contacts=list(getattr(sm, "contacts", ()) or ()))
+
+    def _extraction_ready(self) -> bool:
+        """Whether the staggered plots can be drawn now without waiting for the extraction: always without a
+        warm-up; with one, once its extraction is done (first paint shows the motion and curves before)."""
+        if not self._defer:
+            return True
+        fut = getattr(self, "_first_future", None)
+        return fut is not None and fut.done()
+
+    def _draw_curves(self, edited: Motion, sm=None) -> None:
+        m = self.session.source
+        name = self.model.joint
+        j = m.skeleton.index(name)
+        sm = sm if sm is not None else getattr(self, "_last_staggered", None)
+        kept = None if sm is None else np.asarray(sm.pose_times)
+        knots = None if sm is None else kept + np.asarray(sm.refinements)[:, j]
+        self.curves.figure = joint_curves_figure(
+            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
+            title=f"{name}: rotation vector (°), edited vs original")
+        self.view.highlight_joints([name])
 
 
 class WandEditor(_Editor):
-    """Magic-wand editor (Dean et al. 2018): rotate a joint at the edited frame and propagate the edit with
-    the Green's-function falloff; σ slider (cached pose graph, one eigenbasis per σ), edit range, propagate
-    on/off, comparison curves (ISOMAP, diffusion, spline).
+    """Magic-wand editor (Dean et al. 2018): rotate joints at one or more edited frames and propagate the edit
+    with the Green's-function falloff of width σ (§3.3); keep or discard repetitions; compare the falloff with
+    ISOMAP, diffusion and spline falloffs (Fig. 3, 6).
 
     Parameters
     ----------
@@ -388,9 +602,11 @@ class WandEditor(_Editor):
     joint : str, optional
         Joint whose rotation the sliders edit.
     rotation : (3,) degrees, optional
-        Initial rotation-vector edit of ``joint``.
+        Initial rotation-vector edit of ``joint`` (written as an op when the session has no wand op).
     """
 
+    _css = "sn-wand-editor"
+    _ALIASES = {"rotation": ("rx", "ry", "rz")}
     _SIGMA_STEP = 0.04   # log10 units between slider positions
     _SIGMA_STEPS = 15    # positions each side of the default sigma (x 0.25 .. x 4)
 
@@ -401,236 +617,248 @@ class WandEditor(_Editor):
         session = _session_for(motion, session, source_path)
         m = session.source
         F = m.num_frames
-        names = _joint_options(m)
-        graph = session.wand_graph()
-        s0 = float(graph.default_sigma)
-        # the slider's positions: sigma snaps to this grid, whose bases are precomputed in the background
+        names = list(m.skeleton.names)
+        s0 = float(session.wand_graph().default_sigma)
         self._sigma_grid = s0 * 10.0 ** (self._SIGMA_STEP * np.arange(-self._SIGMA_STEPS, self._SIGMA_STEPS + 1))
-        self.sigma = widgets.FloatLogSlider(value=s0, base=10, min=np.log10(self._sigma_grid[0]),
+        f0 = F // 2 if frame is None else int(frame)
+        joint = joint or _default_joint(names, "LeftUpLeg", "LeftHip", "LeftFemur", "lThigh")
+        model = WandModel(sigma=s0, joint=joint, frame=f0)
+        with model.loading():
+            model.edit_frame = f0
+        c = {}
+        c["sigma"] = widgets.FloatLogSlider(base=10, min=np.log10(self._sigma_grid[0]),
                                             max=np.log10(self._sigma_grid[-1]), step=self._SIGMA_STEP,
-                                            description="σ", readout_format=".3g", **_SLIDER)
-        self.frame = widgets.IntSlider(value=F // 2 if frame is None else int(frame), min=0, max=F - 1,
-                                       description="edited frame", **_SLIDER)
+                                            description="σ", readout_format=".3g", continuous_update=True,
+                                            style=_STYLE, layout=_WIDE)
+        c["edit_frame"] = _slider(widgets.IntSlider, "edited frame", min=0, max=F - 1)
+        c["propagate"] = widgets.Checkbox(description="propagate (off: edit the frames only)", indent=False)
+        c["repetitions"] = widgets.ToggleButtons(options=["keep", "discard"], description="repetitions",
+                                                 style=_STYLE, tooltips=["propagate to repeats of the edited pose",
+                                                                         "edit only the neighbourhood (§3.3)"])
+        c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
+        for a in "xyz":
+            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-90.0, max=90.0, step=1.0)
+        c["compare"] = widgets.SelectMultiple(options=["isomap", "diffusion", "spline"], rows=3,
+                                              description="compare with", style=_STYLE)
+        self.controls = c
         self.limit_range = widgets.Checkbox(value=False, description="limit edit range", indent=False)
-        self.range = widgets.IntRangeSlider(value=(0, F), min=0, max=F, description="range [start, stop)",
-                                            **_SLIDER)
-        self.joint = widgets.Dropdown(options=names, value=joint or _default_joint(m, "LeftUpLeg", "LeftHip",
-                                                                                    "LeftFemur", "lThigh"),
-                                      description="joint", style=_SLIDER["style"])
-        self.rotation = [widgets.FloatSlider(value=float(r), min=-90, max=90, step=1, description=f"rotate {c} (°)",
-                                             **_SLIDER) for c, r in zip("xyz", rotation)]
-        self.propagate = widgets.Checkbox(value=True, description="propagate (off: edit one frame)", indent=False)
-        self.compare = {name: widgets.Checkbox(value=False, description=name, indent=False,
-                                               layout=widgets.Layout(width="110px"))
-                        for name in ("isomap", "diffusion", "spline")}
-        self.show_sweep = widgets.Checkbox(value=False, description="σ sweep (Fig. 5)", indent=False)
-        self._deltas = {}
-        if any(rotation):
-            self._deltas[self.joint.value] = [float(r) for r in rotation]
+        self.range = _slider(widgets.IntRangeSlider, "range [start, stop)", min=0, max=F, value=(0, F))
+        self.edited_frames = widgets.Dropdown(options=[], description="edited frames", style=_STYLE)
+        self.add_button = widgets.Button(description="add edit at playhead", layout=widgets.Layout(width="180px"))
+        self.remove_button = widgets.Button(description="remove this edit", layout=widgets.Layout(width="150px"))
+        self.add_button.on_click(lambda _: self.model.add_edit(self.model.frame))
+        self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.falloff_plot = FalloffPlot(m.frame_time, sweep=5)
-        self.curves = JointCurvesPlot(m.frame_time)
-        for w in self.rotation:
-            w.observe(self._on_rotation, names="value")
-        self.joint.observe(self._on_joint, names="value")
-        controls = [widgets.HBox([self.sigma, self.frame, self.propagate]),
-                    widgets.HBox([self.limit_range, self.range]),
-                    widgets.HBox([self.joint] + self.rotation),
-                    widgets.HBox([widgets.Label("compare:")] + list(self.compare.values()) + [self.show_sweep])]
-        self._tag("sn-wand-editor", sigma=self.sigma, frame=self.frame)
-        self._setup(session, view, [self.falloff_plot, self.curves], controls,
-                    op_controls=[self.sigma, self.frame, self.limit_range, self.range, self.propagate],
-                    view_controls=list(self.compare.values()) + [self.show_sweep])
-        self.view.frame = max(0, min(F - 1, self.frame.value + F // 6))
+        self.falloff_plot = PlotView(frame_time=m.frame_time)
+        self.curves = PlotView(frame_time=m.frame_time)
+        layout = [widgets.HBox([c["sigma"], c["propagate"], c["repetitions"]]),
+                  widgets.HBox([c["edit_frame"], self.edited_frames, self.add_button, self.remove_button]),
+                  widgets.HBox([self.limit_range, self.range]),
+                  widgets.HBox([c["joint"], c["rx"], c["ry"], c["rz"]]),
+                  widgets.HBox([c["compare"]])]
+        c["sigma"].add_class("sn-sigma")
+        c["edit_frame"].add_class("sn-edit-frame")
+        self._setup(model, session, view, [self.falloff_plot, self.curves], layout)
+        if not model.edits and any(rotation):   # an initial rotation becomes the first edit
+            model.rx, model.ry, model.rz = (float(r) for r in rotation)
+        _grow_range(model, "sigma", c["sigma"], log=True)   # slider positions snap to the warmed sigma grid
+        self._links.append(traitlets.link((model, "sigma"), (c["sigma"], "value"),
+                                          transform=(float, self._snapped_sigma)))
+        for k in ("edit_frame", "propagate", "repetitions", "joint", "rx", "ry", "rz"):
+            self._links.append(_link(model, k, c[k]))
+        self._links.append(traitlets.link((model, "compare"), (c["compare"], "value"), transform=(tuple, list)))
+        self._links.append(traitlets.link((model, "frame_range"), (self.range, "value"),
+                                          transform=(lambda v: tuple(v) if v else (0, F), list)))
+        self.limit_range.value = bool(model.frame_range)
+        self.limit_range.observe(self._on_limit, names="value")
+        self._range_link_paused = False
+        model.observe(self._on_edits, names=["edits", "edit_frame"])
+        model.observe(self._on_inert, names=["propagate", "frame_range"])
+        model.observe(self._on_view_state, names=["compare", "joint"])
+        self.edited_frames.observe(self._on_pick_edit, names="value")
+        self._on_edits()
+        self._on_inert()
         if precompute:
-            self._start_warm(self._warm_bases)
+            order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(model.sigma)), kind="stable")
+            self._warm(("wand_basis", [float(self._sigma_grid[i]) for i in order]))
 
     def _snapped_sigma(self, value: float) -> float:
         return float(self._sigma_grid[np.argmin(np.abs(np.log(self._sigma_grid) - np.log(value)))])
 
-    def _warm_bases(self, stop):
-        """Cache the eigenbasis of every slider position, nearest to the current sigma first."""
-        order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(self.sigma.value)), kind="stable")
-        self.session.precompute_wand_bases([float(self._sigma_grid[i]) for i in order], stop=stop)
+    def _on_limit(self, change) -> None:
+        self.model.frame_range = list(self.range.value) if change["new"] else []
 
-    def _frame_range(self):
-        return list(self.range.value) if self.limit_range.value else None
+    def _on_pick_edit(self, change) -> None:
+        if change["new"] is not None:
+            self.model.edit_frame = int(change["new"])
 
-    def _ops_from_controls(self) -> list:
-        deltas = {j: list(v) for j, v in self._deltas.items() if any(v)}
-        if self.propagate.value:
-            return [{"op": "propagate", "frame": int(self.frame.value), "deltas": deltas,
-                     "sigma": self._snapped_sigma(self.sigma.value), "frame_range": self._frame_range()}]
-        return [{"op": "edit_frame", "frame": int(self.frame.value), "deltas": deltas}] if deltas else []
+    def _on_edits(self, change=None) -> None:
+        opts = [(f"frame {f}", f) for f in self.model.edited_frames]
+        if self.edited_frames.options != tuple(opts):
+            self.edited_frames.options = opts
+        self.edited_frames.value = self.model.edit_frame if self.model.edit_frame in self.model.edits else None
 
-    def _controls_from_ops(self, ops: list) -> None:
-        if not ops:
-            self._deltas = {}
-        else:
-            op = ops[-1]
-            self._deltas = {j: list(v) for j, v in op.get("deltas", {}).items()}
-            self._set(self.frame, op["frame"])
-            self._set(self.propagate, op["op"] == "propagate")
-            if op["op"] == "propagate":
-                if op.get("sigma") is not None:
-                    self._set(self.sigma, op["sigma"])
-                fr = op.get("frame_range")
-                self._set(self.limit_range, fr is not None)
-                if fr is not None:
-                    self._set(self.range, tuple(fr))
-        v = self._deltas.get(self.joint.value, [0.0, 0.0, 0.0])
-        for w, x in zip(self.rotation, v):
-            self._set(w, x)
+    def _on_inert(self, change=None) -> None:
+        c, m = self.controls, self.model
+        _inert(c["sigma"], not m.propagate, "σ sets the propagation's falloff: inert while propagate is off")
+        _inert(c["repetitions"], not m.propagate, "repetitions apply to the propagation: inert while it is off")
+        _inert(self.range, not m.frame_range, "tick 'limit edit range' to restrict the propagation")
+        self.limit_range.value = bool(m.frame_range)
 
-    def _on_rotation(self, change):
-        if self._syncing:
-            return
-        self._deltas[self.joint.value] = [float(w.value) for w in self.rotation]
-        self._on_control()
-
-    def _on_joint(self, change):
-        if self._syncing:
-            return
-        v = self._deltas.get(self.joint.value, [0.0, 0.0, 0.0])
-        for w, x in zip(self.rotation, v):
-            self._set(w, x)
-        self._refresh()
+    def _on_view_state(self, change=None) -> None:
+        try:
+            self._update_views(self.session.edited())
+        except Exception as e:  # noqa: BLE001 - shown
+            self.error = f"{type(e).__name__}: {e}"
+            self._show_message()
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
-        f = int(self.frame.value)
-        sigma = self._snapped_sigma(self.sigma.value)
-        compare = [n for n, w in self.compare.items() if w.value]
-        fr = self._frame_range()
-        curves = self.session.falloff_curves(f, sigma, fr, compare=compare)
-        sweep = None
-        if self.show_sweep.value:
-            i = int(np.argmin(np.abs(self._sigma_grid - sigma)))
-            picks = np.clip(i + np.array([-10, -5, 0, 5, 10]), 0, len(self._sigma_grid) - 1)
-            sweep = [(f"σ={s:.3g}", self.session.falloff_curves(f, s, fr)["green"])
-                     for s in self._sigma_grid[picks]]
-        self.falloff_plot.update(m.times, curves, frame=f, sweep=sweep,
-                                 title=f"Green's falloff from frame {f} (σ = {sigma:.3g})")
-        j = m.skeleton.index(self.joint.value)
-        self.curves.update(edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j),
-                           pose_times=[f * m.frame_time],
-                           title=f"{self.joint.value}: rotation vector (°), edited vs original")
-        self.view.set_motion(edited)
-        self.view.highlight_joints([self.joint.value])
-        self.view.set_pose_frames([f])
+        mod = self.model
+        f = int(mod.edit_frame)
+        fr = mod.frame_range or None
+        compare = list(mod.compare)
+        if f < m.num_frames:
+            curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
+            self.falloff_plot.figure = falloff_figure(
+                m.times, curves, edited_times=[g * m.frame_time for g in (mod.edited_frames or [f])],
+                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})")
+        j = m.skeleton.index(mod.joint)
+        self.curves.figure = joint_curves_figure(
+            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            pose_times=[g * m.frame_time for g in mod.edited_frames],
+            title=f"{mod.joint}: rotation vector (°), edited vs original")
+        self._show_motion(edited, pose_frames=mod.edited_frames or [f])
+        self.view.highlight_joints([mod.joint])
 
 
 class WarpEditor(_Editor):
-    """Guided time-warping editor (Hsu et al. 2007): target duration, skip limit ``s``, keytimes, reference
-    (the input itself, another clip, or a segment of the input) and linear-vs-guided; the warp curve and its
-    log-scale derivative (Fig. 5).
+    """Guided time-warping editor (Hsu et al. 2007): target duration or free length, skip limit, keytimes,
+    backward warps, a reference (the input itself, a segment of it, or other clips) and linear vs guided; the
+    warp curve and its log-scale derivative (Fig. 5).
 
     Parameters
     ----------
     motion : Motion or Session
     reference : Motion, path, dict {name: Motion or path}, or None
         Extra reference clips offered besides "self" and "segment". A Motion is offered as "reference".
-        Clips given as paths are recorded in the session by path, so a saved session reloads them; an
-        in-memory Motion is recorded as ``{"path": "<memory:name>"}``, which a new process cannot reload
-        (save such sessions after choosing "self"/"segment", or pass the clip's path).
+        In-memory clips are registered with ``Session.use_reference`` (a saved session keeps the name only).
     """
+
+    _css = "sn-warp-editor"
 
     def __init__(self, motion, reference=None, session: Session | None = None, source_path=None,
                  show_ghost: bool = False, **kwargs):
         super().__init__(**kwargs)
         session = _session_for(motion, session, source_path)
         m = session.source
-        self._references = {}
-        if isinstance(reference, Motion):
-            self._references["reference"] = reference
+        given = {}
+        if isinstance(reference, (Motion, str)):
+            given["reference"] = reference
         elif isinstance(reference, dict):
-            self._references.update(reference)
-        elif reference is not None and not isinstance(reference, (str,)):
-            raise ValueError(f"reference: expected a Motion, a dict of them or None, got {type(reference).__name__}")
-        elif isinstance(reference, str):
-            self._references["reference"] = reference
-        options = ["self", "segment"] + list(self._references)
+            given.update(reference)
+        elif reference is not None:
+            raise ValueError(f"reference: expected a Motion, a path, a dict of them or None, "
+                             f"got {type(reference).__name__}")
+        refs = {}
+        for name, r in given.items():
+            if isinstance(r, Motion):
+                refs[name] = session.use_reference(f"<memory:{name}>", r)
+            else:
+                refs[name] = {"path": str(r)}
         D = m.duration
-        self.mode = widgets.ToggleButtons(options=["guided", "linear"], value="guided", description="warp")
-        self.duration = widgets.FloatSlider(value=round(0.75 * D, 3), min=round(D / 8 + m.frame_time, 3),
-                                            max=round(D, 3), step=m.frame_time, description="duration (s)",
-                                            readout_format=".2f", **_SLIDER)
-        self.skip = widgets.IntSlider(value=8, min=2, max=16, description="skip s", **_SLIDER)
-        self.reference = widgets.Dropdown(options=options, value="self" if not self._references else options[2],
-                                          description="reference", style=_SLIDER["style"])
-        self.segment = widgets.FloatRangeSlider(value=(0.0, round(D / 2, 3)), min=0.0, max=round(D, 3),
-                                                step=m.frame_time, description="segment (s)", readout_format=".2f",
-                                                **_SLIDER)
+        model = WarpModel(duration=D, segment=[0.0, round(D / 2, 6)])
+        c = {}
+        c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="warp", style=_STYLE)
+        c["duration"] = _slider(widgets.FloatSlider, "duration (s)", min=round(D / 8 + m.frame_time, 3),
+                                max=round(2 * D, 3), step=m.frame_time, readout_format=".2f")
+        c["free_length"] = widgets.Checkbox(description="free length", indent=False)
+        c["skip"] = _slider(widgets.IntSlider, "skip s", min=1, max=16)
+        c["backward"] = widgets.Checkbox(description="backward", indent=False)
+        c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
+        c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3), step=m.frame_time,
+                               readout_format=".2f")
         self.keytimes = widgets.Text(value="", placeholder="in:out, in:out  (seconds)", description="keytimes",
-                                     style=_SLIDER["style"], layout=widgets.Layout(width="340px"))
+                                     style=_STYLE, layout=_WIDE)
+        self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
-        self.warp_plot = WarpPlot(m.frame_time)
-        controls = [widgets.HBox([self.mode, self.skip]),
-                    widgets.HBox([self.duration, self.keytimes]),
-                    widgets.HBox([self.reference, self.segment])]
-        self._tag("sn-warp-editor", duration=self.duration, skip=self.skip)
-        self._setup(session, view, [self.warp_plot], controls,
-                    op_controls=[self.mode, self.duration, self.skip, self.reference, self.segment, self.keytimes])
+        self.warp_plot = PlotView(frame_time=m.frame_time)
+        layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]),
+                  widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
+                  widgets.HBox([c["reference"], c["segment"]])]
+        self.click_keytime = widgets.Checkbox(value=False, indent=False,
+                                              description="click the warp plot to add a keytime")
+        self.clear_keytimes = widgets.Button(description="clear keytimes", layout=widgets.Layout(width="130px"))
+        self.clear_keytimes.on_click(lambda _: setattr(self.model, "keytimes", []))
+        self.warp_plot.on_click(self._on_warp_click)
+        layout.append(widgets.HBox([self.click_keytime, self.clear_keytimes]))
+        c["duration"].add_class("sn-duration")
+        c["skip"].add_class("sn-skip")
+        self._setup(model, session, view, [self.warp_plot], layout, references=refs)
+        # a reference given to the constructor is the one used (when the session has no warp op yet)
+        traitlets.link((model, "reference_options"), (c["reference"], "options"))
+        for k in ("mode", "duration", "free_length", "skip", "backward", "reference"):
+            self._links.append(_link(model, k, c[k]))
+        self._links.append(traitlets.link((model, "segment"), (c["segment"], "value"), transform=(tuple, list)))
+        self._links.append(traitlets.link((model, "keytimes"), (self.keytimes, "value"),
+                                          transform=(self._format_keytimes, self._parse_keytimes)))
+        model.observe(self._on_inert, names=["mode", "reference", "free_length"])
+        self._on_inert()
+        if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
+            model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
 
-    def _reference_json(self):
-        r = self.reference.value
-        if r == "self":
-            return "self"
-        if r == "segment":
-            return {"segment": [float(x) for x in self.segment.value]}
-        ref = self._references[r]
-        if isinstance(ref, Motion):
-            return self.session.use_reference(f"<memory:{r}>", ref)
-        return {"path": str(ref)}
+    def _on_warp_click(self, x, y, frame) -> None:
+        """With "click to add a keytime" on, a click on the warp plot at (output time x, input time y) adds
+        the keytime [y, x] (Hsu et al. 2007, §4.2)."""
+        if self.click_keytime.value and y is not None and not self.model.free_length:
+            kt = sorted(self.model.keytimes + [[float(y), float(x)]], key=lambda p: p[1])
+            self.model.keytimes = kt
 
-    def _parse_keytimes(self):
-        text = self.keytimes.value.strip()
-        if not text:
-            return None
+    @staticmethod
+    def _format_keytimes(kt) -> str:
+        return ", ".join(f"{a:g}:{b:g}" for a, b in kt)
+
+    def _parse_keytimes(self, text: str):
+        """``"in:out, in:out"`` seconds; a malformed entry is reported and the keytimes stay as they were."""
         pairs = []
         for item in text.replace(";", ",").split(","):
             if not item.strip():
                 continue
             a, sep, b = item.partition(":")
-            if not sep:
-                raise ValueError(f"keytimes: {item.strip()!r} is not 'input_time:output_time'")
-            pairs.append([float(a), float(b)])
+            try:
+                if not sep:
+                    raise ValueError
+                pairs.append([float(a), float(b)])
+            except ValueError:
+                self.error = f"keytimes: {item.strip()!r} is not 'input_time:output_time' (seconds)"
+                self._show_message()
+                return self.model.keytimes
+        self.error = ""
         return pairs
 
-    def _ops_from_controls(self) -> list:
-        kt = self._parse_keytimes()
-        if self.mode.value == "linear":
-            return [{"op": "linear_warp", "duration": float(self.duration.value), "keytimes": kt}]
-        return [{"op": "guided_warp", "duration": float(self.duration.value), "skip": int(self.skip.value),
-                 "keytimes": kt, "reference": self._reference_json()}]
-
-    def _controls_from_ops(self, ops: list) -> None:
-        if not ops:
-            return
-        op = ops[-1]
-        self._set(self.mode, "linear" if op["op"] == "linear_warp" else "guided")
-        self._set(self.duration, op["duration"])
-        kt = op.get("keytimes")
-        self._set(self.keytimes, ", ".join(f"{a:g}:{b:g}" for a, b in kt) if kt else "")
-        if op["op"] == "guided_warp":
-            self._set(self.skip, op["skip"])
-            ref = op["reference"]
-            if ref == "self":
-                self._set(self.reference, "self")
-            elif "segment" in ref:
-                self._set(self.reference, "segment")
-                self._set(self.segment, tuple(ref["segment"]))
+    def _on_inert(self, change=None) -> None:
+        c, m = self.controls, self.model
+        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment")
+        linear = m.mode == "linear"
+        for k in ("skip", "reference", "backward", "free_length"):
+            _inert(c[k], linear, f"{k} applies to guided warps only")
+        _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
+        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
 
     def _update_views(self, edited: Motion) -> None:
         from .. import timewarp
         ft = edited.frame_time
-        warp = self.session.warp_curve(-1) if self.session.ops else None
+        warp = None
+        for i in range(len(self.session.ops) - 1, -1, -1):
+            if self.session.ops[i]["op"] in ("guided_warp", "linear_warp"):
+                warp = self.session.warp_curve(i)
+                break
         if warp is None:   # no warp op (e.g. undone): the identity
             warp = edited.times
         out_t = np.arange(len(warp)) * ft
-        kt = self._parse_keytimes()
-        self.warp_plot.update(out_t, warp, timewarp.warp_speed(warp, ft), keytimes=kt,
-                              title=f"{self.mode.value} warp: {self.session.source.duration:.2f} s → "
-                                    f"{out_t[-1]:.2f} s")
-        self.view.set_motion(edited)
+        kt = self.model.keytimes or None
+        self.warp_plot.figure = warp_figure(out_t, warp, timewarp.warp_speed(warp, ft), keytimes=kt,
+                                            title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
+                                                  f"→ {out_t[-1]:.2f} s")
+        self._show_motion(edited)

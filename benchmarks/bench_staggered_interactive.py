@@ -1,0 +1,101 @@
+"""Interactive staggered-pose paths on 900 frames (issue 13 "Interactive paths", issue 11 item 8).
+
+Run: ``nice .venv/bin/python benchmarks/bench_staggered_interactive.py``. Clip: CMU 01_01's first 900 frames
+(``data/cmu_01_01.bvh``; the procedural walk looped to 900 frames if absent). Prints wall (min and median) and
+CPU time per call, each beside a baseline run in this process:
+
+* ``evaluate`` (goal <= 8 ms, aim 4 ms) against ``Motion.sample`` (plain slerp of the same frames) and the
+  straightforward per-joint ``evaluate_reference``;
+* ``succession`` + ``random_timing`` + ``evaluate`` (goal <= 15 ms);
+* cull first visits: every percent 1..100 once, as the editor's slider visits them, (a) each percent refitted,
+  (b) refits keyed by ``cull_keep`` (percents keeping the same poses share one); goal <= 100 ms per first
+  visit; baseline: the previous refit (every sample, ``fit_samples=None``) on the same percents.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from stagger_nb import read_bvh, staggered  # noqa: E402
+from stagger_nb.core.motion import concatenate  # noqa: E402
+from stagger_nb.staggered.representation import evaluate_reference  # noqa: E402
+
+
+def clip():
+    for p in (REPO / "data" / "cmu_01_01.bvh", Path(os.environ.get("STAGGER_NB_DATA", "")) / "cmu_01_01.bvh"):
+        if p.is_file():
+            return read_bvh(p).slice(0, 900), "cmu_01_01 frames 0-900"
+    from stagger_nb import data
+    m = data.load("walk")
+    return concatenate([m] * 3).slice(0, 900), "procedural walk looped to 900 frames (cmu_01_01 absent)"
+
+
+def timed(f, repeat):
+    """(min wall, median wall, mean cpu) seconds of ``f()`` over ``repeat`` runs after one warm-up."""
+    f()
+    ws, c0 = [], time.process_time()
+    for _ in range(repeat):
+        t = time.perf_counter()
+        f()
+        ws.append(time.perf_counter() - t)
+    return min(ws), float(np.median(ws)), (time.process_time() - c0) / repeat
+
+
+def row(name, t, base=None, base_name=""):
+    w, med, c = t
+    r = f"  ratio {w / base[0]:.2f} x {base_name} ({1e3 * base[0]:.2f} ms)" if base else ""
+    print(f"{name:<44} {1e3 * w:8.2f} ms (median {1e3 * med:7.2f}, cpu {1e3 * c:7.2f}){r}")
+
+
+def main():
+    m, label = clip()
+    sm = staggered.extract(m)
+    root = "Hips" if "Hips" in m.skeleton.names else m.skeleton.names[0]
+    print(f"# {label}: {m}; K = {sm.num_poses}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    t_sample = timed(lambda: m.sample(np.arange(900) * 0.999), 50)
+    t_ref = timed(lambda: evaluate_reference(sm, m.times), 3)
+    t_ev = timed(lambda: staggered.evaluate(sm), 50)
+    row("evaluate 900 frames [goal 8 ms, aim 4]", t_ev, t_sample, "Motion.sample")
+    row("  baseline evaluate_reference (per joint)", t_ref, t_ev, "evaluate")
+
+    def edit():
+        e = staggered.random_timing(staggered.succession(sm, root=root, s=0.02, l=1.0), tau=0.05, seed=0)
+        return staggered.evaluate(e)
+    t_ed = timed(edit, 20)
+    row("succession + tau + evaluate [goal 15 ms]", t_ed, t_ev, "evaluate alone")
+
+    percents = list(range(1, 101))
+
+    def visits(fit_samples, keyed):
+        """Wall time of each visit that refitted, and the CPU time per refit."""
+        cache, walls, c0 = {}, [], time.process_time()
+        for pc in percents:
+            t = time.perf_counter()
+            key = tuple(staggered.cull_keep(sm, pc)) if keyed else pc
+            if key not in cache:
+                cache[key] = staggered.cull(sm, pc, fit_samples=fit_samples)
+                walls.append(time.perf_counter() - t)
+        return np.array(walls), (time.process_time() - c0) / len(walls)
+
+    for keyed in (False, True):
+        new, c_new = visits(12, keyed)
+        old, c_old = visits(None, keyed)
+        how = "keyed by cull_keep" if keyed else "every percent refitted"
+        print(f"cull first visits of 100 percents, {how}: {new.size} refits [goal 100 ms each, aim 50]")
+        print(f"  now:      per refit median {1e3 * np.median(new):7.1f} ms, max {1e3 * new.max():7.1f} ms, "
+              f"cpu {1e3 * c_new:6.1f} ms; all 100 visits {new.sum():.2f} s")
+        print(f"  previous: per refit median {1e3 * np.median(old):7.1f} ms, max {1e3 * old.max():7.1f} ms, "
+              f"cpu {1e3 * c_old:6.1f} ms; all 100 visits {old.sum():.2f} s   ratio previous / now "
+              f"(median) {np.median(old) / np.median(new):.1f}x")
+    print(f"# load average at the end {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

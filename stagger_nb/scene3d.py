@@ -1,0 +1,337 @@
+"""What the 3D views show, as pure functions on arrays: animation tracks, bone geometry, sides (colours),
+a camera that follows the root, trails and highlight keyframes. Used by :class:`stagger_nb.widgets.SkeletonView`
+(pythreejs) and :func:`stagger_nb.widgets.export_html` (a standalone three.js page); no widgets here.
+
+Glossary: F frames, J joints, B bones (one per non-root joint plus one per End Site). Positions are file units,
+times seconds, quaternions (x, y, z, w) (three.js uses the same order). The vertical axis is y (BVH convention).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from .core.kinematics import forward_kinematics, skeleton_height
+from .core.motion import Motion
+
+__all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
+           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "switch_keys", "highlight_keys", "body_size"]
+
+SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
+_STATIC_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """Keyframe tracks of one motion for a joint hierarchy (node j = joint j).
+
+    times : (F,) float32 seconds
+    root_position : (F, 3) float32, the root node's position
+    quats : dict joint -> (F, 4) float32 local rotations (x, y, z, w), only joints that move
+    static_quats : (J, 4) float32 rotation of every joint at frame 0 (used for joints without a track)
+    translations : dict joint -> (F, 3) float32 local translations of non-root joints that are animated
+    """
+    times: np.ndarray
+    root_position: np.ndarray
+    quats: dict
+    static_quats: np.ndarray
+    translations: dict
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of all arrays (what goes over the wire once per motion, binary)."""
+        return int(self.times.nbytes + self.root_position.nbytes + sum(a.nbytes for a in self.quats.values())
+                   + sum(a.nbytes for a in self.translations.values()))
+
+
+def motion_tracks(motion: Motion) -> Tracks:
+    """Split ``motion`` into keyframe tracks; joints whose rotation never changes (max |Δq| ≤ 1e-6) get none."""
+    q = np.asarray(motion.local_quats, dtype=np.float32)
+    moving = np.abs(q - q[:1]).max(axis=(0, 2)) > _STATIC_TOL
+    quats = {j: np.ascontiguousarray(q[:, j]) for j in range(motion.num_joints) if moving[j]}
+    trans = {}
+    if motion.local_translations is not None:
+        t = np.asarray(motion.local_translations, dtype=np.float32)
+        for j in range(1, motion.num_joints):
+            if np.abs(t[:, j] - t[:1, j]).max() > _STATIC_TOL:
+                trans[j] = np.ascontiguousarray(t[:, j])
+    return Tracks(times=(np.arange(motion.num_frames) * motion.frame_time).astype(np.float32),
+                  root_position=np.ascontiguousarray(motion.root_positions, dtype=np.float32),
+                  quats=quats, static_quats=np.ascontiguousarray(q[0]), translations=trans)
+
+
+@dataclass(frozen=True)
+class Bone:
+    """A bone drawn as a cylinder in its parent joint's frame: from the joint origin to ``offset``.
+
+    parent : joint index the cylinder hangs on; child : joint index at its far end, or -1 for an End Site;
+    position (3,), quaternion (4,) (x, y, z, w), length : the unit-height cylinder's placement (y axis → offset).
+    """
+    parent: int
+    child: int
+    position: tuple
+    quaternion: tuple
+    length: float
+
+
+def _y_to(v: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) rotating +y onto the direction of ``v (3,)`` (identity for ~zero v)."""
+    n = float(np.linalg.norm(v))
+    if n < 1e-12:
+        return np.array([0.0, 0.0, 0.0, 1.0])
+    d = v / n
+    c = float(d[1])                       # cos of the angle between +y and d
+    if c < -1 + 1e-9:                     # antipodal: half turn about x
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    axis = np.array([d[2], 0.0, -d[0]])   # y × d
+    q = np.array([axis[0], axis[1], axis[2], 1.0 + c])
+    return q / np.linalg.norm(q)
+
+
+def bones(motion: Motion) -> list[Bone]:
+    """One bone per non-root joint (offset from the skeleton; an animated translation uses frame 0) and one per
+    End Site; zero-length bones are skipped."""
+    sk = motion.skeleton
+    off = np.asarray(sk.offsets, dtype=float)
+    if motion.local_translations is not None:
+        off = np.asarray(motion.local_translations[0], dtype=float)
+    out = []
+    pairs = [(int(sk.parents[j]), j, off[j]) for j in range(1, sk.num_joints)]
+    pairs += [(int(j), -1, np.asarray(e, dtype=float)) for j, e in sorted(sk.end_sites.items())]
+    for p, c, v in pairs:
+        length = float(np.linalg.norm(v))
+        if length < 1e-9:
+            continue
+        out.append(Bone(p, c, tuple(float(x) for x in v / 2), tuple(float(x) for x in _y_to(v)), length))
+    return out
+
+
+def joint_sides(names) -> list[str]:
+    """'left' / 'right' / 'centre' for each joint name (``Left…``, ``L…`` + capital, ``l…`` CMU ASF names
+    like ``lfemur``, ``…_l``); colour key of the bones."""
+    out = []
+    for n in names:
+        low = n.lower()
+        if low.startswith("left") or low.endswith(("_l", ".l", "left")) or "_left" in low or \
+                (len(n) > 1 and n[0] == "L" and n[1].isupper()) or \
+                low.startswith(("lhip", "lfemur", "ltibia", "lfoot", "ltoes", "lclavicle", "lhumerus", "lradius",
+                                "lwrist", "lhand", "lfingers", "lthumb", "lshoulder", "lelbow", "lknee", "lankle")):
+            out.append("left")
+        elif low.startswith("right") or low.endswith(("_r", ".r", "right")) or "_right" in low or \
+                (len(n) > 1 and n[0] == "R" and n[1].isupper()) or \
+                low.startswith(("rhip", "rfemur", "rtibia", "rfoot", "rtoes", "rclavicle", "rhumerus", "rradius",
+                                "rwrist", "rhand", "rfingers", "rthumb", "rshoulder", "relbow", "rknee", "rankle")):
+            out.append("right")
+        else:
+            out.append("centre")
+    return out
+
+
+def body_size(positions: np.ndarray) -> float:
+    """The character's drawn height scale, file units: the median over frames of the vertical (y) extent of
+    ``positions (F, J, 3)``."""
+    ext = positions[..., 1].max(axis=1) - positions[..., 1].min(axis=1)
+    return float(max(np.median(ext), 1e-9))
+
+
+def grid_cell(size: float) -> float:
+    """A round grid spacing (1, 2 or 5 × 10^k) near a quarter of ``size`` (the body height)."""
+    target = max(size / 4.0, 1e-9)
+    k = np.floor(np.log10(target))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10 ** k >= target * 0.7:
+            return float(m * 10 ** k)
+    return float(10 ** (k + 1))
+
+
+def ground_segments(positions: np.ndarray, cell: float, margin: float, ground: float,
+                    max_segments: int = 40000) -> np.ndarray:
+    """A ground grid as short line segments ``(2 N, 3)`` float32 (pairs of end points), one per cell edge, over
+    the root's ground track (x, z) of ``positions (F, J, 3)`` plus ``margin``, at height ``ground``.
+
+    Cell-sized segments, not lines across the whole ground: a GL line with an end behind the camera may be
+    dropped entirely (seen with SwiftShader), which left the ground near a following camera blank. The cell
+    grows (×2) until the grid has at most ``max_segments`` segments."""
+    xz = np.asarray(positions, dtype=float)[:, 0][:, [0, 2]]
+    lo = np.floor((xz.min(axis=0) - margin) / cell) * cell
+    hi = np.ceil((xz.max(axis=0) + margin) / cell) * cell
+    while True:
+        nx, nz = np.round((hi - lo) / cell).astype(int)
+        if 2 * nx * nz + nx + nz <= max_segments:
+            break
+        cell *= 2
+        lo, hi = np.floor(lo / cell) * cell, np.ceil(hi / cell) * cell
+    xs = lo[0] + cell * np.arange(nx + 1)
+    zs = lo[1] + cell * np.arange(nz + 1)
+    X, Z = np.meshgrid(xs[:-1], zs, indexing="ij")          # edges along x
+    a = np.stack([X, Z], -1).reshape(-1, 2)
+    along_x = np.stack([a, a + [cell, 0.0]], axis=1)
+    X, Z = np.meshgrid(xs, zs[:-1], indexing="ij")          # edges along z
+    b = np.stack([X, Z], -1).reshape(-1, 2)
+    along_z = np.stack([b, b + [0.0, cell]], axis=1)
+    seg = np.concatenate([along_x, along_z]).reshape(-1, 2)
+    out = np.empty((len(seg), 3), dtype=np.float32)
+    out[:, 0], out[:, 1], out[:, 2] = seg[:, 0], ground, seg[:, 1]
+    return out
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A perspective camera riding on a rig that follows the character.
+
+    rig : (F, 3) rig position per frame (world); position, target : (3,) camera position and look-at point
+    relative to the rig; fov : vertical field of view, degrees; ground : y of the ground plane;
+    near, far : clip distances (file units).
+    """
+    rig: np.ndarray
+    position: tuple
+    target: tuple
+    fov: float
+    ground: float
+    near: float
+    far: float
+
+    def world(self, frame: int):
+        """World camera position and target at ``frame``, each (3,)."""
+        r = self.rig[min(max(int(frame), 0), len(self.rig) - 1)]
+        return np.asarray(self.position) + r, np.asarray(self.target) + r
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian smoothing (σ in samples) with the signal continued by point reflection at both ends
+    (x[0] - (x[k] - x[0])), so a steady linear track comes out unchanged, ends included."""
+    n = len(x)
+    pad = min(n - 1, int(np.ceil(4 * sigma)))
+    if pad < 1:
+        return np.asarray(x, dtype=float).copy()
+    left = 2 * x[0] - x[pad:0:-1]
+    right = 2 * x[-1] - x[-2:-pad - 2:-1]
+    y = gaussian_filter1d(np.concatenate([left, x, right]), sigma, mode="nearest")
+    return y[pad:pad + n]
+
+
+_VIEW_DIR = np.array([0.62, 0.28, 0.73])   # from the target towards the camera: front-right, slightly above
+
+
+def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow", aspect: float = 480 / 380,
+                  fov: float = 40.0, fill: float = 0.62, smooth_s: float = 0.5) -> Camera:
+    """Camera framing for ``positions (F, J, 3)``.
+
+    ``mode="follow"``: the rig follows the root's ground track (x, z) smoothed by a Gaussian of σ = ``smooth_s``
+    seconds (centred, so a steady run is tracked without lag) and the camera stands at the distance where the
+    body's height (:func:`body_size`) fills ``fill`` of the canvas height. ``mode="all"``: a fixed rig at the
+    centre of everything the clip covers, far enough for the bounding sphere to fit.
+    """
+    if mode not in ("follow", "all"):
+        raise ValueError(f"mode: expected 'follow' or 'all', got {mode!r}")
+    P = np.asarray(positions, dtype=float)
+    F = P.shape[0]
+    h = body_size(P)
+    ground = float(P[..., 1].min())
+    half = np.radians(fov) / 2
+    d = _VIEW_DIR / np.linalg.norm(_VIEW_DIR)
+    if mode == "follow":
+        root = P[:, 0]
+        sigma = max(smooth_s / frame_time, 1e-3)
+        rig = np.zeros((F, 3))
+        rig[:, 0] = _smooth(root[:, 0], sigma)
+        rig[:, 2] = _smooth(root[:, 2], sigma)
+        rig[:, 1] = ground
+        # the body's vertical centre above the ground, from all frames: steady, no bobbing camera
+        centre_y = float(np.median((P[..., 1].max(axis=1) + P[..., 1].min(axis=1)) / 2)) - ground
+        dist = h / (2 * fill * np.tan(half))
+        dist = max(dist, h * 0.5 / (fill * np.tan(half) * aspect))   # a tall narrow canvas: fit the width too
+        target = np.array([0.0, centre_y, 0.0])
+    else:
+        lo, hi = P.reshape(-1, 3).min(axis=0), P.reshape(-1, 3).max(axis=0)
+        c = (lo + hi) / 2
+        rig = np.tile([c[0], ground, c[2]], (F, 1))
+        radius = float(np.linalg.norm(hi - lo)) / 2
+        dist = radius / np.sin(min(half, np.arctan(np.tan(half) * aspect))) * 1.05
+        target = np.array([0.0, c[1] - ground, 0.0])
+    pos = target + d * dist
+    return Camera(rig=rig.astype(np.float32), position=tuple(float(x) for x in pos),
+                  target=tuple(float(x) for x in target), fov=float(fov), ground=ground,
+                  near=float(dist) * 0.01, far=float(dist) * 50 + float(np.ptp(P[..., 0]) + np.ptp(P[..., 2])))
+
+
+def project(points: np.ndarray, eye, target, fov: float, width: int, height: int, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """Pixel coordinates ``(N, 2)`` (x right, y down, origin top-left) of world ``points (N, 3)`` seen by a
+    perspective camera at ``eye`` looking at ``target`` (three.js ``lookAt`` + ``PerspectiveCamera``)."""
+    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
+    z = eye - target
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    rel = np.asarray(points, dtype=float) - eye
+    cx, cy, cz = rel @ x, rel @ y, rel @ z
+    f = 1.0 / np.tan(np.radians(fov) / 2)
+    aspect = width / height
+    ndc_x = f / aspect * cx / -cz
+    ndc_y = f * cy / -cz
+    return np.stack([(ndc_x + 1) / 2 * width, (1 - ndc_y) / 2 * height], axis=1)
+
+
+def look_at_quaternion(eye, target, up=(0.0, 1.0, 0.0)) -> tuple:
+    """Rotation (x, y, z, w) of a camera at ``eye`` looking at ``target`` (its -z axis towards the target, +y
+    towards ``up``), as three.js ``Object3D.lookAt`` sets it for a camera without a parent."""
+    from scipy.spatial.transform import Rotation
+    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
+    z = eye - target
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return tuple(float(c) for c in Rotation.from_matrix(np.stack([x, y, z], axis=1)).as_quat())
+
+
+def drawn_height_fraction(points: np.ndarray, camera: Camera, frame: int, width: int, height: int) -> float:
+    """Vertical extent on the canvas of ``points (J, 3)`` (the pose at ``frame``), as a fraction of ``height``."""
+    eye, target = camera.world(frame)
+    px = project(points, eye, target, camera.fov, width, height)
+    return float((px[:, 1].max() - px[:, 1].min()) / height)
+
+
+def switch_keys(on: np.ndarray, frame_time: float):
+    """Keyframes of a step function: ``on (F,) bool`` → (times (K,) float32 seconds, values (K,) bool), one key
+    at frame 0 and one at every change (for discrete interpolation)."""
+    on = np.asarray(on, dtype=bool)
+    idx = np.concatenate([[0], np.flatnonzero(on[1:] != on[:-1]) + 1])
+    return (idx * frame_time).astype(np.float32), on[idx]
+
+
+def highlight_keys(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),
+                   pose_window_s: float = 0.05):
+    """Per-joint state over time for the sphere colours: 0 plain, 1 at a staggered-pose frame (± ``pose_window_s``
+    so it is seen while playing), 2 in contact. ``contacts``: ``[(joint_index, start, end), ...]`` half-open frame
+    ranges. Returns ``{joint: (times (K,) float32, states (K,) uint8)}`` for joints whose state ever changes."""
+    F = int(num_frames)
+    pose = np.zeros(F, dtype=bool)
+    w = max(1, int(round(pose_window_s / frame_time)))
+    for p in np.asarray(pose_frames, dtype=int).reshape(-1):
+        if 0 <= p < F:
+            pose[max(0, p - w):min(F, p + w + 1)] = True
+    state = np.zeros((F, num_joints), dtype=np.uint8)
+    state[pose] = 1
+    for j, a, b in contacts:
+        state[max(0, int(a)):min(F, int(b)), int(j)] = 2
+    out = {}
+    for j in range(num_joints):
+        s = state[:, j]
+        if np.any(s != s[0]) or s[0] != 0:
+            idx = np.concatenate([[0], np.flatnonzero(s[1:] != s[:-1]) + 1])
+            out[j] = ((idx * frame_time).astype(np.float32), s[idx])
+    return out
+
+
+def world_positions(motion: Motion) -> np.ndarray:
+    """(F, J, 3) float32 world joint positions (forward kinematics), for trails and framing."""
+    p, _ = forward_kinematics(motion)
+    return np.ascontiguousarray(p, dtype=np.float32)
+
+
+def joint_radius(motion: Motion) -> float:
+    """Sphere radius for joints: 2.2 % of the skeleton's rest extent."""
+    return 0.022 * skeleton_height(motion)

@@ -1,0 +1,158 @@
+"""The session's one cache: compute-once entries under one lock, bounded per kind.
+
+Keys are ``(kind, owner, param)``. ``owner`` is a *content* key (a string such as the digest of the op
+prefix a state came from) or a token handed out per live object through a ``weakref.WeakKeyDictionary``
+(:meth:`Cache.token`): a token is never reused, so an entry can never be confused with one computed for a
+dead object whose memory was recycled (the ``id()`` pitfall). ``param`` is any hashable value.
+
+Each entry is a :class:`concurrent.futures.Future`. The first caller of a missing entry runs ``make()`` in
+its own thread, outside the lock; a second caller of the same entry waits for that future (computed
+once); callers of other entries are never blocked. A failed computation is not kept: the next caller
+computes it again. Each kind keeps at most ``bound`` finished entries, least recently used dropped first.
+"""
+from __future__ import annotations
+
+import itertools
+import threading
+import weakref
+from collections import OrderedDict
+from concurrent.futures import Future
+from typing import Callable, Hashable
+
+__all__ = ["Cache", "BOUNDS"]
+
+#: Entries kept per kind (finished entries; pending ones are never dropped).
+BOUNDS = {
+    "extract": 4,     # staggered extractions (one per distinct input motion)
+    "cull": 40,       # cull results: every position of a 2.5 %-step slider on one extraction
+    "graph": 4,       # magic-wand pose graphs (sigma-independent head)
+    "basis": 64,      # magic-wand eigenbases: every position of a sigma slider (F x 50 floats each)
+    "warp": 8,        # guided-warp kNN tables
+    "reference": 8,   # resolved warp references (segments, files)
+    "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
+    "state": 48,      # replay steps by op-prefix digest (a slider sweep touches a handful)
+}
+
+QUIET = {"state"}  # kinds not reported to ``busy`` (replay steps: the replay reports its own progress)
+
+
+class Cache:
+    """One lock, compute-once futures, LRU-bounded per kind.
+
+    Parameters
+    ----------
+    busy : callable(kind, started) or None
+        Called around each ``make()`` of a kind not in :data:`QUIET` (e.g. to show a progress bar); from the
+        computing thread.
+    bounds : dict kind -> int, optional
+        Overrides of :data:`BOUNDS`; unknown kinds keep 16 entries.
+    """
+
+    def __init__(self, busy: Callable | None = None, bounds: dict | None = None):
+        self._lock = threading.Lock()
+        self._entries: dict[str, OrderedDict] = {}
+        self._tokens: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._counter = itertools.count(1)
+        self._busy = busy
+        self._bounds = dict(BOUNDS, **(bounds or {}))
+
+    def token(self, obj) -> str:
+        """A key for the live object ``obj`` (held weakly; never reused for another object)."""
+        with self._lock:
+            t = self._tokens.get(obj)
+            if t is None:
+                t = self._tokens[obj] = f"obj{next(self._counter)}"
+            return t
+
+    def name(self, obj, key: str) -> None:
+        """Give ``obj`` the content key ``key`` (e.g. the digest of the ops that produced it), so entries
+        computed from it are found again from any object with the same key (an object already named or
+        tokened keeps its first key)."""
+        with self._lock:
+            self._tokens.setdefault(obj, key)  # the first name stays: entries already keyed by it stay valid
+
+    def get(self, kind: str, owner: Hashable, param: Hashable = None, make: Callable | None = None):
+        """The value of entry ``(kind, owner, param)``, computed by ``make()`` once when missing (``None``
+        when missing and ``make`` is None)."""
+        store = self._store(kind)
+        key = (owner, param)
+        with self._lock:
+            fut = store.get(key)
+            if fut is None and make is None:
+                return None
+            compute = fut is None
+            if compute:
+                fut = store[key] = Future()
+                fut.set_running_or_notify_cancel()
+            else:
+                store.move_to_end(key)
+        if not compute:
+            return fut.result()  # finished, or being computed by another thread: wait for it
+        busy = self._busy if kind not in QUIET else None
+        try:
+            if busy is not None:
+                busy(kind, True)
+            try:
+                value = make()
+            finally:
+                if busy is not None:
+                    busy(kind, False)
+        except BaseException as e:
+            with self._lock:
+                if store.get(key) is fut:
+                    del store[key]
+            fut.set_exception(e)
+            raise
+        fut.set_result(value)
+        with self._lock:
+            self._trim(kind, store)
+        return value
+
+    def put(self, kind: str, owner: Hashable, param: Hashable, value) -> None:
+        """Store a value computed elsewhere."""
+        store = self._store(kind)
+        fut = Future()
+        fut.set_running_or_notify_cancel()
+        fut.set_result(value)
+        with self._lock:
+            store[(owner, param)] = fut
+            store.move_to_end((owner, param))
+            self._trim(kind, store)
+
+    def peek(self, kind: str, owner: Hashable, param: Hashable = None):
+        """A finished entry's value without waiting or computing (None when missing or pending)."""
+        with self._lock:
+            fut = self._store(kind).get((owner, param))
+        if fut is None or not fut.done() or fut.exception() is not None:
+            return None
+        return fut.result()
+
+    def touch(self, kind: str, keys) -> None:
+        """Mark entries ``(owner, param)`` of ``kind`` as recently used."""
+        store = self._store(kind)
+        with self._lock:
+            for k in keys:
+                if k in store:
+                    store.move_to_end(k)
+
+    def pending(self) -> int:
+        """Entries being computed now (for tests and diagnostics)."""
+        with self._lock:
+            return sum(not f.done() for s in self._entries.values() for f in s.values())
+
+    def __len__(self) -> int:
+        with self._lock:
+            return sum(len(s) for s in self._entries.values())
+
+    def _store(self, kind: str) -> OrderedDict:
+        s = self._entries.get(kind)
+        if s is None:  # dict.setdefault is atomic: two threads get the same store (callers may hold the lock)
+            s = self._entries.setdefault(kind, OrderedDict())
+        return s
+
+    def _trim(self, kind: str, store: OrderedDict) -> None:  # under the lock
+        bound = self._bounds.get(kind, 16)
+        if len(store) <= bound:
+            return
+        for k in [k for k, f in store.items() if f.done()][: len(store) - bound]:
+            del store[k]

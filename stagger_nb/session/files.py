@@ -1,0 +1,195 @@
+"""Session files: the JSON session format, the embedded JSON motion format, and the guards on writes.
+
+Every path a session names (its source clip, a warp reference, the session file itself) is read through
+:func:`stagger_nb.io._common.read_regular_file`: regular files only, within the package's size limit, so
+``/dev/zero`` or a FIFO is refused at once instead of exhausting memory or blocking (issue 13). Writes are
+atomic, and never replace a file the session did not write: :func:`check_save_target` refuses the source
+clip and any existing file that is not a session JSON; :func:`check_export_target` refuses the source clip.
+Session files are JSON, never pickle; nothing in them is evaluated.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+from typing import Any
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.skeleton import Skeleton
+from ..io._common import read_regular_file
+from ..io.bvh import parse_bvh
+from .ops import _fail, integer, number, text, tuple_of
+
+__all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
+           "read_session_json", "check_save_target", "check_export_target", "same_file", "export_gltf"]
+
+SESSION_FORMAT = "stagger_nb.session"
+SESSION_VERSION = 1
+
+
+# --------------------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------------------
+def read_source(path: str, field: str = "source.path") -> tuple[Motion, str]:
+    """``(motion, sha256 hex)`` of the BVH file ``path``, read once (regular file, size limit); errors are
+    ValueErrors starting with ``field``."""
+    try:
+        raw = read_regular_file(path, what="BVH file")
+    except ValueError as e:
+        raise ValueError(f"{field}: {e}") from None
+    digest = hashlib.sha256(raw).hexdigest()
+    try:
+        return parse_bvh(raw, os.fspath(path)), digest
+    except ValueError as e:  # BVHError: names the file and line
+        raise ValueError(f"{field}: {e}") from None
+
+
+def read_session_json(path) -> Any:
+    """The parsed JSON of a session file (regular file, size limit; no NaN/Infinity; UTF-8)."""
+    try:
+        raw = read_regular_file(path, what="session file")
+    except ValueError as e:
+        raise ValueError(f"session: {e}") from None
+    try:
+        text_ = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"session: {path} is not UTF-8 JSON text (byte {e.start})") from None
+
+    def no_constants(c):
+        raise ValueError(f"session: {c} is not allowed in a session file")
+
+    try:
+        return json.loads(text_, parse_constant=no_constants)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"session: {path} is not valid JSON ({e})") from None
+    except RecursionError:
+        raise ValueError(f"session: {path} nests JSON too deeply for a session file") from None
+
+
+# --------------------------------------------------------------------------------------------------
+# write guards
+# --------------------------------------------------------------------------------------------------
+def same_file(a, b) -> bool:
+    """True when paths ``a`` and ``b`` name the same existing file (symlinks and hard links included)."""
+    try:
+        return os.path.realpath(a) == os.path.realpath(b) or os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_export_target(path, source_path) -> None:
+    """Refuse to replace the session's source clip."""
+    if source_path is not None and os.path.exists(path) and same_file(path, source_path):
+        raise ValueError(f"path: {path} is the session's source file; export to another file")
+
+
+def export_gltf(motion: Motion, path, source_path, units="auto") -> None:
+    """Write ``motion`` as glTF 2.0 (``.glb``/``.gltf``, atomically, lengths in metres; see
+    :func:`stagger_nb.io.gltf.write_gltf`), refusing to replace the source clip."""
+    from ..io.gltf import write_gltf
+    path = os.fspath(path)
+    check_export_target(path, source_path)
+    write_gltf(motion, path, units=units)
+
+
+def check_save_target(path, source_path) -> None:
+    """Refuse to replace the source clip, or any existing file that is not a session JSON (a BVH, a
+    notebook, a device): saving writes a session only where a session (or nothing) was."""
+    check_export_target(path, source_path)
+    if not os.path.lexists(path):
+        return
+    try:
+        data = read_session_json(path)
+    except ValueError:
+        data = None
+    if not (isinstance(data, dict) and data.get("format") == SESSION_FORMAT):
+        raise ValueError(f"path: {path} exists and is not a stagger_nb session file; save to a new file "
+                         "or remove it first")
+
+
+# --------------------------------------------------------------------------------------------------
+# the embedded motion format (sessions without a source file)
+# --------------------------------------------------------------------------------------------------
+def motion_to_json(m: Motion) -> dict:
+    """A JSON-ready dict of ``m`` (skeleton, frame time, root positions (F, 3), local quaternions
+    (F, J, 4) x, y, z, w, optional local translations (F, J, 3))."""
+    sk = m.skeleton
+    return {"names": list(sk.names), "parents": sk.parents.tolist(), "offsets": sk.offsets.tolist(),
+            "channels": [list(c) for c in sk.channels],
+            "end_sites": {str(k): v.tolist() for k, v in sk.end_sites.items()},
+            "frame_time": m.frame_time, "root_positions": m.root_positions.tolist(),
+            "local_quats": m.local_quats.tolist(),
+            "local_translations": None if m.local_translations is None else m.local_translations.tolist()}
+
+
+_MOTION_FIELDS = ("names", "parents", "offsets", "channels", "end_sites", "frame_time", "root_positions",
+                  "local_quats", "local_translations")
+_CHANNEL_RE = re.compile(r"[XYZ](position|rotation)\Z", re.IGNORECASE)
+
+
+def _float_array(value, field, shape_tail: tuple) -> np.ndarray:
+    """``value`` (nested JSON lists of numbers) as a float array of shape ``(N,) + shape_tail``."""
+    try:
+        a = np.asarray(value)
+    except ValueError:  # ragged nesting
+        a = None
+    if a is None or a.dtype.kind not in "iuf" or a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
+        _fail(field, f"an array of numbers of shape (N, {', '.join(map(str, shape_tail))})",
+              type(value).__name__ if a is None or a.size > 8 else value)
+    a = a.astype(float)
+    if not np.all(np.isfinite(a)):
+        _fail(field, "finite numbers", "a non-finite value")
+    return a
+
+
+def motion_from_json(d: Any, field: str) -> Motion:
+    """The Motion of :func:`motion_to_json`'s dict, every field checked (ValueError names ``field.key``)."""
+    if not isinstance(d, dict):
+        _fail(field, "an embedded motion object", d)
+    for k in d:
+        if k not in _MOTION_FIELDS:
+            raise ValueError(f"{field}.{k}: unknown field of an embedded motion")
+    for k in _MOTION_FIELDS[:-1]:
+        if k not in d:
+            raise ValueError(f"{field}.{k}: missing")
+    names = tuple_of(text, "a list of joint names")(d["names"], f"{field}.names")
+    J = len(names)
+    parents = d["parents"]
+    if not isinstance(parents, list) or len(parents) != J:
+        _fail(f"{field}.parents", f"a list of {J} parent indices", parents)
+    parents = np.array(tuple_of(integer(-1), "parent indices")(parents, f"{field}.parents"), dtype=np.int64)
+    channels = d["channels"]
+    if not isinstance(channels, list) or len(channels) != J:
+        _fail(f"{field}.channels", f"a list of {J} channel lists", channels)
+    for i, c in enumerate(channels):
+        if not isinstance(c, list) or not all(isinstance(x, str) and _CHANNEL_RE.match(x) for x in c):
+            _fail(f"{field}.channels[{i}]", 'a list like ["Zrotation", "Xrotation", "Yrotation"]', c)
+    ends = d["end_sites"]
+    if not isinstance(ends, dict):
+        _fail(f"{field}.end_sites", "an object {joint index: [x, y, z]}", ends)
+    end_sites = {}
+    for k, v in ends.items():
+        if not (isinstance(k, str) and k.isdigit() and k.isascii() and int(k) < J):
+            _fail(f"{field}.end_sites", f"joint indices below {J} as keys", k)
+        end_sites[int(k)] = _float_array([v], f"{field}.end_sites.{k}", (3,))[0]
+    frame_time = number(0.0, open_lo=True)(d["frame_time"], f"{field}.frame_time")
+    offsets = _float_array(d["offsets"], f"{field}.offsets", (3,))
+    root = _float_array(d["root_positions"], f"{field}.root_positions", (3,))
+    q = _float_array(d["local_quats"], f"{field}.local_quats", (J, 4))
+    lt = d.get("local_translations")
+    lt = None if lt is None else _float_array(lt, f"{field}.local_translations", (J, 3))
+    try:
+        sk = Skeleton(names, parents, offsets, tuple(tuple(c) for c in channels), end_sites)
+        m = Motion(sk, frame_time, root, q, lt)
+    except ValueError as e:  # shapes that disagree, a parent after its child: the message names them
+        raise ValueError(f"{field}: {e}") from None
+    # Motion() re-normalises the quaternions; the stored ones were already normalised by a Motion, so
+    # keep the stored bits exactly (re-normalising can flip the last bit) -> bit-for-bit replay.
+    if q.shape == m.local_quats.shape and np.allclose(q, m.local_quats, rtol=0, atol=1e-12):
+        q = q.copy()
+        q.setflags(write=False)
+        object.__setattr__(m, "local_quats", q)
+    return m

@@ -1,0 +1,92 @@
+"""The op list with undo/redo and observers.
+
+The list is a tuple of typed ops (:mod:`.ops`); each change (``commit``) is one undo step, and a change
+that leaves the list equal is no step at all. Listeners are called as ``listener(owner)`` after every
+change, undo and redo included.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+__all__ = ["History", "Flag"]
+
+
+class Flag:
+    """A bool that can also be called: ``session.can_undo`` and ``session.can_undo()`` both work (the
+    property form is what older widget code reads)."""
+
+    __slots__ = ("_value",)
+
+    def __init__(self, value: bool):
+        self._value = bool(value)
+
+    def __bool__(self) -> bool:
+        return self._value
+
+    def __call__(self) -> bool:
+        return self._value
+
+    def __eq__(self, other) -> bool:
+        return self._value == bool(other)
+
+    def __hash__(self) -> int:
+        return hash(self._value)
+
+    def __repr__(self) -> str:
+        return repr(self._value)
+
+
+class History:
+    """Current op tuple + undo and redo stacks + listeners."""
+
+    def __init__(self, ops: tuple = (), owner=None):
+        self.ops: tuple = tuple(ops)
+        self._undo: list[tuple] = []
+        self._redo: list[tuple] = []
+        self._listeners: list[Callable] = []
+        self._owner = owner
+
+    def commit(self, new_ops) -> bool:
+        """Make ``new_ops`` current (one undo step); False (and no step) when nothing changed."""
+        new_ops = tuple(new_ops)
+        if new_ops == self.ops:
+            return False
+        self._undo.append(self.ops)
+        self._redo.clear()
+        self.ops = new_ops
+        self._notify()
+        return True
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def undo(self) -> bool:
+        if not self._undo:
+            return False
+        self._redo.append(self.ops)
+        self.ops = self._undo.pop()
+        self._notify()
+        return True
+
+    def redo(self) -> bool:
+        if not self._redo:
+            return False
+        self._undo.append(self.ops)
+        self.ops = self._redo.pop()
+        self._notify()
+        return True
+
+    def observe(self, listener: Callable) -> None:
+        self._listeners.append(listener)
+
+    def unobserve(self, listener: Callable) -> None:
+        self._listeners = [f for f in self._listeners if f != listener]
+
+    def _notify(self) -> None:
+        for f in list(self._listeners):
+            f(self._owner)

@@ -1,0 +1,365 @@
+"""Op runners: each op type -> a function ``(state, op, run) -> state`` over the replay state.
+
+The state is a :class:`~stagger_nb.core.Motion` or a ``staggered.StaggeredMotion``; the replay converts it to
+what the op ``needs`` before calling the runner (:func:`convert`). Runners call the technique packages' pure
+functions; the expensive heads they need (the staggered extraction, culls, the magic wand's pose graph and
+per-sigma eigenbases, guided warping's kNN tables, warp references) come from :class:`Heads`, which keeps
+them in the session's one :class:`~.cache.Cache`. A runner may leave plain notes for the user
+(``run.note(text)``) and the warp curve it computed (``run.warp``).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import quat_mul, rotvec_to_quat
+from ..core.skeleton import Skeleton
+from ..io.bvh import read_bvh
+from . import ops as O
+from .cache import Cache
+
+__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "MAX_WARP_RATIO"]
+
+MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
+
+
+def _staggered():
+    from .. import staggered  # late import: the technique packages load only when an op needs them
+    return staggered
+
+
+def _wand():
+    from .. import wand
+    return wand
+
+
+def _timewarp():
+    from .. import timewarp
+    return timewarp
+
+
+# --------------------------------------------------------------------------------------------------
+# cached heads
+# --------------------------------------------------------------------------------------------------
+class Heads:
+    """The expensive heads of the techniques, computed once each in ``cache``.
+
+    Parameters
+    ----------
+    cache : Cache
+    source : Motion, the session's source ("self" warp reference; segments are cut from it)
+    extract_options : dict, keyword arguments of ``staggered.extract`` (already checked)
+    """
+
+    def __init__(self, cache: Cache, source: Motion, extract_options: dict):
+        self.cache = cache
+        self.source = source
+        self.extract_options = dict(extract_options)
+        self.memory_references: dict[str, Motion] = {}  # Session.use_reference: never evicted
+        cache.name(source, "source")
+
+    def key(self, obj) -> str:
+        return self.cache.token(obj)
+
+    def extract(self, motion: Motion):
+        """``staggered.extract(motion, **extract_options)``, once per motion."""
+        def make():
+            try:
+                return _staggered().extract(motion, **self.extract_options)
+            except (TypeError, ArithmeticError) as e:  # the options are checked already: a bad value
+                raise ValueError(f"extract_options: {type(e).__name__}: {e}") from None
+        return self.cache.get("extract", self.key(motion), None, make)
+
+    def cull(self, sm, percent: float | None = None, count: int | None = None):
+        """``staggered.cull(sm, percent)`` or ``cull(sm, count=count)`` (a refit of the splines, the slow step
+        of the cull slider), once per (representation, percent or count)."""
+        if count is not None:
+            return self.cache.get("cull", self.key(sm), ("count", int(count)),
+                                  lambda: _staggered().cull(sm, count=int(count)))
+        return self.cache.get("cull", self.key(sm), ("percent", float(percent)),
+                              lambda: _staggered().cull(sm, percent=float(percent)))
+
+    def wand_graph(self, motion: Motion):
+        """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
+        return self.cache.get("graph", self.key(motion), None, lambda: _wand().pose_graph(motion))
+
+    def wand_basis(self, motion: Motion, sigma: float | None):
+        """The Green's eigenbasis of ``motion`` for ``sigma`` (§3.2), once per (motion, sigma); the graph is
+        shared by every sigma."""
+        sigma = None if sigma is None else float(sigma)
+        return self.cache.get("basis", self.key(motion), sigma,
+                              lambda: self.wand_graph(motion).basis(sigma))
+
+    def reference(self, ref) -> Motion:
+        """The warp reference ``ref`` (``"self"``, ``("segment", a, b)`` or ``("path", p)``) as a Motion."""
+        if ref == "self":
+            return self.source
+        if ref[0] == "path" and ref[1] in self.memory_references:
+            return self.memory_references[ref[1]]
+        return self.cache.get("reference", ref, None, lambda: self._load_reference(ref))
+
+    def _load_reference(self, ref) -> Motion:
+        if ref[0] == "segment":
+            a, b = ref[1:]
+            src = self.source
+            start = max(0, int(round(a / src.frame_time)))
+            stop = min(src.num_frames, int(round(b / src.frame_time)) + 1)
+            if stop - start < 3:
+                raise ValueError(f"reference.segment: [{a}, {b}] s holds fewer than 3 frames")
+            return src.slice(start, stop)
+        try:
+            return read_bvh(ref[1])  # a regular file within the size limit (io._common.read_regular_file)
+        except ValueError as e:
+            raise ValueError(f"reference.path: {e}") from None
+
+    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False):
+        """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
+        reference, skip, upsampling, direction)."""
+        reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
+        return self.cache.get("warp", self.key(motion), (self.key(reference), int(skip), int(upsample), bool(reverse)),
+                              lambda: _timewarp().prepare_warp(motion, reference, int(skip), int(upsample),
+                                                               reverse=bool(reverse)))
+
+
+class Run:
+    """What a runner may use while running one op: the cached ``heads``, the Motion the current staggered
+    representation was extracted from (``origin``), and where to leave notes and the warp curve."""
+
+    def __init__(self, heads: Heads, origin):
+        self.heads = heads
+        self._origin = origin  # a Motion, or a callable giving it (found only when a runner asks)
+        self.notes: list[str] = []
+        self.warp: np.ndarray | None = None
+
+    @property
+    def origin(self) -> Motion:
+        if callable(self._origin):
+            self._origin = self._origin()
+        return self._origin
+
+    @origin.setter
+    def origin(self, motion: Motion) -> None:
+        self._origin = motion
+
+    def note(self, message: str) -> None:
+        if message:
+            self.notes.append(message)
+
+
+def convert(state, needs: str, run: Run):
+    """``state`` as the kind the op ``needs``: a Motion is extracted (cached), a staggered state evaluated."""
+    is_motion = isinstance(state, Motion)
+    if needs == "motion":
+        return state if is_motion else _staggered().evaluate(state)
+    if needs == "staggered" and is_motion:
+        run.origin = state
+        return run.heads.extract(state)
+    return state
+
+
+# --------------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------------
+def _joint(skeleton: Skeleton, name: str, field: str) -> int:
+    try:
+        return skeleton.index(name)
+    except KeyError:
+        raise ValueError(f"{field}: no joint named {name!r} in this skeleton") from None
+
+
+def apply_pose_deltas(pose_quats: np.ndarray, skeleton: Skeleton, deltas, field: str = "deltas") -> np.ndarray:
+    """Rotate joints of one pose in their own frames: ``q_j <- q_j * exp(r_j)``.
+
+    Parameters
+    ----------
+    pose_quats : ndarray, shape (J, 4), local rotations (x, y, z, w)
+    deltas : {joint name: [rx, ry, rz]} (or ``((name, (rx, ry, rz)), ...)``) rotation vectors in **degrees**,
+        in the joint's local frame
+
+    Returns
+    -------
+    ndarray, shape (J, 4): edited local rotations (a new array)
+    """
+    out = np.array(pose_quats, dtype=float)
+    for name, rv in (deltas.items() if isinstance(deltas, dict) else deltas):
+        j = _joint(skeleton, name, f"{field}.{name}")
+        out[j] = quat_mul(out[j], rotvec_to_quat(np.radians(np.asarray(rv, dtype=float))))
+    return out
+
+
+def _frame(m: Motion, f: int, field: str = "frame") -> int:
+    if f >= m.num_frames:
+        raise ValueError(f"{field}: {f} is outside the motion's {m.num_frames} frames")
+    return f
+
+
+def _pose(sm, k: int, field: str = "pose") -> int:
+    if k >= sm.num_poses:
+        raise ValueError(f"{field}: {k} is outside the {sm.num_poses} poses")
+    return k
+
+
+def _warp_frames(m: Motion, duration: float) -> int:
+    """Output frames of a warp to ``duration`` seconds at the input's frame time (at most
+    ``MAX_WARP_RATIO`` times the input's frames: an absurd duration must not allocate memory for it)."""
+    n = duration / m.frame_time
+    if n > MAX_WARP_RATIO * m.num_frames:
+        raise ValueError(f"duration: {duration:g} s is more than {MAX_WARP_RATIO} times the input's "
+                         f"{m.duration:g} s")
+    return max(2, int(round(n)) + 1)
+
+
+def _needs(name: str) -> Callable:
+    """The staggered function ``name`` (a clear error while another engineer's function has not landed)."""
+    f = getattr(_staggered(), name, None)
+    if f is None:
+        raise ValueError(f"op needs staggered.{name}, which this version of stagger_nb does not have yet")
+    return f
+
+
+# --------------------------------------------------------------------------------------------------
+# runners
+# --------------------------------------------------------------------------------------------------
+def _extract(st, op, run):
+    if isinstance(st, Motion):
+        return convert(st, "staggered", run)
+    return st
+
+
+def _cull(sm, op: O.Cull, run):
+    if op.keep is None:
+        return run.heads.cull(sm, op.percent, op.count)
+    K = sm.num_poses
+    for i, k in enumerate(op.keep):
+        _pose(sm, k, f"keep[{i}]")
+    drop = sorted(set(range(1, K - 1)) - set(op.keep), reverse=True)  # the first and last pose stay
+    delete = _staggered().delete_pose
+    for k in drop:  # from the end: lower indices stay valid
+        sm = delete(sm, k)
+    return sm
+
+
+def _succession(sm, op: O.Succession, run):
+    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints))
+
+
+def _random_timing(sm, op: O.RandomTiming, run):
+    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed)
+
+
+def _list(x):
+    return None if x is None else list(x)
+
+
+def _exaggerate(sm, op: O.Exaggerate, run):
+    poses = list(range(sm.num_poses)) if op.poses is None else [_pose(sm, k, "poses") for k in op.poses]
+    if isinstance(op.reference, int):
+        _pose(sm, op.reference, "reference")
+    return _staggered().exaggerate(sm, poses, op.w_r, reference=op.reference, mode=op.mode,
+                                   joints=_list(op.joints))
+
+
+def _radians(deltas) -> dict:
+    return {name: np.radians(np.asarray(rv, dtype=float)) for name, rv in deltas}
+
+
+def _edit_pose(sm, op: O.EditPose, run):
+    k = _pose(sm, op.pose)
+    if op.targets is not None:
+        for name, _ in op.targets:
+            _joint(sm.skeleton, name, f"targets.{name}")
+        return _staggered().edit_pose(sm, k, target={n: np.asarray(q, dtype=float) for n, q in op.targets},
+                                      mode=op.mode)
+    return _staggered().edit_pose(sm, k, deltas=_radians(op.deltas), mode=op.mode)
+
+
+def _retime(sm, op: O.Retime, run):
+    return _staggered().retime(sm, {_pose(sm, op.pose): op.time})
+
+
+def _insert_pose(sm, op: O.InsertPose, run):
+    return _staggered().insert_pose(sm, op.time)
+
+
+def _delete_pose(sm, op: O.DeletePose, run):
+    return _staggered().delete_pose(sm, _pose(sm, op.pose))
+
+
+def _keep_contacts(state, op: O.KeepContacts, run):
+    return _needs("keep_contacts")(state, run.origin)
+
+
+def _ik_pose(sm, op: O.IKPose, run):
+    res = _needs("ik_pose")(sm, _pose(sm, op.pose), op.joint, np.asarray(op.target, dtype=float))
+    run.note(getattr(res, "message", ""))
+    return res.staggered
+
+
+def _edit_frame(m, op: O.EditFrame, run):
+    f = _frame(m, op.frame)
+    q = np.array(m.local_quats)
+    q[f] = apply_pose_deltas(q[f], m.skeleton, op.deltas)
+    return m.replace(local_quats=q)
+
+
+def _propagate(m, op: O.Propagate, run):
+    edits = op.edits
+    frames = [_frame(m, f, "frame" if op.frames is None else f"frames[{i}]") for i, (f, _) in enumerate(edits)]
+    edited = np.stack([apply_pose_deltas(m.local_quats[f], m.skeleton, d, "deltas") for f, d in edits])
+    fr = None if op.frame_range is None else tuple(op.frame_range)
+    return _wand().propagate(m, frames if op.frames is not None else frames[0],
+                             edited if op.frames is not None else edited[0], frame_range=fr,
+                             repetitions=op.repetitions == "keep", basis=run.heads.wand_basis(m, op.sigma))
+
+
+def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
+    """``(output frames or None for free length, upsampling factor)`` of a guided warp of ``m``."""
+    n = None if op.free_length else _warp_frames(m, op.duration)
+    u = op.upsample
+    if u is None:
+        u = _timewarp().required_upsample(m.num_frames, n)
+        if n == m.num_frames:
+            u = max(u, 2)  # same duration: without upsampling the only warp is the identity (§3.1)
+    if n is not None and n > (m.num_frames - 1) * u + 1:
+        raise ValueError(f"upsample: {u} gives {(m.num_frames - 1) * u + 1} searched frames, fewer than the "
+                         f"{n} output frames of duration {op.duration:g} s")
+    return n, u
+
+
+def _guided_warp(m, op: O.GuidedWarp, run):
+    tw = _timewarp()
+    n, u = warp_size(m, op)
+    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward)
+    out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
+                               upsample=u, reverse=op.backward, tables=tables)
+    run.warp = warp
+    return out
+
+
+def _pairs(keytimes):
+    return None if keytimes is None else [list(p) for p in keytimes]
+
+
+def _linear_warp(m, op: O.LinearWarp, run):
+    out, warp = _timewarp().linear_warp(m, _warp_frames(m, op.duration), keytimes=_pairs(op.keytimes))
+    run.warp = warp
+    return out
+
+
+def _resample(m, op: O.Resample, run):
+    if m.duration / op.frame_time > MAX_WARP_RATIO * m.num_frames:
+        raise ValueError(f"frame_time: {op.frame_time:g} s gives more than {MAX_WARP_RATIO} times the "
+                         f"input's {m.num_frames} frames")
+    return m.resample(op.frame_time)
+
+
+#: Runner of each op type. A new op is an :class:`~.ops.Op` subclass plus an entry here.
+RUNNERS: dict[type, Callable] = {
+    O.Extract: _extract, O.Cull: _cull, O.Succession: _succession, O.RandomTiming: _random_timing,
+    O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.InsertPose: _insert_pose,
+    O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose,
+    O.EditFrame: _edit_frame, O.Propagate: _propagate, O.GuidedWarp: _guided_warp,
+    O.LinearWarp: _linear_warp, O.Resample: _resample,
+}

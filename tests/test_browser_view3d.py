@@ -1,0 +1,395 @@
+"""SkeletonView and export_html in a real browser: JupyterLab 4 + headless Debian Chromium (playwright, never its
+own browser download).
+
+In JupyterLab, a view of the procedural run plays: the canvas keeps changing, the kernel sends the browser at most
+10 comm messages a second (counted on the kernel websocket), the ``sn-frame`` slider advances at >= 90 % of real
+time, also while the kernel is busy (``time.sleep`` run from a second kernel client); after the Play stops,
+``view.frame`` equals the slider. The character's drawn height (dark pixels of the canvas) is >= 40 % of the
+canvas at the start, middle and end of the run and of CMU 01_01. Clicking a joint selects it. The exported page,
+opened from file:// with every network request blocked, draws a moving skeleton and its plots and requests
+nothing. Screenshots go to ``artifacts/`` (git-ignored).
+
+Skipped, with the reason printed, only when /usr/bin/chromium or playwright is missing.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+ARTIFACTS = REPO / "artifacts"
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--disable-background-timer-throttling",
+        "--disable-renderer-backgrounding", "--disable-backgrounding-occluded-windows"]
+DATA = os.environ.get("STAGGER_NB_DATA", str(REPO / "data"))
+
+pytestmark = [pytest.mark.browser]
+
+
+def _skip_reason():
+    if not Path(CHROMIUM).is_file():
+        return f"{CHROMIUM} is missing (apt-get install chromium): the browser test cannot run here"
+    try:
+        import playwright  # noqa: F401
+    except ImportError:
+        return "playwright is not installed (pip install playwright)"
+    return None
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def lab(tmp_path):
+    """A token-less JupyterLab on a free port, state under tmp_path; yields (url, folder, runtime_dir)."""
+    reason = _skip_reason()
+    if reason:
+        print("SKIP:", reason)
+        pytest.skip(reason)
+    port = _free_port()
+    state = tmp_path / "jupyter-state"
+    env = dict(os.environ, JUPYTER_CONFIG_DIR=str(state / "config"), JUPYTER_RUNTIME_DIR=str(state / "runtime"),
+               JUPYTER_DATA_DIR=str(state / "data"), IPYTHONDIR=str(state / "ipython"), JUPYTER_PLATFORM_DIRS="1",
+               JUPYTERLAB_SETTINGS_DIR=str(state / "lab-settings"))
+    for rel, value in [("@jupyterlab/notebook-extension/tracker.jupyterlab-settings", {"windowingMode": "none"}),
+                       ("@jupyterlab/apputils-extension/notification.jupyterlab-settings",
+                        {"fetchNews": "false", "checkForUpdates": False})]:
+        p = state / "lab-settings" / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(json.dumps(value))
+    log = open(tmp_path / "lab.log", "w")
+    proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
+                             "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
+                             f"--ServerApp.root_dir={tmp_path}", "--LabApp.news_url=None",
+                             "--ServerApp.disable_check_xsrf=True"],
+                            cwd=tmp_path, env=env, stdout=log, stderr=subprocess.STDOUT)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        for _ in range(120):
+            try:
+                urllib.request.urlopen(url + "/api/status", timeout=2)
+                break
+            except Exception:
+                if proc.poll() is not None:
+                    raise RuntimeError("jupyter lab exited: " + (tmp_path / "lab.log").read_text()[-2000:])
+                time.sleep(0.5)
+        else:
+            raise RuntimeError("jupyter lab did not answer within 60 s")
+        yield url, tmp_path, state / "runtime"
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        log.close()
+
+
+def _write_notebook(path: Path, cells) -> None:
+    import nbformat
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(c) for c in cells]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nbformat.write(nb, str(path))
+
+
+def _image(png: bytes):
+    from PIL import Image
+    return Image.open(io.BytesIO(png)).convert("RGB")
+
+
+def _changed(a, b) -> float:
+    x, y = np.asarray(a, dtype=int), np.asarray(b, dtype=int)
+    return 1.0 if x.shape != y.shape else float(np.mean(np.abs(x - y).sum(axis=2) > 30))
+
+
+def character_height(img) -> float:
+    """Vertical extent of the character's pixels as a fraction of the image height: pixels that are dark or
+    saturated (bones, joints), not the white background, the light grey grid or the light ghost."""
+    a = np.asarray(img, dtype=int)
+    sat = a.max(axis=2) - a.min(axis=2)
+    mask = (a.max(axis=2) < 150) | (sat > 90)
+    rows = np.flatnonzero(mask.sum(axis=1) >= 2)   # >= 2 pixels in a row: not a stray antialiasing dot
+    return 0.0 if rows.size == 0 else float((rows[-1] - rows[0] + 1) / a.shape[0])
+
+
+def _ws_kind(payload):
+    """(channel, msg_type) of a Jupyter kernel websocket frame (JSON text or the v1 binary protocol)."""
+    try:
+        if isinstance(payload, str):
+            d = json.loads(payload)
+            return d.get("channel"), d.get("header", {}).get("msg_type")
+        b = bytes(payload)
+        n = int.from_bytes(b[:8], "little")
+        offs = [int.from_bytes(b[8 + 8 * i:16 + 8 * i], "little") for i in range(n)]
+        return b[offs[0]:offs[1]].decode(), json.loads(b[offs[1]:offs[2]]).get("msg_type")
+    except Exception:
+        return None, None
+
+
+class Kernel:
+    """A second client of the notebook's kernel (its connection file), to set and read view state."""
+
+    def __init__(self, runtime: Path):
+        from jupyter_client import BlockingKernelClient
+        files = sorted(runtime.glob("kernel-*.json"), key=lambda p: p.stat().st_mtime)
+        self.kc = BlockingKernelClient(connection_file=str(files[-1]))
+        self.kc.load_connection_file()
+        self.kc.start_channels()
+
+    def run(self, code: str, timeout: float = 60):
+        msg_id = self.kc.execute(code)
+        reply = self.kc.get_shell_msg(timeout=timeout)
+        while reply["parent_header"].get("msg_id") != msg_id:
+            reply = self.kc.get_shell_msg(timeout=timeout)
+        assert reply["content"]["status"] == "ok", reply["content"]
+
+    def eval(self, expr: str, timeout: float = 60):
+        msg_id = self.kc.execute("", user_expressions={"x": f"__import__('json').dumps({expr})"})
+        reply = self.kc.get_shell_msg(timeout=timeout)
+        while reply["parent_header"].get("msg_id") != msg_id:
+            reply = self.kc.get_shell_msg(timeout=timeout)
+        x = reply["content"]["user_expressions"]["x"]
+        assert x["status"] == "ok", x
+        return json.loads(x["data"]["text/plain"].strip("'"))
+
+    def send(self, code: str) -> str:
+        return self.kc.execute(code)
+
+    def close(self):
+        self.kc.stop_channels()
+
+
+CELLS = [
+    f"""import sys, os, time
+sys.path.insert(0, {str(REPO)!r})
+os.environ.setdefault("STAGGER_NB_DATA", {DATA!r})
+import stagger_nb as sn
+from stagger_nb.widgets import SkeletonView
+run = sn.data.load("run")
+cmu = sn.read_bvh(os.path.join(os.environ["STAGGER_NB_DATA"], "cmu_01_01.bvh"))""",
+    """v = SkeletonView(run)
+v.add_class("sn-view-run")
+v""",
+    """c = SkeletonView(cmu)
+c.add_class("sn-view-cmu")
+c""",
+    """print("ALL", "CELLS", "DONE")""",
+]
+
+
+def _open_and_run(page, url, name):
+    page.goto(f"{url}/lab/tree/{name}?reset", wait_until="domcontentloaded", timeout=90000)
+    page.wait_for_selector(".jp-Notebook", timeout=90000)
+    page.wait_for_timeout(3000)
+    no_news = page.locator(".jp-toast-button", has_text="No")
+    if no_news.count():
+        no_news.first.click()
+    page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
+    page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
+    page.wait_for_selector(".jp-OutputArea-output >> text=ALL CELLS DONE", timeout=180000)
+
+
+def _slider_value(page, sel) -> int:
+    return int(page.locator(f"{sel} .sn-frame .widget-readout").first.inner_text().strip())
+
+
+def test_view_plays_in_the_browser_and_picks(lab):
+    from playwright.sync_api import sync_playwright
+
+    url, folder, runtime = lab
+    _write_notebook(folder / "view3d.ipynb", CELLS)
+    ARTIFACTS.mkdir(exist_ok=True)
+    console, page_errors, report = [], [], {}
+    frames = []   # (time, channel, msg_type) of kernel -> browser websocket frames
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.on("console", lambda m: console.append(f"{m.type}: {m.text[:300]}"))
+        page.on("pageerror", lambda e: page_errors.append(str(e)[:300]))
+
+        def on_ws(ws):
+            if "/channels" in ws.url:
+                ws.on("framereceived", lambda payload: frames.append((time.monotonic(), *_ws_kind(payload))))
+        page.on("websocket", on_ws)
+        try:
+            _open_and_run(page, url, "view3d.ipynb")
+            kernel = Kernel(runtime)
+            run_sel, cmu_sel = ".sn-view-run", ".sn-view-cmu"
+            for sel in (run_sel, cmu_sel):
+                page.wait_for_selector(f"{sel} canvas", timeout=60000)
+            page.wait_for_timeout(2500)
+            canvas = page.locator(f"{run_sel} canvas").first
+            canvas.scroll_into_view_if_needed()
+            F = kernel.eval("v.motion.num_frames")
+            ft = kernel.eval("v.motion.frame_time")
+
+            # -- drawn height at start / middle / end (run and CMU 01_01) ----------------------------------
+            heights = {}
+            for sel, var, clip in [(run_sel, "v", "run"), (cmu_sel, "c", "cmu")]:
+                n = kernel.eval(f"{var}.motion.num_frames")
+                cv = page.locator(f"{sel} canvas").first
+                cv.scroll_into_view_if_needed()
+                for label, f in [("start", 0), ("middle", n // 2), ("end", n - 1)]:
+                    kernel.run(f"{var}.frame = {f}")
+                    page.wait_for_function(
+                        "([s, f]) => { const r = document.querySelector(s + ' .sn-frame .widget-readout');"
+                        " return r && r.textContent.trim() === String(f); }", arg=[sel, f], timeout=20000)
+                    page.wait_for_timeout(700)
+                    img = _image(cv.screenshot())
+                    img.save(ARTIFACTS / f"view3d_{clip}_{label}.png")
+                    heights[f"{clip}_{label}"] = round(character_height(img), 3)
+            report["drawn_height"] = heights
+
+            # -- play: the slider at real rate, few kernel->browser messages, also while the kernel is busy --
+            play = page.locator(f"{run_sel} .sn-play button").first     # play / pause toggle
+            kernel.run("v.frame = 0")
+            page.wait_for_timeout(500)
+            play.click()
+            t_start = time.monotonic()
+            samples, busy_id = [], None
+            frames_from, t_frames = len(frames), time.monotonic()
+            while time.monotonic() - t_start < 3.6:   # the run is 5 s long: stop measuring well before its end
+                samples.append((time.monotonic(), _slider_value(page, run_sel)))
+                if busy_id is None and time.monotonic() - t_start > 0.8:
+                    busy_id = kernel.send("time.sleep(1.8)")   # the kernel is busy for a while
+                page.wait_for_timeout(200)
+            t_frames_end = time.monotonic()
+            play.click()   # pause
+            window = [f for f in frames[frames_from:] if t_frames <= f[0] <= t_frames_end]
+            comm = [f for f in window if f[2] == "comm_msg"]
+            rate_msgs = len(comm) / (t_frames_end - t_frames)
+            samples = samples[2:]   # from ~0.4 s on: the first tick may still be on its way
+            (t0, v0), (t1, v1) = samples[0], samples[-1]
+            rate = (v1 - v0) * ft / (t1 - t0)
+            page.wait_for_timeout(1500)
+            kernel.kc.get_shell_msg(timeout=30)   # the sleep's reply (kernel idle again)
+            stopped_at = _slider_value(page, run_sel)
+            report["stopped"] = {"slider": stopped_at, "view.frame": kernel.eval("v.frame"),
+                                 "playing": kernel.eval("v.playing")}
+            # -- play again, repeating (screenshots are slow under load): the canvas keeps changing ----------
+            kernel.run("v.frame = 0; v.player.repeat = True")
+            page.wait_for_timeout(500)
+            play.click()
+            shots, shot_frames = [], []
+            for _ in range(4):
+                shots.append(_image(canvas.screenshot()))
+                shot_frames.append(_slider_value(page, run_sel))
+                page.wait_for_timeout(150)
+            play.click()
+            kernel.run("v.player.repeat = False")
+            changes = [_changed(shots[k], shots[k + 1]) for k in range(len(shots) - 1)]
+            shots[1].save(ARTIFACTS / "view3d_run_playing.png")
+            report.update(play_rate=round(rate, 3), samples=[(round(t - t_start, 2), v) for t, v in samples],
+                          comm_msgs_per_s=round(rate_msgs, 2),
+                          ws_frames_per_s=round(len(window) / (t_frames_end - t_frames), 2),
+                          ws_kinds=sorted({f"{c}/{k}" for _, c, k in window}),
+                          canvas_changed=[round(c, 4) for c in changes], shot_frames=shot_frames)
+
+            # -- a trail and picking ------------------------------------------------------------------------
+            kernel.run("v.frame = 150; v.trail_joints = ['LeftHand', 'RightFoot']")
+            page.wait_for_timeout(1500)
+            _image(canvas.screenshot()).save(ARTIFACTS / "view3d_run_trail.png")
+            kernel.run("v.trail_joints = []; v.frame = 100")
+            page.wait_for_timeout(1000)
+            x, y = kernel.eval("v.joint_pixel('Head')")
+            canvas.click(position={"x": x, "y": y})
+            deadline = time.monotonic() + 15
+            picked = ""
+            while time.monotonic() < deadline and not picked:
+                picked = kernel.eval("v.selected_joint")
+                page.wait_for_timeout(200)
+            page.wait_for_timeout(800)
+            _image(canvas.screenshot()).save(ARTIFACTS / "view3d_run_picked.png")
+            report["picked"] = picked
+            page.locator(run_sel).first.screenshot(path=str(ARTIFACTS / "view3d_run_view.png"))
+            kernel.close()
+        except Exception:
+            page.screenshot(path=str(ARTIFACTS / "view3d_failure.png"), full_page=True)
+            (ARTIFACTS / "view3d_failure_console.txt").write_text("\n".join(console + page_errors))
+            raise
+        finally:
+            browser.close()
+    bad = [c for c in console if c.startswith("error") and not any(
+        k in c for k in ("t.on is not a function", "@lumino/coreutils", "Failed to load resource", "favicon"))]
+    report.update(console_errors=bad, page_errors=page_errors)
+    (ARTIFACTS / "view3d_report.json").write_text(json.dumps(report, indent=1))
+    print(json.dumps(report, indent=1))
+    assert all(h >= 0.40 for h in heights.values()), heights
+    assert rate >= 0.90, report
+    assert rate_msgs <= 10, report
+    assert max(changes) > 0.0005 and min(changes) > 0.0, report     # the figure moves between screenshots
+    assert report["stopped"]["view.frame"] == stopped_at and not report["stopped"]["playing"], report
+    assert picked == "Head", report
+    assert not page_errors, page_errors
+
+
+def test_exported_page_plays_offline(tmp_path):
+    """export_html of an editor, opened from file:// with every request other than the page itself blocked."""
+    reason = _skip_reason()
+    if reason:
+        print("SKIP:", reason)
+        pytest.skip(reason)
+    sys.path.insert(0, str(REPO))
+    import stagger_nb as sn
+    from stagger_nb.widgets import StaggerEditor, export_html
+    from playwright.sync_api import sync_playwright
+
+    run = sn.data.load("run")
+    editor = StaggerEditor(run, precompute=False)
+    editor.s.value = 0.05
+    page_path = export_html(editor, tmp_path / "run.html")
+    editor.close()
+    ARTIFACTS.mkdir(exist_ok=True)
+    requests, errors, report = [], [], {}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1300, "height": 800})
+            page.on("pageerror", lambda e: errors.append(str(e)[:300]))
+            page.on("console", lambda m: errors.append(m.text[:300]) if m.type == "error" else None)
+
+            def route(r):
+                if r.request.url == page_path.as_uri():
+                    return r.continue_()
+                requests.append(r.request.url)
+                return r.abort()
+            page.route("**/*", route)
+            page.on("request", lambda r: None if r.url == page_path.as_uri() else requests.append(r.url))
+            page.goto(page_path.as_uri(), wait_until="load", timeout=60000)
+            page.wait_for_selector("#sn-view canvas", timeout=30000)
+            page.wait_for_function("() => document.querySelectorAll('.sn-plot .main-svg').length > 0", timeout=30000)
+            page.wait_for_timeout(800)
+            canvas = page.locator("#sn-view canvas")
+            a = _image(canvas.screenshot())
+            page.wait_for_timeout(1000)
+            b = _image(canvas.screenshot())
+            n_plots = page.locator(".sn-plot").count()
+            traces = page.locator(".sn-plot .scatterlayer .trace").count()
+            page.screenshot(path=str(ARTIFACTS / "view3d_export_page.png"))
+            a.save(ARTIFACTS / "view3d_export_canvas.png")
+        finally:
+            browser.close()
+    from PIL import ImageStat
+    report.update(size=page_path.stat().st_size, stddev=max(ImageStat.Stat(a).stddev), changed=_changed(a, b),
+                  plots=n_plots, traces=traces, requests=requests, errors=errors)
+    print(json.dumps(report, indent=1))
+    assert report["stddev"] > 5, report          # not blank (a blank canvas has ~0)
+    assert report["changed"] > 0.001, report     # it plays: the two screenshots 1 s apart differ
+    assert n_plots == len(editor.figures() if hasattr(editor, "figures") else editor.plots) > 0 and traces > 0, report
+    assert requests == [], report                # nothing but the file itself was asked for
+    assert errors == [], report

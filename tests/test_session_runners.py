@@ -1,0 +1,193 @@
+"""session.runners and replay: each op's runner against the technique call it stands for; replay linear in the
+number of ops; notes (messages) from the last replay."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import stagger_nb as sn
+from stagger_nb import staggered, timewarp, wand
+from stagger_nb.core import skeleton_height
+from stagger_nb.core.rotations import quat_angle
+from stagger_nb.session import Session
+from stagger_nb.session import ops as O
+from stagger_nb.session import runners as R
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return sn.data.load("walk").slice(0, 150)  # 2.5 s at 60 Hz: a few poses, fast extraction
+
+
+@pytest.fixture(scope="module")
+def walk_session(walk):
+    s = Session(walk)
+    s.extraction()  # shared cached extraction for the module's tests
+    return s
+
+
+def _fresh(walk_session, ops):
+    """A session with ``ops`` sharing the module session's cached heads (the extraction)."""
+    s = Session(walk_session.source, ops)
+    s._ctx = walk_session._ctx
+    return s
+
+
+def _same_motion(a, b, tol=1e-12):
+    assert a.num_frames == b.num_frames
+    assert quat_angle(a.local_quats, b.local_quats).max() <= tol
+    np.testing.assert_allclose(a.root_positions, b.root_positions, atol=tol)
+
+
+def test_cull_by_count_and_by_keep_list(walk_session):
+    sm = walk_session.extraction()
+    K = sm.num_poses
+    assert K >= 4
+    s = _fresh(walk_session, [{"op": "cull", "count": 3}])
+    assert s.staggered().num_poses == 3
+    np.testing.assert_array_equal(s.staggered().pose_times, staggered.cull(sm, count=3).pose_times)
+    keep = [2]
+    s = _fresh(walk_session, [{"op": "cull", "keep": keep}])
+    np.testing.assert_array_equal(s.staggered().pose_times, sm.pose_times[[0, 2, K - 1]])  # first and last stay
+    # deleting poses keeps the motion (§5.1): the evaluated motion is close to the unculled one
+    assert quat_angle(s.edited().local_quats, staggered.evaluate(sm).local_quats).max() < 0.05
+    with pytest.raises(ValueError, match=r"^ops\[0\] \(cull\): keep\[0\]: 99 is outside"):
+        _fresh(walk_session, [{"op": "cull", "keep": [99]}]).edited()
+
+
+def test_staggered_tools_match_their_technique_calls(walk_session):
+    sm = walk_session.extraction()
+    names = walk_session.source.skeleton.names
+    t_new = 0.5 * (sm.pose_times[1] + sm.pose_times[2])
+    cases = [
+        ({"op": "exaggerate", "w_r": 0.5, "reference": 1, "poses": [2]},
+         staggered.exaggerate(sm, [2], 0.5, reference=1)),
+        ({"op": "edit_pose", "pose": 1, "deltas": {names[3]: [20.0, 0.0, 0.0]}, "mode": "unstaggered"},
+         staggered.edit_pose(sm, 1, deltas={names[3]: np.radians([20.0, 0, 0])}, mode="unstaggered")),
+        ({"op": "retime", "pose": 1, "time": float(sm.pose_times[1] + 0.05)},
+         staggered.retime(sm, {1: float(sm.pose_times[1] + 0.05)})),
+        ({"op": "insert_pose", "time": float(t_new)}, staggered.insert_pose(sm, float(t_new))),
+        ({"op": "delete_pose", "pose": 1}, staggered.delete_pose(sm, 1)),
+    ]
+    for op, want in cases:
+        s = _fresh(walk_session, [op])
+        assert s.staggered().num_poses == want.num_poses, op
+        _same_motion(s.edited(), staggered.evaluate(want))
+    # with deltas the two edit modes give the same motion (staggered.edit_pose applies the same change to
+    # both knots, §5.1); with targets the mode chooses the knot the user edits (Fig. 6a vs 6b)
+    j = names[3]
+    q = [0.0, 0.0, np.sin(0.3), np.cos(0.3)]
+    a, b = (_fresh(walk_session, [{"op": "edit_pose", "pose": 1, "targets": {j: q}, "mode": mode}]).edited()
+            for mode in ("staggered", "unstaggered"))
+    f = int(round(sm.pose_times[1] / sm.frame_time))
+    assert abs(sm.pose_times[1] - f * sm.frame_time) < 1e-9  # extracted poses sit on frames
+    ji = names.index(j)
+    assert quat_angle(a.local_quats[f, ji], np.array(q)) < 1e-6  # staggered mode: the true pose at t_k
+    assert quat_angle(b.local_quats[f, ji], np.array(q)) > 1e-4  # unstaggered mode: the extreme values
+    assert quat_angle(a.local_quats, b.local_quats).max() > 1e-4
+
+
+def test_keep_contacts_and_ik_pose_call_the_staggered_functions(walk_session):
+    sm = walk_session.extraction()
+    names = walk_session.source.skeleton.names
+    ops = [{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}, {"op": "keep_contacts"}]
+    s = _fresh(walk_session, ops)
+    want = staggered.keep_contacts(staggered.succession(sm, root="Hips", s=0.02, l=1.0), walk_session.source)
+    _same_motion(s.edited(), want)
+    hand = "LeftHand" if "LeftHand" in names else names[-1]
+    k = 1
+    pos, _ = sn.forward_kinematics(staggered.evaluate(sm))
+    f = int(round(sm.pose_times[k] / sm.frame_time))
+    reach = pos[f, names.index(hand)] + np.array([0.02, 0.0, 0.0]) * skeleton_height(walk_session.source)
+    res = staggered.ik_pose(sm, k, hand, reach)
+    s = _fresh(walk_session, [{"op": "ik_pose", "pose": k, "joint": hand, "target": [float(x) for x in reach]}])
+    _same_motion(s.edited(), staggered.evaluate(res.staggered))
+    assert s.messages() == ([res.message] if res.message else [])
+    far = [1e4, 1e4, 1e4]
+    s = _fresh(walk_session, [{"op": "ik_pose", "pose": k, "joint": hand, "target": far}])
+    s.edited()
+    msg = staggered.ik_pose(sm, k, hand, np.array(far)).message
+    assert msg and msg in s.messages()
+
+
+def test_timing_warnings_are_summarised_in_messages(walk_session):
+    s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0}])
+    assert s.messages() == []  # nothing replayed yet
+    s.edited()
+    want = staggered.summarize_timing_warnings(staggered.timing_warnings(s.staggered()))
+    assert want  # this exaggerated succession does cross poses, or the check proves nothing
+    assert s.messages() == [want]
+
+
+def test_propagate_several_frames_and_repetitions(walk_session):
+    m = walk_session.source
+    j = m.skeleton.names[2]
+    op = {"op": "propagate", "frames": [20, 100], "deltas": [{j: [15.0, 0, 0]}, {j: [0, -10.0, 0]}], "sigma": 0.5,
+          "repetitions": "discard"}
+    s = _fresh(walk_session, [op])
+    edited = np.stack([R.apply_pose_deltas(m.local_quats[f], m.skeleton, d) for f, d in
+                       [(20, {j: [15.0, 0, 0]}), (100, {j: [0, -10.0, 0]})]])
+    want = wand.propagate(m, [20, 100], edited, sigma=0.5, repetitions=False)
+    _same_motion(s.edited(), want, tol=1e-9)
+    keep = _fresh(walk_session, [dict(op, repetitions="keep")]).edited()
+    assert quat_angle(keep.local_quats, s.edited().local_quats).max() > 1e-6
+
+
+def test_guided_warp_same_duration_backward_and_free_length(walk_session):
+    m = walk_session.source
+    s = _fresh(walk_session, [{"op": "guided_warp", "duration": m.duration, "skip": 4,
+                               "reference": {"segment": [0.5, 1.5]}}])
+    out = s.edited()
+    warp = s.warp_curve()
+    assert out.num_frames == m.num_frames
+    identity = np.arange(m.num_frames) * m.frame_time
+    assert np.abs(warp - identity).max() > m.frame_time  # same duration, retimed (upsampled search)
+    s = _fresh(walk_session, [{"op": "guided_warp", "duration": 0.8 * m.duration, "skip": 4, "backward": True}])
+    s.edited()
+    w = s.warp_curve()
+    assert w[0] == pytest.approx(m.duration, abs=1e-6) and np.all(np.diff(w) <= 1e-9)  # plays backwards
+    s = _fresh(walk_session, [{"op": "guided_warp", "free_length": True, "skip": 4}])
+    n = s.edited().num_frames
+    ref = timewarp.guided_warp(m, m, None, skip=4)[0]
+    assert n == ref.num_frames
+
+
+def test_replay_of_4000_ops_is_linear(walk_session, monkeypatch):
+    """Each op runs once; each op's canonical JSON is made once (no per-prefix re-serialisation); a change of
+    the last op replays one op."""
+    m = walk_session.source.slice(0, 10)
+    calls, dumps = [0], [0]
+    run = R.RUNNERS[O.EditFrame]
+
+    def counted(state, op, r):
+        calls[0] += 1
+        return run(state, op, r)
+
+    canonical = O.canonical
+
+    def counted_dumps(v):
+        dumps[0] += 1
+        return canonical(v)
+
+    monkeypatch.setitem(R.RUNNERS, O.EditFrame, counted)
+    monkeypatch.setattr(O, "canonical", counted_dumps)
+    j = m.skeleton.names[1]
+    n = 4000
+    s = Session(m, [{"op": "edit_frame", "frame": i % 10, "deltas": {j: [0.01, 0, 0]}} for i in range(n)])
+    e = s.edited()
+    assert calls[0] == n and dumps[0] == n
+    s.replace(-1, {"op": "edit_frame", "frame": 0, "deltas": {j: [0.02, 0, 0]}})
+    s.edited()
+    assert calls[0] == n + 1 and dumps[0] == n + 1
+    s.undo()
+    assert s.edited() is e and calls[0] == n + 1  # the previous final state is still cached
+    # closed form: 400 edits of 0.01 degree about x on each frame compose to 4 degrees
+    ang = quat_angle(m.local_quats[:, 1], e.local_quats[:, 1])
+    np.testing.assert_allclose(np.degrees(ang), 4.0, atol=1e-6)
+
+
+def test_absent_staggered_function_gives_a_clear_error(walk_session, monkeypatch):
+    monkeypatch.delattr(staggered, "ik_pose")
+    s = _fresh(walk_session, [{"op": "ik_pose", "pose": 1, "joint": "Hips", "target": [0, 0, 0]}])
+    with pytest.raises(ValueError, match=r"^ops\[0\] \(ik_pose\): op needs staggered\.ik_pose"):
+        s.edited()

@@ -1,0 +1,96 @@
+"""Session.warm: background cache fills on the session's executor, returning a cancellable future."""
+from __future__ import annotations
+
+import threading
+from concurrent.futures import CancelledError
+
+import pytest
+
+import stagger_nb as sn
+from stagger_nb.session import Session
+
+
+@pytest.fixture
+def session():
+    return Session(sn.data.load("walk").slice(0, 120))
+
+
+def test_warm_fills_the_caches_the_replay_uses(session):
+    busy = []
+    session.observe_busy(lambda kind, started: busy.append((kind, started, threading.current_thread().name)))
+    seen = []
+    fut = session.warm("extract", ("cull", [40, 60]), ("wand_basis", [0.3]),
+                       progress=lambda d, t, label: seen.append((d, t, label)))
+    assert fut.result(120) == 5
+    assert [label for _, _, label in seen] == ["extract", "cull 40 %", "cull 60 %", "pose graph",
+                                               "basis sigma=0.3", "done"]
+    assert all(name.startswith("stagger_nb-warm") for _, _, name in busy)
+    kinds = [k for k, started, _ in busy if started]
+    assert kinds == ["extract", "cull", "cull", "graph", "basis"]
+    busy.clear()
+    m = session.source
+    session.set_ops([{"op": "cull", "percent": 60}])
+    session.edited()
+    session.set_ops([{"op": "propagate", "frame": 10, "sigma": 0.3, "deltas": {m.skeleton.names[2]: [10.0, 0, 0]}}])
+    session.edited()
+    assert busy == []  # everything came from the warmed cache
+    session.close()
+
+
+def test_warm_future_cancels_before_the_next_item(session):
+    gate, entered = threading.Event(), threading.Event()
+    labels = []
+
+    def progress(done, total, label):
+        labels.append(label)
+        if label == "extract":
+            entered.set()
+            assert gate.wait(30)
+
+    fut = session.warm("extract", ("cull", [30, 40, 50]), progress=progress)
+    assert entered.wait(30)
+    assert fut.cancel() and fut.cancelled()
+    gate.set()
+    with pytest.raises(CancelledError):
+        fut.result(30)
+    done = session.warm("extract")  # the worker moves on: the same executor runs the next job
+    assert done.result(120) == 1
+    assert labels == ["extract"]  # no cull item ran after the cancel
+    session.close()
+
+
+def test_warm_checks_its_jobs_at_once(session):
+    with pytest.raises(ValueError, match=r"^jobs\[1\]"):
+        session.warm("extract", "everything")
+    with pytest.raises(ValueError, match=r"^jobs\[0\]\[1\]\[1\]"):
+        session.warm(("cull", [10, 150]))
+    with pytest.raises(ValueError, match=r"^jobs\[0\]\[1\]\[0\]\.skip"):
+        session.warm(("warp_tables", [{"duration": 1.0, "skip": 0}]))
+
+
+def test_warm_error_reaches_the_future(session, monkeypatch):
+    from stagger_nb import staggered
+
+    def boom(*a, **k):
+        raise RuntimeError("extraction failed")
+
+    monkeypatch.setattr(staggered, "extract", boom)
+    with pytest.raises(RuntimeError, match="extraction failed"):
+        session.warm("extract").result(30)
+    session.close()
+
+
+def test_interpreter_exit_does_not_wait_for_the_whole_warm_up(tmp_path):
+    """The worker stops before its next item once the main thread has finished (30 items of >= 0.5 s each
+    would keep a plain executor's exit waiting 15 s)."""
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+    code = ("import time, stagger_nb as sn; from stagger_nb.session import Session\n"
+            "s = Session(sn.data.load('walk').slice(0, 60)); s.extraction()\n"
+            "s.warm(('cull', [100 - i for i in range(30)]), progress=lambda d, t, l: time.sleep(0.5))\n"
+            "time.sleep(0.2)\n")
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120, cwd=Path(__file__).resolve().parents[1])
+    assert time.perf_counter() - t0 < 12  # import + extraction + one or two items; the 30 items would take 15 s
