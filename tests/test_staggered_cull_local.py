@@ -71,3 +71,19 @@ def test_local_cull_matches_full_refit_real_clip():
     p = REAL / "cmu_131_01_walk_startstop.bvh"
     if p.is_file():
         _compare(staggered.extract(read_bvh(p)), (20, 50, 80), 2e-3)
+
+
+def test_local_cull_keeps_far_segments_verbatim(walk):
+    """Segments between kept consecutive poses, not beside a merged one, keep controls and maps bit-for-bit
+    (the local path ran)."""
+    sm = staggered.extract(walk)
+    keep = staggered.cull_keep(sm, 90)
+    a = staggered.cull(sm, 90)
+    merged = np.diff(keep) > 1
+    near = merged | np.r_[False, merged[:-1]] | np.r_[merged[1:], False]
+    far = np.flatnonzero(~near)
+    assert far.size > 0
+    np.testing.assert_array_equal(a.tangents[far], sm.tangents[keep[far]])
+    np.testing.assert_array_equal(a.displacement_counts[far], sm.displacement_counts[keep[far]])
+    M = min(a.displacements.shape[2], sm.displacements.shape[2])
+    np.testing.assert_array_equal(a.displacements[far][:, :, :M], sm.displacements[keep[far]][:, :, :M])

@@ -34,6 +34,7 @@ __all__ = ["fit_staggered", "refit_merged", "fit_subset", "velocity_jumps", "dis
 _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 interior samples) to the chord
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
 _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
+_LOCAL_MAX_SHARE = 0.6   # refit_merged declines when the segments it would refit span more of the clip
 _SHRINK = (1.0, 0.85, 0.7, 0.55, 0.4, 0.2, 0.0)   # start polygons tried: Euclidean fit shrunk toward its chord
 
 
@@ -733,7 +734,8 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
 
     The root translation is refitted whole (cheap, and then identical to the full refit).
 
-    Returns the new StaggeredMotion, or None when the local refit does not apply (knots off the frame grid,
+    Returns the new StaggeredMotion, or None when the local refit does not apply or does not pay (the
+    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the frame grid,
     ``sm`` fitted with other options or other displacement sampling, a knot value of opposite sign to the
     samples beside it); the caller then refits fully.
     """
@@ -752,6 +754,9 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     changed[1:] |= merged[:-1]
     changed[:-1] |= merged[1:]
     unch = np.flatnonzero(~changed)
+    span = np.diff(sm.pose_times[keep])
+    if span[changed].sum() > _LOCAL_MAX_SHARE * span.sum():
+        return None                                    # most of the clip changes: the full refit is as fast
     if np.any(sm.displacement_counts[keep[unch]]
               != np.maximum(np.rint(np.diff(old_knots, axis=0)[keep[unch]] / ft).astype(np.int64) + 1, 2)):
         return None                                    # kept segments sampled otherwise (oversampled fits)
