@@ -349,3 +349,19 @@ def test_warp_style_free_length_and_backward(walk, run):
         assert not e.model.backward and e.controls["backward"].value is False
     finally:
         e.close()
+
+
+def test_closing_an_editor_closes_every_widget_it_made(walk):
+    """Open widgets stay registered with ipywidgets until exit (then their __del__ fails noisily): close()
+    closes the controls, the 3D view, the plots and the layout boxes, not only the outer box."""
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk.slice(0, 120), precompute=False)
+    made = [*e.controls.values(), e.view, *e.plots]
+    stack = list(e.children)
+    while stack:
+        w = stack.pop()
+        stack.extend(getattr(w, "children", ()) or ())
+        made.append(w)
+    assert all(w.comm is not None for w in made)
+    e.close()
+    assert e.comm is None and all(w.comm is None for w in made)
