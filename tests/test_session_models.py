@@ -346,3 +346,25 @@ def test_stagger_editor_pose_edit_mode_chooses_the_knot_that_takes_the_nudged_va
         a = s.edited()
         m.edit_mode = "unstaggered"
         np.testing.assert_allclose(s.edited().local_quats, a.local_quats, atol=1e-9)
+
+
+def test_stagger_nudges_follow_a_new_cull_and_undo(walk):
+    """Pose edits apply to the state after the cull: after a new cull the nudge is the same change of the new
+    pose (not the old absolute value), and undoing the cull restores the first motion exactly."""
+    import numpy as np
+    from stagger_nb import staggered
+    s = Session(walk.slice(0, 240))
+    m = M.StaggerModel(root="Hips", frame_time=walk.frame_time, keep_contacts=False)
+    M.ModelBinding(m, s)
+    m.pose, m.joint, m.ry = 2, "LeftForeArm", 20.0
+    first = s.edited()
+    m.percent = 60.0
+    culled = staggered.cull(s.extraction(), 60.0)
+    direct = staggered.evaluate(staggered.edit_pose(culled, 2, deltas={"LeftForeArm": np.radians([0, 20.0, 0])}))
+    np.testing.assert_allclose(s.edited().local_quats, direct.local_quats, atol=1e-9)
+    m.edit_mode = "unstaggered"                 # the toggle still acts after the cull (targets again)
+    assert any("targets" in o for o in s.ops if o["op"] == "edit_pose")
+    s.undo()
+    s.undo()
+    assert m.percent == 100.0 and m.edit_mode == "staggered" and (m.rx, m.ry, m.rz) == (0.0, 20.0, 0.0)
+    np.testing.assert_allclose(s.edited().local_quats, first.local_quats, atol=1e-12)

@@ -760,6 +760,13 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
 # --------------------------------------------------------------------------------------------------
 # merging an editor's ops into the session's list, keeping everything else in place
 # --------------------------------------------------------------------------------------------------
+def _edit_prefix(ops: list) -> str:
+    """The ops before the StaggerEditor's first owned op past the cull (what its pose edits apply to), as
+    canonical JSON."""
+    i = next((n for n, o in enumerate(ops) if o["op"] in STAGGER_OPS and o["op"] != "cull"), len(ops))
+    return _canon(list(ops[:i]))
+
+
 def _key(op: dict):
     """Which instance of an owned op this is: one per name, per pose, per (pose, joint) or per frame."""
     name = op["op"]
@@ -873,6 +880,7 @@ class ModelBinding:
             raise ValueError(f"model: expected a StaggerModel, WandModel or WarpModel, got {type(model).__name__}")
         model.joint_names = list(session.source.skeleton.names)
         self._loading = False
+        self._bases_prefix = None  # the op prefix model.edit_bases were recorded for
         self._notes: list = []
         self._error = ""
         self._last = model.params()
@@ -909,9 +917,17 @@ class ModelBinding:
     def push(self) -> bool:
         """Model -> session. Returns True when the op list changed."""
         new = self.model.params()
+        old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
         if isinstance(self.model, StaggerModel):
-            self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d)
-        ops = merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
+            # the bases belong to the state the edits apply to: a new cull (or anything before the edits)
+            # drops them, and the nudges are written as deltas until that state is the session's
+            cur = self.session.ops
+            nxt = merge_ops(cur, old_ops, stagger_params_to_ops(new), self.owned, self._home)
+            if _edit_prefix(nxt) != self._bases_prefix:
+                self._clear_bases()
+            if _edit_prefix(nxt) == _edit_prefix(cur):
+                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d)
+        ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
             changed = self.session.set_ops(ops)
         except ValueError as e:
@@ -930,6 +946,8 @@ class ModelBinding:
     def pull(self) -> None:
         """Session -> model (op traits set from the session's op list)."""
         if isinstance(self.model, StaggerModel):
+            if _edit_prefix(self.session.ops) != self._bases_prefix:
+                self._clear_bases()
             self._record_bases((int(o["pose"]), j) for o in self.session.ops if o["op"] == "edit_pose"
                                for j in o.get("targets") or {})
         params, notes = self.from_ops(self.session.ops, self.model.params())
@@ -951,6 +969,12 @@ class ModelBinding:
         self._notes = notes
         self._error = ""
         self._show()
+
+    def _clear_bases(self) -> None:
+        if self.model.edit_bases:
+            with self.model.loading():
+                self.model.edit_bases = {}
+        self._bases_prefix = None
 
     def _record_bases(self, pairs) -> None:
         """StaggerModel: record in ``model.edit_bases`` the value of each new ``(pose, joint)`` in the staggered
@@ -974,13 +998,13 @@ class ModelBinding:
                 bases.setdefault(k, {})[j] = [float(x) for x in knots[k][names.index(j)]]
         with m.loading():
             m.edit_bases = bases
+        self._bases_prefix = _edit_prefix(self.session.ops)
 
     def _edit_state(self):
-        """The state the StaggerEditor's pose edits apply to: after the session's ops before its first owned op
-        past the cull (the source's extraction when there is none)."""
-        ops = self.session.ops
-        i = next((n for n, o in enumerate(ops) if o["op"] in STAGGER_OPS and o["op"] != "cull"), len(ops))
-        return self.session.extraction() if i == 0 else self.session.states()[i - 1]
+        """The state the StaggerEditor's pose edits apply to: after :func:`_edit_prefix` of the session's ops
+        (the source's extraction when it is empty)."""
+        n = len(json.loads(_edit_prefix(self.session.ops)))
+        return self.session.extraction() if n == 0 else self.session.states()[n - 1]
 
     def _show(self) -> None:
         self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)
