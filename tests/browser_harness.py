@@ -38,6 +38,7 @@ KNOWN_HARMLESS = ("t.on is not a function",          # pythreejs DirectionalLigh
                   "Failed to load resource",          # JupyterLab probes optional endpoints (e.g. lab/api/news)
                   "favicon")
 DONE = "ALL CELLS DONE"
+DIALOGS: list[str] = []   # texts of the dialogs accepted by _accept_kernel_dialog, for reports
 
 
 def skip_reason() -> str | None:
@@ -109,9 +110,10 @@ def jupyter_lab(folder: Path, timeout: float = 90.0):
 @contextlib.contextmanager
 def chromium_page(width: int = 1280, height: int = 800):
     """A headless Chromium page of ``width`` × ``height`` CSS px. Yields ``(page, log)`` where
-    ``log = {"console": [...], "page_errors": [...]}`` collects what the page printed."""
+    ``log = {"console": [...], "page_errors": [...], "ws_received": [...]}`` collects what the page printed
+    and the first 4 KiB of every websocket frame it received (kernel messages)."""
     from playwright.sync_api import sync_playwright
-    log = {"console": [], "page_errors": []}
+    log = {"console": [], "page_errors": [], "ws_received": []}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS, timeout=60000)
         try:
@@ -119,6 +121,11 @@ def chromium_page(width: int = 1280, height: int = 800):
             page.set_default_timeout(30000)
             page.on("console", lambda m: log["console"].append(f"{m.type}: {m.text[:300]}"))
             page.on("pageerror", lambda e: log["page_errors"].append(str(e)[:300]))
+
+            def frames(ws):   # what the server sends (kernel messages), first 4 KiB of each, as text
+                ws.on("framereceived", lambda f: log["ws_received"].append(
+                    (f if isinstance(f, str) else f.decode("latin-1"))[:4096]))
+            page.on("websocket", frames)
             yield page, log
         finally:
             browser.close()
@@ -162,6 +169,7 @@ def _accept_kernel_dialog(page, wait_ms: int = 3000) -> None:
         button.first.wait_for(state="visible", timeout=wait_ms)
     except Exception:
         return
+    DIALOGS.append(page.locator(".jp-Dialog").first.inner_text(timeout=5000)[:200])
     button.first.click(timeout=10000)
 
 
@@ -186,7 +194,7 @@ def run_all_cells(page, done: str = DONE, timeout: float = 240.0) -> None:
 MODEL_NOT_FOUND = "Error displaying widget: model not found"
 
 
-def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 3) -> int:
+def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) -> int:
     """Save the notebook (so its outputs, the widget views, come back), reload the tab with the kernel
     alive and wait until the JS condition ``ready`` holds (e.g. every editor's plots drawn).
 
@@ -197,8 +205,11 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 3) 
     so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
     page.keyboard.press("Control+s")
     page.wait_for_function("() => !document.querySelector('.jp-mod-dirty')", timeout=30000)
+    # what a user's F5 reloads: the notebook's URL without ?reset (a reset workspace closes and reopens the
+    # notebook while its widgets are being restored)
+    target = page.url.split("?")[0]
     for attempt in range(1, attempts + 1):
-        page.reload(wait_until="domcontentloaded", timeout=timeout * 1000)
+        page.goto(target, wait_until="domcontentloaded", timeout=timeout * 1000)
         page.wait_for_selector(".jp-Notebook", timeout=timeout * 1000)
         _accept_kernel_dialog(page)
         wait_kernel_idle(page, timeout)
@@ -218,6 +229,7 @@ _PLOT_PROBE = """(scope) => [...document.querySelectorAll(scope + ' .sn-plot-vie
   const lines = gd ? [...gd.querySelectorAll('.scatterlayer .trace path.js-line')]
                        .map(p => p.getAttribute('d') || '').filter(d => d.length > 20) : [];
   return {draws: +(el.dataset.draws || 0), error: el.dataset.error || null, frame: el.dataset.frame,
+          status: el.dataset.status || null, width: el.getBoundingClientRect().width,
           title: gd && gd.querySelector('.gtitle') ? gd.querySelector('.gtitle').textContent : null,
           lines: lines.length, line0: lines[0] || '',
           points: gd ? gd.querySelectorAll('.scatterlayer .trace .point').length : 0,

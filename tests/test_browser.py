@@ -46,6 +46,17 @@ we.view.frame = 75
 we""",
         """xe = WarpEditor(walk, reference=run, show_ghost=True)
 xe""",
+        """import numpy as np, ipywidgets as W
+from stagger_nb import plotting
+from stagger_nb.widgets import PlotView
+t = np.arange(90) / 30
+pv = PlotView(plotting.falloff_figure(t, {"green": np.exp(-(t - 1.5) ** 2)}, edited_times=[1.5]), frame_time=1 / 30)
+pv.add_class("sn-linked-plot")
+ps = W.IntSlider(0, min=0, max=89, description="frame")
+ps.add_class("sn-linked-slider")
+W.jsdlink((ps, "value"), (pv, "frame"))   # the playhead follows in the browser (as a Play widget would)
+print("PLOT_ID", pv.model_id)
+W.VBox([ps, pv])""",
         f"""print({bh.DONE!r})""",
     ]
 
@@ -77,6 +88,40 @@ def _shoot_plots(page, sel: str, prefix: str) -> None:
         plots.nth(i).scroll_into_view_if_needed(timeout=10000)
         page.wait_for_timeout(300)
         bh.screenshot(page, f"{prefix}_plot{i}")
+
+
+def _linked_playhead_and_seek(page, page_log) -> dict:
+    """A PlotView whose ``frame`` follows an IntSlider through a jsdlink: 15 slider steps move its playhead
+    in the browser while the kernel sends nothing to the plot (``frame`` is not echoed); a click in the plot
+    seeks (sets frame to the clicked time's frame)."""
+    sel = ".sn-linked-plot"
+    plot_id = page.locator(".jp-OutputArea-output", has_text="PLOT_ID").first.inner_text().split()[-1]
+    page.wait_for_selector(f"{sel} .js-plotly-plot .gtitle", timeout=60000)
+    handle = page.locator(".sn-linked-slider .noUi-handle").first
+    handle.scroll_into_view_if_needed(timeout=10000)
+    playhead = f"() => [...document.querySelectorAll('{sel} .shapelayer path')].map(p => p.getAttribute('d')).join('|')"
+    line0 = page.evaluate(playhead)
+    handle.focus()
+    n0 = len(page_log["ws_received"])
+    for _ in range(15):
+        page.keyboard.press("ArrowRight")
+        page.wait_for_timeout(100)
+    page.wait_for_function(f"() => document.querySelector('{sel}').dataset.frame === '15'", timeout=30000)
+    bh.wait_kernel_idle(page)
+    to_plot = [f for f in page_log["ws_received"][n0:] if plot_id in f]
+    line1 = page.evaluate(playhead)
+    box = page.locator(f"{sel} .nsewdrag").first.bounding_box(timeout=10000)
+    page.mouse.click(box["x"] + box["width"] * 0.75, box["y"] + box["height"] / 2)
+    page.wait_for_function(f"() => document.querySelector('{sel}').dataset.frame !== '15'", timeout=30000)
+    seek = int(page.evaluate(f"() => document.querySelector('{sel}').dataset.frame"))
+    bh.screenshot(page, "browser_linked_plot")
+    out = {"plot_id": plot_id, "playhead_moved": line0 != line1, "seek_frame": seek,
+           "kernel_messages_to_plot_during_15_steps": len(to_plot)}
+    assert not to_plot, f"the kernel sent messages to the plot while the slider drove its frame ({out})"
+    assert line1.count("|") == line0.count("|"), f"the playhead left a trail ({out}: {line0} -> {line1})"
+    assert line0 != line1, f"the playhead did not move with the jsdlink ({out})"
+    assert 55 <= seek <= 80, f"a click at 3/4 of a 0..2.97 s axis should seek near frame 67 ({out})"
+    return out
 
 
 def _summary(states):
@@ -143,6 +188,9 @@ def test_editors_render_resize_respond_and_survive_reload(tmp_path):
                 assert _changed_fraction(canvas0, canvas1) > 0.0002, f"{slider}: the 3D view did not change ({report})"
                 _shoot_plots(page, sel, f"browser_{name}_after_{slider[4:]}")
 
+            report["linked_plot"] = _linked_playhead_and_seek(page, log)
+
+            report["url_before_reload"] = page.url
             report["reloads"] = bh.save_and_reload(page, bh.plots_drawn_js({EDITORS[k]: PLOTS[k] for k in EDITORS}))
             assert bh.sidebar_open(page)
             after = {}
@@ -166,14 +214,18 @@ def test_editors_render_resize_respond_and_survive_reload(tmp_path):
             with_shot = bh.ARTIFACTS / "browser_failure.png"
             bh.ARTIFACTS.mkdir(exist_ok=True)
             page.screenshot(path=str(with_shot), full_page=True, timeout=30000)
-            (bh.ARTIFACTS / "browser_failure_console.txt").write_text("\n".join(log["console"] + log["page_errors"]))
+            states = [{k: v for k, v in st.items() if k in ("draws", "error", "status", "width", "title", "lines")}
+                      for st in bh.plot_states(page)]
+            (bh.ARTIFACTS / "browser_failure_console.txt").write_text(
+                "\n".join(log["console"] + log["page_errors"] + ["plots: " + json.dumps(states)]))
             raise
         errors_shown = page.locator(", ".join(EDITORS.values())).locator("text=Error").count()
         bad = bh.console_errors(log)
         if report.get("reloads", 1) > 1:   # the recorded restore race of a reload retried by save_and_reload
             report["restore_race_errors"] = [c for c in bad if "widget model not found" in c]
             bad = [c for c in bad if "widget model not found" not in c]
-        report.update(seconds=round(time.time() - t0, 1), console_errors=bad, page_errors=log["page_errors"])
+        report.update(seconds=round(time.time() - t0, 1), console_errors=bad, page_errors=log["page_errors"],
+                      dialogs_accepted=list(bh.DIALOGS))
     bh.ARTIFACTS.mkdir(exist_ok=True)
     (bh.ARTIFACTS / "browser_report.json").write_text(json.dumps(report, indent=1))
     print(json.dumps(report, indent=1))

@@ -227,9 +227,10 @@ def _window_targets(tgt, traj, act, weight, left, right) -> None:
 _REACH = 0.999  # fraction of a chain's full length the root drop makes available (a just-bent knee)
 
 
-def _pivot(off: np.ndarray, to_upper: np.ndarray, reach: float) -> np.ndarray:
+def _pivot(off: np.ndarray, to_upper: np.ndarray, reach) -> np.ndarray:
     """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) toward ``to_upper (n, 3)`` (toe target ->
-    upper joint) by the least angle that brings the ankle within ``reach`` of the upper joint: the heel
+    upper joint) by the least angle that brings the ankle within ``reach`` (a length, or one per row
+    ``(n,)``) of the upper joint (row by row: several contacts' rows go in one call): the heel
     lifts further when the leg cannot reach otherwise (fully toward it if even that is not enough)."""
     f = np.linalg.norm(off, axis=-1)
     D = np.linalg.norm(to_upper, axis=-1)
@@ -377,6 +378,18 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     # group contacts by effector; direct (ankle) contacts take precedence over toe contacts
     groups: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     order = sorted(range(len(parsed)), key=lambda i: chains[i][2] == parsed[i][0])
+    # toe contacts placed by a given toe -> ankle vector: every contact's pivot in one (row-wise) call
+    pivoted = [i for i in range(len(parsed)) if toe_offsets is not None and toe_offsets[i] is not None
+               and chains[i][2] != parsed[i][0] and chains[i][0] > 0]
+    pivots = {}
+    if pivoted:
+        rows = [parsed[i][2] - parsed[i][1] for i in pivoted]
+        reach = [_REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid]))
+                 for up, mid, eff in (chains[i] for i in pivoted)]
+        turned = _pivot(np.concatenate([np.asarray(toe_offsets[i], dtype=float) for i in pivoted]),
+                        np.concatenate([pos[parsed[i][1]:parsed[i][2], chains[i][0]] - targets[i] for i in pivoted]),
+                        np.repeat(reach, rows))
+        pivots = dict(zip(pivoted, np.split(turned, np.cumsum(rows)[:-1])))
     for i in order:
         j, s, e = parsed[i]
         up, mid, eff = chains[i]
@@ -385,12 +398,10 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         act, tgt = groups.setdefault(eff, (np.zeros(F, bool), np.zeros((F, 3))))
         t = targets[i]
         if eff != j:  # toe contact: ankle target keeps the foot's world orientation (or the given one)
-            given = None if toe_offsets is None else toe_offsets[i]
-            if given is None:
-                t = t - (pos[s:e, j] - pos[s:e, eff])
+            if i in pivots:
+                t = t + pivots[i]
             else:
-                t = t + _pivot(np.asarray(given, dtype=float), pos[s:e, up] - t,
-                               _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid])))
+                t = t - (pos[s:e, j] - pos[s:e, eff])
         act[s:e] = True
         tgt[s:e] = t
 
@@ -604,19 +615,27 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     sk = source.skeleton
     effs = {j: _chain(sk, j)[2] for j in {c[1] for c in carried}}
     src_pos = _fk_joints(source, set(effs) | set(effs.values()))[0]     # only the contact joints' chains
+    # source positions at the source time of every carried frame (inverse of each contact's joint warp),
+    # all contacts at once: one interpolation per clock joint, one gather for every frame
+    n = np.array([c[3] - c[2] for c in carried])
+    frames = np.concatenate([np.arange(c[2], c[3]) for c in carried])
+    te = t0 + frames * motion.frame_time
+    ts = te
+    if is_sm:
+        ts = np.empty_like(te)
+        clock = np.repeat([c[6] for c in carried], n)
+        for c in np.unique(clock):
+            sel = clock == c
+            ts[sel] = _warp_column(*tables, int(c), te[sel], inverse=True)
+    f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
+    i0 = np.floor(f).astype(int)
+    i1 = np.minimum(i0 + 1, source.num_frames - 1)
+    w = (f - i0)[:, None, None]
+    cols = np.repeat([[c[1], effs[c[1]]] for c in carried], n, axis=0)     # the two joints read below
+    at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (sum n, 2, 3)
     targets, toe_offsets = [], []
-    for name, j, s_, e_, a, b, clock in carried:
-        # source positions at the source time of every carried frame (inverse of the joint's warp)
-        te = t0 + np.arange(s_, e_) * motion.frame_time
-        ts = _warp_column(*tables, clock, te, inverse=True) if is_sm else te
-        f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
-        i0 = np.floor(f).astype(int)
-        i1 = np.minimum(i0 + 1, source.num_frames - 1)
-        w = (f - i0)[:, None, None]
-        eff = effs[j]
-        cols = [j, eff]                                                  # the two joints read below
-        at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (n, 2, 3)
-        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else at[:, 0])
-        toe_offsets.append(at[:, 1] - at[:, 0] if eff != j else None)
+    for (name, j, s_, e_, a, b, clock), piece in zip(carried, np.split(at, np.cumsum(n)[:-1])):
+        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else piece[:, 0])
+        toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
     return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
                                      lower_root=lower_root, toe_offsets=toe_offsets)

@@ -350,7 +350,7 @@ def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn):
     # the new spline on the grid, its control arcs computed once per pair (not per sample: same values)
     ctrl = [np.ascontiguousarray(x.T) for x in (values[seg, joint], tangents[seg, joint, 0],
                                                  tangents[seg, joint, 1], values[seg + 1, joint])]
-    s = kern.spline_into(*ctrl, pair, tn, np.empty((4, tn.size))).T
+    s = kern.spline_into(*ctrl, pair, tn, kern.WORK.get("ms_s", (4, tn.size))).T   # read before the next call
     v = target_fn(t, jp, pair, tn)
     d = displacement_rotvecs(s, v, pair)          # unwrapped along each grid, as at extraction
     rows = np.zeros((counts.size, int(counts.max()), 3))
@@ -550,8 +550,11 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
             old = _rotations_at(sm, seg[pair] * J + jp, tn)                 # same knots and grid: no search
             wl = _pair_plateau_weights(knots, sm.pose_times, seg, joint, 1, t, pair)
             wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, joint, -1, t, pair)
-            a = kern.qmul(old, kern.qexp(logd[seg, joint].T[:, pair] * wl))
-            return kern.qmul(a, kern.qexp(logd[seg + 1, joint].T[:, pair] * wr)).T
+            W, N = kern.WORK, t.size            # scratch reused move to move (no fresh page-faulted arrays)
+            e, a, h, tmp = W.get("ex_e", (4, N)), W.get("ex_a", (4, N)), W.get("ex_h", N), W.get("ex_tmp", N)
+            kern.qmul_into(old, kern.qexp_into(logd[seg, joint].T[:, pair] * wl, e, h, tmp), a, tmp)
+            kern.qexp_into(logd[seg + 1, joint].T[:, pair] * wr, e, h, tmp)
+            return kern.qmul_into(a, e, W.get("ex_v", (4, N)), tmp).T
 
         rows = _measure_rotations(values, tangents, knots, seg, joint, counts, target)
         fields.update(values=values, tangents=tangents,

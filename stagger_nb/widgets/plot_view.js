@@ -9,31 +9,45 @@
 const LIB_KEY = Symbol.for("stagger_nb.plotly.js");
 
 function loadPlotly(model) {
-  // asked once per page, from the kernel (a binary message): plotly.js never sits in the widget state, so
-  // restoring the widgets after a page reload stays small and fast
-  if (!globalThis[LIB_KEY]) {
-    const p = new Promise((resolve, reject) => {
-      const onMsg = (msg, buffers) => {
-        if (!msg || msg.event !== "plotly.js") return;
-        model.off("msg:custom", onMsg);
-        clearTimeout(timer);
-        try {
-          const src = new TextDecoder().decode(buffers[0]);
-          const module = { exports: {} };
-          // the bundle is UMD: given `module` it returns Plotly as module.exports
-          new Function("module", "exports", src)(module, module.exports);
-          resolve(module.exports);
-        } catch (err) { reject(err); }
-      };
-      const timer = setTimeout(() => { model.off("msg:custom", onMsg);
-                                       reject(new Error("the kernel did not send plotly.js within 120 s")); }, 120000);
-      model.on("msg:custom", onMsg);
-      model.send({ event: "need_plotly" });
-    });
-    p.catch(() => { if (globalThis[LIB_KEY] === p) delete globalThis[LIB_KEY]; });
-    globalThis[LIB_KEY] = p;
+  // plotly.js is asked from the kernel (a binary message), once per page: it never sits in the widget
+  // state, so restoring the widgets after a page reload stays small. Every view that waits registers its
+  // model; the request is repeated (after 15 s, 30 s, 60 s, ... round robin over those models) until one answer
+  // arrives: after a reload a model's comm may be dead (JupyterLab's restore race), another's is not.
+  let g = globalThis[LIB_KEY];
+  if (!g) {
+    g = globalThis[LIB_KEY] = { askers: [], timer: null, delay: 15000, next: 0 };
+    g.promise = new Promise((resolve, reject) => { g.resolve = resolve; g.reject = reject; });
+    const retry = () => {
+      if (g.done || !g.askers.length) return;
+      const m = g.askers[g.next++ % g.askers.length];
+      try { m.send({ event: "need_plotly" }); } catch (err) { console.warn("stagger_nb PlotView:", err); }
+      g.delay = Math.min(2 * g.delay, 60000);
+      g.timer = setTimeout(retry, g.delay);
+    };
+    g.timer = setTimeout(retry, g.delay);
   }
-  return globalThis[LIB_KEY];
+  if (g.done) return g.promise;
+  const onMsg = (msg, buffers) => {
+    if (!msg || msg.event !== "plotly.js" || g.done) return;
+    g.done = true;
+    clearTimeout(g.timer);
+    for (const [m, cb] of g.askers.map((m, i) => [m, g.listeners[i]])) m.off("msg:custom", cb);
+    try {
+      const src = new TextDecoder().decode(buffers[0]);
+      const module = { exports: {} };
+      // the bundle is UMD: given `module` it returns Plotly as module.exports
+      new Function("module", "exports", src)(module, module.exports);
+      g.resolve(module.exports);
+    } catch (err) {
+      g.reject(err);
+    }
+  };
+  g.listeners = g.listeners || [];
+  g.askers.push(model);
+  g.listeners.push(onMsg);
+  model.on("msg:custom", onMsg);
+  if (g.askers.length === 1) model.send({ event: "need_plotly" });
+  return g.promise;
 }
 
 function playheadShape(model) {
@@ -105,9 +119,13 @@ async function render({ model, el }) {
             div.on("plotly_click", onClick);
           }
           el.dataset.draws = String(++draws);   // browser tests wait on this
+          el.dataset.status = "drawn";
         } else {
+          // attribute-wise: replacing the whole shape object leaves the old line drawn (a trail)
           const n = (((model.get("figure") || {}).layout || {}).shapes || []).length;
-          await Plotly.relayout(div, { [`shapes[${n}]`]: playheadShape(model) });
+          const s = playheadShape(model);
+          await Plotly.relayout(div, { [`shapes[${n}].x0`]: s.x0, [`shapes[${n}].x1`]: s.x1,
+                                       [`shapes[${n}].xref`]: s.xref, [`shapes[${n}].visible`]: s.visible });
         }
         el.dataset.frame = String(model.get("frame"));
       }
@@ -136,6 +154,7 @@ async function render({ model, el }) {
   });
   ro.observe(div);
 
+  el.dataset.status = "loading plotly.js";
   try {
     Plotly = await loadPlotly(model);
   } catch (err) {
@@ -143,6 +162,7 @@ async function render({ model, el }) {
     div.textContent = "stagger_nb: plotly.js could not be loaded: " + err;
     return;
   }
+  el.dataset.status = div.clientWidth > 0 ? "drawing" : "waiting for a width";
   pump();
 
   return () => {
