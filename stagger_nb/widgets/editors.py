@@ -280,8 +280,19 @@ class _Editor(widgets.VBox):
         return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
 
     def close(self):
+        """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
+        the layout boxes), so none stays registered with ipywidgets after the editor is gone."""
         for fut in self._futures():
             fut.cancel()
+        owned = [*getattr(self, "controls", {}).values(), getattr(self, "view", None), *getattr(self, "plots", [])]
+        stack = list(self.children)
+        while stack:
+            w = stack.pop()
+            stack.extend(getattr(w, "children", ()) or ())
+            owned.append(w)
+        for w in owned:
+            if isinstance(w, widgets.Widget):
+                w.close()
         super().close()
 
 
