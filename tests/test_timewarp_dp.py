@@ -143,6 +143,17 @@ def test_unconstrained_equals_exhaustive_over_all_lengths(n, s):
     assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)  # float64 round-off only
 
 
+@pytest.mark.parametrize("n,s", [(6, 2), (9, 3), (11, 4)])
+def test_mean_cost_equals_exhaustive_over_all_lengths(n, s):
+    # free length: the least mean score per interior frame over every admissible path of every length >= 3
+    scores = _random_table(np.random.default_rng(7 * n + s), n, s, "uniform")
+    best = min(((dp.path_cost(scores, f) / (m - 2), f) for m in range(3, n + 1) if (m - 1) * s >= n - 1
+                for f in _admissible_paths(n, m, s)), key=lambda t: t[0])
+    frames, mean = dp.mean_cost_dp(scores)
+    assert mean == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    assert dp.path_cost(scores, frames) / (frames.size - 2) == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+
+
 def test_progress_is_reported_up_to_one():
     seen = []
     dp.constrained_dp(_random_table(np.random.default_rng(0), 300, 4, "uniform"), 200, progress=seen.append)

@@ -114,13 +114,15 @@ class Heads:
         except ValueError as e:
             raise ValueError(f"reference.path: {e}") from None
 
-    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False):
+    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3):
         """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
-        reference, skip, upsampling, direction)."""
+        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
+        the DP."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
-        return self.cache.get("warp", self.key(motion), (self.key(reference), int(skip), int(upsample), bool(reverse)),
+        key = (self.key(reference), int(skip), int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        return self.cache.get("warp", self.key(motion), key,
                               lambda: _timewarp().prepare_warp(motion, reference, int(skip), int(upsample),
-                                                               reverse=bool(reverse)))
+                                                               reverse=bool(reverse), k=int(k)))
 
 
 class Run:
@@ -331,9 +333,10 @@ def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
 def _guided_warp(m, op: O.GuidedWarp, run):
     tw = _timewarp()
     n, u = warp_size(m, op)
-    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward)
+    k = tw.FREE_K if n is None else 3
+    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward, k)
     out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
-                               upsample=u, reverse=op.backward, tables=tables)
+                               upsample=u, reverse=op.backward, k=k, tables=tables)
     run.warp = warp
     return out
 

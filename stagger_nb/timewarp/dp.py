@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "constrained_dp_loop", "path_cost",
+__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "constrained_dp_loop", "path_cost",
            "validate_keys"]
 
 
@@ -153,12 +153,16 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
     return frames, cost
 
 
-def unconstrained_dp(scores: np.ndarray):
-    """Shortest path from frame 0 to frame n-1 with any number of output frames (§3.3, used for V8).
+def unconstrained_dp(scores: np.ndarray, offset: float = 0.0):
+    """Shortest path from frame 0 to frame n-1 with any number of output frames (§3.3, "a simple shortest
+    path search").
 
-    Returns ``(frames (m,) int64, cost)``; ``m`` is whatever the optimum uses.
+    ``offset`` is subtracted from every edge weight (``f - offset``; used by :func:`mean_cost_dp`).
+    Returns ``(frames (m,) int64, cost)``, cost the summed ``f - offset``; ``m`` is whatever the optimum uses.
     """
     scores = np.asarray(scores, dtype=float)
+    if offset:
+        scores = scores - float(offset)
     n, s, _ = scores.shape
     if n < 2:
         raise ValueError(f"the input motion needs at least 2 frames, got {n}")
@@ -190,6 +194,35 @@ def unconstrained_dp(scores: np.ndarray):
         a = int(arg[y, b - 1]) + 1
         y, b = j, a
     return np.array(frames[::-1], dtype=np.int64), cost
+
+
+def mean_cost_dp(scores: np.ndarray, max_iter: int = 50):
+    """Free-length warp: the path from frame 0 to frame n-1 with the least *mean* score per interior output
+    frame, ``min_P sum_P f / (m_P - 2)`` (any number of output frames).
+
+    The paper's plain shortest path (§3.3, V8) sums one non-negative ``f`` per output frame, so it always
+    prefers fewer output frames: on CMU 01_01 it plays a self-referenced clip at 0.70x its length and a 1.5x
+    slow-motion reference at 1.0x. The mean per output frame is length-neutral: every output frame is judged
+    by how well its pose/velocity/acceleration matches the reference (eq. 2), whatever the count.
+    Solved exactly by Dinkelbach's parametric method: repeat ``frames = argmin sum (f - lam)`` (a shortest
+    path, :func:`unconstrained_dp` with ``offset=lam``) and ``lam = mean f of frames`` until ``lam`` stops
+    decreasing (it decreases strictly until the optimum; a few iterations in practice).
+
+    Returns ``(frames (m,) int64, mean)``; ``mean`` is the mean ``f`` over the interior frames (0 if m == 2).
+    """
+    scores = np.asarray(scores, dtype=float)
+    frames, cost = unconstrained_dp(scores)
+    lam = cost / max(frames.size - 2, 1)
+    for _ in range(max_iter):
+        if not np.isfinite(lam):
+            break
+        cand, _ = unconstrained_dp(scores, offset=lam)
+        c = path_cost(scores, cand)
+        new = c / max(cand.size - 2, 1)
+        if not new < lam - 1e-12 * max(abs(lam), 1.0):
+            break
+        frames, lam = cand, new
+    return frames, float(lam)
 
 
 def path_cost(scores: np.ndarray, frames) -> float:
