@@ -180,3 +180,20 @@ def test_band_that_excludes_every_path_gives_inf():
 def test_infeasible_requests_raise_naming_the_parameter(n, m, skip, keys, match):
     with pytest.raises(ValueError, match=match):
         dp.validate_keys(n, m, skip, keys)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_kept_costs_and_int8_backpointers_pick_the_same_frames(seed, monkeypatch):
+    # constrained_dp backtracks from kept costs below KEEP_COSTS_BYTES, from int8 backpointers above: same
+    # frames bit for bit (ties included: integer scores tie often)
+    rng = np.random.default_rng(seed)
+    n, s = int(rng.integers(20, 120)), int(rng.integers(2, 9))
+    scores = np.floor(3 * rng.random((n, s, s)))
+    m = int(rng.integers(-(-(n - 1) // s) + 1, n + 1))
+    keys = [(m // 2, (n - 1) // 2)] if seed % 2 and m - 1 - m // 2 <= n - 1 - (n - 1) // 2 <= (m - 1 - m // 2) * s \
+        and m // 2 <= (n - 1) // 2 <= (m // 2) * s else None
+    kept = dp.constrained_dp(scores, m, keys=keys)
+    monkeypatch.setattr(dp, "KEEP_COSTS_BYTES", 0)
+    ptr = dp.constrained_dp(scores, m, keys=keys)
+    np.testing.assert_array_equal(kept[0], ptr[0])
+    assert kept[1] == ptr[1]

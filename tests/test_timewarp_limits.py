@@ -150,3 +150,14 @@ def test_box_average_is_the_mean_of_the_linear_interpolation():
         x = np.linspace(a[i], b[i], 200001)
         want = [np.interp(x, np.arange(12), v[:, c]).mean() for c in range(2)]
         np.testing.assert_allclose(got[i], want, atol=1e-5)   # the dense sampling's quadrature error
+
+
+def test_tables_of_a_smaller_skip_are_a_slice_of_a_larger_ones():
+    m = data.load("walk")
+    m = m.slice(0, min(m.num_frames, 120))
+    big = timewarp.prepare_warp(m, m, 10, 2, reverse=True)
+    for s in (1, 4, 7, 10):
+        small = timewarp.prepare_warp(m, m, s, 2, reverse=True)
+        np.testing.assert_array_equal(timewarp.slice_tables(big, s).scores, small.scores)
+    with pytest.raises(ValueError, match="skip"):
+        timewarp.slice_tables(big, 11)

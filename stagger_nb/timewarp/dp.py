@@ -16,6 +16,9 @@ Score tables come from :func:`.objective.knn_scores`: ``scores[j, a-1, b-1] = f(
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+KEEP_COSTS_BYTES = 256 << 20   # constrained_dp keeps every output frame's costs below this, else int8 backpointers
 
 __all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "constrained_dp_loop", "path_cost",
            "validate_keys"]
@@ -112,6 +115,12 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
     c = np.full((s, k.size), np.inf)
     ok = (k >= 1) & (k <= s)
     c[k[ok] - 1, np.nonzero(ok)[0]] = 0.0
+    # Backtracking needs, per output frame, the minimising a of every (y_q, b). Keeping the cost arrays c of
+    # every q (8 bytes per state) and re-deriving the single argmin met while backtracking is ~2x faster than
+    # int8 backpointers for the whole band (one comparison pass per a); above KEEP_COSTS_BYTES the
+    # backpointers are used. Both pick the largest a on exact ties: the same frames, bit for bit.
+    widths = bhi[1:m - 1] - blo[1:m - 1] + 1
+    keep_costs = int(widths.sum()) * s * 8 <= KEEP_COSTS_BYTES
     back = [None, None]
     step = max(1, (m - 2) // 100)
     tmp_buf = np.empty((s, int((bhi - blo).max()) + 1, s))
@@ -120,19 +129,27 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
         # best[j, b] = min_a c[a, j] + f(j - a, j, j + b) over the middle frames j = l0..l1; arg = a - 1
         Lq = l1 - l0 + 1
         tmp = np.add(c[:, :, None], Sa[:, l0:l1 + 1, :], out=tmp_buf[:, :Lq])   # (a, Lq, b)
-        best = tmp.min(axis=0)
-        # argmin over the first axis by comparisons (4x faster than ndarray.argmin(axis=0), which copies);
-        # on exact ties the largest a wins (any minimiser is optimal)
-        arg = np.zeros((Lq, s), dtype=np.int8)
-        for a in range(1, s):
-            np.copyto(arg, np.int8(a), where=tmp[a] == best)
-        back.append(arg)
+        # best lands inside an inf-padded buffer B of rows j = jlo .. jhi (every j = k - b the next output frame
+        # can ask for): the next costs c[b-1, k - n0] = best[k - b - l0, b-1] are a strided *view* of B (no
+        # shifting copies; the same numbers)
         n0, n1 = blo[q + 1], bhi[q + 1]
-        c = np.full((s, n1 - n0 + 1), np.inf)
-        for bb in range(1, s + 1):
-            k0, k1 = max(n0, l0 + bb), min(n1, l1 + bb)
-            if k0 <= k1:
-                c[bb - 1, k0 - n0:k1 - n0 + 1] = best[k0 - bb - l0:k1 - bb - l0 + 1, bb - 1]
+        jlo, jhi = min(l0, n0 - s), max(l1, n1 - 1)
+        B = np.empty((jhi - jlo + 1, s))
+        B[:l0 - jlo] = np.inf
+        B[l1 - jlo + 1:] = np.inf
+        best = np.min(tmp, axis=0, out=B[l0 - jlo:l1 - jlo + 1])
+        if keep_costs:
+            back.append(c)
+        else:
+            # argmin over the first axis by comparisons (4x faster than ndarray.argmin(axis=0), which copies);
+            # on exact ties the largest a wins (any minimiser is optimal)
+            arg = np.zeros((Lq, s), dtype=np.int8)
+            for a in range(1, s):
+                np.copyto(arg, np.int8(a), where=tmp[a] == best)
+            back.append(arg)
+        # c[b-1, k - n0] = B[k - b - jlo, b-1]: element (b-1, kk) sits at row (n0 - 1 - jlo) + kk - (b-1)
+        r0 = n0 - 1 - jlo                                        # row of (b = 1, k = n0); rows stay in B
+        c = as_strided(B[r0:], shape=(s, n1 - n0 + 1), strides=(B.strides[1] - B.strides[0], B.strides[0]))
         if progress is not None and (q % step == 0 or q == m - 2):
             progress(q / (m - 2))
     c = c.T
@@ -144,7 +161,11 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
     y, bb = n - 1, b + 1
     for q in range(m - 1, 1, -1):
         j = y - bb
-        a = int(back[q][j - blo[q - 1], bb - 1]) + 1
+        if keep_costs:
+            v = back[q][:, j - blo[q - 1]] + Sa[:, j, bb - 1]       # the same sums as the forward pass
+            a = int(s - np.argmin(v[::-1]))                          # the largest minimising a
+        else:
+            a = int(back[q][j - blo[q - 1], bb - 1]) + 1
         frames[q - 1] = j
         y, bb = j, a
     frames[0] = 0

@@ -31,7 +31,7 @@ from .linear import check_output_size, validate_num_frames
 from .objective import candidate_scores, knn_scores, validate_skip
 from .postprocess import apply_warp, parse_keytimes, smooth_warp
 
-__all__ = ["WarpTables", "WarpSolution", "prepare_warp", "solve_warp", "guided_warp", "required_upsample",
+__all__ = ["WarpTables", "WarpSolution", "prepare_warp", "slice_tables", "solve_warp", "guided_warp", "required_upsample",
            "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "FREE_UPSAMPLE", "FREE_K", "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
 
 MAX_WARP_BYTES = 2 << 30   # refuse (ValueError) a search whose tables would need more memory than this
@@ -239,6 +239,26 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
         scores = candidate_scores(X, R, skip, k, weights, candidates=int(candidates), progress=progress)
     return WarpTables(m, ref, skip, upsample, bool(reverse), int(k), weights, X, R, scores, mode,
                       int(candidates) if mode == "approx" else 0)
+
+
+def slice_tables(tables: WarpTables, skip: int) -> WarpTables:
+    """The tables of a smaller skip limit, cut from exact-kNN tables of a larger one: ``scores[j, a-1, b-1] =
+    f(j-a, j, j+b)`` does not depend on the skip, so ``scores[:, :skip, :skip]`` is what :func:`prepare_warp`
+    computes for ``skip`` (bit for bit for ``knn="exact"``; tested). A session warms the largest skip of a
+    slider once and serves every smaller one by slicing (~1 ms instead of 0.07-0.4 s on 900 frames).
+
+    Raises ValueError naming ``skip`` when it is larger than ``tables.skip``, and ``tables`` for approximate
+    tables (their candidate search is not checked to be skip-independent)."""
+    skip = validate_skip(skip)
+    if skip > tables.skip:
+        raise ValueError(f"skip={skip} is larger than the tables' skip {tables.skip}; prepare_warp it instead")
+    if tables.knn != "exact":
+        raise ValueError(f"tables: only exact-kNN tables can be sliced, got knn={tables.knn!r}")
+    if skip == tables.skip:
+        return tables
+    scores = np.ascontiguousarray(tables.scores[:, :skip, :skip])
+    return WarpTables(tables.motion, tables.reference, skip, tables.upsample, tables.reverse, tables.k,
+                      tables.weights, tables.X, tables.R, scores, tables.knn, tables.candidates)
 
 
 def _frame_keys(tables: WarpTables, num_frames: int, keytimes) -> list[tuple[int, int]]:
