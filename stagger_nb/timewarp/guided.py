@@ -31,8 +31,9 @@ from .linear import check_output_size, validate_num_frames
 from .objective import candidate_scores, knn_scores, validate_skip
 from .postprocess import apply_warp, parse_keytimes, smooth_warp
 
-__all__ = ["WarpTables", "WarpSolution", "prepare_warp", "slice_tables", "solve_warp", "guided_warp", "required_upsample",
-           "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "FREE_UPSAMPLE", "FREE_K", "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
+__all__ = ["WarpTables", "WarpSolution", "prepare_warp", "slice_tables", "solve_warp", "guided_warp",
+           "required_upsample", "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "FREE_UPSAMPLE", "FREE_K",
+           "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
 
 MAX_WARP_BYTES = 2 << 30   # refuse (ValueError) a search whose tables would need more memory than this
 SPEED_PENALTY = 0.3        # default speed_penalty (see solve_warp)
