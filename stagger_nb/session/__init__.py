@@ -49,7 +49,7 @@ from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_
                     motion_from_json, motion_to_json, read_session_json, read_source)
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
-from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_size
+from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_k, warp_size, warp_table_key
 from .progress import ProgressBar, progress_bar
 from .warm import Worker
 
@@ -521,8 +521,9 @@ class Session:
         - ``("wand_basis", sigmas)``: the magic wand's pose graph of the source, then its basis per sigma
           (``None`` = the default sigma);
         - ``("warp_tables", warps)``: guided warping's kNN tables of the source for each warp, a
-          ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, backward
-          and upsample choose the table.
+          ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
+          backward and upsample choose the table; a table also serves every smaller skip (sliced), so an
+          editor warms its skip slider's largest value only.
 
         Jobs are checked now (ValueError naming ``jobs[i]``); they run in order, one item at a time.
         ``progress(done, total, label)`` is called from the worker before each item, with a fractional
@@ -561,7 +562,8 @@ class Session:
                     if not isinstance(op, _ops_module.GuidedWarp):
                         _fail(f"{where}[1][{k}]", "a guided_warp op", w)
                     items.append((f"warp tables {k}", lambda r, op=op: self._ctx.warp_tables(
-                        self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward, r)))
+                        self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward,
+                        warp_k(warp_size(self.source, op)[0]), r)))
             else:
                 _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas) or ("warp_tables", warps)',
                       job)

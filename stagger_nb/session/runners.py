@@ -20,7 +20,8 @@ from ..io.bvh import read_bvh
 from . import ops as O
 from .cache import Cache
 
-__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "MAX_WARP_RATIO"]
+__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k", "warp_table_key",
+           "MAX_WARP_RATIO"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -117,14 +118,27 @@ class Heads:
         except ValueError as e:
             raise ValueError(f"reference.path: {e}") from None
 
-    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False,
+    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3,
                     progress: Callable | None = None):
         """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
-        reference, skip, upsampling, direction)."""
+        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
+        the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by ``Session.warm``) serves a
+        smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same numbers), uncached."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
-        return self.cache.get("warp", self.key(motion), (self.key(reference), int(skip), int(upsample), bool(reverse)),
-                              lambda: _timewarp().prepare_warp(motion, reference, int(skip), int(upsample),
-                                                               reverse=bool(reverse), progress=progress))
+        owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        own = self.cache.peek("warp", owner, (rkey, skip) + rest)
+        if own is not None:
+            self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
+            return own
+        for s in range(127, skip, -1):   # the largest skip validate_skip allows
+            big = self.cache.peek("warp", owner, (rkey, s) + rest)
+            if big is not None and big.knn == "exact":
+                self.cache.touch("warp", [(owner, (rkey, s) + rest)])
+                return _timewarp().slice_tables(big, skip)
+        return self.cache.get("warp", owner, (rkey, skip) + rest,
+                              lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
+                                                               reverse=bool(reverse), k=int(k), progress=progress))
 
 
 class Run:
@@ -335,14 +349,28 @@ def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
     return n, u
 
 
+def warp_table_key(m: Motion, op) -> tuple:
+    """``(reference JSON, upsample, backward, k)``: what chooses a guided warp's tables besides the skip (an
+    editor re-warms its skip slider's tables only when this changes). ``op`` is a guided_warp dict or op."""
+    op = op if isinstance(op, O.GuidedWarp) else O.Op.from_json(dict(op, op="guided_warp"), "op")
+    n, u = warp_size(m, op)
+    return (repr(op.to_json().get("reference")), u, bool(op.backward), warp_k(n))
+
+
+def warp_k(num_frames: int | None) -> int:
+    """kNN count of a guided warp's tables: ``timewarp.FREE_K`` for free length (``num_frames`` None), else 3."""
+    return _timewarp().FREE_K if num_frames is None else 3
+
+
 def _guided_warp(m, op: O.GuidedWarp, run):
     tw = _timewarp()
     n, u = warp_size(m, op)
     p = run.progress
-    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward,
+    k = warp_k(n)
+    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward, k,
                                    None if p is None else (lambda f: p(0.9 * f)))
     out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
-                               upsample=u, reverse=op.backward, tables=tables, progress=p)  # 0.9 .. 1 here
+                               upsample=u, reverse=op.backward, k=k, tables=tables, progress=p)  # 0.9 .. 1 here
     run.warp = warp
     return out
 
