@@ -16,7 +16,7 @@ from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
-           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "switch_keys", "highlight_keys", "body_size"]
+           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys", "body_size"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -292,14 +292,6 @@ def drawn_height_fraction(points: np.ndarray, camera: Camera, frame: int, width:
     eye, target = camera.world(frame)
     px = project(points, eye, target, camera.fov, width, height)
     return float((px[:, 1].max() - px[:, 1].min()) / height)
-
-
-def switch_keys(on: np.ndarray, frame_time: float):
-    """Keyframes of a step function: ``on (F,) bool`` → (times (K,) float32 seconds, values (K,) bool), one key
-    at frame 0 and one at every change (for discrete interpolation)."""
-    on = np.asarray(on, dtype=bool)
-    idx = np.concatenate([[0], np.flatnonzero(on[1:] != on[:-1]) + 1])
-    return (idx * frame_time).astype(np.float32), on[idx]
 
 
 def highlight_keys(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),

@@ -258,3 +258,19 @@ def test_joint_sides_and_bones():
     assert all(abs(b.length - 10) < 1e-12 and np.allclose(b.position, (0, 5, 0)) for b in bs)
     q = scene3d._y_to(np.array([1.0, 0.0, 0.0]))     # +y onto +x: -90 degrees about z
     np.testing.assert_allclose(q, [0, 0, -np.sqrt(0.5), np.sqrt(0.5)], atol=1e-12)
+
+
+def test_ghost_is_the_original_overlaid_and_toggles():
+    m = _chain_motion(F=30)
+    edited = _chain_motion(F=30, seed=5)
+    v = SkeletonView(edited, ghost=m, show_ghost=False)
+    ghost_group = next(c for c in v.rig.children if getattr(c, "name", "") == "g0")
+    assert not ghost_group.visible
+    v.show_ghost = True
+    assert ghost_group.visible and v.ghost_toggle.value
+    assert "original (ghost)" in v.legend.value
+    ghost_action = v.conductor.actions[-1]
+    root = next(t for t in ghost_action.clip.tracks if t.name == "g0.position")
+    np.testing.assert_allclose(np.asarray(root.values).reshape(-1, 3), m.root_positions, atol=1e-5)
+    v.set_motion(edited.slice(0, 20))          # the ghost stays (not re-sent) when not given
+    assert v.conductor.actions[-1] is ghost_action

@@ -189,7 +189,7 @@ class SkeletonView(widgets.VBox):
         self._ghost_action = None
 
         self.camera_toggle = widgets.ToggleButtons(options=[("follow", "follow"), ("frame all", "all")],
-                                                   value=camera, style={"button_width": "70px"},
+                                                   value=camera, style={"button_width": "84px"},
                                                    tooltips=["camera follows the character", "frame the whole clip"])
         self.ghost_toggle = widgets.Checkbox(value=False, description="original (ghost)", indent=False,
                                              disabled=ghost is None, layout=widgets.Layout(width="130px"))
