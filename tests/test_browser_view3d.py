@@ -199,6 +199,17 @@ def _open_and_run(page, url, name):
     no_news = page.locator(".jp-toast-button", has_text="No")
     if no_news.count():
         no_news.first.click()
+    # On a loaded machine the kernel can start so late that JupyterLab asks which kernel to use (a modal
+    # "Select Kernel" dialog that swallowed Run All Cells): accept the notebook's kernel, then wait for it idle.
+    deadline = time.monotonic() + 180
+    while time.monotonic() < deadline:
+        select = page.locator(".jp-Dialog button.jp-mod-accept", has_text="Select")
+        if select.count():
+            select.first.click()
+        if page.locator(".jp-Notebook-ExecutionIndicator[data-status='idle']").count() or \
+                page.get_by_text("Python 3 (ipykernel) | Idle").count():
+            break
+        page.wait_for_timeout(500)
     page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
     page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
     page.wait_for_selector(".jp-OutputArea-output >> text=ALL CELLS DONE", timeout=180000)
