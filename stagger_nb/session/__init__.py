@@ -44,8 +44,8 @@ from ..io._common import atomic_write_bytes, read_regular_file
 from ..io.bvh import write_bvh
 from . import ops as _ops_module
 from .cache import Cache
-from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, motion_from_json,
-                    motion_to_json, read_session_json, read_source)
+from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, export_gltf,
+                    motion_from_json, motion_to_json, read_session_json, read_source)
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
 from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_size
@@ -618,6 +618,11 @@ class Session:
         path = os.fspath(path)
         check_export_target(path, self.source_path)
         write_bvh(self.edited(), path)
+
+    def export_gltf(self, path, units="auto") -> None:
+        """Write the edited motion as glTF 2.0 (``.glb`` or ``.gltf``: a skinned skeleton and one animation,
+        metres; :func:`stagger_nb.io.gltf.write_gltf`), atomically; refuses to overwrite the source file."""
+        export_gltf(self.edited(), path, self.source_path, units)
 
     def __repr__(self) -> str:
         src = os.path.basename(self.source_path) if self.source_path else repr(self.source)

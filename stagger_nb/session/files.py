@@ -24,7 +24,7 @@ from ..io.bvh import parse_bvh
 from .ops import _fail, integer, number, text, tuple_of
 
 __all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
-           "read_session_json", "check_save_target", "check_export_target", "same_file"]
+           "read_session_json", "check_save_target", "check_export_target", "same_file", "export_gltf"]
 
 SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1
@@ -84,6 +84,15 @@ def check_export_target(path, source_path) -> None:
     """Refuse to replace the session's source clip."""
     if source_path is not None and os.path.exists(path) and same_file(path, source_path):
         raise ValueError(f"path: {path} is the session's source file; export to another file")
+
+
+def export_gltf(motion: Motion, path, source_path, units="auto") -> None:
+    """Write ``motion`` as glTF 2.0 (``.glb``/``.gltf``, atomically, lengths in metres; see
+    :func:`stagger_nb.io.gltf.write_gltf`), refusing to replace the source clip."""
+    from ..io.gltf import write_gltf
+    path = os.fspath(path)
+    check_export_target(path, source_path)
+    write_gltf(motion, path, units=units)
 
 
 def check_save_target(path, source_path) -> None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.kinematics import forward_kinematics
+from ..core.kinematics import fk_arrays, forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
 
@@ -32,6 +32,41 @@ _EPS_LEN = 1e-6  # keeps the IK triangle strictly non-degenerate (file units; fa
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0), n[..., 0]
+
+
+def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None) -> tuple[np.ndarray, np.ndarray]:
+    """``forward_kinematics(motion)`` computed only for ``joints`` and their ancestors (the chains the
+    constraint layer reads: a few legs' joints of a 30-joint body, about a third of the work);
+    ``local_quats`` (F, J, 4) / ``root_positions`` (F, 3) replace the motion's (no new Motion to validate).
+
+    Returns full-shaped ``(F, J, 3)`` positions and ``(F, J, 4)`` world rotations, equal (bit for bit: the
+    same products in the same order) to :func:`forward_kinematics` on the computed joints and NaN on the
+    others, so a read of a joint that was not asked for cannot pass unnoticed."""
+    par = motion.skeleton.parents
+    keep = np.zeros(motion.num_joints, bool)
+    for j in joints:
+        j = int(j)
+        while j >= 0 and not keep[j]:
+            keep[j] = True
+            j = int(par[j])
+    sub = np.flatnonzero(keep)                          # ascending: parents before children, root first
+    where = np.full(motion.num_joints, -1)
+    where[sub] = np.arange(sub.size)
+    sub_par = np.where(par[sub] >= 0, where[np.maximum(par[sub], 0)], -1)
+    F = motion.num_frames
+    trans = np.empty((F, sub.size, 3))
+    if motion.local_translations is None:
+        trans[:] = motion.skeleton.offsets[sub]
+    else:
+        trans[:] = motion.local_translations[:, sub]
+    trans[:, 0] = motion.root_positions if root_positions is None else root_positions   # fk_arrays: row 0 = root
+    lq = motion.local_quats if local_quats is None else local_quats
+    p, w = fk_arrays(lq[:, sub], trans, sub_par)
+    pos = np.full((F, motion.num_joints, 3), np.nan)
+    wq = np.full((F, motion.num_joints, 4), np.nan)
+    pos[:, sub] = p
+    wq[:, sub] = w
+    return pos, wq
 
 
 def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -192,9 +227,10 @@ def _window_targets(tgt, traj, act, weight, left, right) -> None:
 _REACH = 0.999  # fraction of a chain's full length the root drop makes available (a just-bent knee)
 
 
-def _pivot(off: np.ndarray, to_upper: np.ndarray, reach: float) -> np.ndarray:
+def _pivot(off: np.ndarray, to_upper: np.ndarray, reach) -> np.ndarray:
     """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) toward ``to_upper (n, 3)`` (toe target ->
-    upper joint) by the least angle that brings the ankle within ``reach`` of the upper joint: the heel
+    upper joint) by the least angle that brings the ankle within ``reach`` (a length, or one per row
+    ``(n,)``) of the upper joint (row by row: several contacts' rows go in one call): the heel
     lifts further when the leg cannot reach otherwise (fully toward it if even that is not enough)."""
     f = np.linalg.norm(off, axis=-1)
     D = np.linalg.norm(to_upper, axis=-1)
@@ -318,9 +354,13 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     sk = motion.skeleton
     F = motion.num_frames
     nb = int(round(blend / motion.frame_time))
-    pos, wq = forward_kinematics(motion)
+    chains = [_chain(sk, j) for j, _, _ in parsed]
+    # the joints read below: contact joints, their chains and the middle joints' parents (+ ancestors)
+    need = {j for j, _, _ in parsed} | {x for ch in chains for x in ch if x >= 0}
+    need |= {int(sk.parents[ch[1]]) for ch in chains if ch[1] > 0}
+    pos, wq = _fk_joints(motion, need)
     if targets is None:
-        ref_pos = pos if reference is motion else forward_kinematics(reference)[0]
+        ref_pos = pos if reference is motion else _fk_joints(reference, need)[0]
         targets = contact_positions(reference, contacts, mode=mode, positions=ref_pos)
     else:
         ref_pos = pos
@@ -333,12 +373,23 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
                 raise ValueError(f"targets: each must be 3 finite numbers or ({e_ - s_}, 3), got shape {t.shape}")
             given.append(np.broadcast_to(t, (e_ - s_, 3)))
         targets = given
-    lq = np.array(motion.local_quats)
+    lq = motion.local_quats                                  # read only; ``out`` below is the copy
 
     # group contacts by effector; direct (ankle) contacts take precedence over toe contacts
     groups: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    chains = [_chain(sk, j) for j, _, _ in parsed]
     order = sorted(range(len(parsed)), key=lambda i: chains[i][2] == parsed[i][0])
+    # toe contacts placed by a given toe -> ankle vector: every contact's pivot in one (row-wise) call
+    pivoted = [i for i in range(len(parsed)) if toe_offsets is not None and toe_offsets[i] is not None
+               and chains[i][2] != parsed[i][0] and chains[i][0] > 0]
+    pivots = {}
+    if pivoted:
+        rows = [parsed[i][2] - parsed[i][1] for i in pivoted]
+        reach = [_REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid]))
+                 for up, mid, eff in (chains[i] for i in pivoted)]
+        turned = _pivot(np.concatenate([np.asarray(toe_offsets[i], dtype=float) for i in pivoted]),
+                        np.concatenate([pos[parsed[i][1]:parsed[i][2], chains[i][0]] - targets[i] for i in pivoted]),
+                        np.repeat(reach, rows))
+        pivots = dict(zip(pivoted, np.split(turned, np.cumsum(rows)[:-1])))
     for i in order:
         j, s, e = parsed[i]
         up, mid, eff = chains[i]
@@ -347,12 +398,10 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         act, tgt = groups.setdefault(eff, (np.zeros(F, bool), np.zeros((F, 3))))
         t = targets[i]
         if eff != j:  # toe contact: ankle target keeps the foot's world orientation (or the given one)
-            given = None if toe_offsets is None else toe_offsets[i]
-            if given is None:
-                t = t - (pos[s:e, j] - pos[s:e, eff])
+            if i in pivots:
+                t = t + pivots[i]
             else:
-                t = t + _pivot(np.asarray(given, dtype=float), pos[s:e, up] - t,
-                               _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid])))
+                t = t - (pos[s:e, j] - pos[s:e, eff])
         act[s:e] = True
         tgt[s:e] = t
 
@@ -361,15 +410,14 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         weight, left, right = attenuation_weights(act, nb)
         _window_targets(tgt, ref_pos[:, eff], act, weight, left, right)
         windows[eff] = weight
+    rp = motion.root_positions           # lowered below: one new Motion at the end, not one per change
     if lower_root:
         drop = _root_drop(sk, pos, groups, windows, nb)
         if np.any(drop > 0):
-            rp = np.array(motion.root_positions)
+            rp = np.array(rp)
             rp[:, 1] -= drop
-            motion = motion.replace(root_positions=rp)
-            pos = pos.copy()
-            pos[..., 1] -= drop[:, None]
-    out = lq.copy()
+            pos[..., 1] -= drop[:, None]  # pos is this call's own array (ref_pos, its alias, is not read again)
+    out = np.array(lq)
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
         chain = [up, mid, eff]
@@ -394,7 +442,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             act[s:e] = True
             tgt[s:e] = targets[i]
     if toes:
-        pos2, wq2 = forward_kinematics(motion.replace(local_quats=out))
+        pos2, wq2 = _fk_joints(motion, set(toes) | {eff for _, _, eff in toes.values()}, local_quats=out,
+                               root_positions=rp)
         for j, (act, tgt, eff) in toes.items():
             weight, left, right = attenuation_weights(act, nb)
             fr = np.flatnonzero(weight > 0)
@@ -403,7 +452,9 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             disp = quat_mul(quat_conj(wq2[fr, eff]), quat_mul(turn, wq2[fr, eff]))              # ankle's local
             disp = slerp(np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape), disp, weight[fr])
             out[fr, eff] = quat_mul(out[fr, eff], disp)
-    return motion.replace(local_quats=out)
+    if rp is motion.root_positions:
+        return motion.replace(local_quats=out)
+    return motion.replace(local_quats=out, root_positions=rp)
 
 
 def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:
@@ -437,10 +488,11 @@ def _timeline(edited):
     raise ValueError(f"edited must be a StaggeredMotion or a Motion, got {type(edited).__name__}")
 
 
-def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint"):
+def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint", tables=None):
     """``[(name, joint, start, stop, source_start, source_stop, clock)]`` of the contacts that keep a frame
-    (``clock``: the joint whose time warp moved it)."""
-    from .editing import warp_times
+    (``clock``: the index of the joint whose time warp moved it); ``tables``: ``editing._warp_tables(edited)``
+    when the caller has them."""
+    from .editing import _warp_column, _warp_tables
     from .representation import StaggeredMotion
     ft_s = float(source_frame_time)
     if not np.isfinite(ft_s) or ft_s <= 0:
@@ -448,6 +500,10 @@ def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint"):
     if carry_by not in ("joint", "limb"):
         raise ValueError(f"carry_by must be 'joint' or 'limb', got {carry_by!r}")
     t0, ft, F, names = _timeline(edited)
+    names = list(names)
+    is_sm = isinstance(edited, StaggeredMotion)
+    if is_sm and tables is None:
+        tables = _warp_tables(edited)        # every contact's warp from one table (not one per contact)
     out = []
     for item in contacts:
         try:
@@ -462,16 +518,17 @@ def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint"):
         if not 0 <= a < b:
             raise ValueError(f"contacts: frame range [{a}, {b}) of {name!r} is empty or negative")
         times = np.array([a, b - 1], dtype=float) * ft_s
-        clock = name
+        j = names.index(name)
+        clock = j
         if carry_by == "limb":
-            up = _chain(edited.skeleton, list(names).index(name))[0]
-            clock = names[up] if up >= 0 else name
-        if isinstance(edited, StaggeredMotion):
-            times = warp_times(edited, times, clock)
+            up = _chain(edited.skeleton, j)[0]
+            clock = up if up >= 0 else j
+        if is_sm:
+            times = _warp_column(*tables, clock, times)
         start = max(int(np.ceil((times[0] - t0) / ft - 1e-6)), 0)
         stop = min(int(np.floor((times[1] - t0) / ft + 1e-6)) + 1, F)
         if stop > start:
-            out.append((str(name), list(names).index(name), start, stop, a, b, clock))
+            out.append((str(name), j, start, stop, a, b, clock))
     return out
 
 
@@ -537,7 +594,7 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     Motion: ``evaluate(edited)`` (or ``edited``) with the contact chains' rotations displaced.
     """
     from .contacts import detect_contacts
-    from .editing import warp_times
+    from .editing import _warp_column, _warp_tables
     from .representation import StaggeredMotion, evaluate
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
@@ -551,23 +608,34 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         contacts = list(edited.contacts) if is_sm and edited.contacts else detect_contacts(source)
     _parse_contacts(source, contacts)                        # validates frames against the source
     motion = evaluate(edited) if is_sm else edited
-    carried = _carry(edited, contacts, source.frame_time, carry_by)
+    tables = _warp_tables(edited) if is_sm else None
+    carried = _carry(edited, contacts, source.frame_time, carry_by, tables)
     if not carried:
         return motion
-    src_pos = forward_kinematics(source)[0]
     sk = source.skeleton
+    effs = {j: _chain(sk, j)[2] for j in {c[1] for c in carried}}
+    src_pos = _fk_joints(source, set(effs) | set(effs.values()))[0]     # only the contact joints' chains
+    # source positions at the source time of every carried frame (inverse of each contact's joint warp),
+    # all contacts at once: one interpolation per clock joint, one gather for every frame
+    n = np.array([c[3] - c[2] for c in carried])
+    frames = np.concatenate([np.arange(c[2], c[3]) for c in carried])
+    te = t0 + frames * motion.frame_time
+    ts = te
+    if is_sm:
+        ts = np.empty_like(te)
+        clock = np.repeat([c[6] for c in carried], n)
+        for c in np.unique(clock):
+            sel = clock == c
+            ts[sel] = _warp_column(*tables, int(c), te[sel], inverse=True)
+    f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
+    i0 = np.floor(f).astype(int)
+    i1 = np.minimum(i0 + 1, source.num_frames - 1)
+    w = (f - i0)[:, None, None]
+    cols = np.repeat([[c[1], effs[c[1]]] for c in carried], n, axis=0)     # the two joints read below
+    at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (sum n, 2, 3)
     targets, toe_offsets = [], []
-    for name, j, s_, e_, a, b, clock in carried:
-        # source positions at the source time of every carried frame (inverse of the joint's warp)
-        te = t0 + np.arange(s_, e_) * motion.frame_time
-        ts = warp_times(edited, te, clock, inverse=True) if is_sm else te
-        f = np.clip(ts / source.frame_time, 0, source.num_frames - 1)
-        i0 = np.floor(f).astype(int)
-        i1 = np.minimum(i0 + 1, source.num_frames - 1)
-        w = (f - i0)[:, None, None]
-        at = src_pos[i0] * (1 - w) + src_pos[i1] * w                     # (n, J, 3)
-        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else at[:, j])
-        eff = _chain(sk, j)[2]
-        toe_offsets.append(at[:, eff] - at[:, j] if eff != j else None)
+    for (name, j, s_, e_, a, b, clock), piece in zip(carried, np.split(at, np.cumsum(n)[:-1])):
+        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else piece[:, 0])
+        toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
     return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
                                      lower_root=lower_root, toe_offsets=toe_offsets)

@@ -32,7 +32,9 @@ import numpy as np
 
 from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, slerp
 from .fitting import displacement_rotvecs
-from .representation import StaggeredMotion, bezier_cubic, knot_times, rotation_spline, translation_source_times
+from . import _kernels as kern
+from .representation import (StaggeredMotion, _rotations_at, bezier_cubic, knot_times, rotation_spline,
+                             translation_source_times)
 
 __all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession",
            "random_timing", "insert_pose", "delete_pose", "mean_pose"]
@@ -276,6 +278,9 @@ def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
     return seg, np.clip(tn, 0.0, 1.0)
 
 
+_PAIR_KERNEL_MIN = 4096   # samples from which the per-pair kernel pays for its per-pair set-up
+
+
 def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.ndarray) -> np.ndarray:
     """Same as :func:`~stagger_nb.staggered.representation.displacement_at` for the rows ``table[index]``,
     gathering only the two samples each point needs (not whole rows)."""
@@ -288,9 +293,16 @@ def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.nd
 
 def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray, seg=None, tn=None) -> np.ndarray:
     """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``);
-    pass ``seg``/``tn`` when the segment and normalised time are already known."""
+    pass ``seg``/``tn`` when the segment and normalised time are already known.
+
+    Many samples (a re-measured displacement grid) go through ``evaluate``'s own kernel, whose
+    control-polygon arcs are computed once per (segment, joint) pair instead of once per sample (the same
+    values to ~1e-16; 2-3x faster); a few (the K x J knots of :func:`_refresh`) through the small
+    evaluator below."""
     if seg is None:
         seg, tn = _segments(knot_times(sm), times, joints)
+    if seg.size > _PAIR_KERNEL_MIN:
+        return np.array(_rotations_at(sm, seg * sm.num_joints + joints, np.clip(tn, 0.0, 1.0)).T)
     tg = sm.tangents[seg, joints]
     s = rotation_spline(sm.values[seg, joints], tg[:, 0], tg[:, 1], sm.values[seg + 1, joints], tn)
     d = _displacement(sm.displacements, sm.displacement_counts, (seg, joints), tn)
@@ -335,8 +347,10 @@ def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn):
     knots = np.maximum.accumulate(knots, axis=0)
     pair, m, tn, t = _grid(knots[seg, joint], knots[seg + 1, joint], counts)
     sp, jp = seg[pair], joint[pair]
-    tg = tangents[sp, jp]
-    s = rotation_spline(values[sp, jp], tg[:, 0], tg[:, 1], values[sp + 1, jp], tn)
+    # the new spline on the grid, its control arcs computed once per pair (not per sample: same values)
+    ctrl = [np.ascontiguousarray(x.T) for x in (values[seg, joint], tangents[seg, joint, 0],
+                                                 tangents[seg, joint, 1], values[seg + 1, joint])]
+    s = kern.spline_into(*ctrl, pair, tn, kern.WORK.get("ms_s", (4, tn.size))).T   # read before the next call
     v = target_fn(t, jp, pair, tn)
     d = displacement_rotvecs(s, v, pair)          # unwrapped along each grid, as at extraction
     rows = np.zeros((counts.size, int(counts.max()), 3))
@@ -420,10 +434,20 @@ def warp_times(sm: StaggeredMotion, times, joint, *, inverse: bool = False) -> n
         c = int(joint)
         if not 0 <= c <= J:
             raise ValueError(f"joint: index {joint} outside [0, {J}]")
-    S = np.maximum.accumulate(source_knot_times(sm)[:, c])
-    T = np.maximum.accumulate(_current_knots(sm)[:, c])
+    return _warp_column(*_warp_tables(sm), c, times, inverse)
+
+
+def _warp_tables(sm: StaggeredMotion) -> tuple[np.ndarray, np.ndarray]:
+    """``(S, T)``, both (K, J + 1): the source and current knot times of every control variable, made
+    non-decreasing down each column (the breakpoints of :func:`warp_times`). Computed once, they serve
+    any number of :func:`_warp_column` calls (one per contact in ``keep_contacts``)."""
+    return np.maximum.accumulate(source_knot_times(sm), axis=0), np.maximum.accumulate(_current_knots(sm), axis=0)
+
+
+def _warp_column(S: np.ndarray, T: np.ndarray, c: int, times, inverse: bool = False) -> np.ndarray:
+    """:func:`warp_times` of column ``c`` from the tables of :func:`_warp_tables`."""
     x = np.asarray(times, dtype=float).reshape(-1)
-    a, b = (T, S) if inverse else (S, T)
+    a, b = (T[:, c], S[:, c]) if inverse else (S[:, c], T[:, c])
     y = np.interp(x, a, b)
     y = np.where(x < a[0], b[0] + (x - a[0]), y)
     return np.where(x > a[-1], b[-1] + (x - a[-1]), y)
@@ -477,6 +501,29 @@ def _plateau_weights(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.n
     return np.where(on_plateau, 1.0, w)
 
 
+def _pair_plateau_weights(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.ndarray, side: int,
+                          t: np.ndarray, pair: np.ndarray) -> np.ndarray:
+    """:func:`_plateau_weights` of samples ``t (N,)`` that belong to pairs ``(k[pair], col[pair])`` all on one
+    ``side``: the plateau and ramp ends are found once per pair (P << N) and gathered, and the raised
+    cosine ``(1 - cos(pi u)) / 2`` is taken as ``(1 - sin(pi/2 - pi u)) / 2`` by the kernels' polynomial
+    sine (numpy's cos is scalar libm here; same values to ~1e-16)."""
+    T = np.maximum.accumulate(knots, axis=0)
+    lo = np.minimum(tk[:, None], T)
+    hi = np.maximum(tk[:, None], T)
+    kn = np.clip(k + side, 0, T.shape[0] - 1)
+    inner = (hi[kn, col] if side < 0 else lo[kn, col])[pair]     # where the ramp reaches 0
+    outer = (lo[k, col] if side < 0 else hi[k, col])[pair]       # where the ramp reaches 1
+    L = outer - inner
+    nz = np.abs(L) > 0
+    u = np.where(nz, (t - inner) / np.where(nz, L, 1.0), 1.0)
+    np.clip(u, 0.0, 1.0, out=u)
+    x = np.pi / 2 - np.pi * u                                     # in [-pi/2, pi/2]
+    w = kern.sin_poly(x, np.empty_like(x), np.empty_like(x))
+    w = 0.5 * (1.0 - w)
+    on_plateau = (t >= lo[k, col][pair]) & (t <= hi[k, col][pair])
+    return np.where(on_plateau, 1.0, w)
+
+
 def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np.ndarray | None = None):
     """Apply knot offsets ``deltas (K, J, 4)`` (and root translation offsets ``(K, 3)``): ``v̂ = v ⊕ δ``,
     ``v̂⁰ = v⁰ ⊕ δ``, the adjacent Bézier handles move with their knot, and the displacement maps of the
@@ -499,11 +546,15 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
         knots = knot_times(sm)
 
         def target(t, jp, pair, tn):
-            sp = seg[pair]
-            old = _eval_rotations(sm, t, jp, seg=sp, tn=tn)   # same knots and grid: no search
-            wl = _plateau_weights(knots, sm.pose_times, sp, jp, t, np.ones_like(sp))
-            wr = _plateau_weights(knots, sm.pose_times, sp + 1, jp, t, -np.ones_like(sp))
-            return quat_mul(quat_mul(old, quat_exp(wl[:, None] * logd[sp, jp])), quat_exp(wr[:, None] * logd[sp + 1, jp]))
+            # component-first (4, N) arithmetic; the plateau ramps' ends are per (segment, joint) pair
+            old = _rotations_at(sm, seg[pair] * J + jp, tn)                 # same knots and grid: no search
+            wl = _pair_plateau_weights(knots, sm.pose_times, seg, joint, 1, t, pair)
+            wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, joint, -1, t, pair)
+            W, N = kern.WORK, t.size            # scratch reused move to move (no fresh page-faulted arrays)
+            e, a, h, tmp = W.get("ex_e", (4, N)), W.get("ex_a", (4, N)), W.get("ex_h", N), W.get("ex_tmp", N)
+            kern.qmul_into(old, kern.qexp_into(logd[seg, joint].T[:, pair] * wl, e, h, tmp), a, tmp)
+            kern.qexp_into(logd[seg + 1, joint].T[:, pair] * wr, e, h, tmp)
+            return kern.qmul_into(a, e, W.get("ex_v", (4, N)), tmp).T
 
         rows = _measure_rotations(values, tangents, knots, seg, joint, counts, target)
         fields.update(values=values, tangents=tangents,

@@ -1,0 +1,57 @@
+"""``python -m stagger_nb``: batch jobs over a folder of clips (see :mod:`stagger_nb.batch`).
+
+    python -m stagger_nb batch SESSION.json INPUT_DIR OUTPUT_DIR [--scheduler ADDRESS] [--workers N]
+    python -m stagger_nb extract-poses INPUT_DIR OUT.parquet [--scheduler ADDRESS] [--workers N]
+
+Exit status: 0 when every clip was written (or skipped as finished), 1 when some clips failed (listed in the
+report), 2 on a usage error.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m stagger_nb", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    def common(p):
+        p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="a running distributed scheduler (tcp://host:8786); default: local worker processes")
+        p.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+        p.add_argument("--executor", choices=("distributed", "processes", "serial"), default="distributed",
+                       help="distributed (LocalCluster or --scheduler), processes (dask.bag), serial (one process)")
+        p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    b = sub.add_parser("batch", help="apply a saved session's ops to every clip, writing edited BVH files")
+    b.add_argument("session")
+    b.add_argument("input_dir")
+    b.add_argument("output_dir")
+    common(b)
+    e = sub.add_parser("extract-poses", help="staggered poses of every clip into one Parquet table")
+    e.add_argument("input_dir")
+    e.add_argument("out")
+    common(e)
+    args = parser.parse_args(argv)
+    if args.workers < 1:
+        parser.error("--workers must be at least 1")
+    from . import batch
+    kw = dict(executor=args.executor, workers=args.workers, scheduler=args.scheduler, progress=not args.no_progress)
+    try:
+        if args.command == "batch":
+            res = batch.run_session_batch(args.session, args.input_dir, args.output_dir, **kw)
+        else:
+            res = batch.run_extract_poses(args.input_dir, args.out, **kw)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(f"{len(res.done)} written, {len(res.skipped)} skipped (finished earlier), {len(res.failed)} failed "
+          f"in {res.seconds:.1f} s; report: {res.report}")
+    for row in res.failed:
+        print(f"  failed: {row['file']}: {row['error']}", file=sys.stderr)  # the error names the line
+    return 1 if res.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

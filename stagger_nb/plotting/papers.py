@@ -1,0 +1,333 @@
+"""Figure builders for the tutorials: the papers' figures as plotly figure dicts (pure functions, no browser).
+
+Glossary: F frames, J joints, K staggered poses, D degrees of freedom (curves), N output frames of a warp.
+Times in seconds, positions in the clip's units (cm for the sample clips), angles in degrees. Every builder
+returns ``{"data": [...], "layout": {...}}`` whose trace order is documented; notebooks show one with
+``plotly.io.show(fig)`` or ``go.Figure(fig)``.
+
+- :func:`skeleton_strobe_figure` — skeletons at several frames, side by side (Coleman Fig. 6/8, Dean Fig. 4).
+- :func:`lines_figure` — named curves, each with its own x, optional stacking, vertical markers and
+  highlighted samples (evidence signals Fig. 4, elbow angles Fig. 7, root heights, ankle paths).
+- :func:`knots_figure` — D curves with their knots, aligned or staggered (Coleman Fig. 1/2).
+- :func:`spline_displacement_figure` — data, spline, knots and displacement map of one channel (Coleman Fig. 3).
+- :func:`heatmap_figure` — a (rows, columns) table of numbers, e.g. timing refinements in ms.
+- :func:`distance_figure` — pose distances from a control frame, with an optional zoom panel (Dean Fig. 1–3, 5).
+- :func:`speeds_figure` — warp speeds on a readable log axis, one row per warp (Hsu Fig. 5).
+- :func:`support_figure` — left / right single-support bands per motion (Hsu V7, the limp).
+- :func:`table_figure` — a table (Hsu Table 1).
+"""
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ._style import POSE_COLOUR, base_layout, floats, same_length, vline
+from .views import SPEED_LIMITS
+
+__all__ = ["skeleton_strobe_figure", "lines_figure", "knots_figure", "spline_displacement_figure",
+           "heatmap_figure", "distance_figure", "speeds_figure", "support_figure", "table_figure", "PALETTE"]
+
+PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+           "#bcbd22", "#17becf")
+SPEED_TICKS = (0.1, 0.25, 0.5, 1, 2, 4, 10)
+
+
+def _colour(i: int, colours=None) -> str:
+    return (colours[i] if colours is not None else PALETTE[i % len(PALETTE)])
+
+
+def _gradient(n: int) -> list[str]:
+    """n colours from blue (first) to orange-red (last), for sweeps."""
+    a = np.linspace(0, 1, max(n, 1))
+    return [f"rgb({int(40 + 200 * v)},{int(90 + 40 * v)},{int(220 - 190 * v)})" for v in a][:n]
+
+
+def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=None, shift=None,
+                           view: str = "side", title: str = "", height: int = 420) -> dict:
+    """Skeletons at several frames as 3D line drawings (a strobe), orthographic, Y up.
+
+    Parameters
+    ----------
+    positions : (F, J, 3) world joint positions (from ``sn.forward_kinematics``), clip units
+    parents : (J,) parent index of each joint, root = -1
+    frames : (S,) frame indices to draw (one trace each)
+    colors, names : S colours / legend names (default: palette, ``"frame f"``)
+    shift : (S, 3) offset added to each drawn skeleton (to place poses side by side), or None
+    view : ``"side"`` (camera on +x), ``"front"`` (on +z) or ``"top"`` (on +y)
+
+    Traces: one ``scatter3d`` polyline per drawn frame, bones separated by gaps.
+    """
+    p = floats(positions, "positions", ndim=3)
+    if p.shape[2] != 3:
+        raise ValueError(f"positions: expected shape (F, J, 3), got {p.shape}")
+    par = np.asarray(parents, dtype=int)
+    if par.shape != (p.shape[1],):
+        raise ValueError(f"parents: expected shape ({p.shape[1]},), got {par.shape}")
+    fr = np.asarray(frames, dtype=int).reshape(-1)
+    if fr.size and (fr.min() < 0 or fr.max() >= len(p)):
+        raise ValueError(f"frames: indices must lie in [0, {len(p)}), got {fr.min()}..{fr.max()}")
+    off = np.zeros((len(fr), 3)) if shift is None else floats(shift, "shift", ndim=2)
+    if off.shape != (len(fr), 3):
+        raise ValueError(f"shift: expected shape ({len(fr)}, 3), got {off.shape}")
+    if view not in ("side", "front", "top"):
+        raise ValueError(f"view must be 'side', 'front' or 'top', got {view!r}")
+    child = np.flatnonzero(par >= 0)
+    data = []
+    for n, f in enumerate(fr):
+        seg = np.full((len(child), 3, 3), np.nan)           # parent, child, gap
+        seg[:, 0] = p[f, par[child]] + off[n]
+        seg[:, 1] = p[f, child] + off[n]
+        seg = seg.reshape(-1, 3)
+        data.append(dict(type="scatter3d", x=seg[:, 0], y=seg[:, 1], z=seg[:, 2], mode="lines",
+                         name=str(names[n]) if names is not None else f"frame {f}",
+                         line=dict(width=5, color=_colour(n, colors))))
+    eye = {"side": dict(x=2.0, y=0.3, z=0.0), "front": dict(x=0.0, y=0.3, z=2.0),
+           "top": dict(x=0.0, y=2.0, z=0.01)}[view]
+    layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)), height=int(height),
+                  margin=dict(l=0, r=0, t=40, b=0), template="plotly_white", showlegend=True,
+                  scene=dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
+                                                            projection=dict(type="orthographic"))))
+    return dict(data=data, layout=layout)
+
+
+def lines_figure(series: Mapping[str, tuple], *, stacked: float | None = None, vlines=(), vline_color=POSE_COLOUR,
+                 highlight: Mapping[str, tuple] | None = None, colors: Mapping[str, str] | None = None,
+                 x_title: str = "time (s)", y_title: str = "", title: str = "", height: int = 320,
+                 log_y: bool = False) -> dict:
+    """Named curves, each ``name -> (x (F_i,), y (F_i,))``, drawn as lines in the given order.
+
+    stacked : None, or a vertical step: curve i is raised by ``step * (n - 1 - i)`` and the y tick labels are
+        hidden (evidence signals, Coleman Fig. 4)
+    vlines : (V,) x positions drawn as dotted vertical lines (e.g. pose times)
+    highlight : ``name -> (x (H,), y (H,))`` drawn as markers after the lines (e.g. airborne frames)
+    colors : ``name -> colour`` (default: the palette in order)
+    log_y : a log y axis
+
+    Traces: one line per series, then one marker trace per highlight.
+    """
+    names = list(series)
+    data = []
+    for i, name in enumerate(names):
+        x, y = series[name]
+        x, y = floats(x, f"series[{name!r}] x"), floats(y, f"series[{name!r}] y")
+        same_length(**{f"series[{name!r}] x": x, f"series[{name!r}] y": y})
+        if stacked is not None:
+            y = y + float(stacked) * (len(names) - 1 - i)
+        data.append(dict(type="scatter", x=x, y=y, mode="lines", name=str(name),
+                         line=dict(width=1.8, color=(colors or {}).get(name, _colour(i)))))
+    for k, (name, (x, y)) in enumerate((highlight or {}).items()):
+        x, y = floats(x, f"highlight[{name!r}] x"), floats(y, f"highlight[{name!r}] y")
+        same_length(**{f"highlight[{name!r}] x": x, f"highlight[{name!r}] y": y})
+        data.append(dict(type="scatter", x=x, y=y, mode="markers", name=str(name),
+                         marker=dict(size=5, color=(colors or {}).get(name, PALETTE[(len(names) + k) % 10]))))
+    yaxis = dict(title=dict(text=y_title), automargin=True)
+    if stacked is not None:
+        yaxis["showticklabels"] = False
+    if log_y:
+        yaxis["type"] = "log"
+    layout = base_layout(title, height, x_title=x_title, y_title=y_title, yaxis=yaxis,
+                         shapes=[vline(v, vline_color, "dot") for v in floats(vlines, "vlines")])
+    return dict(data=data, layout=layout)
+
+
+def knots_figure(times, curves, knot_times, knot_values, *, names=None, pose_times=(), title: str = "",
+                 height: int = 340) -> dict:
+    """D degrees of freedom over time with their knots (Coleman et al. 2008, Fig. 1 and 2).
+
+    Parameters
+    ----------
+    times : (F,) seconds
+    curves : (D, F) value of each degree of freedom (degrees)
+    knot_times : (K, D) seconds, the knot of each pose on each curve: all equal to ``t_k`` for aligned
+        poses (Fig. 1a), ``t_k + r_{k,i}`` for staggered ones (Fig. 1b)
+    knot_values : (K, D) value at each knot (degrees)
+    names : D legend names
+    pose_times : (K,) seconds drawn as dashed vertical lines
+
+    Traces: D curves, then D knot-marker traces (same colour as their curve).
+    """
+    t = floats(times, "times")
+    c = floats(curves, "curves", ndim=2)
+    kt, kv = floats(knot_times, "knot_times", ndim=2), floats(knot_values, "knot_values", ndim=2)
+    if c.shape[1] != len(t):
+        raise ValueError(f"curves: expected shape (D, {len(t)}), got {c.shape}")
+    if kt.shape != kv.shape or kt.shape[1] != c.shape[0]:
+        raise ValueError(f"knot_times, knot_values: expected equal shapes (K, {c.shape[0]}), got {kt.shape}, "
+                         f"{kv.shape}")
+    names = [f"dof {i}" for i in range(len(c))] if names is None else list(names)
+    data = [dict(type="scatter", x=t, y=c[i], mode="lines", name=names[i], legendgroup=names[i],
+                 line=dict(width=1.8, color=_colour(i))) for i in range(len(c))]
+    data += [dict(type="scatter", x=kt[:, i], y=kv[:, i], mode="markers", name=f"{names[i]} knots",
+                  legendgroup=names[i], showlegend=False,
+                  marker=dict(size=9, color=_colour(i), line=dict(width=1, color="#1a202c")))
+             for i in range(len(c))]
+    layout = base_layout(title, height, y_title="value (°)",
+                         shapes=[vline(x, POSE_COLOUR) for x in floats(pose_times, "pose_times")])
+    return dict(data=data, layout=layout)
+
+
+def spline_displacement_figure(times, data_deg, spline_deg, knot_times, knot_deg, displacement_deg, *,
+                               title: str = "", height: int = 440) -> dict:
+    """One rotation channel: the data, the spline through the knots and the displacement map below
+    (Coleman et al. 2008, §4.1.1, Fig. 3: ``v(t) = s(t') ⊕ d(t')``).
+
+    Parameters
+    ----------
+    times : (F,) seconds
+    data_deg, spline_deg, displacement_deg : (F,) degrees: the captured channel, the spline alone
+        (displacement maps set to zero), and the displacement map
+    knot_times, knot_deg : (K,) seconds and degrees of this joint's knots at ``t_k + r_{k,i}``
+
+    Traces: 0 data (dots), 1 spline, 2 knots (upper row, x/y); 3 displacement (lower row, x2/y2).
+    """
+    t = floats(times, "times")
+    d, s, dm = floats(data_deg, "data_deg"), floats(spline_deg, "spline_deg"), floats(displacement_deg,
+                                                                                        "displacement_deg")
+    same_length(times=t, data_deg=d, spline_deg=s, displacement_deg=dm)
+    kt, kv = floats(knot_times, "knot_times"), floats(knot_deg, "knot_deg")
+    same_length(knot_times=kt, knot_deg=kv)
+    data = [
+        dict(type="scatter", x=t, y=d, mode="markers", name="motion data", marker=dict(size=3, color="#718096")),
+        dict(type="scatter", x=t, y=s, mode="lines", name="spline s(t')", line=dict(color="#c53030", width=2)),
+        dict(type="scatter", x=kt, y=kv, mode="markers", name="knots at t_k + r_k,i",
+             marker=dict(size=9, color="#2b6cb0", symbol="diamond")),
+        dict(type="scatter", x=t, y=dm, mode="lines", name="displacement d(t')", xaxis="x2", yaxis="y2",
+             line=dict(color="#2f855a", width=1.8)),
+    ]
+    layout = base_layout(title, height, x_title="",
+                         xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False),
+                         yaxis=dict(domain=[0.4, 1], anchor="x", title=dict(text="rotation (°)"), automargin=True),
+                         xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="time (s)")),
+                         yaxis2=dict(domain=[0, 0.3], anchor="x2", title=dict(text="displacement (°)"),
+                                     automargin=True))
+    return dict(data=data, layout=layout)
+
+
+def heatmap_figure(z, x_labels, y_labels, *, colorbar: str = "", title: str = "", x_title: str = "",
+                   height: int = 560, zmid: float | None = 0.0) -> dict:
+    """A table of numbers as a heat map: ``z`` (rows, columns) with row and column labels.
+
+    Traces: 0 the heatmap (diverging colours centred on ``zmid``).
+    """
+    z = floats(z, "z", ndim=2)
+    if z.shape != (len(y_labels), len(x_labels)):
+        raise ValueError(f"z: expected shape ({len(y_labels)}, {len(x_labels)}), got {z.shape}")
+    data = [dict(type="heatmap", z=z, x=[str(v) for v in x_labels], y=[str(v) for v in y_labels],
+                 colorscale="RdBu", zmid=zmid, colorbar=dict(title=dict(text=colorbar)))]
+    layout = base_layout(title, height, x_title=x_title, showlegend=False, hovermode="closest")
+    return dict(data=data, layout=layout)
+
+
+def distance_figure(x, curves: Mapping[str, Sequence[float]], control: int, *, zoom: int | None = None,
+                    sweep: bool = False, x_title: str = "frame", title: str = "", height: int = 340) -> dict:
+    """Normalised pose distances from a control frame (Dean et al. 2018, Fig. 1–3, 5).
+
+    Parameters
+    ----------
+    x : (F,) frame numbers or seconds
+    curves : ``name -> (F,)`` distances in [0, 1] (0 at the control frame)
+    control : index of the control frame (drawn as a wide yellow bar, like the paper's figures)
+    zoom : None, or a half-width in samples: a second panel shows ``control ± zoom`` with markers
+    sweep : colour the curves from blue (first) to orange (last), e.g. a σ sweep (Fig. 5)
+
+    Traces: one line per curve on the main panel, then (with ``zoom``) one per curve on x2/y2.
+    """
+    xx = floats(x, "x")
+    if not 0 <= int(control) < len(xx):
+        raise ValueError(f"control: must lie in [0, {len(xx)}), got {control}")
+    cols = _gradient(len(curves)) if sweep else [_colour(i) for i in range(len(curves))]
+    data = []
+    ys = {}
+    for i, (name, y) in enumerate(curves.items()):
+        y = ys[name] = floats(y, f"curves[{name!r}]")
+        same_length(x=xx, **{f"curves[{name!r}]": y})
+        data.append(dict(type="scatter", x=xx, y=y, mode="lines", name=str(name), legendgroup=str(name),
+                         line=dict(width=2, color=cols[i])))
+    xc = float(xx[int(control)])
+    shapes = [dict(vline(xc, "#ecc94b", "solid", 8), opacity=0.6)]
+    extra = {}
+    if zoom is not None:
+        lo, hi = max(0, int(control) - int(zoom)), min(len(xx), int(control) + int(zoom) + 1)
+        for i, (name, y) in enumerate(ys.items()):
+            data.append(dict(type="scatter", x=xx[lo:hi], y=y[lo:hi], mode="lines+markers", name=str(name),
+                             legendgroup=str(name), showlegend=False, xaxis="x2", yaxis="y2",
+                             line=dict(width=2, color=cols[i]), marker=dict(size=5)))
+        shapes.append(dict(vline(xc, "#ecc94b", "solid", 8, xref="x2"), opacity=0.6))
+        extra = dict(xaxis=dict(domain=[0, 0.62], title=dict(text=x_title)),
+                     xaxis2=dict(domain=[0.7, 1], anchor="y2", title=dict(text=f"{x_title} (zoom)")),
+                     yaxis2=dict(anchor="x2", range=[-0.02, None], title=dict(text="")))
+    layout = base_layout(title, height, x_title=x_title, y_title="normalised distance", shapes=shapes, **extra)
+    return dict(data=data, layout=layout)
+
+
+def speeds_figure(warps: Mapping[str, tuple], *, title: str = "", row_height: int = 150) -> dict:
+    """Warp speeds ``d(input)/d(output)`` on a log axis, one row per warp (Hsu et al. 2007, Fig. 5).
+
+    warps : ``name -> (out_times (N,), speed (N,))``, seconds and dimensionless (1 = real time); speeds are
+        clipped to [0.1, 10] and the axis is labelled 0.1×, 0.25×, 0.5×, 1×, 2×, 4×, 10×.
+
+    Traces: one line per warp, on axes x/y, x2/y2, ... (row i uses ``xaxis{i}``/``yaxis{i}``); the real-time
+    line (1×) is a shape in each row.
+    """
+    n = len(warps)
+    if n == 0:
+        raise ValueError("warps: give at least one warp")
+    lo, hi = SPEED_LIMITS
+    gap = 0.08
+    h = (1 - gap * (n - 1)) / n
+    data, shapes, axes = [], [], {}
+    for i, (name, (x, s)) in enumerate(warps.items()):
+        x, s = floats(x, f"warps[{name!r}] out_times"), floats(s, f"warps[{name!r}] speed")
+        same_length(**{f"warps[{name!r}] out_times": x, f"warps[{name!r}] speed": s})
+        k = "" if i == 0 else str(i + 1)
+        data.append(dict(type="scatter", x=x, y=np.clip(s, lo, hi), mode="lines", name=str(name),
+                         xaxis=f"x{k}", yaxis=f"y{k}", line=dict(width=2, color=_colour(i))))
+        top = 1 - i * (h + gap)
+        axes[f"xaxis{k}"] = dict(domain=[0, 1], anchor=f"y{k}", automargin=True,
+                                 title=dict(text="output time (s)" if i == n - 1 else ""))
+        axes[f"yaxis{k}"] = dict(domain=[max(0.0, top - h), top], anchor=f"x{k}", type="log",
+                                 range=[np.log10(lo), np.log10(hi)], tickvals=list(SPEED_TICKS),
+                                 ticktext=[f"{v:g}×" for v in SPEED_TICKS], title=dict(text=str(name)),
+                                 automargin=True)
+        shapes.append(dict(type="line", xref=f"x{k} domain", yref=f"y{k}", x0=0, x1=1, y0=1, y1=1,
+                           line=dict(color="#a0aec0", width=1), layer="below"))
+    layout = base_layout(title, row_height * n + 60, x_title="", shapes=shapes, showlegend=False, **axes)
+    return dict(data=data, layout=layout)
+
+
+def support_figure(rows: Mapping[str, tuple], *, title: str = "", height: int | None = None) -> dict:
+    """Left / right single-support phases over time, one band per motion (Hsu et al. 2007, V7: a limp).
+
+    rows : ``name -> (times (F,), left (F,) bool, right (F,) bool)``: seconds, and whether only the left /
+        only the right foot is on the ground in each frame.
+
+    Traces: per row, 0 left support (blue bars), 1 right support (orange bars), drawn as horizontal
+    markers at y = the row's name.
+    """
+    data = []
+    for i, (name, (t, left, right)) in enumerate(rows.items()):
+        t = floats(t, f"rows[{name!r}] times")
+        lm, rm = np.asarray(left, dtype=bool), np.asarray(right, dtype=bool)
+        same_length(**{f"rows[{name!r}] times": t, f"rows[{name!r}] left": lm, f"rows[{name!r}] right": rm})
+        for mask, side, col in ((lm, "left foot only", "#2b6cb0"), (rm, "right foot only", "#dd6b20")):
+            data.append(dict(type="scatter", x=t[mask], y=[str(name)] * int(mask.sum()), mode="markers",
+                             name=side, legendgroup=side, showlegend=i == 0,
+                             marker=dict(symbol="line-ns", size=16, line=dict(width=3, color=col), color=col)))
+    height = height or 90 + 45 * len(rows)
+    layout = base_layout(title, height, yaxis=dict(type="category", autorange="reversed", automargin=True))
+    return dict(data=data, layout=layout)
+
+
+def table_figure(header: Sequence[str], rows: Sequence[Sequence], *, title: str = "", height: int = 320) -> dict:
+    """A table (Hsu et al. 2007, Table 1): ``header`` (C,) and ``rows`` (R, C) of already formatted cells."""
+    rows = [list(r) for r in rows]
+    if any(len(r) != len(header) for r in rows):
+        raise ValueError(f"rows: every row needs {len(header)} cells")
+    columns = [[str(r[c]) for r in rows] for c in range(len(header))]
+    data = [dict(type="table", header=dict(values=list(header)), cells=dict(values=columns))]
+    layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)), height=int(height),
+                  margin=dict(l=10, r=10, t=40, b=0), template="plotly_white")
+    return dict(data=data, layout=layout)
+
+

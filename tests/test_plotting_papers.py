@@ -1,0 +1,119 @@
+"""The tutorials' figure builders (stagger_nb.plotting.papers) without a browser: plotly validates every
+figure, the drawn values are the given ones (or the documented transform of them), bad input names itself."""
+from __future__ import annotations
+
+import numpy as np
+import plotly.graph_objects as go
+import pytest
+
+from stagger_nb import plotting
+
+T = np.arange(31) / 30   # 1 s at 30 fps
+
+
+def _valid(fig: dict) -> go.Figure:
+    assert set(fig) == {"data", "layout"}
+    return go.Figure(fig)   # raises ValueError on any property plotly does not know
+
+
+def test_strobe_draws_every_bone_of_each_frame_once():
+    # a 3-joint chain: root at the origin, child 10 up, grandchild 10 further; frame f shifts by f in x
+    base = np.array([[0, 0, 0], [0, 10, 0], [0, 20, 0]], float)
+    pos = np.stack([base + [f, 0, 0] for f in range(5)])
+    f = plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [1, 3], shift=[[0, 0, 0], [100, 0, 0]],
+                                        names=["a", "b"], view="front")
+    g = _valid(f)
+    assert [tr.name for tr in g.data] == ["a", "b"] and all(tr.type == "scatter3d" for tr in g.data)
+    x = np.asarray(g.data[1].x, dtype=float)
+    assert np.allclose(x[~np.isnan(x)], 103)          # frame 3 (x = 3) shifted by 100, both bones
+    assert np.isnan(x).sum() == 2                     # 2 bones: one gap after each
+    assert g.layout.scene.camera.eye.z == 2.0         # front view
+    with pytest.raises(ValueError, match="frames"):
+        plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [7])
+    with pytest.raises(ValueError, match="parents"):
+        plotting.skeleton_strobe_figure(pos, [-1, 0], [0])
+    with pytest.raises(ValueError, match="view"):
+        plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [0], view="iso")
+
+
+def test_lines_stacking_offsets_and_highlights():
+    f = plotting.lines_figure({"a": (T, np.zeros(31)), "b": (T[:5], np.ones(5))}, stacked=1.5, vlines=[0.2, 0.4],
+                              highlight={"marks": ([0.1], [0.5])})
+    g = _valid(f)
+    assert [tr.mode for tr in g.data] == ["lines", "lines", "markers"]
+    assert np.allclose(g.data[0].y, 1.5) and np.allclose(g.data[1].y, 1.0)   # first curve on top
+    assert g.layout.yaxis.showticklabels is False and [s.x0 for s in g.layout.shapes] == [0.2, 0.4]
+    assert _valid(plotting.lines_figure({"a": (T, T + 1)}, log_y=True)).layout.yaxis.type == "log"
+    with pytest.raises(ValueError, match=r"series\['a'\] x=31, series\['a'\] y=3"):
+        plotting.lines_figure({"a": (T, [1, 2, 3])})
+
+
+def test_knots_figure_puts_each_knot_on_its_curve_in_the_curve_colour():
+    curves = np.stack([np.sin(2 * np.pi * T), np.cos(2 * np.pi * T)])
+    kt = np.array([[0.25, 0.3], [0.75, 0.5]])
+    kv = np.stack([np.interp(kt[:, i], T, curves[i]) for i in range(2)], 1)
+    g = _valid(plotting.knots_figure(T, curves, kt, kv, names=["hip", "knee"], pose_times=[0.25, 0.75]))
+    assert len(g.data) == 4 and g.data[2].marker.color == g.data[0].line.color
+    assert np.allclose(g.data[3].x, [0.3, 0.5]) and len(g.layout.shapes) == 2
+    with pytest.raises(ValueError, match="knot_times, knot_values"):
+        plotting.knots_figure(T, curves, kt[:, :1], kv[:, :1])
+    with pytest.raises(ValueError, match="curves"):
+        plotting.knots_figure(T[:5], curves, kt, kv)
+
+
+def test_spline_displacement_rows():
+    d = np.sin(T)
+    g = _valid(plotting.spline_displacement_figure(T, d, 0.9 * d, [0.0, 1.0], [0.0, np.sin(1.0)], 0.1 * d))
+    assert [tr.yaxis or "y" for tr in g.data] == ["y", "y", "y", "y2"]
+    assert np.allclose(g.data[3].y, 0.1 * d)
+    with pytest.raises(ValueError, match="spline_deg=5"):
+        plotting.spline_displacement_figure(T, d, d[:5], [], [], d)
+
+
+def test_heatmap_checks_its_labels():
+    z = np.arange(6.0).reshape(2, 3)
+    g = _valid(plotting.heatmap_figure(z, [0.1, 0.2, 0.3], ["hip", "knee"], colorbar="ms"))
+    assert list(g.data[0].y) == ["hip", "knee"] and np.array_equal(np.asarray(g.data[0].z), z)
+    with pytest.raises(ValueError, match=r"z: expected shape \(3, 3\)"):
+        plotting.heatmap_figure(z, [1, 2, 3], ["a", "b", "c"])
+
+
+def test_distance_zoom_panel_holds_the_window_around_the_control_frame():
+    x = np.arange(40)
+    curves = {"green": np.abs(x - 20) / 20, "isomap": ((x - 20) / 20) ** 2}
+    g = _valid(plotting.distance_figure(x, curves, 20, zoom=3))
+    assert len(g.data) == 4 and list(g.data[2].x) == list(range(17, 24))
+    assert g.data[2].xaxis == "x2" and g.data[2].showlegend is False
+    assert [s.x0 for s in g.layout.shapes] == [20, 20]
+    swept = _valid(plotting.distance_figure(x, curves, 20, sweep=True))
+    assert swept.data[0].line.color != swept.data[1].line.color and len(swept.data) == 2
+    with pytest.raises(ValueError, match="control"):
+        plotting.distance_figure(x, curves, 40)
+
+
+def test_speeds_one_log_row_per_warp_with_readable_ticks():
+    s = np.array([0.05, 0.5, 1.0, 3.0, 50.0])
+    g = _valid(plotting.speeds_figure({"V4": (np.arange(5) / 30, s), "V8": (np.arange(3) / 30, [1, 1, 1])}))
+    assert [tr.yaxis for tr in g.data] == ["y", "y2"]
+    assert np.allclose(g.data[0].y, [0.1, 0.5, 1.0, 3.0, 10.0])      # clipped to tenfold
+    assert g.layout.yaxis2.type == "log" and "0.25×" in g.layout.yaxis.ticktext
+    assert g.layout.yaxis.domain[0] > g.layout.yaxis2.domain[1]       # rows do not overlap
+    with pytest.raises(ValueError, match="warps"):
+        plotting.speeds_figure({})
+
+
+def test_support_bands_mark_only_the_support_frames():
+    left = T < 0.3
+    right = T > 0.7
+    g = _valid(plotting.support_figure({"walk": (T, left, right), "limp": (T, right, left)}))
+    assert len(g.data) == 4 and np.allclose(g.data[0].x, T[left]) and set(g.data[3].y) == {"limp"}
+    assert [tr.showlegend for tr in g.data] == [True, True, False, False]
+    with pytest.raises(ValueError, match="left"):
+        plotting.support_figure({"walk": (T, left[:3], right)})
+
+
+def test_table_rows_become_columns():
+    g = _valid(plotting.table_figure(["a", "b"], [[1, "x"], [2, "y"]]))
+    assert [list(c) for c in g.data[0].cells.values] == [["1", "2"], ["x", "y"]]
+    with pytest.raises(ValueError, match="rows"):
+        plotting.table_figure(["a", "b"], [[1]])
