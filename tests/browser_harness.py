@@ -198,11 +198,15 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) 
     """Save the notebook (so its outputs, the widget views, come back), reload the tab with the kernel
     alive and wait until the JS condition ``ready`` holds (e.g. every editor's plots drawn).
 
-    JupyterLab's widget manager (jupyterlab_widgets 3.0) sometimes restores the kernel's widgets after a
-    reload without some of them and then shows "Error displaying widget: model not found" for good (two
-    restores race: one started by the notebook, one by the kernel connection; seen under load, for plain
-    ipywidgets too, ipywidgets#2748/#3231). That is outside this project; a user reloads once more, and
-    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
+    Why a reload can show "Error displaying widget: model not found" for every widget (measured under load
+    with a longtask observer, /tmp timelines in the review report): each output's renderer asks the widget
+    manager for its model with a 2 s poll (jupyterlab_widgets 3.0.17 ``get_model``: 100 ms steps, no last
+    look after the deadline; ipywidgets#4026/#4040). The kernel's ``update_states`` reply arrived ~1.7 s
+    after the renderers started; creating the ~1,200 models of three editors (pythreejs rigs + ghost rigs)
+    then ran as one 1.4-2 s main-thread task that ends with the restore marked done. The poll's next tick
+    came after its deadline, so it failed without looking again while the restore was done: the error is
+    final for that page load. Fewer widget models (a shorter task) is the product-side fix. A user reloads once
+    more, and    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
     page.keyboard.press("Control+s")
     page.wait_for_function("() => !document.querySelector('.jp-mod-dirty')", timeout=30000)
     # what a user's F5 reloads: the notebook's URL without ?reset (a reset workspace closes and reopens the

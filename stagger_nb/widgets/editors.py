@@ -156,6 +156,9 @@ class _Editor(widgets.VBox):
         session.observe(self._on_session)
         if hasattr(session, "observe_busy"):
             session.observe_busy(self._on_busy)
+        for row in controls:   # a row that does not fit wraps (shrunk sliders lose their track at 1280 px)
+            if isinstance(row, widgets.HBox):
+                row.layout.flex_flow = "row wrap"
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
         # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
         body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
