@@ -111,16 +111,18 @@ def jupyter_lab(folder: Path, timeout: float = 90.0):
 def chromium_page(width: int = 1280, height: int = 800):
     """A headless Chromium page of ``width`` × ``height`` CSS px. Yields ``(page, log)`` where
     ``log = {"console": [...], "page_errors": [...], "ws_received": [...]}`` collects what the page printed
-    and the first 4 KiB of every websocket frame it received (kernel messages)."""
+    the first 4 KiB of every websocket frame it received (kernel messages), and the stack of every page error
+    (``page_error_stacks``, same order as ``page_errors``)."""
     from playwright.sync_api import sync_playwright
-    log = {"console": [], "page_errors": [], "ws_received": []}
+    log = {"console": [], "page_errors": [], "page_error_stacks": [], "ws_received": []}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS, timeout=60000)
         try:
             page = browser.new_page(viewport={"width": width, "height": height})
             page.set_default_timeout(30000)
             page.on("console", lambda m: log["console"].append(f"{m.type}: {m.text[:300]}"))
-            page.on("pageerror", lambda e: log["page_errors"].append(str(e)[:300]))
+            page.on("pageerror", lambda e: (log["page_errors"].append(str(e)[:300]),
+                                            log["page_error_stacks"].append((getattr(e, "stack", "") or "")[:1500])))
 
             def frames(ws):   # what the server sends (kernel messages), first 4 KiB of each, as text
                 ws.on("framereceived", lambda f: log["ws_received"].append(
