@@ -111,16 +111,18 @@ def jupyter_lab(folder: Path, timeout: float = 90.0):
 def chromium_page(width: int = 1280, height: int = 800):
     """A headless Chromium page of ``width`` × ``height`` CSS px. Yields ``(page, log)`` where
     ``log = {"console": [...], "page_errors": [...], "ws_received": [...]}`` collects what the page printed
-    and the first 4 KiB of every websocket frame it received (kernel messages)."""
+    the first 4 KiB of every websocket frame it received (kernel messages), and the stack of every page error
+    (``page_error_stacks``, same order as ``page_errors``)."""
     from playwright.sync_api import sync_playwright
-    log = {"console": [], "page_errors": [], "ws_received": []}
+    log = {"console": [], "page_errors": [], "page_error_stacks": [], "ws_received": []}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS, timeout=60000)
         try:
             page = browser.new_page(viewport={"width": width, "height": height})
             page.set_default_timeout(30000)
             page.on("console", lambda m: log["console"].append(f"{m.type}: {m.text[:300]}"))
-            page.on("pageerror", lambda e: log["page_errors"].append(str(e)[:300]))
+            page.on("pageerror", lambda e: (log["page_errors"].append(str(e)[:300]),
+                                            log["page_error_stacks"].append((getattr(e, "stack", "") or "")[:1500])))
 
             def frames(ws):   # what the server sends (kernel messages), first 4 KiB of each, as text
                 ws.on("framereceived", lambda f: log["ws_received"].append(
@@ -198,11 +200,15 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) 
     """Save the notebook (so its outputs, the widget views, come back), reload the tab with the kernel
     alive and wait until the JS condition ``ready`` holds (e.g. every editor's plots drawn).
 
-    JupyterLab's widget manager (jupyterlab_widgets 3.0) sometimes restores the kernel's widgets after a
-    reload without some of them and then shows "Error displaying widget: model not found" for good (two
-    restores race: one started by the notebook, one by the kernel connection; seen under load, for plain
-    ipywidgets too, ipywidgets#2748/#3231). That is outside this project; a user reloads once more, and
-    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
+    Why a reload can show "Error displaying widget: model not found" for every widget (measured under load
+    with a longtask observer, /tmp timelines in the review report): each output's renderer asks the widget
+    manager for its model with a 2 s poll (jupyterlab_widgets 3.0.17 ``get_model``: 100 ms steps, no last
+    look after the deadline; ipywidgets#4026/#4040). The kernel's ``update_states`` reply arrived ~1.7 s
+    after the renderers started; creating the ~1,200 models of three editors (pythreejs rigs + ghost rigs)
+    then ran as one 1.4-2 s main-thread task that ends with the restore marked done. The poll's next tick
+    came after its deadline, so it failed without looking again while the restore was done: the error is
+    final for that page load. Fewer widget models (a shorter task) is the product-side fix. A user reloads once
+    more, and    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
     page.keyboard.press("Control+s")
     page.wait_for_function("() => !document.querySelector('.jp-mod-dirty')", timeout=30000)
     # what a user's F5 reloads: the notebook's URL without ?reset (a reset workspace closes and reopens the

@@ -225,6 +225,7 @@ def test_editors_render_resize_respond_and_survive_reload(tmp_path):
             report["restore_race_errors"] = [c for c in bad if "widget model not found" in c]
             bad = [c for c in bad if "widget model not found" not in c]
         report.update(seconds=round(time.time() - t0, 1), console_errors=bad, page_errors=log["page_errors"],
+                      page_error_stacks=sorted(set(log["page_error_stacks"]))[:5],
                       dialogs_accepted=list(bh.DIALOGS))
     bh.ARTIFACTS.mkdir(exist_ok=True)
     (bh.ARTIFACTS / "browser_report.json").write_text(json.dumps(report, indent=1))

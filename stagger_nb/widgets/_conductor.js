@@ -135,11 +135,13 @@ function initialize({ model }) {
       st.player.off("change:value", onValue);
       st.player.off("change:playing", onPlaying);
     }
+    // Old actions are stopped, not uncached: three r97 (pythreejs 2.4.2) does not count a property binding
+    // shared by a new action (same root and track name, bound by pythreejs' mixer.clipAction), so
+    // uncacheAction(old) dropped that binding from the mixer while the new action still used it, and the new
+    // action's play() threw "Cannot set properties of undefined (setting '_cacheIndex')" in _lendBinding
+    // (fixed in later three.js: _bindAction increments referenceCount). Cost: the stopped actions stay cached.
     for (const a of old) {
-      if (a && a.obj && !actions.includes(a)) {
-        a.obj.stop();
-        if (mixer && mixer.obj) mixer.obj.uncacheAction(a.obj.getClip(), a.obj.getRoot());
-      }
+      if (a && a.obj && !actions.includes(a)) a.obj.stop();
     }
     st.mixer = mixer;
     st.scene = scene;

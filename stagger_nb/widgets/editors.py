@@ -157,6 +157,9 @@ class _Editor(widgets.VBox):
         session.observe(self._on_session)
         if hasattr(session, "observe_busy"):
             session.observe_busy(self._on_busy)
+        for row in controls:   # a row that does not fit wraps (shrunk sliders lose their track at 1280 px)
+            if isinstance(row, widgets.HBox):
+                row.layout.flex_flow = "row wrap"
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
         # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
         body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
@@ -330,7 +333,7 @@ class StaggerEditor(_Editor):
                                                        "keep a number of poses, by priority",
                                                        "keep the poses you pick (click the probability plot)"])
         c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=5.0, readout_format=".0f")
-        c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep count (0 = all)", style=_STYLE,
+        c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep (0 = all)", style=_STYLE,
                                             layout=widgets.Layout(width="230px"))
         c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", style=_STYLE,
                                            layout=widgets.Layout(width="260px"))
@@ -460,7 +463,7 @@ class StaggerEditor(_Editor):
         _inert(c["root"], m.s == 0, "the root of the succession: inert while s = 0")
         _inert(c["seed"], m.tau == 0, "the seed draws the random timing: inert while τ = 0")
         _inert(c["tau_joints"], m.tau == 0, "joints of the random timing: inert while τ = 0")
-        _inert(c["w_r_reference"], m.w_r == 0, "the pose exaggeration is measured against: inert while w_r = 0")
+        _inert(c["w_r_reference"], m.w_r == 0, "the pose the exaggeration is measured against: inert while w_r = 0")
         _inert(c["percent"], m.cull_by != "percent", "choose 'by %' to cull by percentage")
         _inert(c["count"], m.cull_by != "count", "choose 'by count' to keep a number of poses")
         _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
