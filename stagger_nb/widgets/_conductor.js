@@ -188,6 +188,19 @@ function initialize({ model }) {
       fresh.play();
       a.obj = fresh;
     }
+    // A dropped track (a joint that no longer moves) released its binding, and three.js then restored that
+    // node's transform as it was when first bound; the kernel's value for it (the joint's new rest rotation) is
+    // on the node's pythreejs model: re-apply the models' transforms, the mixer poses the animated ones on top.
+    if (st.scene && st.scene.obj) {
+      st.scene.obj.traverse((o) => {
+        const m = o.ipymodel;
+        if (!o.isGroup || !m) return;
+        const q = m.get("quaternion");
+        const p = m.get("position");
+        if (q && q.length === 4) o.quaternion.fromArray(q);
+        if (p && p.length === 3) o.position.fromArray(p);
+      });
+    }
     if (!st.player) return;
     if (st.playing) show(clockFrame());
     else show(st.player.get("value"));

@@ -1,7 +1,11 @@
 """A pythreejs 3D view of a skeleton that plays in the browser.
 
 The motion goes to the browser once per edit, as binary pythreejs keyframe tracks (a position track for the root,
-one quaternion track per joint that moves; float32): an :class:`pythreejs.AnimationClip` played by a paused
+one quaternion track per joint that moves; float32). An edit updates the existing track widgets in place (new
+``values`` arrays, ``times`` only when they change; tracks created or closed only when the set of moving joints
+changes) and bumps ``conductor.data_version``, on which the browser rebuilds its three.js actions: one batch of
+binary updates, a few ms kernel-side (issue 11 item 8, issue 12 item 1). The tracks form an
+:class:`pythreejs.AnimationClip` played by a paused
 :class:`pythreejs.AnimationAction` whose time a small anywidget clock (``_conductor.js``) sets from
 ``performance.now()`` while the ipywidgets ``Play`` runs, and from the Play's value when it is stopped. So Play
 runs at the clip's real rate with the kernel busy, and the kernel hears only the Play's coarse ticks (every
@@ -559,6 +563,9 @@ class SkeletonView(widgets.VBox):
         self.grid = three.LineSegments(three.BufferGeometry(attributes={"position": three.BufferAttribute(seg)}),
                                        three.LineBasicMaterial(color="#cbd5e0"), name="ground")
         self.rig.children = tuple(self.grid if ch is old else ch for ch in self.rig.children)
+        if isinstance(old, three.LineSegments):   # its geometry, array and material too (not left behind)
+            for w in (old.geometry.attributes["position"], old.geometry, old.material):
+                w.close()
         old.close()
         self._grid_key, self._grid_cell = key, cell
 
