@@ -9,7 +9,8 @@ CPU time per call, each beside a baseline run in this process:
 * ``succession`` + ``random_timing`` + ``evaluate`` (goal <= 15 ms);
 * cull first visits: every percent 1..100 once, as the editor's slider visits them, (a) each percent refitted,
   (b) refits keyed by ``cull_keep`` (percents keeping the same poses share one); goal <= 100 ms per first
-  visit; baseline: the previous refit (every sample, ``fit_samples=None``) on the same percents.
+  visit; baseline: the previous refit (every sample, ``fit_samples=None``) on the same percents;
+* cull local refit (default) against ``local=False`` on every distinct kept set (``--cull-only`` runs only this).
 """
 from __future__ import annotations
 
@@ -54,9 +55,34 @@ def row(name, t, base=None, base_name=""):
     print(f"{name:<44} {1e3 * w:8.2f} ms (median {1e3 * med:7.2f}, cpu {1e3 * c:7.2f}){r}")
 
 
+def cull_local_vs_full(sm):
+    """First visits keyed by ``cull_keep``: the local refit (``cull(..., local=True)``, default) against the
+    full refit (``local=False``) on the same kept sets, CPU time per refit."""
+    keys = sorted({tuple(staggered.cull_keep(sm, pc)) for pc in range(1, 100)}, key=len)
+    pcs = [next(pc for pc in range(1, 100) if tuple(staggered.cull_keep(sm, pc)) == k) for k in keys]
+    out = {}
+    for local in (True, False):
+        staggered.cull(sm, pcs[len(pcs) // 2], local=local)          # warm-up
+        walls, c0 = [], time.process_time()
+        for pc in pcs:
+            t = time.perf_counter()
+            staggered.cull(sm, pc, local=local)
+            walls.append(time.perf_counter() - t)
+        out[local] = (np.array(walls), (time.process_time() - c0) / len(pcs))
+    (wl, cl), (wf, cf) = out[True], out[False]
+    print(f"cull refits of {len(pcs)} kept sets [goal 100 ms, aim 50 ms cpu]: local median {1e3 * np.median(wl):.1f} ms "
+          f"(max {1e3 * wl.max():.1f}, cpu {1e3 * cl:.1f}); full median {1e3 * np.median(wf):.1f} ms "
+          f"(max {1e3 * wf.max():.1f}, cpu {1e3 * cf:.1f}); ratio full / local cpu {cf / cl:.2f}x")
+
+
 def main():
     m, label = clip()
     sm = staggered.extract(m)
+    if "--cull-only" in sys.argv:
+        print(f"# {label}: K = {sm.num_poses}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        cull_local_vs_full(sm)
+        print(f"# load average at the end {os.getloadavg()[0]:.1f}")
+        return
     root = "Hips" if "Hips" in m.skeleton.names else m.skeleton.names[0]
     print(f"# {label}: {m}; K = {sm.num_poses}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     t_sample = timed(lambda: m.sample(np.arange(900) * 0.999), 50)
@@ -94,6 +120,7 @@ def main():
         print(f"  previous: per refit median {1e3 * np.median(old):7.1f} ms, max {1e3 * old.max():7.1f} ms, "
               f"cpu {1e3 * c_old:6.1f} ms; all 100 visits {old.sum():.2f} s   ratio previous / now "
               f"(median) {np.median(old) / np.median(new):.1f}x")
+    cull_local_vs_full(sm)
     print(f"# load average at the end {os.getloadavg()[0]:.1f}")
 
 

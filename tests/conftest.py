@@ -23,6 +23,17 @@ def shared_clip_path(name: str) -> Path:
     return p
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _close_widgets_at_the_end():
+    """Close every ipywidgets widget still open when the run ends. Open widgets stay registered with
+    ipywidgets (so they are never collected) until the interpreter exits, where their ``__del__`` runs after
+    ipywidgets' module state is gone and prints "Exception ignored in: Widget.__del__"."""
+    yield
+    import sys
+    if "ipywidgets" in sys.modules:
+        sys.modules["ipywidgets"].Widget.close_all()
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

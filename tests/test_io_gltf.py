@@ -24,7 +24,8 @@ from stagger_nb.session import Session
 from conftest import REPO, SHARED_CLIPS, SHARED_MOCAP
 
 NODE_DIR = REPO / ".cache" / "node"
-NPM_PACKAGES = ("gltf-validator@2", "three@0.187")
+# exact versions: the validator is published only as 2.0.0-dev.* pre-releases, which a "@2" range never matches
+NPM_PACKAGES = ("gltf-validator@2.0.0-dev.3.10", "three@0.187")
 DATA = os.environ.get("STAGGER_NB_DATA") or str(REPO / "data")
 
 

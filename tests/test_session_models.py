@@ -296,3 +296,75 @@ def test_a_reloaded_session_restores_every_parameter(walk, tmp_path):
     m2 = M.StaggerModel(root="Hips", frame_time=walk.frame_time)
     M.ModelBinding(m2, Session.load(tmp_path / "s.json", source=walk))
     assert m2.params() == m.params()
+
+
+def _angle(a, b):
+    import numpy as np
+    d = abs(float(np.dot(a, b)))
+    return 2.0 * float(np.arccos(min(d, 1.0)))
+
+
+def test_stagger_editor_pose_edit_mode_chooses_the_knot_that_takes_the_nudged_value(walk):
+    """§5.1, Fig. 6a/6b: the nudge is written as a target (the shown true pose ⊕ nudge); staggered mode puts
+    it on the editing knot at t_k, non-staggered mode on the extreme value, so the two motions differ where
+    the joint's timing refinement is not zero, and agree where it is (there the two knots coincide)."""
+    import numpy as np
+    s = Session(walk.slice(0, 240))
+    m = M.StaggerModel(root="Hips", frame_time=walk.frame_time, keep_contacts=False)
+    M.ModelBinding(m, s)
+    sm = s.extraction()
+    names = list(sm.skeleton.names)
+    r = np.abs(np.asarray(sm.refinements))
+    k = int(np.argmax(r[1:-1].max(axis=1))) + 1           # an interior pose with a large refinement
+    j = names[int(np.argmax(r[k]))]
+    base = np.array(sm.editing_knots[k][names.index(j)])
+    m.pose, m.joint = k, j
+    m.rx, m.rz = 12.0, -5.0
+    (op,) = [o for o in s.ops if o["op"] == "edit_pose"]
+    assert op["targets"].keys() == {j} and "deltas" not in op
+    from stagger_nb.core.rotations import quat_mul, rotvec_to_quat
+    want = quat_mul(base, rotvec_to_quat(np.radians([12.0, 0.0, -5.0])))
+    np.testing.assert_allclose(op["targets"][j], want, atol=1e-12)
+    staggered_sm, staggered_motion = s.staggered(), s.edited()
+    assert _angle(staggered_sm.editing_knots[k][names.index(j)], want) < 1e-6   # Fig. 6a: the true pose
+    m.edit_mode = "unstaggered"
+    unstaggered_sm, unstaggered_motion = s.staggered(), s.edited()
+    assert _angle(unstaggered_sm.values[k][names.index(j)], want) < 1e-6        # Fig. 6b: the extreme value
+    gap = np.max(np.abs(staggered_motion.local_quats - unstaggered_motion.local_quats))
+    assert gap > 1e-3                                      # the toggle changes the motion
+    assert (m.rx, m.ry, m.rz) == (12.0, 0.0, -5.0)         # and reads back as the same nudge
+    s.undo()                                               # the mode change is one undo step
+    assert m.edit_mode == "staggered"
+    np.testing.assert_allclose(s.edited().local_quats, staggered_motion.local_quats, atol=1e-12)
+    # a joint without refinement at that pose: both knots coincide, the modes agree
+    flat = [n for i, n in enumerate(names) if r[k, i] == 0.0 and n != j]
+    assert flat, "walk has joints without timing refinement at this pose"
+    if flat:
+        m.rx = m.rz = 0.0
+        m.joint = flat[0]
+        m.ry = 9.0
+        a = s.edited()
+        m.edit_mode = "unstaggered"
+        np.testing.assert_allclose(s.edited().local_quats, a.local_quats, atol=1e-9)
+
+
+def test_stagger_nudges_follow_a_new_cull_and_undo(walk):
+    """Pose edits apply to the state after the cull: after a new cull the nudge is the same change of the new
+    pose (not the old absolute value), and undoing the cull restores the first motion exactly."""
+    import numpy as np
+    from stagger_nb import staggered
+    s = Session(walk.slice(0, 240))
+    m = M.StaggerModel(root="Hips", frame_time=walk.frame_time, keep_contacts=False)
+    M.ModelBinding(m, s)
+    m.pose, m.joint, m.ry = 2, "LeftForeArm", 20.0
+    first = s.edited()
+    m.percent = 60.0
+    culled = staggered.cull(s.extraction(), 60.0)
+    direct = staggered.evaluate(staggered.edit_pose(culled, 2, deltas={"LeftForeArm": np.radians([0, 20.0, 0])}))
+    np.testing.assert_allclose(s.edited().local_quats, direct.local_quats, atol=1e-9)
+    m.edit_mode = "unstaggered"                 # the toggle still acts after the cull (targets again)
+    assert any("targets" in o for o in s.ops if o["op"] == "edit_pose")
+    s.undo()
+    s.undo()
+    assert m.percent == 100.0 and m.edit_mode == "staggered" and (m.rx, m.ry, m.rz) == (0.0, 20.0, 0.0)
+    np.testing.assert_allclose(s.edited().local_quats, first.local_quats, atol=1e-12)

@@ -191,3 +191,18 @@ def test_absent_staggered_function_gives_a_clear_error(walk_session, monkeypatch
     s = _fresh(walk_session, [{"op": "ik_pose", "pose": 1, "joint": "Hips", "target": [0, 0, 0]}])
     with pytest.raises(ValueError, match=r"^ops\[0\] \(ik_pose\): op needs staggered\.ik_pose"):
         s.edited()
+
+
+def test_warm_largest_skip_serves_smaller_skips_with_the_same_results(walk):
+    # a skip slider's largest value is warmed once; every smaller skip is sliced from it (same numbers)
+    m = walk
+    warmed = Session(m)
+    op = {"op": "guided_warp", "duration": 0.7 * m.duration, "skip": 12}
+    assert warmed.warm(("warp_tables", [op])).result() == 1
+    for skip in (3, 6, 12):
+        for extra in ({}, {"backward": True}):
+            ops = [dict(op, skip=skip, **extra)]
+            warmed.set_ops(ops)
+            fresh = Session(m, ops=ops)
+            np.testing.assert_array_equal(warmed.edited().local_quats, fresh.edited().local_quats)
+            np.testing.assert_array_equal(warmed.warp_curve(), fresh.warp_curve())

@@ -1,6 +1,7 @@
 """Session.warm: background cache fills on the session's executor, returning a cancellable future."""
 from __future__ import annotations
 
+import itertools
 import threading
 from concurrent.futures import CancelledError
 
@@ -22,7 +23,7 @@ def test_warm_fills_the_caches_the_replay_uses(session):
     fut = session.warm("extract", ("cull", [40, 60]), ("wand_basis", [0.3]),
                        progress=lambda d, t, label: seen.append((d, t, label)))
     assert fut.result(120) == 5
-    assert [label for _, _, label in seen] == ["extract", "cull 40 %", "cull 60 %", "pose graph",
+    assert [label for label, _ in itertools.groupby(lb for _, _, lb in seen)] == ["extract", "cull 40 %", "cull 60 %", "pose graph",
                                                "basis sigma=0.3", "done"]
     assert all(name.startswith("stagger_nb-warm") for _, _, name in busy)
     kinds = [k for k, started, _ in busy if started]
@@ -55,7 +56,7 @@ def test_warm_future_cancels_before_the_next_item(session):
         fut.result(30)
     done = session.warm("extract")  # the worker moves on: the same executor runs the next job
     assert done.result(120) == 1
-    assert labels == ["extract"]  # no cull item ran after the cancel
+    assert set(labels) == {"extract"}  # no cull item ran after the cancel (extract reports fractions)
     session.close()
 
 

@@ -143,6 +143,17 @@ def test_unconstrained_equals_exhaustive_over_all_lengths(n, s):
     assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)  # float64 round-off only
 
 
+@pytest.mark.parametrize("n,s", [(6, 2), (9, 3), (11, 4)])
+def test_mean_cost_equals_exhaustive_over_all_lengths(n, s):
+    # free length: the least mean score per interior frame over every admissible path of every length >= 3
+    scores = _random_table(np.random.default_rng(7 * n + s), n, s, "uniform")
+    best = min(((dp.path_cost(scores, f) / (m - 2), f) for m in range(3, n + 1) if (m - 1) * s >= n - 1
+                for f in _admissible_paths(n, m, s)), key=lambda t: t[0])
+    frames, mean = dp.mean_cost_dp(scores)
+    assert mean == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    assert dp.path_cost(scores, frames) / (frames.size - 2) == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+
+
 def test_progress_is_reported_up_to_one():
     seen = []
     dp.constrained_dp(_random_table(np.random.default_rng(0), 300, 4, "uniform"), 200, progress=seen.append)
@@ -169,3 +180,20 @@ def test_band_that_excludes_every_path_gives_inf():
 def test_infeasible_requests_raise_naming_the_parameter(n, m, skip, keys, match):
     with pytest.raises(ValueError, match=match):
         dp.validate_keys(n, m, skip, keys)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_kept_costs_and_int8_backpointers_pick_the_same_frames(seed, monkeypatch):
+    # constrained_dp backtracks from kept costs below KEEP_COSTS_BYTES, from int8 backpointers above: same
+    # frames bit for bit (ties included: integer scores tie often)
+    rng = np.random.default_rng(seed)
+    n, s = int(rng.integers(20, 120)), int(rng.integers(2, 9))
+    scores = np.floor(3 * rng.random((n, s, s)))
+    m = int(rng.integers(-(-(n - 1) // s) + 1, n + 1))
+    keys = [(m // 2, (n - 1) // 2)] if seed % 2 and m - 1 - m // 2 <= n - 1 - (n - 1) // 2 <= (m - 1 - m // 2) * s \
+        and m // 2 <= (n - 1) // 2 <= (m // 2) * s else None
+    kept = dp.constrained_dp(scores, m, keys=keys)
+    monkeypatch.setattr(dp, "KEEP_COSTS_BYTES", 0)
+    ptr = dp.constrained_dp(scores, m, keys=keys)
+    np.testing.assert_array_equal(kept[0], ptr[0])
+    assert kept[1] == ptr[1]

@@ -14,7 +14,8 @@ One module per job:
 - :mod:`.history` — the op list, undo/redo, observers;
 - :mod:`.cache` — the one cache (one lock, compute-once futures, content/weakref keys, bounded);
 - :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards;
-- :mod:`.warm` — the session's background worker for :meth:`Session.warm`.
+- :mod:`.warm` — the session's background worker for :meth:`Session.warm`;
+- :mod:`.progress` — :func:`progress_bar`, a tqdm bar as the ``progress`` callback of ``edited``/``warm``.
 
 Replay is linear in the number of ops: each prefix is named by a digest chained from the previous one
 (``digest_i = H(digest_{i-1}, op_i)``), so changing the last op (a slider move) replays only the tail and
@@ -48,11 +49,12 @@ from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_
                     motion_from_json, motion_to_json, read_session_json, read_source)
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
-from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_size
+from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_k, warp_size, warp_table_key
+from .progress import ProgressBar, progress_bar
 from .warm import Worker
 
 __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_rotation_degrees",
-           "SESSION_FORMAT", "SESSION_VERSION"]
+           "SESSION_FORMAT", "SESSION_VERSION", "progress_bar", "ProgressBar"]
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = _ops_module.optional(number(0.0, open_lo=True))
@@ -103,6 +105,14 @@ class _Info:
 
     def __init__(self, warp, notes, staggered: bool):
         self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
+
+
+def _share(progress: Callable | None, done: int, total: int, a: float, b: float, label: str):
+    """``report(fraction)`` mapping an op's step onto ``progress(done + a + (b - a) * fraction, total, label)``
+    (None without ``progress``)."""
+    if progress is None:
+        return None
+    return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
 
 
 def _timing_summary(sm) -> str:
@@ -311,9 +321,13 @@ class Session:
                 op = ops[i]
                 if progress is not None:
                     progress(done, total, op.name)
-                run = Run(self._ctx, origin)
+                # an op extracting first reports the extraction as its first half, its own work as the rest
+                split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
+                run = Run(self._ctx, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
                 try:
-                    state = RUNNERS[type(op)](convert(state, op.needs, run), op, run)
+                    state = convert(state, op.needs, run)
+                    run.progress = _share(progress, done, total, split, 1.0, op.name)
+                    state = RUNNERS[type(op)](state, op, run)
                 except ValueError as e:
                     raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
                 except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
@@ -358,7 +372,11 @@ class Session:
         return self._walk(len(self._history.ops), keep_all=True, progress=progress)
 
     def edited(self, progress: Callable | None = None) -> Motion:
-        """The source motion with every op applied (a Motion; staggered states are evaluated)."""
+        """The source motion with every op applied (a Motion; staggered states are evaluated).
+
+        ``progress(done, total, label)`` is called before each op actually computed, with a fractional
+        ``done`` while the op's long step reports (the staggered extraction, a cull refit, guided warping's
+        tables and solve), and with ``"done"`` at the end; :func:`progress_bar` makes a tqdm bar of it."""
         n = len(self._history.ops)
         if not n:
             return self.source
@@ -503,11 +521,14 @@ class Session:
         - ``("wand_basis", sigmas)``: the magic wand's pose graph of the source, then its basis per sigma
           (``None`` = the default sigma);
         - ``("warp_tables", warps)``: guided warping's kNN tables of the source for each warp, a
-          ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, backward
-          and upsample choose the table.
+          ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
+          backward and upsample choose the table; a table also serves every smaller skip (sliced), so an
+          editor warms its skip slider's largest value only.
 
         Jobs are checked now (ValueError naming ``jobs[i]``); they run in order, one item at a time.
-        ``progress(done, total, label)`` is called from the worker before each item and once at the end.
+        ``progress(done, total, label)`` is called from the worker before each item, with a fractional
+        ``done`` while an extraction, cull refit or warp table reports how far it is, and once at the end
+        (e.g. ``progress=progress_bar("warm")``, a tqdm bar).
 
         Returns a :class:`concurrent.futures.Future` whose result is the number of items computed (or found
         cached). ``future.cancel()`` stops the work before its next item (the item running finishes and is
@@ -524,23 +545,25 @@ class Session:
             name, values = (job, None) if isinstance(job, str) else (
                 tuple(job) if isinstance(job, (list, tuple)) and len(job) == 2 else (None, None))
             if name == "extract" and values is None:
-                items.append(("extract", self.extraction))
+                items.append(("extract", lambda p: self._ctx.extract(self.source, p)))
             elif name == "cull" and isinstance(values, (list, tuple, range, np.ndarray)):
                 pcs = [_percent(v, f"{where}[1][{k}]") for k, v in enumerate(list(values))]
-                items += [(f"cull {p:g} %", lambda p=p: self._ctx.cull(self.extraction(), p)) for p in pcs]
+                items += [(f"cull {p:g} %", lambda r, p=p: self._ctx.cull(self.extraction(), p, progress=r))
+                          for p in pcs]
             elif name == "wand_basis" and isinstance(values, (list, tuple, range, np.ndarray)):
                 sgs = [_sigma(v, f"{where}[1][{k}]") for k, v in enumerate(list(values))]
-                items.append(("pose graph", self.wand_graph))
+                items.append(("pose graph", lambda r: self.wand_graph()))
                 items += [(f"basis sigma={'default' if s is None else format(s, 'g')}",
-                           lambda s=s: self.wand_basis(s)) for s in sgs]
+                           lambda r, s=s: self.wand_basis(s)) for s in sgs]
             elif name == "warp_tables" and isinstance(values, (list, tuple)):
                 for k, w in enumerate(values):
                     op = self._typed(dict(w, op="guided_warp") if isinstance(w, dict) and "op" not in w else w,
                                      f"{where}[1][{k}]")
                     if not isinstance(op, _ops_module.GuidedWarp):
                         _fail(f"{where}[1][{k}]", "a guided_warp op", w)
-                    items.append((f"warp tables {k}", lambda op=op: self._ctx.warp_tables(
-                        self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward)))
+                    items.append((f"warp tables {k}", lambda r, op=op: self._ctx.warp_tables(
+                        self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward,
+                        warp_k(warp_size(self.source, op)[0]), r)))
             else:
                 _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas) or ("warp_tables", warps)',
                       job)

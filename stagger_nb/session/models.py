@@ -44,7 +44,7 @@ _CONTROLLED = {
     "succession": ("root", "s", "l", "joints"),
     "random_timing": ("tau", "seed", "joints"),
     "exaggerate": ("w_r", "reference"),
-    "edit_pose": ("pose", "deltas", "mode"),
+    "edit_pose": ("pose", "deltas", "targets", "mode"),
     "retime": ("pose", "time"),
     "ik_pose": ("pose", "joint", "target"),
     "keep_contacts": (),
@@ -143,6 +143,9 @@ class StaggerModel(_Model):
     keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
 
     # view state
+    edit_bases = T.Dict(help="{pose index: {joint: [x, y, z, w]}} the true pose value (editing knot at t_k) each "
+                             "nudge starts from, set by the binding: pose edits are then written as targets "
+                             "base ⊕ nudge, so edit_mode chooses the knot that reaches them (§5.1, Fig. 6a/6b)")
     pose = T.Int(0, help="selected pose index (the nudge, retime and IK controls act on it)")
     joint = T.Unicode("", help="selected joint (curves, nudge)")
     rx = T.Float(0.0, help="nudge of the selected joint at the selected pose, x (degrees)")
@@ -303,8 +306,40 @@ def _names_note(names, field, value, known) -> str | None:
     return None
 
 
-def stagger_params_to_ops(p: dict) -> list:
+def _nudge_quat(v) -> list:
+    """Quaternion (x, y, z, w) of the nudge ``v`` (rotation vector, degrees)."""
+    r = [math.radians(float(x)) for x in v]
+    a = math.sqrt(sum(x * x for x in r))
+    s = math.sin(a / 2) / a if a > 1e-12 else 0.5
+    return [r[0] * s, r[1] * s, r[2] * s, math.cos(a / 2)]
+
+
+def _qmul(a, b) -> list:
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return [aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz]
+
+
+def _nudge_of(base, target) -> list:
+    """The nudge (rotation vector, degrees) taking ``base`` to ``target`` (``base⁻¹ target``), rounded to
+    1e-9 degrees so a nudge written as a target reads back as itself."""
+    x, y, z, w = _qmul([-base[0], -base[1], -base[2], base[3]], target)
+    if w < 0:
+        x, y, z, w = -x, -y, -z, -w
+    sv = math.sqrt(x * x + y * y + z * z)
+    a = 2.0 * math.atan2(sv, w)
+    k = math.degrees(a / sv) if sv > 1e-15 else 2.0 * math.degrees(1.0)
+    return [round(c * k, 9) + 0.0 for c in (x, y, z)]
+
+
+def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
     """The StaggerEditor's ops for parameters ``p`` (a :meth:`StaggerModel.params` dict), in canonical order.
+
+    ``bases`` (``StaggerModel.edit_bases``: ``{pose: {joint: [x, y, z, w]}}``) turns the nudges of those joints
+    into ``targets`` (``base ⊕ nudge``, the value the user sees plus the nudge), so ``edit_mode`` chooses the
+    knot that takes that value: the true pose at ``t_k`` (staggered, Fig. 6a) or the extreme value (Fig. 6b).
+    Without a base a nudge is written as ``deltas`` (the same change to both knots: the modes then agree).
 
     Identity values write no op (percent = 100, s = 0, τ = 0, w_r = 0, an all-zero nudge); ``keep_contacts``
     writes ``{"op": "keep_contacts"}`` when on and any other staggered op is written. Optional fields are
@@ -318,12 +353,16 @@ def stagger_params_to_ops(p: dict) -> list:
     elif p["cull_by"] == "keep" and p["keep"]:
         ops.append({"op": "cull", "keep": sorted(int(k) for k in p["keep"])})
     for k in sorted(p["pose_edits"]):
-        deltas = {j: [float(x) for x in v] for j, v in p["pose_edits"][k].items() if any(v)}
-        if deltas:
-            op = {"op": "edit_pose", "pose": int(k), "deltas": deltas}
-            if p["edit_mode"] != "staggered":
-                op["mode"] = p["edit_mode"]
-            ops.append(op)
+        nudges = {j: [float(x) for x in v] for j, v in p["pose_edits"][k].items() if any(v)}
+        known = (bases or {}).get(k, {})
+        targets = {j: _qmul(known[j], _nudge_quat(v)) for j, v in nudges.items() if j in known}
+        deltas = {j: v for j, v in nudges.items() if j not in known}
+        for field, value in (("targets", targets), ("deltas", deltas)):  # one op per kind (exactly one each)
+            if value:
+                op = {"op": "edit_pose", "pose": int(k), field: value}
+                if p["edit_mode"] != "staggered":
+                    op["mode"] = p["edit_mode"]
+                ops.append(op)
     for k in sorted(p["retimes"]):
         ops.append({"op": "retime", "pose": int(k), "time": float(p["retimes"][k])})
     for e in p["ik_targets"]:
@@ -349,10 +388,11 @@ def stagger_params_to_ops(p: dict) -> list:
     return ops
 
 
-def stagger_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, list]:
+def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | None = None) -> tuple[dict, list]:
     """Parameters shown by a StaggerEditor for the session ``ops``: ``base`` (the model's current parameters)
     updated from the owned ops (the last of each singleton op wins). Returns ``(params, notes)``; ``notes`` are
-    plain sentences (an op naming a joint this skeleton does not have: that field keeps its ``base`` value)."""
+    plain sentences (an op naming a joint this skeleton does not have: that field keeps its ``base`` value).
+    ``edit_pose`` targets read back as nudges from ``bases`` (as in :func:`stagger_params_to_ops`)."""
     p = copy.deepcopy(base)
     notes: list = []
     known = set(joint_names)
@@ -399,11 +439,24 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, 
     mode = None
     for o in ops:
         if o["op"] == "edit_pose":
-            edits.setdefault(int(o["pose"]), {}).update({j: [float(x) for x in v] for j, v in o["deltas"].items()})
+            k = int(o["pose"])
+            mine = edits.setdefault(k, {})
+            mine.update({j: [float(x) for x in v] for j, v in (o.get("deltas") or {}).items()})
+            kb = (bases or {}).get(k, {})
+            for j, q in (o.get("targets") or {}).items():
+                if j in kb:
+                    mine[j] = _nudge_of(kb[j], q)
+                else:
+                    notes.append(f"edit_pose.targets: no starting value of joint {j!r} at pose {k} is known; "
+                                 "the op is kept unchanged")
+            if not mine:
+                del edits[k]
             mode = o.get("mode", "staggered")
-            for j in o["deltas"]:
-                if known and j not in known:
-                    notes.append(f"edit_pose.deltas: joint {j!r} is not in this skeleton; the op is kept unchanged")
+            for field in ("deltas", "targets"):
+                for j in o.get(field) or {}:
+                    if known and j not in known:
+                        notes.append(f"edit_pose.{field}: joint {j!r} is not in this skeleton; the op is kept "
+                                     "unchanged")
     p["pose_edits"] = edits
     if mode is not None:
         p["edit_mode"] = mode
@@ -707,10 +760,19 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
 # --------------------------------------------------------------------------------------------------
 # merging an editor's ops into the session's list, keeping everything else in place
 # --------------------------------------------------------------------------------------------------
+def _edit_prefix(ops: list) -> str:
+    """The ops before the StaggerEditor's first owned op past the cull (what its pose edits apply to), as
+    canonical JSON."""
+    i = next((n for n, o in enumerate(ops) if o["op"] in STAGGER_OPS and o["op"] != "cull"), len(ops))
+    return _canon(list(ops[:i]))
+
+
 def _key(op: dict):
     """Which instance of an owned op this is: one per name, per pose, per (pose, joint) or per frame."""
     name = op["op"]
-    if name in ("edit_pose", "retime"):
+    if name == "edit_pose":
+        return (name, op["pose"], "targets" if "targets" in op else "deltas")
+    if name == "retime":
         return (name, op["pose"])
     if name == "ik_pose":
         return (name, op["pose"], op["joint"])
@@ -818,6 +880,7 @@ class ModelBinding:
             raise ValueError(f"model: expected a StaggerModel, WandModel or WarpModel, got {type(model).__name__}")
         model.joint_names = list(session.source.skeleton.names)
         self._loading = False
+        self._bases_prefix = None  # the op prefix model.edit_bases were recorded for
         self._notes: list = []
         self._error = ""
         self._last = model.params()
@@ -828,7 +891,7 @@ class ModelBinding:
     # -- pure parts, per model ------------------------------------------------------------------------
     def to_ops(self, params: dict) -> list:
         if isinstance(self.model, StaggerModel):
-            return stagger_params_to_ops(params)
+            return stagger_params_to_ops(params, self.model.edit_bases)
         if isinstance(self.model, WandModel):
             return wand_params_to_ops(params)
         return warp_params_to_ops(params, self.references, self.model.source_duration)
@@ -836,7 +899,7 @@ class ModelBinding:
     def from_ops(self, ops: list, base: dict) -> tuple[dict, list]:
         names = self.model.joint_names
         if isinstance(self.model, StaggerModel):
-            return stagger_ops_to_params(ops, base, names)
+            return stagger_ops_to_params(ops, base, names, self.model.edit_bases)
         if isinstance(self.model, WandModel):
             return wand_ops_to_params(ops, base, names)
         p, notes, new_refs = warp_ops_to_params(ops, base, self.references, self.model.source_duration)
@@ -854,7 +917,17 @@ class ModelBinding:
     def push(self) -> bool:
         """Model -> session. Returns True when the op list changed."""
         new = self.model.params()
-        ops = merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
+        old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
+        if isinstance(self.model, StaggerModel):
+            # the bases belong to the state the edits apply to: a new cull (or anything before the edits)
+            # drops them, and the nudges are written as deltas until that state is the session's
+            cur = self.session.ops
+            nxt = merge_ops(cur, old_ops, stagger_params_to_ops(new), self.owned, self._home)
+            if _edit_prefix(nxt) != self._bases_prefix:
+                self._clear_bases()
+            if _edit_prefix(nxt) == _edit_prefix(cur):
+                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d)
+        ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
             changed = self.session.set_ops(ops)
         except ValueError as e:
@@ -872,6 +945,11 @@ class ModelBinding:
 
     def pull(self) -> None:
         """Session -> model (op traits set from the session's op list)."""
+        if isinstance(self.model, StaggerModel):
+            if _edit_prefix(self.session.ops) != self._bases_prefix:
+                self._clear_bases()
+            self._record_bases((int(o["pose"]), j) for o in self.session.ops if o["op"] == "edit_pose"
+                               for j in o.get("targets") or {})
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:
@@ -891,6 +969,42 @@ class ModelBinding:
         self._notes = notes
         self._error = ""
         self._show()
+
+    def _clear_bases(self) -> None:
+        if self.model.edit_bases:
+            with self.model.loading():
+                self.model.edit_bases = {}
+        self._bases_prefix = None
+
+    def _record_bases(self, pairs) -> None:
+        """StaggerModel: record in ``model.edit_bases`` the value of each new ``(pose, joint)`` in the staggered
+        state the pose edits apply to (its editing knot, the true pose at ``t_k``: what the view shows), once;
+        nothing when that state is not a staggered representation (the nudge is then written as deltas)."""
+        m = self.model
+        pairs = {(int(k), j) for k, j in pairs if j not in m.edit_bases.get(int(k), {})}
+        if not pairs:
+            return
+        try:
+            sm = self._edit_state()
+        except ValueError:  # a replay error: shown by the editor; the nudges stay deltas
+            sm = None
+        knots = getattr(sm, "editing_knots", None)
+        if knots is None:
+            return
+        names = list(sm.skeleton.names)
+        bases = copy.deepcopy(m.edit_bases)
+        for k, j in pairs:
+            if 0 <= k < len(knots) and j in names:
+                bases.setdefault(k, {})[j] = [float(x) for x in knots[k][names.index(j)]]
+        with m.loading():
+            m.edit_bases = bases
+        self._bases_prefix = _edit_prefix(self.session.ops)
+
+    def _edit_state(self):
+        """The state the StaggerEditor's pose edits apply to: after :func:`_edit_prefix` of the session's ops
+        (the source's extraction when it is empty)."""
+        n = len(json.loads(_edit_prefix(self.session.ops)))
+        return self.session.extraction() if n == 0 else self.session.states()[n - 1]
 
     def _show(self) -> None:
         self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)

@@ -20,7 +20,8 @@ from ..io.bvh import read_bvh
 from . import ops as O
 from .cache import Cache
 
-__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "MAX_WARP_RATIO"]
+__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k", "warp_table_key",
+           "MAX_WARP_RATIO"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -63,23 +64,26 @@ class Heads:
     def key(self, obj) -> str:
         return self.cache.token(obj)
 
-    def extract(self, motion: Motion):
-        """``staggered.extract(motion, **extract_options)``, once per motion."""
+    def extract(self, motion: Motion, progress: Callable | None = None):
+        """``staggered.extract(motion, **extract_options)``, once per motion (``progress(fraction)`` is passed
+        to the computation when this call computes it)."""
         def make():
             try:
-                return _staggered().extract(motion, **self.extract_options)
+                return _staggered().extract(motion, progress=progress, **self.extract_options)
             except (TypeError, ArithmeticError) as e:  # the options are checked already: a bad value
                 raise ValueError(f"extract_options: {type(e).__name__}: {e}") from None
         return self.cache.get("extract", self.key(motion), None, make)
 
-    def cull(self, sm, percent: float | None = None, count: int | None = None):
+    def cull(self, sm, percent: float | None = None, count: int | None = None, progress: Callable | None = None):
         """``staggered.cull(sm, percent)`` or ``cull(sm, count=count)`` (a refit of the splines, the slow step
-        of the cull slider), once per (representation, percent or count)."""
-        if count is not None:
-            return self.cache.get("cull", self.key(sm), ("count", int(count)),
-                                  lambda: _staggered().cull(sm, count=int(count)))
-        return self.cache.get("cull", self.key(sm), ("percent", float(percent)),
-                              lambda: _staggered().cull(sm, percent=float(percent)))
+        of the cull slider), once per (representation, kept poses): the entry is keyed by
+        ``staggered.cull_keep`` (cheap), so every percent or count keeping the same poses shares one refit."""
+        st = _staggered()
+        count = None if count is None else int(count)
+        percent = None if count is not None or percent is None else float(percent)
+        keep = tuple(int(k) for k in st.cull_keep(sm, percent, count=count))
+        return self.cache.get("cull", self.key(sm), ("keep", keep),
+                              lambda: st.cull(sm, percent, count=count, progress=progress))
 
     def wand_graph(self, motion: Motion):
         """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
@@ -114,21 +118,38 @@ class Heads:
         except ValueError as e:
             raise ValueError(f"reference.path: {e}") from None
 
-    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False):
+    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3,
+                    progress: Callable | None = None):
         """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
-        reference, skip, upsampling, direction)."""
+        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
+        the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by ``Session.warm``) serves a
+        smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same numbers), uncached."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
-        return self.cache.get("warp", self.key(motion), (self.key(reference), int(skip), int(upsample), bool(reverse)),
-                              lambda: _timewarp().prepare_warp(motion, reference, int(skip), int(upsample),
-                                                               reverse=bool(reverse)))
+        owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        own = self.cache.peek("warp", owner, (rkey, skip) + rest)
+        if own is not None:
+            self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
+            return own
+        for s in range(127, skip, -1):   # the largest skip validate_skip allows
+            big = self.cache.peek("warp", owner, (rkey, s) + rest)
+            if big is not None and big.knn == "exact":
+                self.cache.touch("warp", [(owner, (rkey, s) + rest)])
+                return _timewarp().slice_tables(big, skip)
+        return self.cache.get("warp", owner, (rkey, skip) + rest,
+                              lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
+                                                               reverse=bool(reverse), k=int(k), progress=progress))
 
 
 class Run:
     """What a runner may use while running one op: the cached ``heads``, the Motion the current staggered
-    representation was extracted from (``origin``), and where to leave notes and the warp curve."""
+    representation was extracted from (``origin``), where to leave notes and the warp curve, and
+    ``progress``: ``callable(fraction in [0, 1])`` or None, passed to the long computations of the op (the
+    staggered extraction and cull refits, guided warping's tables and solve)."""
 
-    def __init__(self, heads: Heads, origin):
+    def __init__(self, heads: Heads, origin, progress: Callable | None = None):
         self.heads = heads
+        self.progress = progress
         self._origin = origin  # a Motion, or a callable giving it (found only when a runner asks)
         self.notes: list[str] = []
         self.warp: np.ndarray | None = None
@@ -155,7 +176,7 @@ def convert(state, needs: str, run: Run):
         return state if is_motion else _staggered().evaluate(state)
     if needs == "staggered" and is_motion:
         run.origin = state
-        return run.heads.extract(state)
+        return run.heads.extract(state, run.progress if run is not None else None)
     return state
 
 
@@ -230,7 +251,7 @@ def _extract(st, op, run):
 
 def _cull(sm, op: O.Cull, run):
     if op.keep is None:
-        return run.heads.cull(sm, op.percent, op.count)
+        return run.heads.cull(sm, op.percent, op.count, run.progress)
     K = sm.num_poses
     for i, k in enumerate(op.keep):
         _pose(sm, k, f"keep[{i}]")
@@ -328,12 +349,28 @@ def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
     return n, u
 
 
+def warp_table_key(m: Motion, op) -> tuple:
+    """``(reference JSON, upsample, backward, k)``: what chooses a guided warp's tables besides the skip (an
+    editor re-warms its skip slider's tables only when this changes). ``op`` is a guided_warp dict or op."""
+    op = op if isinstance(op, O.GuidedWarp) else O.Op.from_json(dict(op, op="guided_warp"), "op")
+    n, u = warp_size(m, op)
+    return (repr(op.to_json().get("reference")), u, bool(op.backward), warp_k(n))
+
+
+def warp_k(num_frames: int | None) -> int:
+    """kNN count of a guided warp's tables: ``timewarp.FREE_K`` for free length (``num_frames`` None), else 3."""
+    return _timewarp().FREE_K if num_frames is None else 3
+
+
 def _guided_warp(m, op: O.GuidedWarp, run):
     tw = _timewarp()
     n, u = warp_size(m, op)
-    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward)
+    p = run.progress
+    k = warp_k(n)
+    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward, k,
+                                   None if p is None else (lambda f: p(0.9 * f)))
     out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
-                               upsample=u, reverse=op.backward, tables=tables)
+                               upsample=u, reverse=op.backward, k=k, tables=tables, progress=p)  # 0.9 .. 1 here
     run.warp = warp
     return out
 

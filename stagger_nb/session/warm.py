@@ -1,7 +1,7 @@
 """Background cache fills for :meth:`Session.warm <stagger_nb.session.Session.warm>`.
 
 A :class:`Worker` is the session's own executor: one daemon thread running submitted job lists in order.
-Each list is a sequence of ``(label, fn)`` items; its :class:`concurrent.futures.Future` is cancellable
+Each list is a sequence of ``(label, fn)`` items, ``fn(report)`` taking ``report(fraction)`` or None; its :class:`concurrent.futures.Future` is cancellable
 between items (the item running finishes; what it computed stays cached). The thread is a daemon so an
 interpreter exit never waits for a long warm-up (a ``ThreadPoolExecutor`` joins its threads at exit, which
 would wait for every remaining item).
@@ -27,8 +27,10 @@ class Worker:
         self._lock = threading.Lock()
 
     def submit(self, items: list, progress: Callable | None = None) -> Future:
-        """Run ``items`` (``[(label, fn), ...]``) in the background; the future's result is how many ran.
-        ``progress(done, total, label)`` is called before each item and with ``"done"`` at the end."""
+        """Run ``items`` (``[(label, fn), ...]``, each called as ``fn(report)``) in the background; the
+        future's result is how many ran. ``progress(done, total, label)`` is called before each item, with a
+        fractional ``done`` as an item reports ``report(fraction)``, and with ``"done"`` at the end
+        (``report`` is None without ``progress``)."""
         fut: Future = Future()
         with self._lock:
             self._futures = [f for f in self._futures if not f.done()] + [fut]
@@ -57,9 +59,11 @@ def _run(fut: Future, items: list, progress: Callable | None) -> None:
         for label, fn in items:
             if fut.cancelled():
                 return
+            report = None
             if progress is not None:
                 progress(done, len(items), label)
-            fn()
+                report = (lambda f, d=done, n=len(items), lb=label: progress(d + min(max(float(f), 0.0), 1.0), n, lb))
+            fn(report)
             done += 1
         if progress is not None:
             progress(done, len(items), "done")

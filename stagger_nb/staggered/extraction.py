@@ -20,7 +20,7 @@ from ..core.motion import Motion
 from . import _checks
 from .contacts import contact_events, detect_contacts
 from .features import local_evidence
-from .fitting import fit_staggered
+from .fitting import fit_staggered, refit_merged
 from .representation import StaggeredMotion
 
 __all__ = ["extract", "cull", "cull_keep", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
@@ -314,7 +314,7 @@ def cull_keep(sm: StaggeredMotion, percent: float | None = None, *, count: int |
 
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
          interval=None, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
-         progress=None) -> StaggeredMotion:
+         progress=None, local: bool = True) -> StaggeredMotion:
     """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
 
     Parameters
@@ -330,6 +330,13 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
         every pose inside is kept.
     iterations, continuity, fit_samples : passed to the refit (:func:`~.fitting.fit_staggered`)
     progress : callable(fraction in [0, 1]) or None, called as the refit advances
+    local : bool
+        True (default): refit only the merged segments (:func:`~.fitting.refit_merged`); segments between
+        two kept consecutive poses keep their controls and displacement maps, and C1 velocities at knots
+        beside them stay fixed. Applies to an on-grid ``sm`` fitted with the same ``iterations`` and
+        ``continuity``, else falls back to the full refit. False: refit every segment (:func:`fit_staggered`).
+        Both reproduce ``sm`` exactly at the frames; their splines differ by what the full refit's global
+        C1 steps move away from the removed poses (tests/test_staggered_cull_local.py bounds it).
 
     Returns
     -------
@@ -360,11 +367,16 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     rref = np.where(rk2 != rk, rk2 - tk, rref)
     all_k = np.concatenate([(tk[:, None] + ref).ravel(), tk + rref]) / sm.frame_time
     on_grid = np.all(np.abs(all_k - np.rint(all_k)) < 1e-6)
+    meta = {k: v for k, v in sm.metadata.items() if k != "fit"}
+    if local and on_grid and np.array_equal(kt2, kt) and np.array_equal(rk2, rk):
+        out = refit_merged(sm, keep, iterations=iterations, continuity=continuity, fit_samples=fit_samples,
+                           metadata=meta, progress=progress)
+        if out is not None:
+            return out
     return fit_staggered(sm, tk, ref, rref,
                          pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
                          iterations=iterations, continuity=continuity, oversample=1 if on_grid else 4,
-                         fit_samples=fit_samples, metadata={k: v for k, v in sm.metadata.items() if k != "fit"},
-                         progress=progress)
+                         fit_samples=fit_samples, metadata=meta, progress=progress)
 
 
 def _strictly_increasing(knots: np.ndarray, frame_time: float) -> np.ndarray:

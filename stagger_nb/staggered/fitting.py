@@ -26,7 +26,7 @@ from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
                              rotation_spline, translation_source_times)
 
-__all__ = ["fit_staggered", "fit_subset", "velocity_jumps", "displacement_rotvecs", "match_tangents",
+__all__ = ["fit_staggered", "refit_merged", "fit_subset", "velocity_jumps", "displacement_rotvecs", "match_tangents",
            "match_translation_tangents", "fit_rotation_tangents_c1", "velocities_from_tangents",
            "fit_rotation_tangents", "fit_translation_tangents", "fit_rotation_tangents_nelder_mead",
            "sample_segments", "rotation_residuals"]
@@ -34,6 +34,7 @@ __all__ = ["fit_staggered", "fit_subset", "velocity_jumps", "displacement_rotvec
 _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 interior samples) to the chord
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
 _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
+_LOCAL_MAX_SHARE = 0.6   # refit_merged declines when the segments it would refit span more of the clip
 _SHRINK = (1.0, 0.85, 0.7, 0.55, 0.4, 0.2, 0.0)   # start polygons tried: Euclidean fit shrunk toward its chord
 
 
@@ -340,7 +341,7 @@ def _legs_within_half_turn(values, a, b):
     return (np.sum(v0 * a, axis=0) > 0) & (np.sum(a * b, axis=0) > 0) & (np.sum(b * v3, axis=0) > 0)
 
 
-def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations: int = 3):
+def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations: int = 3, fixed=None):
     """C1 quaternion splines: one body angular velocity ``ω_{k,c}`` per knot shared by both adjacent
     segments, fitted by Levenberg–Marquardt on the squared residual angles of all samples (Appendix A's
     objective under a continuity constraint).
@@ -358,6 +359,8 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     ----------
     tn, targets, pair : samples as in :func:`fit_rotation_tangents` (pairs segment-major, ``k * C + c``)
     values : (K, C, 4) knots; knots : (K, C) knot times (s); omega : (K, C, 3) start velocities (rad/s)
+    fixed : (K,) bool or None; knots whose velocities stay at ``omega`` (a local refit between kept
+        segments, :func:`refit_merged`); pairs with both knots fixed are not checked for long legs
 
     Returns
     -------
@@ -383,9 +386,12 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     def joint_cost(r):
         return np.bincount(col, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], C)
 
+    fix = np.zeros(Kn, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool).reshape(Kn)
+    free_pair = np.repeat(~(fix[:-1] & fix[1:]), C)        # (P,) pairs a step can change
+
     def legs_ok(om):                                       # (P,) every control leg within a half turn
         a, b = _tangents_from_velocities(values, om, d)
-        return _legs_within_half_turn(values, a, b)
+        return _legs_within_half_turn(values, a, b) | ~free_pair
 
     # The recursive slerp follows each control-polygon leg the short way: a leg past a half turn makes the
     # spline swing the other way round. Halve the start velocities at the knots of such segments (omega = 0
@@ -397,13 +403,13 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
         if not bad.any():
             break
         kb, cb = np.divmod(np.flatnonzero(bad), C)
-        omega[kb, cb] *= 0.5
-        omega[kb + 1, cb] *= 0.5
+        omega[kb[~fix[kb]], cb[~fix[kb]]] *= 0.5
+        omega[kb[~fix[kb + 1]] + 1, cb[~fix[kb + 1]]] *= 0.5
     else:
         bad = ~legs_ok(omega) & chord_ok
         kb, cb = np.divmod(np.flatnonzero(bad), C)
-        omega[kb, cb] = 0.0
-        omega[kb + 1, cb] = 0.0
+        omega[kb[~fix[kb]], cb[~fix[kb]]] = 0.0
+        omega[kb[~fix[kb + 1]] + 1, cb[~fix[kb + 1]]] = 0.0
     r = residual(omega)
     cost = joint_cost(r)
     lam = np.full(C, 1e-4)
@@ -424,6 +430,9 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
         ka = seg % 2                                       # colour of each sample's a-knot
         Ja = np.where(ka == 0, Jc[0], Jc[1])               # (3 comp, 3 rows, N): d r / d ω_a
         Jb = np.where(ka == 0, Jc[1], Jc[0])
+        if fix.any():                                      # fixed knots: no Jacobian, so a zero step
+            Ja = Ja * ~fix[seg]
+            Jb = Jb * ~fix[seg + 1]
         Saa = np.add.reduceat(np.einsum("ian,jan->nij", Ja, Ja), starts, axis=0)
         Sbb = np.add.reduceat(np.einsum("ian,jan->nij", Jb, Jb), starts, axis=0)
         Sab = np.add.reduceat(np.einsum("ian,jan->nij", Ja, Jb), starts, axis=0)
@@ -498,12 +507,17 @@ def displacement_rotvecs(s, targets, pair):
     e = quat_mul(quat_conj(s), targets)
     first = np.concatenate([[True], pair[1:] != pair[:-1]])
     e[first] = quat_hemisphere(e[first])
+    return 2.0 * quat_log(_continuous_per_pair(e, first))
+
+
+def _continuous_per_pair(e, first):
+    """Flip signs of ``e (N, 4)`` so consecutive samples of a pair (runs starting where ``first``) have
+    non-negative dot products; the first sample of each pair keeps its sign."""
     d = np.sum(e[1:] * e[:-1], axis=1)
     neg = np.concatenate([[0], np.cumsum((d < 0) & ~first[1:])])
     start = np.flatnonzero(first)
-    base = np.repeat(neg[start], np.diff(np.concatenate([start, [pair.size]])))
-    e = np.where(((neg - base) % 2 == 1)[:, None], -e, e)
-    return 2.0 * quat_log(e)
+    base = np.repeat(neg[start], np.diff(np.concatenate([start, [first.size]])))
+    return np.where(((neg - base) % 2 == 1)[:, None], -e, e)
 
 
 def _segment_major(seg, joint, m) -> bool:
@@ -526,6 +540,33 @@ def _continuous_per_joint(q, joint, seg, m):
     out = np.empty_like(q)
     out[order] = np.where(((neg - base) % 2 == 1)[:, None], -seq, seq)
     return out
+
+
+def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
+    """Root translation of :func:`fit_staggered` (§4.1.1): cubic Béziers through ``root_at`` at the knots
+    ``rk (K,)`` s, inner controls by least squares (C1-matched on "C1"), and the displacement table.
+    Returns ``root_values (K, 3), tangents (K - 1, 2, 3), table (K - 1, M, 3), counts (K - 1,)``."""
+    rk = np.asarray(rk, dtype=float)[:, None]
+    rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time, oversample)
+    ry = root_at(rframes)
+    root_values = root_at((rk[:, 0] - start_time) / ft)
+    p0, p3 = root_values[:-1], root_values[1:]
+    ry[rm == 0] = p0[rpair[rm == 0]]
+    ry[rm == rcounts[rpair] - 1] = p3[rpair[rm == rcounts[rpair] - 1]]
+    rtan = fit_translation_tangents(rtn, ry, rpair, p0, p3, rk.shape[0] - 1)
+    if continuity == "C1":
+        rtan = match_translation_tangents(root_values, rtan, rk[:, 0])
+    rs = bezier_cubic(p0[rpair], rtan[rpair, 0], rtan[rpair, 1], p3[rpair], rtn)
+    rtable = np.zeros((rk.shape[0] - 1, int(rcounts.max()), 3))
+    rtable[rpair, rm] = ry - rs
+    return root_values, rtan, rtable, rcounts
+
+
+def _fit_stats(angles, inner, iterations, continuity):
+    """``metadata["fit"]`` of :func:`fit_staggered` from the residual angles (rad) of every sample."""
+    return {"mean_residual_rad": float(angles[inner].mean()) if inner.any() else 0.0,
+            "max_residual_rad": float(angles.max()) if angles.size else 0.0,
+            "iterations": iterations, "continuity": continuity}
 
 
 def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
@@ -646,20 +687,8 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     table = np.zeros((P, M, 3))
     table[pair, m] = disp
 
-    # root translation
     rk = (pose_times + rr)[:, None]
-    rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time, oversample)
-    ry = root_at(rframes)
-    root_values = root_at((rk[:, 0] - start_time) / ft)
-    p0, p3 = root_values[:-1], root_values[1:]
-    ry[rm == 0] = p0[rpair[rm == 0]]
-    ry[rm == rcounts[rpair] - 1] = p3[rpair[rm == rcounts[rpair] - 1]]
-    rtan = fit_translation_tangents(rtn, ry, rpair, p0, p3, K - 1)
-    if continuity == "C1":
-        rtan = match_translation_tangents(root_values, rtan, rk[:, 0])
-    rs = bezier_cubic(p0[rpair], rtan[rpair, 0], rtan[rpair, 1], p3[rpair], rtn)
-    rtable = np.zeros((K - 1, int(rcounts.max()), 3))
-    rtable[rpair, rm] = ry - rs
+    root_values, rtan, rtable, rcounts = _fit_root(root_at, rk[:, 0], ft, start_time, oversample, continuity)
 
     editing = rot_at(np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
     editing = np.where((refinements != 0)[..., None], editing, values)
@@ -673,12 +702,7 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     angles = np.minimum(angles, 2.0 * np.pi - angles)             # unwrapped rotvecs: the rotation's angle
     inner_mask = ~(first | last)
     meta = dict(metadata or {})
-    meta["fit"] = {
-        "mean_residual_rad": float(angles[inner_mask].mean()) if inner_mask.any() else 0.0,
-        "max_residual_rad": float(angles.max()),
-        "iterations": iterations,
-        "continuity": continuity,
-    }
+    meta["fit"] = _fit_stats(angles, inner_mask, iterations, continuity)
     out = StaggeredMotion(
         skeleton=source.skeleton, frame_time=ft, pose_times=pose_times, refinements=refinements,
         values=values, tangents=tangents.reshape(K - 1, J, 2, 4),
@@ -687,5 +711,142 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         root_displacements=rtable, root_displacement_counts=rcounts,
         editing_knots=editing, pose_probability=np.ones(K) if pose_probability is None else pose_probability,
         contacts=tuple(contacts), local_translations=lt, translation_times=tt, metadata=meta)
+    report(1.0)
+    return out
+
+
+def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: str = "C1",
+                 fit_samples: int | None = 12, metadata: dict | None = None, progress=None):
+    """The refit of :func:`~.extraction.cull` done locally: only segments that merge removed poses change.
+
+    ``keep (K',)`` sorted pose indices of ``sm`` (first and last included). A kept segment between two
+    consecutive poses of ``sm`` keeps its spline controls and displacement map verbatim. The merged
+    segments (``keep[i + 1] - keep[i] > 1``) are fitted to ``sm`` itself (samples at the frames, as
+    :func:`fit_staggered` with a StaggeredMotion source), with their displacement maps re-measured.
+
+    Continuity: "C0" fits are per segment, so the result equals a full refit up to rounding. "C1" couples
+    all knots of a joint through one angular velocity per knot (:func:`fit_rotation_tangents_c1`); here each
+    run of consecutive merged segments is refitted with the velocities at its end knots fixed to those of
+    the adjacent kept segments (so the splines stay C1 across the joins), its inner knots free. The full refit
+    instead also moves the velocities of knots away from the removed poses (its Levenberg–Marquardt step is
+    global per joint); the two differ by what those steps move, which the displacement maps absorb:
+    both reproduce ``sm`` exactly at the frames.
+
+    The root translation is refitted whole (cheap, and then identical to the full refit).
+
+    Returns the new StaggeredMotion, or None when the local refit does not apply or does not pay (the
+    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the frame grid,
+    ``sm`` fitted with other options or other displacement sampling, a knot value of opposite sign to the
+    samples beside it); the caller then refits fully.
+    """
+    keep = np.asarray(keep, dtype=np.int64)
+    fit = sm.metadata.get("fit") or {}
+    if fit.get("continuity") != continuity or fit.get("iterations") != iterations or keep.size < 2:
+        return None
+    J, ft, Kc = sm.num_joints, sm.frame_time, keep.size
+    report = progress if progress is not None else (lambda f: None)
+    old_knots = sm.pose_times[:, None] + sm.refinements
+    merged = np.diff(keep) > 1                                          # (Kc - 1,) merged segments
+    # refitted: the merged segments and one kept segment on each side, so the velocities at the merged
+    # segments' ends are free (a velocity fitted over a short segment does not suit a long one) and the
+    # fixed ones sit at the far ends of short kept segments
+    changed = merged.copy()
+    changed[1:] |= merged[:-1]
+    changed[:-1] |= merged[1:]
+    unch = np.flatnonzero(~changed)
+    span = np.diff(sm.pose_times[keep])
+    if span[changed].sum() > _LOCAL_MAX_SHARE * span.sum():
+        return None                                    # most of the clip changes: the full refit is as fast
+    if np.any(sm.displacement_counts[keep[unch]]
+              != np.maximum(np.rint(np.diff(old_knots, axis=0)[keep[unch]] / ft).astype(np.int64) + 1, 2)):
+        return None                                    # kept segments sampled otherwise (oversampled fits)
+    tk = sm.pose_times[keep]
+    knots = tk[:, None] + sm.refinements[keep]
+    values = sm.values[keep]
+    tangents = np.array(sm.tangents[keep[:-1]])
+    counts = np.array(sm.displacement_counts[keep[:-1]])
+    ci = np.flatnonzero(changed)
+    sel = np.unique(np.concatenate([ci, ci + 1]))                       # knots touching a merged segment
+    Ks = sel.size
+    real = (np.diff(sel) == 1) & changed[sel[:-1]]                      # sub-segments that are merged ones
+    # a knot bordering a kept segment keeps that segment's velocity (C1); others are free
+    out_kept = (sel < Kc - 1) & ~changed[np.minimum(sel, Kc - 2)]
+    in_kept = (sel > 0) & ~changed[np.maximum(sel - 1, 0)]
+    fixed = out_kept | in_kept
+    ks, vs = knots[sel], values[sel]
+    P = (Ks - 1) * J
+    pair, m, cnt, tn, frames = sample_segments(ks, ft, 0.0, 1)
+    seg = pair // J
+    last = m == cnt[pair] - 1
+    use = real[seg] | (m == 0) | last              # sub-segments between two fixed knots: ends only
+    pair, m, tn, frames, last = pair[use], m[use], tn[use], frames[use], last[use]
+    seg = pair // J
+    m = np.where(real[seg] | (m == 0), m, 1)
+    cnt = np.where(np.repeat(real, J), cnt, 2)
+    v0, v3 = vs[:-1].reshape(P, 4), vs[1:].reshape(P, 4)
+    first = m == 0
+    inner = real[seg] & ~first & ~last
+    targets = np.empty((pair.size, 4))
+    targets[inner] = evaluate_samples(sm, frames[inner] * ft, pair[inner] % J)
+    targets[first] = v0[pair[first]]
+    targets[last] = v3[pair[last]]
+    cont = _continuous_per_pair(targets, first)
+    if np.any((np.sum(cont[last] * targets[last], axis=1) < 0) & real[seg[last]]):
+        return None                                    # a knot value on the other sign of its samples
+    targets = np.where(real[seg][:, None], cont, targets)
+    report(0.2)
+    sub = fit_subset(m, cnt, pair, fit_samples)
+    tn_f, targets_f, pair_f = tn[sub], targets[sub], pair[sub]
+    if continuity == "C1":
+        start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
+        omega = velocities_from_tangents(vs, start.reshape(Ks - 1, J, 2, 4), ks)
+        d_old = np.diff(old_knots, axis=0)[..., None]
+        ko, ki = keep[sel[out_kept]], keep[sel[in_kept]] - 1            # the kept segments of sm beside them
+        omega[out_kept] = 3.0 * _rotvec_between(sm.values[ko].reshape(-1, 4), sm.tangents[ko, :, 0].reshape(-1, 4)
+                                                ).reshape(-1, J, 3) / d_old[ko]
+        omega[in_kept & ~out_kept] = (3.0 * _rotvec_between(sm.tangents[ki, :, 1].reshape(-1, 4),
+                                                            sm.values[ki + 1].reshape(-1, 4)).reshape(-1, J, 3)
+                                      / d_old[ki])[~out_kept[in_kept]]
+        _, tg, _ = fit_rotation_tangents_c1(tn_f, targets_f, pair_f, vs, ks, omega, iterations, fixed=fixed)
+    else:
+        tg, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, iterations)
+    report(0.7)
+    # merged segments: new controls and displacement maps
+    rs = np.repeat(real, J)[pair]
+    rp = pair[rs]
+    s = _kernels.spline_into(np.ascontiguousarray(v0[rp].T), np.ascontiguousarray(tg[rp, 0].T),
+                             np.ascontiguousarray(tg[rp, 1].T), np.ascontiguousarray(v3[rp].T),
+                             np.arange(rp.size), np.ascontiguousarray(tn[rs]), np.empty((4, rp.size))).T
+    disp = displacement_rotvecs(s, targets[rs], rp)
+    dest = sel[:-1][real]                                               # culled segment of each real one
+    tangents[dest] = tg.reshape(Ks - 1, J, 2, 4)[real]
+    counts[dest] = cnt.reshape(Ks - 1, J)[real]
+    M = int(counts.max())
+    table = np.zeros((Kc - 1, J, M, 3))
+    Mo = min(M, sm.displacements.shape[2])
+    table[unch, :, :Mo] = sm.displacements[keep[unch], :, :Mo]
+    seg_c = sel[rp // J]
+    table[seg_c, rp % J, m[rs]] = disp
+    # residual statistics over every sample (kept segments from their stored maps)
+    idx = np.arange(M)
+    valid = idx < counts[..., None]
+    ang = np.linalg.norm(table, axis=-1)
+    ang = np.minimum(ang, 2.0 * np.pi - ang)
+    inner_t = valid & (idx > 0) & (idx < counts[..., None] - 1)
+    meta = dict(metadata or {})
+    meta["fit"] = _fit_stats(ang[valid], inner_t[valid], iterations, continuity)
+    rr = sm.root_refinements[keep]
+    rk = tk + rr
+    root_values, rtan, rtable, rcounts = _fit_root(lambda f: root_positions_at(sm, f * ft), rk, ft, 0.0, 1,
+                                                   continuity)
+    lt = sm.local_translations
+    out = StaggeredMotion(
+        skeleton=sm.skeleton, frame_time=ft, pose_times=tk, refinements=sm.refinements[keep], values=values,
+        tangents=tangents, displacements=table, displacement_counts=counts,
+        root_values=root_values, root_refinements=rr, root_tangents=rtan,
+        root_displacements=rtable, root_displacement_counts=rcounts,
+        editing_knots=sm.editing_knots[keep], pose_probability=sm.pose_probability[keep],
+        contacts=tuple(sm.contacts), local_translations=lt,
+        translation_times=None if lt is None else translation_source_times(sm, rk), metadata=meta)
     report(1.0)
     return out

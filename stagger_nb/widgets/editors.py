@@ -18,8 +18,9 @@ import traitlets
 
 from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
-from ..session import Session, joint_rotation_degrees
+from ..session import Session, joint_rotation_degrees, warp_table_key
 from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
+from ..timewarp.guided import AUTO_APPROX_PAIRS
 from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 from .plots import PlotView
 from .skeleton_view import SkeletonView
@@ -280,8 +281,19 @@ class _Editor(widgets.VBox):
         return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
 
     def close(self):
+        """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
+        the layout boxes), so none stays registered with ipywidgets after the editor is gone."""
         for fut in self._futures():
             fut.cancel()
+        owned = [*getattr(self, "controls", {}).values(), getattr(self, "view", None), *getattr(self, "plots", [])]
+        stack = list(self.children)
+        while stack:
+            w = stack.pop()
+            stack.extend(getattr(w, "children", ()) or ())
+            owned.append(w)
+        for w in owned:
+            if isinstance(w, widgets.Widget):
+                w.close()
         super().close()
 
 
@@ -807,6 +819,34 @@ class WarpEditor(_Editor):
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
+        self._warmed_tables = None
+        model.observe(lambda _: self._warm_skip_tables(),
+                      names=["reference", "backward", "free_length", "duration", "segment", "mode"])
+        self._warm_skip_tables()
+
+    def _warm_skip_tables(self) -> None:
+        """Warm (``Session.warm``) the kNN tables of the skip slider's largest value for the current reference,
+        direction and upsampling: the session slices every smaller skip from them, so a skip move re-runs only
+        the DP. With no warp yet, the tables of a compression (the first duration move's). Submitted again only
+        when what chooses the tables changes; long clips (approximate kNN, not sliced) are not warmed."""
+        if self.session.source.num_frames ** 2 > AUTO_APPROX_PAIRS:
+            return
+        ops = [o for o in self.binding.to_ops(self.model.params()) if o["op"] == "guided_warp"]
+        if not ops and self.model.mode == "guided":
+            ops = [o for o in self.binding.to_ops(dict(self.model.params(), reference="self", free_length=False,
+                                                       duration=0.9 * self.session.source.duration))
+                   if o["op"] == "guided_warp"]
+        if not ops:
+            return
+        op = dict(ops[-1], skip=max(int(self.controls["skip"].max), int(ops[-1].get("skip", 8))))
+        try:
+            key = warp_table_key(self.session.source, op) + (op["skip"],)
+            if key == self._warmed_tables:
+                return
+            self._warm(("warp_tables", [op]))
+            self._warmed_tables = key
+        except ValueError:
+            pass   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there
 
     def _on_warp_click(self, x, y, frame) -> None:
         """With "click to add a keytime" on, a click on the warp plot at (output time x, input time y) adds
