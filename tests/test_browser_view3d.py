@@ -328,6 +328,40 @@ def test_view_plays_in_the_browser_and_picks(lab):
             _image(canvas.screenshot()).save(ARTIFACTS / "view3d_run_picked.png")
             report["picked"] = picked
             page.locator(run_sel).first.screenshot(path=str(ARTIFACTS / "view3d_run_view.png"))
+
+            # -- an edit (set_motion, tracks updated in place): the canvas draws the new motion ---------------
+            # the edit lays the figure on its side (root rotation 90 deg about z): the head moves far on screen;
+            # picking raycasts against what three.js posed, so a click picks the head only where it is drawn
+            kernel.run("import numpy as np, ipywidgets\n_q = run.local_quats.copy()\n"
+                       "_q[:, 0] = (0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5))\nedited = run.replace(local_quats=_q)\n"
+                       "v.selected_joint = ''\nv.frame = 120\nold_xy = v.joint_pixel('Head')\n"
+                       "n_widgets = len(ipywidgets.Widget.widgets)\nv.set_motion(edited)\nv.frame = 120\n"
+                       "grown = len(ipywidgets.Widget.widgets) - n_widgets\n"
+                       "v.camera = 'all'\nv.camera = 'follow'")   # re-frame (joint_pixel is for the camera as framed)
+            page.wait_for_timeout(2500)
+            old_xy, new_xy = kernel.eval("old_xy"), kernel.eval("v.joint_pixel('Head')")
+            edit = {"grown_widgets": kernel.eval("grown"), "old_xy": old_xy, "new_xy": new_xy}
+            canvas.click(position={"x": old_xy[0], "y": old_xy[1]})   # where the head was: not there any more
+            page.wait_for_timeout(2000)
+            edit["picked_at_old"] = kernel.eval("v.selected_joint")
+            canvas.click(position={"x": new_xy[0], "y": new_xy[1]})
+            deadline, picked_new = time.monotonic() + 15, ""
+            while time.monotonic() < deadline and picked_new != "Head":
+                picked_new = kernel.eval("v.selected_joint")
+                page.wait_for_timeout(200)
+            edit["picked_at_new"] = picked_new
+            _image(canvas.screenshot()).save(ARTIFACTS / "view3d_run_edited.png")
+            kernel.run("v.selected_joint = ''; v.frame = 0; v.player.repeat = True")   # and it plays
+            page.wait_for_timeout(500)
+            play.click()
+            eshots = []
+            for _ in range(3):
+                eshots.append(_image(canvas.screenshot()))
+                page.wait_for_timeout(150)
+            play.click()
+            kernel.run("v.player.repeat = False")
+            edit["canvas_changed"] = [round(_changed(eshots[k], eshots[k + 1]), 4) for k in range(len(eshots) - 1)]
+            report["edit"] = edit
             kernel.close()
         except Exception:
             page.screenshot(path=str(ARTIFACTS / "view3d_failure.png"), full_page=True)
@@ -346,6 +380,11 @@ def test_view_plays_in_the_browser_and_picks(lab):
     assert max(changes) > 0.0005 and min(changes) > 0.0, report     # the figure moves between screenshots
     assert report["stopped"]["view.frame"] == stopped_at and not report["stopped"]["playing"], report
     assert picked == "Head", report
+    e = report["edit"]
+    assert e["grown_widgets"] <= 0, report   # updated in place (the new ground replaces the old one)
+    assert ((e["new_xy"][0] - e["old_xy"][0]) ** 2 + (e["new_xy"][1] - e["old_xy"][1]) ** 2) ** 0.5 > 30, report
+    assert e["picked_at_old"] != "Head" and e["picked_at_new"] == "Head", report   # drawn where the new motion is
+    assert min(e["canvas_changed"]) > 0.0, report                              # the edited motion plays
     assert not page_errors, page_errors
 
 

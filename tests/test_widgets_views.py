@@ -13,6 +13,7 @@ from stagger_nb import scene3d
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.skeleton import Skeleton
 from stagger_nb.widgets import SkeletonView
+from ipywidgets import Widget
 
 
 class _RecordingComm:
@@ -22,7 +23,7 @@ class _RecordingComm:
 
     def __init__(self, *args, **kwargs):
         self.comm_id = kwargs.get("comm_id") or f"c{len(_RecordingComm.log)}-{id(self)}"
-        self.kernel = None
+        self.kernel = "recording"   # not None: ipywidgets sends state updates only through a comm with a kernel
         self.send(data=kwargs.get("data"), buffers=kwargs.get("buffers"))
 
     def send(self, data=None, metadata=None, buffers=None):
@@ -88,11 +89,38 @@ def test_a_new_edit_replaces_the_tracks_in_place_and_clamps_the_frame():
     before = v.motion_tracks
     v.set_motion(shorter)
     assert v.frame == 29 and v.player.max == 29 and v.frame_slider.max == 29 and v.player.value == 29
-    assert all(t.comm is None for t in before)   # the old tracks were closed, not left behind
+    after = v.motion_tracks
+    # updated in place: a joint still animated keeps its track widget; a dropped track is closed, not left behind
+    assert all((t in after and t.comm is not None) or t.comm is None for t in before)
+    assert len({id(t.times) for t in after}) == 1 and after[0].times.array.shape == (30,)
     p, _ = sn.forward_kinematics(shorter)
     np.testing.assert_allclose(v.shown_positions(12), p[12], atol=1e-4)
     with pytest.raises(ValueError, match="^motion"):
         v.set_motion(_chain_motion(J=5, F=10))
+
+
+def test_a_second_edit_of_the_same_shape_updates_the_widgets_in_place(recording_comm):
+    m = _chain_motion(J=6, F=80)
+    v = SkeletonView(m, ghost=m)
+    v.set_motion(_chain_motion(J=6, F=80, seed=2), pose_frames=[10, 40], contacts=[("j2", 5, 30)])
+    tracks, actions = v.motion_tracks, list(v.conductor.actions)
+    n_widgets, version = len(Widget.widgets), v.conductor.data_version
+    recording_comm.clear()
+    third = _chain_motion(J=6, F=80, seed=3)
+    v.set_motion(third, pose_frames=[12, 44], contacts=[("j2", 6, 31)])
+    assert len(Widget.widgets) == n_widgets                 # no widget created (none closed)
+    assert v.motion_tracks == tracks and all(t.comm is not None for t in tracks)
+    assert list(v.conductor.actions) == actions and v.conductor.data_version == version + 1
+    # the sent state is the new motion: the tracks (float32) posed by forward kinematics
+    p, _ = sn.forward_kinematics(third)
+    for f in (0, 17, 79):
+        np.testing.assert_allclose(v.shown_positions(f), p[f], atol=1e-3)
+    # bytes: every changed array once, binary; the unchanged times are not re-sent
+    binary = sum(b for _, b in recording_comm)
+    tr = scene3d.motion_tracks(third)
+    changed = sum(a.nbytes for a in tr.quats.values())     # same root path and times: those are not re-sent
+    assert changed <= binary <= 1.15 * tr.nbytes and v.edit_bytes == binary
+    assert max(j for j, _ in recording_comm) < 1000    # no array as a JSON list (one track's would be ~3 kB)
 
 
 def test_bytes_per_edit_of_a_2751_by_31_clip_are_binary_and_once(recording_comm):
@@ -107,7 +135,8 @@ def test_bytes_per_edit_of_a_2751_by_31_clip_are_binary_and_once(recording_comm)
     tracks = scene3d.motion_tracks(edited)
     print(f"\nbytes per edit ({m.num_frames} x {m.num_joints}): binary {binary:,}, JSON {json_bytes:,}, "
           f"messages {len(recording_comm)}")
-    assert binary >= tracks.nbytes                    # every float of the tracks went, once ...
+    assert binary >= sum(a.nbytes for a in tracks.quats.values())   # every changed float went, once (the
+    # unchanged times and root path are not re-sent) ...
     assert binary <= 1.15 * tracks.nbytes             # ... and little else (camera path, highlights)
     assert json_bytes < 0.05 * binary                 # the arrays are buffers, not JSON lists
     assert v.edit_bytes == pytest.approx(binary, rel=0.02)

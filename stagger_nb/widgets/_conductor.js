@@ -162,6 +162,53 @@ function initialize({ model }) {
     onPlaying();
   }
 
+  // An edit updates the tracks in place (new times/values arrays on the same pythreejs track models, tracks added
+  // to or dropped from the same clip) and then bumps data_version. A three.js AnimationAction keeps interpolants
+  // made from its clip's tracks when it was created, so every action is rebuilt from its clip's current tracks:
+  // the mixer's public uncacheAction / clipAction, the new action replacing the old one on its pythreejs model.
+  async function refresh() {
+    const ticket = st.bound;
+    await Promise.all(st.actions.map(async (a) => {   // let the tracks' own updates (sent first) land
+      const clip = a && a.get("clip");
+      const tracks = (clip && clip.get("tracks")) || [];
+      await Promise.all([clip, ...tracks].map((m) => (m && m.state_change) || null));
+    }));
+    await new Promise((r) => setTimeout(r, 0));
+    if (ticket !== st.bound || !st.mixer || !st.mixer.obj) return;   // a rebinding came in between
+    const mixer = st.mixer.obj;
+    for (const a of st.actions) {
+      if (!a || !a.obj) continue;
+      const clip = a.obj.getClip();
+      const root = a.obj.getRoot();
+      clip.resetDuration();
+      a.obj.stop();
+      mixer.uncacheAction(clip, root);
+      const fresh = mixer.clipAction(clip, root);
+      fresh.ipymodelId = a.model_id;
+      fresh.ipymodel = a;
+      fresh.paused = true;
+      fresh.play();
+      a.obj = fresh;
+    }
+    // A dropped track (a joint that no longer moves) released its binding, and three.js then restored that
+    // node's transform as it was when first bound; the kernel's value for it (the joint's new rest rotation) is
+    // on the node's pythreejs model: re-apply the models' transforms, the mixer poses the animated ones on top.
+    if (st.scene && st.scene.obj) {
+      st.scene.obj.traverse((o) => {
+        const m = o.ipymodel;
+        if (!o.isGroup || !m) return;
+        const q = m.get("quaternion");
+        const p = m.get("position");
+        if (q && q.length === 4) o.quaternion.fromArray(q);
+        if (p && p.length === 3) o.position.fromArray(p);
+      });
+    }
+    if (!st.player) return;
+    if (st.playing) show(clockFrame());
+    else show(st.player.get("value"));
+  }
+
+  model.on("change:data_version", refresh);
   model.on("change:actions", bind);
   model.on("change:trails", bind);
   model.on("change:player", bind);

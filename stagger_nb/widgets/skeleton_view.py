@@ -1,7 +1,11 @@
 """A pythreejs 3D view of a skeleton that plays in the browser.
 
 The motion goes to the browser once per edit, as binary pythreejs keyframe tracks (a position track for the root,
-one quaternion track per joint that moves; float32): an :class:`pythreejs.AnimationClip` played by a paused
+one quaternion track per joint that moves; float32). An edit updates the existing track widgets in place (new
+``values`` arrays, ``times`` only when they change; tracks created or closed only when the set of moving joints
+changes) and bumps ``conductor.data_version``, on which the browser rebuilds its three.js actions: one batch of
+binary updates, a few ms kernel-side (issue 11 item 8, issue 12 item 1). The tracks form an
+:class:`pythreejs.AnimationClip` played by a paused
 :class:`pythreejs.AnimationAction` whose time a small anywidget clock (``_conductor.js``) sets from
 ``performance.now()`` while the ipywidgets ``Play`` runs, and from the Play's value when it is stopped. So Play
 runs at the clip's real rate with the kernel busy, and the kernel hears only the Play's coarse ticks (every
@@ -19,6 +23,7 @@ The numbers (tracks, bones, camera path, highlight keys) come from :mod:`stagger
 from __future__ import annotations
 
 import html
+from dataclasses import dataclass
 from pathlib import Path
 
 import anywidget
@@ -66,6 +71,8 @@ class _Conductor(anywidget.AnyWidget):
     trails = traitlets.List(traitlets.Instance(three.Object3D)).tag(sync=True, **widget_serialization)
     frame_time = traitlets.Float(1 / 60).tag(sync=True)
     trail_window = traitlets.Int(30, help="frames shown each side of the playhead").tag(sync=True)
+    data_version = traitlets.Int(0, help="bumped after the tracks of the actions were updated in place: the "
+                                 "browser rebuilds its three.js actions from the current tracks").tag(sync=True)
 
 
 def _array(a) -> np.ndarray:
@@ -75,6 +82,16 @@ def _array(a) -> np.ndarray:
 
 def _f32(a) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(a, dtype=np.float32).reshape(-1))
+
+
+@dataclass
+class _Clip:
+    """One pythreejs AnimationClip with its paused action, its tracks by name and the clip's shared times widget
+    (or None), all kept across edits (updated in place)."""
+    action: three.AnimationAction
+    clip: three.AnimationClip
+    tracks: dict
+    times: NDArrayWidget | None
 
 
 class SkeletonView(widgets.VBox):
@@ -185,8 +202,7 @@ class SkeletonView(widgets.VBox):
         self.play, self.slider = self.player, self.frame_slider   # older names
         self.conductor = _Conductor(player=self.player, mixer=self.mixer, scene=self.scene,
                                     frame_time=motion.frame_time)
-        self._actions = {}
-        self._ghost_action = None
+        self._clips: dict[str, _Clip] = {}   # "camera" | "highlight" | "motion" | "ghost" -> its clip and tracks
 
         self.camera_toggle = widgets.ToggleButtons(options=[("follow", "follow"), ("frame all", "all")],
                                                    value=camera, style={"button_width": "84px"},
@@ -295,7 +311,7 @@ class SkeletonView(widgets.VBox):
     @property
     def motion_tracks(self) -> list:
         """The keyframe tracks of the shown motion, as sent to the browser (pythreejs KeyframeTrack widgets)."""
-        return list(self._actions["motion"][2])
+        return list(self._clips["motion"].tracks.values())
 
     def shown_positions(self, frame: int | None = None) -> np.ndarray:
         """World joint positions ``(J, 3)`` at ``frame`` (default: the current one) decoded from the state sent
@@ -327,7 +343,7 @@ class SkeletonView(widgets.VBox):
         if motion.num_joints != self._motion.num_joints:
             raise ValueError(f"motion: has {motion.num_joints} joints, the view shows {self._motion.num_joints}")
         if ghost is not None:
-            self._set_ghost(ghost)
+            self._set_ghost(ghost)   # published with the motion below
         if pose_frames is not None:
             self._pose_frames = np.unique(np.asarray(pose_frames, dtype=int).reshape(-1))
         if contacts is not None:
@@ -361,100 +377,137 @@ class SkeletonView(widgets.VBox):
         sk = motion.skeleton
         return [(sk.index(n) if isinstance(n, str) else int(n), int(a), int(b)) for n, a, b in contacts]
 
-    def _clip_action(self, key: str, tracks: list):
-        """A new clip + paused action for ``tracks`` under ``key``. Returns (array bytes, the previous
-        (action, clip, tracks) to close once the conductor has switched, or None)."""
-        clip = three.AnimationClip(name=key, tracks=tracks)
-        action = three.AnimationAction(self.mixer, clip, self.scene, paused=True)
-        old = self._actions.get(key)
-        self._actions[key] = (action, clip, tracks)
-        arrays = {id(a): a for t in tracks for a in (t.times, t.values)}   # a shared times widget counts once
-        return sum(_array(a).nbytes for a in arrays.values()), old
+    def _update_clip(self, key: str, specs: list, shared_times=None) -> int:
+        """Make the clip ``key`` play ``specs`` (``[(name, track class, times or None, values, interpolation)]``;
+        times None: ``shared_times``, one array for all those tracks), updating the existing track widgets in
+        place: arrays that changed are assigned (binary, one message per track), unchanged ones are not re-sent;
+        tracks are created or closed only when the set of track names changes; the clip and its paused action
+        stay. The browser rebuilds its actions on ``conductor.data_version`` (bumped by the caller). Returns the
+        array bytes sent."""
+        entry = self._clips.get(key)
+        nbytes = 0
+        times_w = None
+        if shared_times is not None:
+            shared_times = _f32(shared_times)
+            if entry is not None and entry.times is not None and np.array_equal(_array(entry.times), shared_times):
+                times_w = entry.times
+            else:   # one new times widget for the whole clip (the old one is closed below)
+                times_w = NDArrayWidget(shared_times)
+                nbytes += shared_times.nbytes
+        old = entry.tracks if entry is not None else {}
+        tracks = {}
+        for name, cls, times, values, interp in specs:
+            t = old.get(name)
+            if t is not None and type(t) is cls and t.interpolation == interp:
+                with t.hold_sync():
+                    if times is None:
+                        if t.times is not times_w:
+                            t.times = times_w
+                    elif not np.array_equal(_array(t.times), times):
+                        t.times = times
+                        nbytes += times.nbytes
+                    if not np.array_equal(_array(t.values), values):
+                        t.values = values
+                        nbytes += values.nbytes
+            else:
+                t = cls(name=name, times=times_w if times is None else times, values=values, interpolation=interp)
+                nbytes += values.nbytes + (0 if times is None else times.nbytes)
+            tracks[name] = t
+        if entry is None:
+            clip = three.AnimationClip(name=key, tracks=list(tracks.values()))
+            entry = _Clip(three.AnimationAction(self.mixer, clip, self.scene, paused=True), clip, tracks, times_w)
+            self._clips[key] = entry
+        else:
+            if list(tracks) != list(old) or any(tracks[n] is not old[n] for n in tracks):
+                entry.clip.tracks = list(tracks.values())
+            for n, t in old.items():
+                if tracks.get(n) is not t:
+                    t.close()
+            if entry.times is not None and entry.times is not times_w:
+                entry.times.close()
+            entry.tracks, entry.times = tracks, times_w
+        return nbytes
 
-    def _publish(self, olds) -> None:
-        acts = [v[0] for k, v in sorted(self._actions.items())]
-        if self._ghost_action is not None:
-            acts.append(self._ghost_action[0])
+    def _publish(self) -> None:
+        """Tell the browser: the actions (the ghost's last) and, by bumping ``data_version``, that their tracks
+        changed."""
+        acts = [v.action for k, v in sorted(self._clips.items()) if k != "ghost"]
+        if "ghost" in self._clips:
+            acts.append(self._clips["ghost"].action)
         self.conductor.actions = acts
-        for old in olds:
-            if old is not None:
-                for w in (old[0], old[1], *old[2]):
-                    w.close()
-                for t in old[2]:
-                    if isinstance(t.times, NDArrayWidget):
-                        t.times.close()
+        self.conductor.data_version += 1
 
-    def _motion_tracks(self, motion: Motion, prefix: str, offset=None) -> list:
+    def _motion_tracks(self, motion: Motion, prefix: str, offset=None):
+        """Track specs (see :meth:`_update_clip`) and the shared times of ``motion`` on the hierarchy ``prefix``."""
         tr = scene3d.motion_tracks(motion)
-        times = NDArrayWidget(tr.times)   # one times array, shared by every track of the clip (sent once)
         root = tr.root_position if offset is None else tr.root_position + np.asarray(offset, np.float32)
-        out = [three.VectorKeyframeTrack(name=f"{prefix}0.position", times=times, values=_f32(root))]
+        lin = "InterpolateLinear"
+        out = [(f"{prefix}0.position", three.VectorKeyframeTrack, None, _f32(root), lin)]
         for j, q in tr.quats.items():
-            out.append(three.QuaternionKeyframeTrack(name=f"{prefix}{j}.quaternion", times=times, values=_f32(q)))
+            out.append((f"{prefix}{j}.quaternion", three.QuaternionKeyframeTrack, None, _f32(q), lin))
         for j, t in tr.translations.items():
-            out.append(three.VectorKeyframeTrack(name=f"{prefix}{j}.position", times=times, values=_f32(t)))
+            out.append((f"{prefix}{j}.position", three.VectorKeyframeTrack, None, _f32(t), lin))
         # joints without a track hold their frame-0 rotation: set it on the group (a new motion may differ)
         groups = self._groups if prefix == "j" else self._ghost_groups
         for j in range(motion.num_joints):
             if j not in tr.quats:
                 groups[j].quaternion = tuple(float(x) for x in tr.static_quats[j])
-        return out
+        return out, tr.times
 
     def _send_motion(self, motion: Motion, first: bool = False) -> None:
         F = motion.num_frames
         step, interval = self._tick(motion.frame_time)
         with self.hold_trait_notifications():
-            nbytes, old_motion = self._clip_action("motion", self._motion_tracks(motion, "j"))
-            nb_h, old_h = self._highlight_action()
-            nb_c, old_c = self._camera_action()
+            specs, times = self._motion_tracks(motion, "j")
+            nbytes = self._update_clip("motion", specs, times)
+            nb_h = self._highlight_clip()
+            nb_c = self._camera_clip()
             nb_t = self._send_trails()
-            self.conductor.frame_time = motion.frame_time
-            self.conductor.trail_window = max(1, int(round(self.trail_seconds / motion.frame_time)))
+            with self.conductor.hold_sync():
+                self.conductor.frame_time = motion.frame_time
+                self.conductor.trail_window = max(1, int(round(self.trail_seconds / motion.frame_time)))
             self.player.max = self.frame_slider.max = F - 1
             self.player.step, self.player.interval = step, interval
             if self.frame > F - 1:
                 self.frame = F - 1
-            self._publish([old_motion, old_h, old_c])
+            self._publish()
         self.edit_bytes = int(nbytes + nb_h + nb_c + nb_t)
         self._update_grid()
         self._update_legend()
 
-    def _set_ghost(self, ghost: Motion) -> None:
+    def _set_ghost(self, ghost: Motion, publish: bool = False) -> None:
         if ghost.num_joints != self._motion.num_joints:
             raise ValueError(f"ghost: has {ghost.num_joints} joints, the view shows {self._motion.num_joints}")
         self._ghost_motion = ghost
-        tracks = self._motion_tracks(ghost, "g", offset=self._ghost_offset)
-        clip = three.AnimationClip(name="ghost", tracks=tracks)
-        old = self._ghost_action
-        self._ghost_action = (three.AnimationAction(self.mixer, clip, self.scene, paused=True), clip, tracks)
+        specs, times = self._motion_tracks(ghost, "g", offset=self._ghost_offset)
+        self._update_clip("ghost", specs, times)
         self.ghost_toggle.disabled = False
-        if old is not None:
-            self._publish([old])
+        if publish:
+            self._publish()
 
-    def _highlight_action(self):
+    def _highlight_clip(self) -> int:
         m = self._motion
         keys = scene3d.highlight_keys(m.num_frames, m.frame_time, m.num_joints, self._pose_frames, self._contacts)
-        tracks = [three.ColorKeyframeTrack(name=f"s{j}.material.color", times=t,
-                                           values=_f32(_STATE_COLOURS[s]), interpolation="InterpolateDiscrete")
-                  for j, (t, s) in keys.items()]
+        specs = [(f"s{j}.material.color", three.ColorKeyframeTrack, _f32(t), _f32(_STATE_COLOURS[s]),
+                  "InterpolateDiscrete") for j, (t, s) in keys.items()]
         for j, mat in enumerate(self._joint_materials):   # joints without a track: plain colour
             if j not in keys and mat.color != _JOINT:
                 mat.color = _JOINT
-        return self._clip_action("highlight", tracks)
+        return self._update_clip("highlight", specs)
 
     def _send_highlights(self) -> None:
-        nbytes, old = self._highlight_action()
-        self._publish([old])
+        self._highlight_clip()
+        self._publish()
         self._update_legend()
 
-    def _camera_action(self):
+    def _camera_clip(self) -> int:
         m = self._motion
         cam = scene3d.follow_camera(self._pos, m.frame_time, self.camera, aspect=self.width / self.height)
         self._camera = cam
         step = max(1, int(round(0.05 / m.frame_time)))   # keys every ~50 ms; linear in between
         idx = np.unique(np.concatenate([np.arange(0, m.num_frames, step), [m.num_frames - 1]]))
-        track = three.VectorKeyframeTrack(name="rig.position", times=_f32(idx * m.frame_time),
-                                          values=_f32(-cam.rig[idx]))
+        spec = ("rig.position", three.VectorKeyframeTrack, _f32(idx * m.frame_time), _f32(-cam.rig[idx]),
+                "InterpolateLinear")
         self.three_camera.fov, self.three_camera.near, self.three_camera.far = cam.fov, cam.near, cam.far
         if not getattr(self, "_camera_placed", None) == self.camera:   # keep the user's orbit across edits
             self.three_camera.position = cam.position
@@ -462,7 +515,7 @@ class SkeletonView(widgets.VBox):
             self.three_camera.quaternion = scene3d.look_at_quaternion(cam.position, cam.target)
             self._camera_placed = self.camera
         self.rig.position = tuple(-float(x) for x in cam.rig[min(self.frame, m.num_frames - 1)])
-        return self._clip_action("camera", [track])
+        return self._update_clip("camera", [spec])
 
     def _send_trails(self) -> int:
         sk = self._motion.skeleton
@@ -510,6 +563,9 @@ class SkeletonView(widgets.VBox):
         self.grid = three.LineSegments(three.BufferGeometry(attributes={"position": three.BufferAttribute(seg)}),
                                        three.LineBasicMaterial(color="#cbd5e0"), name="ground")
         self.rig.children = tuple(self.grid if ch is old else ch for ch in self.rig.children)
+        if isinstance(old, three.LineSegments):   # its geometry, array and material too (not left behind)
+            for w in (old.geometry.attributes["position"], old.geometry, old.material):
+                w.close()
         old.close()
         self._grid_key, self._grid_cell = key, cell
 
@@ -560,8 +616,8 @@ class SkeletonView(widgets.VBox):
 
     @traitlets.observe("camera")
     def _on_camera(self, change):
-        nb, old = self._camera_action()
-        self._publish([old])
+        self._camera_clip()
+        self._publish()
         self._update_grid()
 
     @traitlets.validate("trail_joints")
