@@ -40,21 +40,32 @@ def test_self_reference_preserves_ballistic_timing_cmu_01_01():
     np.testing.assert_allclose(li, (m.num_frames - 1) / (num - 1), rtol=1e-9)  # linear: one speed everywhere
 
 
-@pytest.mark.shared
-def test_faster_reference_moves_the_speed_distribution(shared_motion):
+def _speeds(mo):
+    """Per-frame mean joint speed in the torso frame, cm/s: shape (F - 1,)."""
+    p = positions_in_root_frame(mo)
+    return np.linalg.norm(np.diff(p, axis=0), axis=2).mean(axis=1) / mo.frame_time
+
+
+def _p90(v):
+    return np.percentile(v, 90)
+
+
+def _xia_walk_and_run(shared_motion):
+    """The §4.2 pair at 30 Hz: (neutral walk, angry run, the report's first line)."""
     walk = shared_motion("xia_neutral_walk.bvh").resample(1 / 30)
     angry = shared_motion("xia_angry_run.bvh").resample(1 / 30)
+    s_in, s_ref = _speeds(walk), _speeds(angry)
+    line = (f"\n[§4.2 xia neutral walk ({walk.num_frames} f) guided by angry run ({angry.num_frames} f) @30Hz] "
+            f"per-frame mean joint speed (torso frame), cm/s: input median {np.median(s_in):.1f} p90 "
+            f"{_p90(s_in):.1f}; reference median {np.median(s_ref):.1f} p90 {_p90(s_ref):.1f}")
+    return walk, angry, line
 
-    def speeds(mo):  # per-frame mean joint speed in the torso frame, cm/s
-        p = positions_in_root_frame(mo)
-        return np.linalg.norm(np.diff(p, axis=0), axis=2).mean(axis=1) / mo.frame_time
 
+@pytest.mark.shared
+def test_faster_reference_moves_the_speed_distribution(shared_motion):
+    walk, angry, line = _xia_walk_and_run(shared_motion)
+    speeds, p90, lines = _speeds, _p90, [line]
     s_in, s_ref = speeds(walk), speeds(angry)
-    p90 = lambda v: np.percentile(v, 90)  # noqa: E731
-    lines = [f"\n[§4.2 xia neutral walk ({walk.num_frames} f) guided by angry run ({angry.num_frames} f) @30Hz] "
-             f"per-frame mean joint speed (torso frame), cm/s: input median {np.median(s_in):.1f} p90 "
-             f"{p90(s_in):.1f}; reference median {np.median(s_ref):.1f} p90 {p90(s_ref):.1f}"]
-    lines = lines[:1]
     # (b) fixed durations (keytimes at the ends only): the mean speed is fixed by path length / duration, so
     # a faster reference can only reshape the distribution: faster peaks, slower lulls (the paper's V6 effect)
     for frac in (1.0, 0.65):
@@ -73,18 +84,9 @@ def test_faster_reference_moves_the_speed_distribution(shared_motion):
                    "on well-matched frames when the reference is another performer's motion: the neutral walk "
                    "guided by the angry run comes out slower (median 6 vs 10 cm/s) instead of nearer the run's 20")
 def test_free_length_takes_the_reference_speed_from_another_performer(shared_motion):
-    walk = shared_motion("xia_neutral_walk.bvh").resample(1 / 30)
-    angry = shared_motion("xia_angry_run.bvh").resample(1 / 30)
-
-    def speeds(mo):  # per-frame mean joint speed in the torso frame, cm/s
-        p = positions_in_root_frame(mo)
-        return np.linalg.norm(np.diff(p, axis=0), axis=2).mean(axis=1) / mo.frame_time
-
+    walk, angry, line = _xia_walk_and_run(shared_motion)
+    speeds, p90, lines = _speeds, _p90, [line]
     s_in, s_ref = speeds(walk), speeds(angry)
-    p90 = lambda v: np.percentile(v, 90)  # noqa: E731
-    lines = [f"\n[§4.2 xia neutral walk ({walk.num_frames} f) guided by angry run ({angry.num_frames} f) @30Hz] "
-             f"per-frame mean joint speed (torso frame), cm/s: input median {np.median(s_in):.1f} p90 "
-             f"{p90(s_in):.1f}; reference median {np.median(s_ref):.1f} p90 {p90(s_ref):.1f}"]
     # (a) free output length (the unconstrained search, as for the paper's V8), input upsampled 4x so the
     # search may slow down as well as speed up; the walk's own timing as the control reference
     g_out = timewarp.guided_warp(walk, angry, None, upsample=4)[0]
