@@ -221,7 +221,7 @@ class SkeletonView(widgets.VBox):
         widgets.link((self.ghost_toggle, "value"), (self, "show_ghost"))
         if ghost is not None:
             self._set_ghost(ghost)
-        self._send_motion(motion, first=True)
+        self._push_motion(motion, first=True)
         self.show_ghost = ghost is not None and bool(show_ghost)
         self.trail_joints = list(trail_joints)
 
@@ -350,7 +350,7 @@ class SkeletonView(widgets.VBox):
             self._contacts = self._contact_list(contacts, motion)
         self._motion = motion
         self._pos = scene3d.world_positions(motion)
-        self._send_motion(motion)
+        self._push_motion(motion)
 
     def highlight_joints(self, names) -> None:
         """Ring these joints (names or indices) in red (the first becomes ``selected_joint``)."""
@@ -364,12 +364,12 @@ class SkeletonView(widgets.VBox):
     def set_pose_frames(self, frames) -> None:
         """Frames (indices) of staggered poses: the joints flash orange there (± 50 ms) while playing."""
         self._pose_frames = np.unique(np.asarray(frames, dtype=int).reshape(-1))
-        self._send_highlights()
+        self._push_highlights()
 
     def set_contacts(self, contacts) -> None:
         """``[(joint_name, start_frame, end_frame), ...]`` (half-open): those joints are green while in contact."""
         self._contacts = self._contact_list(contacts, self._motion)
-        self._send_highlights()
+        self._push_highlights()
 
     # -- sending -----------------------------------------------------------------------------------------
     @staticmethod
@@ -454,7 +454,7 @@ class SkeletonView(widgets.VBox):
                 groups[j].quaternion = tuple(float(x) for x in tr.static_quats[j])
         return out, tr.times
 
-    def _send_motion(self, motion: Motion, first: bool = False) -> None:
+    def _push_motion(self, motion: Motion, first: bool = False) -> None:
         F = motion.num_frames
         step, interval = self._tick(motion.frame_time)
         with self.hold_trait_notifications():
@@ -462,7 +462,7 @@ class SkeletonView(widgets.VBox):
             nbytes = self._update_clip("motion", specs, times)
             nb_h = self._highlight_clip()
             nb_c = self._camera_clip()
-            nb_t = self._send_trails()
+            nb_t = self._push_trails()
             with self.conductor.hold_sync():
                 self.conductor.frame_time = motion.frame_time
                 self.conductor.trail_window = max(1, int(round(self.trail_seconds / motion.frame_time)))
@@ -495,7 +495,7 @@ class SkeletonView(widgets.VBox):
                 mat.color = _JOINT
         return self._update_clip("highlight", specs)
 
-    def _send_highlights(self) -> None:
+    def _push_highlights(self) -> None:
         self._highlight_clip()
         self._publish()
         self._update_legend()
@@ -517,7 +517,7 @@ class SkeletonView(widgets.VBox):
         self.rig.position = tuple(-float(x) for x in cam.rig[min(self.frame, m.num_frames - 1)])
         return self._update_clip("camera", [spec])
 
-    def _send_trails(self) -> int:
+    def _push_trails(self) -> int:
         sk = self._motion.skeleton
         objs, lines, nbytes = [], [], 0
         for i, name in enumerate(self.trail_joints):
@@ -630,7 +630,7 @@ class SkeletonView(widgets.VBox):
 
     @traitlets.observe("trail_joints")
     def _on_trails(self, change):
-        self._send_trails()
+        self._push_trails()
         self._update_legend()
 
     @traitlets.observe("selected_joint")
