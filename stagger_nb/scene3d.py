@@ -256,16 +256,21 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
                   near=float(dist) * 0.01, far=float(dist) * 50 + float(np.ptp(P[..., 0]) + np.ptp(P[..., 2])))
 
 
-def project(points: np.ndarray, eye, target, fov: float, width: int, height: int, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """Pixel coordinates ``(N, 2)`` (x right, y down, origin top-left) of world ``points (N, 3)`` seen by a
-    perspective camera at ``eye`` looking at ``target`` (three.js ``lookAt`` + ``PerspectiveCamera``)."""
+def _camera_basis(eye, target, up):
+    """The camera's world axes ``(x, y, z)``, each (3,): z from ``target`` to ``eye``, x = up × z, y = z × x."""
     eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
     z = eye - target
     z /= np.linalg.norm(z)
     x = np.cross(up, z)
     x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    rel = np.asarray(points, dtype=float) - eye
+    return x, np.cross(z, x), z
+
+
+def project(points: np.ndarray, eye, target, fov: float, width: int, height: int, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """Pixel coordinates ``(N, 2)`` (x right, y down, origin top-left) of world ``points (N, 3)`` seen by a
+    perspective camera at ``eye`` looking at ``target`` (three.js ``lookAt`` + ``PerspectiveCamera``)."""
+    x, y, z = _camera_basis(eye, target, up)
+    rel = np.asarray(points, dtype=float) - np.asarray(eye, dtype=float)
     cx, cy, cz = rel @ x, rel @ y, rel @ z
     f = 1.0 / np.tan(np.radians(fov) / 2)
     aspect = width / height
@@ -278,12 +283,7 @@ def look_at_quaternion(eye, target, up=(0.0, 1.0, 0.0)) -> tuple:
     """Rotation (x, y, z, w) of a camera at ``eye`` looking at ``target`` (its -z axis towards the target, +y
     towards ``up``), as three.js ``Object3D.lookAt`` sets it for a camera without a parent."""
     from scipy.spatial.transform import Rotation
-    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
-    z = eye - target
-    z /= np.linalg.norm(z)
-    x = np.cross(up, z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
+    x, y, z = _camera_basis(eye, target, up)
     return tuple(float(c) for c in Rotation.from_matrix(np.stack([x, y, z], axis=1)).as_quat())
 
 

@@ -52,7 +52,7 @@ def skip_reason() -> str | None:
     return None
 
 
-def _free_port() -> int:
+def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -73,7 +73,7 @@ def jupyter_lab(folder: Path, timeout: float = 90.0):
         p = state / "lab-settings" / "@jupyterlab" / ext / f"{name}.jupyterlab-settings"
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_text(json.dumps(value))
-    port = _free_port()
+    port = free_port()
     log_path = folder / "lab.log"
     log = open(log_path, "w")
     proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",

@@ -16,7 +16,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -25,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+import browser_harness as bh
 
 REPO = Path(__file__).resolve().parents[1]
 ARTIFACTS = REPO / "artifacts"
@@ -37,30 +38,14 @@ DATA = os.environ.get("STAGGER_NB_DATA", str(REPO / "data"))
 pytestmark = [pytest.mark.browser]
 
 
-def _skip_reason():
-    if not Path(CHROMIUM).is_file():
-        return f"{CHROMIUM} is missing (apt-get install chromium): the browser test cannot run here"
-    try:
-        import playwright  # noqa: F401
-    except ImportError:
-        return "playwright is not installed (pip install playwright)"
-    return None
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
 def lab(tmp_path):
     """A token-less JupyterLab on a free port, state under tmp_path; yields (url, folder, runtime_dir)."""
-    reason = _skip_reason()
+    reason = bh.skip_reason()
     if reason:
         print("SKIP:", reason)
         pytest.skip(reason)
-    port = _free_port()
+    port = bh.free_port()
     state = tmp_path / "jupyter-state"
     env = dict(os.environ, JUPYTER_CONFIG_DIR=str(state / "config"), JUPYTER_RUNTIME_DIR=str(state / "runtime"),
                JUPYTER_DATA_DIR=str(state / "data"), IPYTHONDIR=str(state / "ipython"), JUPYTER_PLATFORM_DIRS="1",
@@ -390,7 +375,7 @@ def test_view_plays_in_the_browser_and_picks(lab):
 
 def test_exported_page_plays_offline(tmp_path):
     """export_html of an editor, opened from file:// with every request other than the page itself blocked."""
-    reason = _skip_reason()
+    reason = bh.skip_reason()
     if reason:
         print("SKIP:", reason)
         pytest.skip(reason)
