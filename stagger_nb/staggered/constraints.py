@@ -560,8 +560,43 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
     return [c[:1] + c[2:4] for c in _carry(edited, contacts, source_frame_time, carry_by)]
 
 
+def _reachable_shift(hips: np.ndarray, points: np.ndarray, length: float, shift: np.ndarray) -> np.ndarray:
+    """Horizontal plant shift ``(3,)`` (y = 0) near ``shift`` with which a straight-legged stance reaches its
+    plant without lowering the hip: ``shift + a u`` (``u`` the hip's horizontal travel direction over the
+    plant, ``|a| <= length / 2`` on a grid of 1/80 length) that minimises the largest root drop the held points
+    ``points + shift + a u (n, 3)`` need from the hip positions ``hips (n, 3)`` with reach ``length``; among the
+    shifts needing no drop, the one nearest ``shift``."""
+    shift = np.array([shift[0], 0.0, shift[2]])
+    u = (hips[-1] - hips[0])[[0, 2]]
+    if np.linalg.norm(u) < 1e-9 * length:
+        return shift
+    u = u / np.linalg.norm(u)
+    a = np.linspace(-0.5, 0.5, 81) * length                                        # (A,)
+    rel = (hips - points)[:, [0, 2]] - shift[[0, 2]]                               # (n, 2)
+    horiz2 = np.sum((rel[None] - a[:, None, None] * u) ** 2, axis=-1)              # (A, n)
+    need = (hips[:, 1] - points[:, 1])[None] - np.sqrt(np.maximum(length ** 2 - horiz2, 0.0))
+    worst = need.max(axis=1)
+    ok = worst <= 0
+    k = int(np.argmin(np.where(ok, np.abs(a), np.inf))) if ok.any() else int(np.argmin(worst))
+    return shift + a[k] * np.array([u[0], 0.0, u[1]])
+
+
+def _plants(carried, effs) -> list[list[int]]:
+    """Indices of ``carried`` grouped into plants: contacts held through the same effector whose edited frame
+    ranges overlap or touch (e.g. a foot's ankle and toe contacts of one step)."""
+    groups: dict[int, list[list[int]]] = {}
+    for i in sorted(range(len(carried)), key=lambda i: carried[i][2]):
+        eff = effs[carried[i][1]]
+        runs = groups.setdefault(eff, [])
+        if runs and carried[i][2] <= max(carried[k][3] for k in runs[-1]):
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    return [np.array(r) for runs in groups.values() for r in runs]
+
+
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
-                  lower_root: bool = True, carry_by: str = "joint") -> Motion:
+                  lower_root: bool = True, carry_by: str = "joint", plant: str = "hip") -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
     :func:`apply_contact_constraints` at the source's contact positions.
@@ -588,6 +623,14 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         :func:`apply_contact_constraints`.
     carry_by : {"joint", "limb"}
         Whose timing moves each contact (see :func:`carry_contacts`).
+    plant : {"hip", "source"}
+        Where a carried contact holds horizontally. ``"hip"`` (default): the source's contact point moved by
+        the limb's upper joint (hip / shoulder) the way the edit moved it, i.e. by the mean over the carried
+        frames of ``upper_edited(t) - upper_source(w^-1(t))`` (x and z only; the height stays the source's
+        ground). A foot whose timing lags the pelvis' by ``δ`` is then planted ``≈ v δ`` further along the
+        walk, where its own delayed swing puts it, so the leg reaches it without lowering the pelvis.
+        ``"source"``: the source's contact point itself (the leg must then reach back by ``v δ``: on real
+        walks the root drops 5-12 cm).
 
     Returns
     -------
@@ -600,6 +643,8 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
     if mode not in ("mean", "track"):
         raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
+    if plant not in ("hip", "source"):
+        raise ValueError(f"plant must be 'hip' or 'source', got {plant!r}")
     t0, _, _, _ = _timeline(edited)
     is_sm = isinstance(edited, StaggeredMotion)
     if edited.skeleton.num_joints != source.num_joints:
@@ -613,8 +658,10 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     if not carried:
         return motion
     sk = source.skeleton
-    effs = {j: _chain(sk, j)[2] for j in {c[1] for c in carried}}
-    src_pos = _fk_joints(source, set(effs) | set(effs.values()))[0]     # only the contact joints' chains
+    chains = {j: _chain(sk, j) for j in {c[1] for c in carried}}
+    effs = {j: ch[2] for j, ch in chains.items()}
+    ups = {j: max(ch[0], 0) for j, ch in chains.items()}
+    src_pos = _fk_joints(source, set(effs) | set(effs.values()) | set(ups.values()))[0]   # the contact chains
     # source positions at the source time of every carried frame (inverse of each contact's joint warp),
     # all contacts at once: one interpolation per clock joint, one gather for every frame
     n = np.array([c[3] - c[2] for c in carried])
@@ -631,11 +678,32 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     i0 = np.floor(f).astype(int)
     i1 = np.minimum(i0 + 1, source.num_frames - 1)
     w = (f - i0)[:, None, None]
-    cols = np.repeat([[c[1], effs[c[1]]] for c in carried], n, axis=0)     # the two joints read below
-    at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (sum n, 2, 3)
+    cols = np.repeat([[c[1], effs[c[1]], ups[c[1]]] for c in carried], n, axis=0)   # the joints read below
+    at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (sum n, 3, 3)
+    means = np.array([src_pos[a:b, j].mean(axis=0) for _, j, _, _, a, b, _ in carried])     # (contacts, 3)
+    starts = np.r_[0, np.cumsum(n)[:-1]]
+    shift = np.zeros((len(carried), 3))
+    if plant == "hip":   # how far the edit moved each limb's upper joint, horizontally, over the contact
+        up_e = _fk_joints(motion, set(ups.values()))[0][frames, cols[:, 2]]            # (sum n, 3)
+        sums = np.add.reduceat(up_e - at[:, 2], starts, axis=0)                         # (contacts, 3)
+        # the point each direct (ankle) contact frame holds before the shift; toe contacts are left out: where
+        # the leg cannot reach their ankle point, apply_contact_constraints lifts the heel (see _pivot)
+        base = np.repeat(means, n, axis=0) if mode == "mean" else at[:, 0]
+        direct = np.array([effs[c[1]] == c[1] for c in carried])
+        row = np.repeat(np.arange(len(carried)), n)
+        for members in _plants(carried, effs):   # one shift per plant: a foot's toe and ankle contacts agree
+            d = sums[members].sum(axis=0) / n[members].sum()
+            sel = np.isin(row, members[direct[members]])
+            if not sel.any():
+                shift[members] = d * [1.0, 0.0, 1.0]
+                continue
+            up, mid, eff = chains[carried[members[0]][1]]
+            length = _REACH * (np.linalg.norm(src_pos[0, mid] - src_pos[0, up]) +
+                               np.linalg.norm(src_pos[0, eff] - src_pos[0, mid]))
+            shift[members] = _reachable_shift(up_e[sel], base[sel], length, d)
     targets, toe_offsets = [], []
-    for (name, j, s_, e_, a, b, clock), piece in zip(carried, np.split(at, np.cumsum(n)[:-1])):
-        targets.append(src_pos[a:b, j].mean(axis=0) if mode == "mean" else piece[:, 0])
+    for (name, j, s_, e_, a, b, clock), piece, d, mu in zip(carried, np.split(at, starts[1:]), shift, means):
+        targets.append((mu if mode == "mean" else piece[:, 0]) + d)
         toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
     return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
                                      lower_root=lower_root, toe_offsets=toe_offsets)
