@@ -257,7 +257,7 @@ def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
         fr = np.flatnonzero(act)                  # reach is needed while held; the windows fade out
-        length = _REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid]))
+        length = _REACH * _chain_length(pos[0], up, mid, eff)
         h, t = pos[fr, up], tgt[fr]
         horiz = np.hypot(h[:, 0] - t[:, 0], h[:, 2] - t[:, 2])
         dy = (h[:, 1] - t[:, 1]) - np.sqrt(np.maximum(length ** 2 - horiz ** 2, 0.0))
@@ -272,6 +272,12 @@ def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
     return np.convolve(np.pad(peak, w, mode="edge"), kernel, mode="valid")
 
 
+def _chain_length(p: np.ndarray, up: int, mid: int, eff: int) -> float:
+    """Length of the two bones up -> mid -> eff from world positions ``p (J, 3)`` of one frame."""
+    a, b = p[mid] - p[up], p[eff] - p[mid]
+    return float(np.sqrt(a @ a) + np.sqrt(b @ b))
+
+
 def _chain(skeleton, j: int) -> tuple[int, int, int]:
     """(upper, middle, effector) joints that carry a contact on ``j``: toe contacts go through the ankle,
     and zero-length bones are skipped so both IK bones have a length (e.g. CMU's ``lhand`` sits on
@@ -284,21 +290,34 @@ def _chain(skeleton, j: int) -> tuple[int, int, int]:
 def _limb(skeleton, eff: int) -> tuple[int, int, int]:
     """(upper, middle, effector) two-bone limb ending at joint ``eff`` (zero-length bones skipped, see
     :func:`_chain`); ``upper`` is -1 when the limb would reach the root."""
-    par, off = skeleton.parents, np.linalg.norm(skeleton.offsets, axis=1)
+    par, offsets = skeleton.parents, skeleton.offsets
+
+    def zero(j):   # a zero-length bone (only the few joints visited are measured)
+        o = offsets[j]
+        return float(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]) < 1e-18
+
     eff = int(eff)
-    while eff > 0 and off[eff] < 1e-9:
+    while eff > 0 and zero(eff):
         eff = int(par[eff])
     mid = int(par[eff]) if eff > 0 else -1
     c = mid
-    while c > 0 and off[c] < 1e-9:
+    while c > 0 and zero(c):
         c = int(par[c])
     up = int(par[c]) if c > 0 else -1
     return up, mid, eff
 
 
+def _constrained_joints(sk, parsed) -> set:
+    """Joints :func:`apply_contact_constraints` reads for contacts ``parsed`` ``[(joint, start, stop)]``: the
+    contact joints, their chains and the middle joints' parents (FK adds the ancestors)."""
+    chains = [_chain(sk, j) for j, _, _ in parsed]
+    need = {j for j, _, _ in parsed} | {x for ch in chains for x in ch if x >= 0}
+    return need | {int(sk.parents[ch[1]]) for ch in chains if ch[1] > 0}
+
+
 def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
                               mode: str | None = None, *, targets=None, lower_root: bool = False,
-                              toe_offsets=None) -> Motion:
+                              toe_offsets=None, _fk=None) -> Motion:
     """Constraint displacement layer (§3): two-bone IK on legs/arms holding contacts in place.
 
     Parameters
@@ -355,10 +374,9 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     F = motion.num_frames
     nb = int(round(blend / motion.frame_time))
     chains = [_chain(sk, j) for j, _, _ in parsed]
-    # the joints read below: contact joints, their chains and the middle joints' parents (+ ancestors)
-    need = {j for j, _, _ in parsed} | {x for ch in chains for x in ch if x >= 0}
-    need |= {int(sk.parents[ch[1]]) for ch in chains if ch[1] > 0}
-    pos, wq = _fk_joints(motion, need)
+    need = _constrained_joints(sk, parsed)
+    # _fk: keep_contacts' own _fk_joints(motion, joints ⊇ need), whose positions this call may lower in place
+    pos, wq = _fk_joints(motion, need) if _fk is None else _fk
     if targets is None:
         ref_pos = pos if reference is motion else _fk_joints(reference, need)[0]
         targets = contact_positions(reference, contacts, mode=mode, positions=ref_pos)
@@ -384,8 +402,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     pivots = {}
     if pivoted:
         rows = [parsed[i][2] - parsed[i][1] for i in pivoted]
-        reach = [_REACH * (np.linalg.norm(pos[0, mid] - pos[0, up]) + np.linalg.norm(pos[0, eff] - pos[0, mid]))
-                 for up, mid, eff in (chains[i] for i in pivoted)]
+        lengths = {ch: _REACH * _chain_length(pos[0], *ch) for ch in {chains[i] for i in pivoted}}
+        reach = [lengths[chains[i]] for i in pivoted]
         turned = _pivot(np.concatenate([np.asarray(toe_offsets[i], dtype=float) for i in pivoted]),
                         np.concatenate([pos[parsed[i][1]:parsed[i][2], chains[i][0]] - targets[i] for i in pivoted]),
                         np.repeat(reach, rows))
@@ -427,10 +445,11 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
                                            wq[fr, up], wq[fr, mid], lq[fr, up],
                                            b_parent_world=None if sk.parents[mid] == up else wq[fr, sk.parents[mid]])
         c_new = quat_mul(quat_conj(bw_new), wq[fr, eff])
-        disp = quat_mul(quat_conj(lq[fr][:, chain]), np.stack([a_new, b_new, c_new], axis=1))
+        cur = lq[np.ix_(fr, chain)]
+        disp = quat_mul(quat_conj(cur), np.stack([a_new, b_new, c_new], axis=1))
         ident = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape)
         disp = slerp(ident, disp, np.broadcast_to(weight[fr][:, None], (fr.size, 3)))
-        out[np.ix_(fr, chain)] = quat_mul(lq[np.ix_(fr, chain)], disp)
+        out[np.ix_(fr, chain)] = quat_mul(cur, disp)
 
     # Toe contacts that overlap an ankle contact (foot flat): the ankle is held above; turn the foot about
     # the ankle so the toe also lands on its target (shortest-arc aim of ankle -> toe, attenuated likewise).
@@ -560,25 +579,45 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
     return [c[:1] + c[2:4] for c in _carry(edited, contacts, source_frame_time, carry_by)]
 
 
-def _reachable_shift(hips: np.ndarray, points: np.ndarray, length: float, shift: np.ndarray) -> np.ndarray:
-    """Horizontal plant shift ``(3,)`` (y = 0) near ``shift`` with which a straight-legged stance reaches its
-    plant without lowering the hip: ``shift + a u`` (``u`` the hip's horizontal travel direction over the
-    plant, ``|a| <= length / 2`` on a grid of 1/80 length) that minimises the largest root drop the held points
-    ``points + shift + a u (n, 3)`` need from the hip positions ``hips (n, 3)`` with reach ``length``; among the
-    shifts needing no drop, the one nearest ``shift``."""
-    shift = np.array([shift[0], 0.0, shift[2]])
-    u = (hips[-1] - hips[0])[[0, 2]]
-    if np.linalg.norm(u) < 1e-9 * length:
-        return shift
-    u = u / np.linalg.norm(u)
-    a = np.linspace(-0.5, 0.5, 81) * length                                        # (A,)
-    rel = (hips - points)[:, [0, 2]] - shift[[0, 2]]                               # (n, 2)
-    horiz2 = np.sum((rel[None] - a[:, None, None] * u) ** 2, axis=-1)              # (A, n)
-    need = (hips[:, 1] - points[:, 1])[None] - np.sqrt(np.maximum(length ** 2 - horiz2, 0.0))
-    worst = need.max(axis=1)
+_SHIFT_STEPS = np.linspace(-0.5, 0.5, 81)   # plant shifts tried, in leg lengths (1/80 apart)
+
+
+def _reachable_shifts(hips, points, plant, lengths, shifts) -> np.ndarray:
+    """Horizontal plant shifts ``(P, 3)`` (y = 0) near ``shifts (P, 3)`` with which a straight-legged stance
+    reaches its plant without lowering the hip, for every plant at once.
+
+    Plant ``p`` is tried at ``shifts[p] + a u_p`` (``u_p`` its hip's horizontal travel direction, ``a`` in
+    ``_SHIFT_STEPS * lengths[p]``); the chosen ``a`` minimises the largest root drop its held points need
+    (``points + shift (n, 3)`` from the hip positions ``hips (n, 3)`` with reach ``lengths[p]``, the samples
+    of plant ``plant (n,)``, ascending); among the shifts needing no drop, the one nearest ``shifts[p]``.
+    Plants without samples keep ``shifts[p]`` (y set to 0)."""
+    out = np.array(shifts, dtype=float)
+    out[:, 1] = 0.0
+    if not plant.size:
+        return out
+    ids, starts = np.unique(plant, return_index=True)
+    last = np.r_[starts[1:], plant.size] - 1
+    u = (hips[last] - hips[starts])[:, [0, 2]]                                     # (p, 2)
+    un = np.sqrt(np.einsum("pk,pk->p", u, u))
+    moving = un >= 1e-9 * lengths[ids]
+    u = u / np.where(moving, un, 1.0)[:, None]
+    L = lengths[plant]                                                             # (n,)
+    rel = (hips - points)[:, [0, 2]] - out[plant][:, [0, 2]]                       # (n, 2)
+    ru = np.einsum("nk,nk->n", rel, u[np.searchsorted(ids, plant)])
+    a = _SHIFT_STEPS[:, None] * L                                                  # (A, n)
+    # |rel - a u|^2 = |rel|^2 - 2 a (rel . u) + a^2, for every (a, sample)
+    h2 = np.einsum("nk,nk->n", rel, rel) + a * (a - 2.0 * ru)
+    np.subtract(L * L, h2, out=h2)
+    np.maximum(h2, 0.0, out=h2)
+    need = (hips[:, 1] - points[:, 1]) - np.sqrt(h2, out=h2)
+    worst = np.maximum.reduceat(need, starts, axis=1)                              # (A, p)
     ok = worst <= 0
-    k = int(np.argmin(np.where(ok, np.abs(a), np.inf))) if ok.any() else int(np.argmin(worst))
-    return shift + a[k] * np.array([u[0], 0.0, u[1]])
+    k = np.where(ok.any(axis=0), np.argmin(np.where(ok, np.abs(_SHIFT_STEPS)[:, None], np.inf), axis=0),
+                 np.argmin(worst, axis=0))
+    step = np.where(moving, _SHIFT_STEPS[k] * lengths[ids], 0.0)
+    out[ids, 0] += step * u[:, 0]
+    out[ids, 2] += step * u[:, 1]
+    return out
 
 
 def _plants(carried, effs) -> list[list[int]]:
@@ -680,30 +719,37 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     w = (f - i0)[:, None, None]
     cols = np.repeat([[c[1], effs[c[1]], ups[c[1]]] for c in carried], n, axis=0)   # the joints read below
     at = src_pos[i0[:, None], cols] * (1 - w) + src_pos[i1[:, None], cols] * w   # (sum n, 3, 3)
-    means = np.array([src_pos[a:b, j].mean(axis=0) for _, j, _, _, a, b, _ in carried])     # (contacts, 3)
+    span = np.array([c[5] - c[4] for c in carried])                                 # source frames held
+    fr_src = np.concatenate([np.arange(c[4], c[5]) for c in carried])
+    means = np.add.reduceat(src_pos[fr_src, np.repeat([c[1] for c in carried], span)],
+                            np.r_[0, np.cumsum(span)[:-1]], axis=0) / span[:, None]    # (contacts, 3)
     starts = np.r_[0, np.cumsum(n)[:-1]]
     shift = np.zeros((len(carried), 3))
+    fk = None
     if plant == "hip":   # how far the edit moved each limb's upper joint, horizontally, over the contact
-        up_e = _fk_joints(motion, set(ups.values()))[0][frames, cols[:, 2]]            # (sum n, 3)
+        parsed = [(j, s_, e_) for _, j, s_, e_, _, _, _ in carried]
+        fk = _fk_joints(motion, _constrained_joints(sk, parsed) | set(ups.values()))   # shared with the IK below
+        up_e = fk[0][frames, cols[:, 2]]                                                 # (sum n, 3)
         sums = np.add.reduceat(up_e - at[:, 2], starts, axis=0)                         # (contacts, 3)
+        plants = _plants(carried, effs)   # one shift per plant: a foot's toe and ankle contacts agree
+        of = np.empty(len(carried), np.int64)
+        for p, members in enumerate(plants):
+            of[members] = p
+        P = len(plants)
+        mean_shift = np.zeros((P, 3))
+        np.add.at(mean_shift, of, sums)
+        mean_shift /= np.bincount(of, weights=n, minlength=P)[:, None]
+        lengths = np.array([_REACH * _chain_length(src_pos[0], *chains[carried[mb[0]][1]]) for mb in plants])
         # the point each direct (ankle) contact frame holds before the shift; toe contacts are left out: where
         # the leg cannot reach their ankle point, apply_contact_constraints lifts the heel (see _pivot)
+        direct = np.repeat([effs[c[1]] == c[1] for c in carried], n)
         base = np.repeat(means, n, axis=0) if mode == "mean" else at[:, 0]
-        direct = np.array([effs[c[1]] == c[1] for c in carried])
-        row = np.repeat(np.arange(len(carried)), n)
-        for members in _plants(carried, effs):   # one shift per plant: a foot's toe and ankle contacts agree
-            d = sums[members].sum(axis=0) / n[members].sum()
-            sel = np.isin(row, members[direct[members]])
-            if not sel.any():
-                shift[members] = d * [1.0, 0.0, 1.0]
-                continue
-            up, mid, eff = chains[carried[members[0]][1]]
-            length = _REACH * (np.linalg.norm(src_pos[0, mid] - src_pos[0, up]) +
-                               np.linalg.norm(src_pos[0, eff] - src_pos[0, mid]))
-            shift[members] = _reachable_shift(up_e[sel], base[sel], length, d)
+        pid = np.repeat(of, n)[direct]
+        order = np.argsort(pid, kind="stable")
+        shift = _reachable_shifts(up_e[direct][order], base[direct][order], pid[order], lengths, mean_shift)[of]
     targets, toe_offsets = [], []
     for (name, j, s_, e_, a, b, clock), piece, d, mu in zip(carried, np.split(at, starts[1:]), shift, means):
         targets.append((mu if mode == "mean" else piece[:, 0]) + d)
         toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
     return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
-                                     lower_root=lower_root, toe_offsets=toe_offsets)
+                                     lower_root=lower_root, toe_offsets=toe_offsets, _fk=fk)
