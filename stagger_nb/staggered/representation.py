@@ -352,7 +352,8 @@ def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
     n = t.size
     c = K.take_cols_into(ctrl, idx, W.get("ev_c", (16, n)))
     arc = K.take_cols_into(arcp, idx, W.get("ev_arc", (9, n)))
-    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
+    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_",
+                      normalize=False)   # unit to ~1e-15; Motion() renormalises what is not unit
     # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
     cnt = counts[idx]
     u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
