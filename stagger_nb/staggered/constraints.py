@@ -247,20 +247,40 @@ def _pivot(off: np.ndarray, to_upper: np.ndarray, reach) -> np.ndarray:
     return np.where(turn[:, None], f[:, None] * (need[:, None] * u + sin[:, None] * w), off)
 
 
-def _root_drop(sk, pos, groups, windows, nb: int) -> np.ndarray:
+def _reach_need(sk, pos, eff: int, act: np.ndarray, tgt: np.ndarray):
+    """``(frames, dy)``: the active frames of the chain held at ``eff`` and how far (file units, vertical) each
+    target lies below what the chain reaches at ``_REACH`` of its length from its upper joint (<= 0: it
+    reaches; a target horizontally beyond reach gets the upper joint's height above it)."""
+    up, mid, _ = _chain(sk, eff)
+    fr = np.flatnonzero(act)                  # reach is needed while held; the windows fade out
+    length = _REACH * _chain_length(pos[0], up, mid, eff)
+    h, t = pos[fr, up], tgt[fr]
+    horiz = np.hypot(h[:, 0] - t[:, 0], h[:, 2] - t[:, 2])
+    return fr, (h[:, 1] - t[:, 1]) - np.sqrt(np.maximum(length ** 2 - horiz ** 2, 0.0))
+
+
+def _raise_to_reach(sk, pos, groups) -> dict:
+    """Raise each held target (in place) that its chain cannot reach with the upper joint where it is, to the
+    height it reaches (x and z stay); returns ``{effector: rise (F,)}`` (file units, >= 0)."""
+    rises = {}
+    for eff, (act, tgt) in groups.items():
+        fr, dy = _reach_need(sk, pos, eff, act, tgt)
+        rise = np.zeros(act.shape[0])
+        rise[fr] = np.maximum(dy, 0.0)
+        tgt[:, 1] += rise
+        rises[eff] = rise
+    return rises
+
+
+def _root_drop(sk, pos, groups, nb: int) -> np.ndarray:
     """Smallest smooth downward root offset ``(F,)`` (file units, >= 0) with which every held chain reaches
-    ``_REACH`` of its length at its target on its active frames (vertical move only; a target horizontally beyond reach gets the
-    drop that brings the upper joint to the target's height)."""
+    ``_REACH`` of its length at its target on its active frames (vertical move only; a target horizontally
+    beyond reach gets the drop that brings the upper joint to the target's height)."""
     from scipy.ndimage import maximum_filter1d
     F = pos.shape[0]
     need = np.zeros(F)
     for eff, (act, tgt) in groups.items():
-        up, mid, _ = _chain(sk, eff)
-        fr = np.flatnonzero(act)                  # reach is needed while held; the windows fade out
-        length = _REACH * _chain_length(pos[0], up, mid, eff)
-        h, t = pos[fr, up], tgt[fr]
-        horiz = np.hypot(h[:, 0] - t[:, 0], h[:, 2] - t[:, 2])
-        dy = (h[:, 1] - t[:, 1]) - np.sqrt(np.maximum(length ** 2 - horiz ** 2, 0.0))
+        fr, dy = _reach_need(sk, pos, eff, act, tgt)
         need[fr] = np.maximum(need[fr], np.maximum(dy, 0.0))
     if not np.any(need > 0):
         return need
@@ -315,9 +335,16 @@ def _constrained_joints(sk, parsed) -> set:
     return need | {int(sk.parents[ch[1]]) for ch in chains if ch[1] > 0}
 
 
+def _share(lower_root) -> float:
+    share = float(lower_root)
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    return share
+
+
 def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
-                              mode: str | None = None, *, targets=None, lower_root: bool = False,
-                              toe_offsets=None, _fk=None) -> Motion:
+                              mode: str | None = None, *, targets=None, lower_root: bool | float = False,
+                              toe_offsets=None, raise_unreachable: bool = False, _fk=None) -> Motion:
     """Constraint displacement layer (§3): two-bone IK on legs/arms holding contacts in place.
 
     Parameters
@@ -349,7 +376,12 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         two bones are long: e.g. a contact carried later than the pelvis' own timing), lower the root
         translation just enough (along -Y, the BVH up axis) that every held leg/arm reaches, with the
         smallest smooth profile above the need (a max filter and a raised-cosine average, both the
-        ``blend`` window wide), as footskate clean-up does (Kovar et al. 2002). Off by default.
+        ``blend`` window wide), as footskate clean-up does (Kovar et al. 2002). Off by default. A number in
+        [0, 1] lowers that share of the need (the rest is left to ``raise_unreachable``).
+    raise_unreachable : bool
+        Where a held chain cannot reach its target, raise the target (only its height) to where the chain
+        reaches instead: the root keeps its height and the foot is held in x/z, a little above its plant
+        (before ``lower_root``, which then finds nothing left to lower). Off by default.
 
     Returns
     -------
@@ -367,6 +399,7 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
     blend = float(blend)
     if not np.isfinite(blend) or blend < 0:
         raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
+    share = _share(lower_root)
     parsed = _parse_contacts(motion, contacts)
     if not parsed:
         return motion
@@ -423,18 +456,22 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         act[s:e] = True
         tgt[s:e] = t
 
+    traj = {eff: ref_pos[:, eff].copy() for eff in groups}   # the windows follow the unlowered trajectory
+    rp = motion.root_positions           # lowered below: one new Motion at the end, not one per change
+    if share > 0:
+        drop = _root_drop(sk, pos, groups, nb)
+        if np.any(drop > 0):
+            if share < 1:
+                drop *= share
+            rp = np.array(rp)
+            rp[:, 1] -= drop
+            pos[..., 1] -= drop[:, None]  # pos is this call's own array (or keep_contacts', passed to it)
+    rises = _raise_to_reach(sk, pos, groups) if raise_unreachable else {}   # what the lowering left
     windows = {}
     for eff, (act, tgt) in groups.items():
         weight, left, right = attenuation_weights(act, nb)
-        _window_targets(tgt, ref_pos[:, eff], act, weight, left, right)
+        _window_targets(tgt, traj[eff], act, weight, left, right)
         windows[eff] = weight
-    rp = motion.root_positions           # lowered below: one new Motion at the end, not one per change
-    if lower_root:
-        drop = _root_drop(sk, pos, groups, windows, nb)
-        if np.any(drop > 0):
-            rp = np.array(rp)
-            rp[:, 1] -= drop
-            pos[..., 1] -= drop[:, None]  # pos is this call's own array (ref_pos, its alias, is not read again)
     out = np.array(lq)
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
@@ -460,6 +497,8 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             act, tgt, _ = toes.setdefault(j, (np.zeros(F, bool), np.zeros((F, 3)), eff))
             act[s:e] = True
             tgt[s:e] = targets[i]
+            if eff in rises:                       # the foot rises as a whole where its ankle was raised
+                tgt[s:e, 1] += rises[eff][s:e]
     if toes:
         pos2, wq2 = _fk_joints(motion, set(toes) | {eff for _, _, eff in toes.values()}, local_quats=out,
                                root_positions=rp)
@@ -635,7 +674,7 @@ def _plants(carried, effs) -> list[list[int]]:
 
 
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
-                  lower_root: bool = True, carry_by: str = "joint", plant: str = "hip") -> Motion:
+                  lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip") -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
     :func:`apply_contact_constraints` at the source's contact positions.
@@ -656,10 +695,13 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         Where a carried contact holds: the source contact's mean position (a planted point, default), or the
         source's position at the source time of each edited frame (through the inverse warp: keeps the
         heel-toe roll).
-    lower_root : bool
-        Lower the root where a leg cannot reach its carried contact (default True: a foot whose timing
-        lags the pelvis' would otherwise be dragged at the end of its contact); see
-        :func:`apply_contact_constraints`.
+    lower_root : bool or float in [0, 1]
+        Where a straight stance leg cannot reach its carried plant (mostly just after heel strike of a foot
+        whose timing lags the pelvis'), the share of the missing height taken by lowering the root (a smooth
+        profile, see :func:`apply_contact_constraints`); the rest raises the held foot (x/z still held, a
+        little above its plant: it lands a little later). True = 1: the foot stays on its plant and the
+        pelvis drops; False = 0: the pelvis keeps its height. Default 0.5: both changes are halved (on the
+        real walks of issue 11, <= 1.4 cm each).
     carry_by : {"joint", "limb"}
         Whose timing moves each contact (see :func:`carry_contacts`).
     plant : {"hip", "source"}
@@ -684,6 +726,7 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
     if plant not in ("hip", "source"):
         raise ValueError(f"plant must be 'hip' or 'source', got {plant!r}")
+    share = _share(lower_root)
     t0, _, _, _ = _timeline(edited)
     is_sm = isinstance(edited, StaggeredMotion)
     if edited.skeleton.num_joints != source.num_joints:
@@ -752,4 +795,5 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         targets.append((mu if mode == "mean" else piece[:, 0]) + d)
         toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
     return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
-                                     lower_root=lower_root, toe_offsets=toe_offsets, _fk=fk)
+                                     lower_root=share, raise_unreachable=share < 1,
+                                     toe_offsets=toe_offsets, _fk=fk)
