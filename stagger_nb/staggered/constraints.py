@@ -473,20 +473,29 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         _window_targets(tgt, traj[eff], act, weight, left, right)
         windows[eff] = weight
     out = np.array(lq)
+    # every held chain's window frames in one batch (rows: frame, chain): one IK solve per kind of chain
+    # (the middle joint's parent is the upper joint, or a zero-length bone between them), not one per chain
+    rows = {}
     for eff, (act, tgt) in groups.items():
         up, mid, _ = _chain(sk, eff)
-        chain = [up, mid, eff]
-        weight = windows[eff]
-        fr = np.flatnonzero(weight > 0)
-        a_new, b_new, bw_new = two_bone_ik(pos[fr, up], pos[fr, mid], pos[fr, eff], tgt[fr],
-                                           wq[fr, up], wq[fr, mid], lq[fr, up],
-                                           b_parent_world=None if sk.parents[mid] == up else wq[fr, sk.parents[mid]])
+        fr = np.flatnonzero(windows[eff] > 0)
+        rows.setdefault(int(sk.parents[mid]) == up, []).append((fr, np.array([up, mid, eff]), tgt[fr], windows[eff][fr],
+                                                                int(sk.parents[mid])))
+    for direct, batch in rows.items():
+        fr = np.concatenate([b[0] for b in batch])
+        chain = np.concatenate([np.broadcast_to(b[1], (b[0].size, 3)) for b in batch])      # (n, 3)
+        tgt = np.concatenate([b[2] for b in batch])
+        weight = np.concatenate([b[3] for b in batch])
+        up, mid, eff = chain.T
+        a_new, b_new, bw_new = two_bone_ik(pos[fr, up], pos[fr, mid], pos[fr, eff], tgt, wq[fr, up], wq[fr, mid],
+                                           lq[fr, up], b_parent_world=None if direct else
+                                           wq[fr, np.concatenate([np.full(b[0].size, b[4]) for b in batch])])
         c_new = quat_mul(quat_conj(bw_new), wq[fr, eff])
-        cur = lq[np.ix_(fr, chain)]
+        cur = lq[fr[:, None], chain]
         disp = quat_mul(quat_conj(cur), np.stack([a_new, b_new, c_new], axis=1))
         ident = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape)
-        disp = slerp(ident, disp, np.broadcast_to(weight[fr][:, None], (fr.size, 3)))
-        out[np.ix_(fr, chain)] = quat_mul(cur, disp)
+        disp = slerp(ident, disp, np.broadcast_to(weight[:, None], (fr.size, 3)))
+        out[fr[:, None], chain] = quat_mul(cur, disp)
 
     # Toe contacts that overlap an ankle contact (foot flat): the ankle is held above; turn the foot about
     # the ankle so the toe also lands on its target (shortest-arc aim of ankle -> toe, attenuated likewise).
