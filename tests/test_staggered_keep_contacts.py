@@ -213,3 +213,24 @@ def test_carry_by_limb_uses_the_hip_timing(walk):
     assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
     with pytest.raises(ValueError, match="carry_by"):
         staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="pelvis")
+
+
+def test_keep_contacts_on_hops_removes_the_sliding():
+    """Notebook 01's check on the real hops (both feet land together): after a rough timing edit, sliding over
+    the source contacts falls below 20 % (the plant search stays within a quarter leg of the hip-following
+    point, so landings stay near the edited feet), with the pelvis lowered by less than 8 cm (23 cm with the
+    source plant and the root drop alone)."""
+    try:
+        cmu = data.load("cmu_01_01")
+    except FileNotFoundError as e:
+        pytest.skip(f"cmu_01_01 not prepared: {e}")
+    hops = cmu.resample(1 / 30).slice(0, int(8.5 * 30))
+    sm = staggered.extract(hops)
+    contacts = staggered.detect_contacts(hops)
+    rough = staggered.random_timing(staggered.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.05, seed=1)
+    slid, held = staggered.evaluate(rough), staggered.keep_contacts(rough, hops)
+    skate = [float(staggered.foot_skate(x, contacts).sum()) for x in (slid, held)]
+    drop = float(np.abs(slid.root_positions - held.root_positions)[:, 1].max())
+    print(f"hops: sliding {skate[0]:.1f} -> {skate[1]:.1f} cm, pelvis lowered up to {drop:.2f} cm")
+    assert skate[1] < 0.2 * skate[0]
+    assert drop < 8.0

@@ -627,7 +627,10 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
     return [c[:1] + c[2:4] for c in _carry(edited, contacts, source_frame_time, carry_by)]
 
 
-_SHIFT_STEPS = np.linspace(-0.5, 0.5, 81)   # plant shifts tried, in leg lengths (1/80 apart)
+# plant shifts tried, in leg lengths (1/80 apart); within a quarter leg of the hip-following point, so a plant
+# stays near where the edited foot lands (wider searches lower the pelvis less on walks but move hop landings
+# far from their feet: the transitions then slide, e.g. notebook 01's hops)
+_SHIFT_STEPS = np.linspace(-0.25, 0.25, 41)
 
 
 def _reachable_shifts(hips, points, plant, lengths, shifts) -> np.ndarray:
@@ -635,7 +638,7 @@ def _reachable_shifts(hips, points, plant, lengths, shifts) -> np.ndarray:
     reaches its plant without lowering the hip, for every plant at once.
 
     Plant ``p`` is tried at ``shifts[p] + a u_p`` (``u_p`` its hip's horizontal travel direction, ``a`` in
-    ``_SHIFT_STEPS * lengths[p]``); the chosen ``a`` minimises the largest root drop its held points need
+    ``_SHIFT_STEPS * lengths[p]``, at most a quarter leg); the chosen ``a`` minimises the largest root drop its held points need
     (``points + shift (n, 3)`` from the hip positions ``hips (n, 3)`` with reach ``lengths[p]``, the samples
     of plant ``plant (n,)``, ascending); among the shifts needing no drop, the one nearest ``shifts[p]``.
     Plants without samples keep ``shifts[p]`` (y set to 0)."""
