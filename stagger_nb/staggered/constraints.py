@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.kinematics import fk_arrays, forward_kinematics
+from ..core.kinematics import _fk_component_major, forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
 
@@ -54,18 +54,25 @@ def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None) ->
     where[sub] = np.arange(sub.size)
     sub_par = np.where(par[sub] >= 0, where[np.maximum(par[sub], 0)], -1)
     F = motion.num_frames
-    trans = np.empty((F, sub.size, 3))
-    if motion.local_translations is None:
-        trans[:] = motion.skeleton.offsets[sub]
-    else:
-        trans[:] = motion.local_translations[:, sub]
-    trans[:, 0] = motion.root_positions if root_positions is None else root_positions   # fk_arrays: row 0 = root
+    # component-major (C, joints, F) in and out, as forward_kinematics does, without its (F, J, C) round trips
     lq = motion.local_quats if local_quats is None else local_quats
-    p, w = fk_arrays(lq[:, sub], trans, sub_par)
+    Q = np.empty((4, sub.size, F))
+    for c in range(4):
+        Q[c] = lq[:, sub, c].T
+    if motion.local_translations is None:
+        T = motion.skeleton.offsets[sub].T[:, :, None]              # the same offsets every frame
+    else:
+        T = np.empty((3, sub.size, F))
+        for c in range(3):
+            T[c] = motion.local_translations[:, sub, c].T
+    rp = motion.root_positions if root_positions is None else root_positions
+    W, P = _fk_component_major(Q, T, np.ascontiguousarray(rp.T), sub_par)
     pos = np.full((F, motion.num_joints, 3), np.nan)
     wq = np.full((F, motion.num_joints, 4), np.nan)
-    pos[:, sub] = p
-    wq[:, sub] = w
+    for c in range(3):
+        pos[:, sub, c] = P[c].T
+    for c in range(4):
+        wq[:, sub, c] = W[c].T
     return pos, wq
 
 
