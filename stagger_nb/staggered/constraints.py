@@ -696,7 +696,13 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
                   lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip") -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
-    :func:`apply_contact_constraints` at the source's contact positions.
+    :func:`apply_contact_constraints` at the source's contact positions moved with the hip (``plant``), the
+    pelvis and the foot sharing what a straight stance leg cannot reach (``lower_root``).
+
+    Measured (tests/test_staggered_keep_contacts.py, real walks after ``succession(Hips, 0.02, 1)`` +
+    ``random_timing(0.05, seed=0)``): feet travel <= 0.43 cm inside the contacts shrunk by 0.1 s (19-23 cm
+    without), the pelvis height changes by <= 1.4 cm and a held foot sits <= 1.2 cm above its plant (the
+    source plant with the root lowered alone: 5-12 cm of pelvis drop).
 
     Parameters
     ----------
