@@ -174,6 +174,11 @@ def test_keep_contacts_bad_input(walk):
         staggered.keep_contacts(sm, m, contacts=[("Nose", 0, 10)])
     with pytest.raises(ValueError, match="edited"):
         staggered.carry_contacts([1, 2], sm.contacts, m.frame_time)
+    with pytest.raises(ValueError, match="plant"):
+        staggered.keep_contacts(sm, m, plant="ground")
+    for bad in (1.5, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="lower_root"):
+            staggered.keep_contacts(sm, m, lower_root=bad)
     # no contacts: the evaluated motion itself
     assert np.array_equal(staggered.keep_contacts(sm, m, contacts=[]).local_quats, staggered.evaluate(sm).local_quats)
 
@@ -234,3 +239,19 @@ def test_keep_contacts_on_hops_removes_the_sliding():
     print(f"hops: sliding {skate[0]:.1f} -> {skate[1]:.1f} cm, pelvis lowered up to {drop:.2f} cm")
     assert skate[1] < 0.2 * skate[0]
     assert drop < 8.0
+
+
+def test_lower_root_share_splits_the_missing_reach(walk):
+    """lower_root=0 keeps the root bit for bit; the pelvis drop grows with the share (0 <= 0.5 <= 1) while the
+    held feet stay put horizontally whatever the share."""
+    m, sm = walk
+    edited = stagger(sm)
+    plain = staggered.evaluate(edited)
+    carried = staggered.carry_contacts(edited, sm.contacts, m.frame_time)
+    drops = []
+    for share in (0.0, 0.5, 1.0):
+        out = staggered.keep_contacts(edited, m, lower_root=share)
+        drops.append(pelvis_drop_cm(plain, out, 1.0))
+        assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+    assert np.array_equal(staggered.keep_contacts(edited, m, lower_root=False).root_positions, plain.root_positions)
+    assert drops[0] == 0.0 and drops[0] <= drops[1] <= drops[2] and drops[2] > 0
