@@ -20,10 +20,13 @@ nearest (upsampled) input frame and output frame. See :mod:`.postprocess`.
 """
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.digest import content_key
 from ..core.motion import Motion
 from .dp import constrained_dp, mean_cost_dp, path_cost, validate_keys
 from .features import feature_weights, pose_features, prefilter_frames
@@ -33,7 +36,8 @@ from .postprocess import apply_warp, parse_keytimes, smooth_warp
 
 __all__ = ["WarpTables", "WarpSolution", "prepare_warp", "slice_tables", "solve_warp", "guided_warp",
            "required_upsample", "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "FREE_UPSAMPLE", "FREE_K",
-           "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
+           "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES", "cached_prepare_warp", "clear_tables_cache",
+           "TABLES_CACHE", "TABLES_CACHE_BYTES"]
 
 MAX_WARP_BYTES = 2 << 30   # refuse (ValueError) a search whose tables would need more memory than this
 SPEED_PENALTY = 0.3        # default speed_penalty (see solve_warp)
@@ -44,6 +48,8 @@ DEFAULT_CANDIDATES = 32    # reference frames per input frame of the approximate
 FREE_UPSAMPLE = 4          # free length: default upsampling (speeds 1/4 .. skip/4 x, slower and faster than m)
 FREE_K = 1                 # free length: kNN count (k = 3 averages away the speed the length is read from)
 AUTO_COARSE_FRAMES = 6000  # solve_warp: the coarse-to-fine heuristic by default above this many searched frames
+TABLES_CACHE = 4           # tables guided_warp keeps between calls (cached_prepare_warp) ...
+TABLES_CACHE_BYTES = 64 << 20   # ... holding at most this many bytes together
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,13 +239,59 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
         n_up = (m.num_frames - 1) * upsample + 1
         src = src.sample(np.arange(n_up) / upsample, m.frame_time / upsample)
     X = pose_features(src, joint_weights, prefilter)
-    R = pose_features(ref, joint_weights, prefilter)
+    # a self reference (the common case, §4.1) has the same features: compute them once
+    R = X if _same_content(src, ref) else pose_features(ref, joint_weights, prefilter)
     if mode == "exact":
         scores = knn_scores(X, R, skip, k, weights, dtype=dtype, progress=progress)
     else:
         scores = candidate_scores(X, R, skip, k, weights, candidates=int(candidates), progress=progress)
     return WarpTables(m, ref, skip, upsample, bool(reverse), int(k), weights, X, R, scores, mode,
                       int(candidates) if mode == "approx" else 0)
+
+
+_TABLES: "OrderedDict[bytes, WarpTables]" = OrderedDict()
+_TABLES_LOCK = threading.Lock()
+
+
+def _table_bytes(t: WarpTables) -> int:
+    return int(t.scores.nbytes + t.X.nbytes + (0 if t.R is t.X else t.R.nbytes))
+
+
+def cached_prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1, **options) -> WarpTables:
+    """:func:`prepare_warp` through a small module cache, so that repeated one-call :func:`guided_warp` calls with
+    the same input, reference and objective options (another length, other keytimes, the same call again)
+    skip the expensive head (features + kNN table, ~80 % of a Table-1-size call).
+
+    Explicit and bounded like the magic wand's graph cache: keyed by the *content* of both motions and every
+    option (:func:`..core.digest.content_key`, ~1 ms per MB, never ``id()``); holds at most
+    :data:`TABLES_CACHE` tables of at most :data:`TABLES_CACHE_BYTES` together, least recently used out first
+    (larger tables, e.g. long takes, are not kept); :func:`clear_tables_cache` empties it.  Tables are
+    immutable (frozen; their arrays are not written after construction), so sharing them is safe.  Callers
+    that manage their own caching (the session) call :func:`prepare_warp` directly."""
+    progress = options.pop("progress", None)
+    key = content_key(m, "self" if reference is m else reference, skip, upsample, tuple(sorted(options.items())))
+    with _TABLES_LOCK:
+        t = _TABLES.get(key)
+        if t is not None:
+            _TABLES.move_to_end(key)
+    if t is not None:
+        if progress is not None:
+            progress(1.0)
+        return t
+    t = prepare_warp(m, reference, skip, upsample, progress=progress, **options)
+    size = _table_bytes(t)
+    if size <= TABLES_CACHE_BYTES:
+        with _TABLES_LOCK:
+            _TABLES[key] = t
+            while len(_TABLES) > TABLES_CACHE or sum(map(_table_bytes, _TABLES.values())) > TABLES_CACHE_BYTES:
+                _TABLES.popitem(last=False)
+    return t
+
+
+def clear_tables_cache() -> None:
+    """Empty the module cache of :func:`cached_prepare_warp`."""
+    with _TABLES_LOCK:
+        _TABLES.clear()
 
 
 def slice_tables(tables: WarpTables, skip: int) -> WarpTables:
@@ -399,10 +451,18 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
 
 
 def _same_content(a: Motion, b: Motion) -> bool:
-    return a is b or (a.num_frames == b.num_frames and a.num_joints == b.num_joints
-                      and abs(a.frame_time - b.frame_time) <= 1e-12 * a.frame_time
-                      and np.array_equal(a.local_quats, b.local_quats)
-                      and np.array_equal(a.root_positions, b.root_positions))
+    """Same frames, rig and frame time (so the same pose features)."""
+    if a is b:
+        return True
+    lt_a, lt_b = a.local_translations, b.local_translations
+    return (a.num_frames == b.num_frames and a.num_joints == b.num_joints
+            and abs(a.frame_time - b.frame_time) <= 1e-12 * a.frame_time
+            and (a.skeleton is b.skeleton or (np.array_equal(a.skeleton.parents, b.skeleton.parents)
+                                              and np.array_equal(a.skeleton.offsets, b.skeleton.offsets)))
+            and np.array_equal(a.local_quats, b.local_quats)
+            and np.array_equal(a.root_positions, b.root_positions)
+            and ((lt_a is None and lt_b is None) or (lt_a is not None and lt_b is not None
+                                                     and np.array_equal(lt_a, lt_b))))
 
 
 def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int = 8, keytimes=None, *,
@@ -451,7 +511,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         95th percentile 0.090 / max 0.166 on CMU 01_01, 0.108 / 0.147 on CMU 131_01 (paper objective with a
         0.1 s box: 0.69 / 1.20 and 0.42 / 1.20); the goal is <= 0.12 / <= 0.25.
     adaptive : adaptive smoothing of the resampled motion under compression (§3.4)
-    tables : precomputed :func:`prepare_warp` result to reuse; then ``reference``, ``skip``, ``upsample``,
+    tables : precomputed :func:`prepare_warp` result to reuse (without it, the tables of the last few calls are
+        reused when the input, reference and objective options are the same: :func:`cached_prepare_warp`); then ``reference``, ``skip``, ``upsample``,
         ``reverse`` and the objective options are the ones the tables were prepared with (the editor's cheap
         tail: cache one table per upsampling factor, :func:`required_upsample` says which one a length needs)
     progress : callable(fraction in [0, 1]) or None
@@ -495,9 +556,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
             raise ValueError(f"num_frames={num_frames} is more than the {m.num_frames} input frames and "
                              f"upsample={u} gives only {(m.num_frames - 1) * u + 1}: expansion needs upsampling")
         head = None if progress is None else (lambda f: progress(0.9 * f))
-        tables = prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
-                              joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit, knn=knn,
-                              candidates=candidates, progress=head)
+        tables = cached_prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
+                                     joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit,
+                                     knn=knn, candidates=candidates, progress=head)
     elif tables.motion is not m and (tables.motion.num_frames != m.num_frames
                                      or tables.motion.num_joints != m.num_joints):
         raise ValueError("tables were prepared for a different input motion")
