@@ -79,11 +79,11 @@ def test_faster_reference_moves_the_speed_distribution(shared_motion):
 
 
 @pytest.mark.shared
-@pytest.mark.xfail(strict=True, reason="known limitation, open: free length picks the least MEAN score per output "
-                   "frame (so a self / resampled reference gives the right length, and V8 slows down), which lingers "
-                   "on well-matched frames when the reference is another performer's motion: the neutral walk "
-                   "guided by the angry run comes out slower (median 6 vs 10 cm/s) instead of nearer the run's 20")
 def test_free_length_takes_the_reference_speed_from_another_performer(shared_motion):
+    """Free length integrates the local score over input time (:func:`stagger_nb.timewarp.input_time_dp`).
+    Measured: angry-guided 47 frames, median 18.1 cm/s (reference 19.8, input 10.2), W1 4.5 against 11.4 for
+    the input and the self-guided output. (The least mean score per output frame, the previous objective,
+    lingered: 87 frames, median 6.1, W1 12.0; kept as ``free_objective="mean"`` and checked below.)"""
     walk, angry, line = _xia_walk_and_run(shared_motion)
     speeds, p90, lines = _speeds, _p90, [line]
     s_in, s_ref = speeds(walk), speeds(angry)
@@ -98,4 +98,6 @@ def test_free_length_takes_the_reference_speed_from_another_performer(shared_mot
                  f"input {w1['in']:.1f}, self-guided {w1['self']:.1f}, angry-guided {w1['angry']:.1f} cm/s")
     assert w1["angry"] < 0.5 * w1["self"] and w1["angry"] < 0.5 * w1["in"]
     assert abs(np.median(g) / np.median(s_ref) - 1.0) < 0.25
+    lingering = speeds(timewarp.guided_warp(walk, angry, None, upsample=4, free_objective="mean")[0])
+    assert np.median(lingering) < np.median(s_in)      # the measure tells the two objectives apart
     print("\n".join(lines))
