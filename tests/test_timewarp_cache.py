@@ -37,6 +37,8 @@ def test_cache_is_keyed_by_content_not_identity(walk):
     assert timewarp.cached_prepare_warp(walk, changed, 8) is not a    # another reference
     assert timewarp.cached_prepare_warp(walk, walk, 6) is not a       # another skip
     assert timewarp.cached_prepare_warp(walk, walk, 8, k=1) is not a  # another objective option
+    with pytest.raises(ValueError, match="read-only"):
+        a.scores[0, 0, 0] = 0.0                                        # shared tables cannot be corrupted
     timewarp.clear_tables_cache()
     assert timewarp.cached_prepare_warp(walk, walk, 8) is not a
 

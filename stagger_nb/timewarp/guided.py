@@ -266,7 +266,7 @@ def cached_prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: i
     option (:func:`..core.digest.content_key`, ~1 ms per MB, never ``id()``); holds at most
     :data:`TABLES_CACHE` tables of at most :data:`TABLES_CACHE_BYTES` together, least recently used out first
     (larger tables, e.g. long takes, are not kept); :func:`clear_tables_cache` empties it.  Tables are
-    immutable (frozen; their arrays are not written after construction), so sharing them is safe.  Callers
+    frozen and the cached ones' arrays read-only, so sharing them is safe.  Callers
     that manage their own caching (the session) call :func:`prepare_warp` directly."""
     progress = options.pop("progress", None)
     key = content_key(m, "self" if reference is m else reference, skip, upsample, tuple(sorted(options.items())))
@@ -281,6 +281,8 @@ def cached_prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: i
     t = prepare_warp(m, reference, skip, upsample, progress=progress, **options)
     size = _table_bytes(t)
     if size <= TABLES_CACHE_BYTES:
+        for a in (t.X, t.R, t.scores):   # shared from now on: an accidental in-place write raises
+            a.setflags(write=False)
         with _TABLES_LOCK:
             _TABLES[key] = t
             while len(_TABLES) > TABLES_CACHE or sum(map(_table_bytes, _TABLES.values())) > TABLES_CACHE_BYTES:
