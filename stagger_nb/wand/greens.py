@@ -237,7 +237,12 @@ def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.nd
     i1 = np.clip(np.searchsorted(frames, t, side="right"), 1, frames.size - 1)
     i0 = i1 - 1
     w = ((t - frames[i0]) / (frames[i1] - frames[i0])).reshape((F,) + (1,) * (values.ndim - 1))
-    return np.ascontiguousarray(values[i0] * (1.0 - w) + values[i1] * w)
+    lo = values[i0]                           # v0 (1 - w) + v1 w in place: two (F, ...) arrays, not five;
+    lo *= 1.0 - w                             # exact at both ends of every interval
+    out = values[i1]
+    out *= w
+    out += lo
+    return out
 
 
 def _eigh_smallest(L: np.ndarray, hi: int):
