@@ -265,8 +265,10 @@ def input_time_dp(scores: np.ndarray):
     sum over output frames (§3.3, V8) always prefers fewer frames (a self-referenced clip comes out at 0.70x
     its length on CMU 01_01); the mean per output frame (:func:`mean_cost_dp`) is neutral for a self reference
     but rewards lingering (many slow frames) on poses that match the reference well, which, with another
-    performer's motion as reference, plays the clip slower instead of at the reference's speed.  A plain
-    shortest path (:func:`unconstrained_dp`) on the weighted scores ``f * (a + b) / 2``: ``O(n s^2)``.
+    performer's motion as reference, plays the clip slower instead of at the reference's speed.  The price:
+    input poses the reference lacks are timed by whatever speed matches best, and with a slow-motion
+    reference that is slow (V8's ground frames, see :func:`.guided.guided_warp`).  A plain shortest path
+    (:func:`unconstrained_dp`) on the weighted scores ``f * (a + b) / 2``: ``O(n s^2)``.
 
     Returns ``(frames (m,) int64, weighted cost)``.
     """

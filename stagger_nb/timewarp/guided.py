@@ -384,19 +384,19 @@ def _check_speed_penalty(speed_penalty) -> float:
 
 
 def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coarse: int | None = None,
-               band: float | None = None, speed_penalty: float = SPEED_PENALTY, free_objective: str = "input_time",
+               band: float | None = None, speed_penalty: float = SPEED_PENALTY, free_objective: str = "mean",
                progress=None) -> WarpSolution:
     """The optimal discrete warp for a target length and keytimes (§3.3), from precomputed tables.
 
     Parameters
     ----------
     tables : from :func:`prepare_warp`
-    num_frames : m, output frame count, or None for free length (no keytimes): the path whose local score
-        integrated over input time is least (``free_objective="input_time"``, :func:`.dp.input_time_dp`), or
-        of least mean score per output frame (``"mean"``, :func:`.dp.mean_cost_dp`). Both deviate from the
-        paper's plain sum (§3.3/V8), which always prefers fewer frames and plays a self-referenced clip at 0.70x
-        its length. Prepare its tables with ``k=FREE_K`` and ``upsample=FREE_UPSAMPLE`` (what
-        :func:`guided_warp` does by default)
+    num_frames : m, output frame count, or None for free length (no keytimes): the path of least mean score
+        per output frame (``free_objective="mean"``, default, :func:`.dp.mean_cost_dp`) or whose local score
+        integrated over input time is least (``"input_time"``, :func:`.dp.input_time_dp`). Both deviate from
+        the paper's plain sum (§3.3/V8), which always prefers fewer frames and plays a self-referenced clip at
+        0.70x its length; which one fits depends on the reference (see :func:`guided_warp`). Prepare its tables
+        with ``k=FREE_K`` and ``upsample=FREE_UPSAMPLE`` (what :func:`guided_warp` does by default)
     keytimes : list of (input_time_s, output_time_s) pairs or None
     coarse : subsampling factor of the coarse-to-fine heuristic (the paper uses 8), or None for the exact DP
         (None means 8 above ``AUTO_COARSE_FRAMES`` searched frames, where the exact DP would not fit).
@@ -481,7 +481,7 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                 coarse: int | None = None, band: float | None = None, speed_penalty: float = SPEED_PENALTY,
                 smoothing: float = SMOOTHING, adaptive: bool = True, knn: str = "auto",
                 candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None,
-                free_objective: str = "input_time", progress=None):
+                free_objective: str = "mean", progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
 
     What an editor can ask for (issue 11 item 5):
@@ -492,12 +492,16 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
       With ``m`` itself as reference it is the identity (the only complete subsequence, §3.1), unless an
       explicit ``upsample > 1`` is given;
     * **free length**: ``num_frames=None`` (§3.3, V8) and the output is as long as the reference's timing
-      makes it: the least local score integrated over input time (:func:`.dp.input_time_dp`; each stretch of
-      the input plays at the speed whose velocities and accelerations best match the reference's at that pose),
-      upsampled by :data:`FREE_UPSAMPLE` so it can be slower than ``m``; no keytimes. Measured (§4.2 pair at
-      30 Hz, ``tests/test_timewarp_eval.py``): the xia neutral walk guided by the angry run comes out at median
-      speed 18.1 cm/s (the run's 19.8, the walk's 10.2), where the least *mean* score per output frame
-      (``free_objective="mean"``) lingered at 6.1;
+      makes it, upsampled by :data:`FREE_UPSAMPLE` so it can be slower than ``m``; no keytimes. Two objectives,
+      neither right for every reference (measured at 30 Hz):
+      ``free_objective="mean"`` (default), the least mean score per output frame (:func:`.dp.mean_cost_dp`),
+      reproduces V8 (CMU 01_01 guided by one hop with its flight in 0.4x slow motion: flights 0.32x, the rest
+      1.00x) but lingers when the reference is another performer's motion (the xia neutral walk guided by the
+      angry run: median 6.1 cm/s, slower than the walk's 10.2, not nearer the run's 19.8);
+      ``"input_time"``, the local score integrated over input time (:func:`.dp.input_time_dp`, each stretch of
+      input played at the speed whose velocities best match the reference at that pose), gives that pair
+      18.1 cm/s but slows V8's unmatched ground frames too (flights 0.53x, the rest 0.37x): use it when the
+      reference covers the input's activity;
     * **backward**: ``backward=True`` (alias ``reverse=True``) plays ``m`` backwards, timed like the
       reference; keytimes stay on the original input clock;
     * **keytimes**: ``[(input_time_s, output_time_s), ...]``, end points implied.
@@ -514,9 +518,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     reverse, backward : backward warp (play the input backwards); ``backward`` overrides ``reverse`` if given
     k : kNN count of eq. (2); default 3 (the paper), :data:`FREE_K` = 1 for free length (measured on CMU 01_01
         at 30 Hz, FREE_UPSAMPLE = 4, free length / n for a self / 1.5x slower / 1.5x faster reference: k=1
-        1.000 / 1.40 / 0.669 (``free_objective="mean"``: 1.000 / 1.69 / 0.669; with k=3 1.39 / 1.87 / 1.11:
-        averaging three neighbours favours slow paths whose poses fall between reference frames)
-    free_objective : "input_time" (default) or "mean", the free-length objective (see :func:`solve_warp`)
+        1.000 / 1.69 / 0.669 (``free_objective="input_time"``: 1.000 / 1.40 / 0.669); with k=3 1.39 / 1.87 /
+        1.11: averaging three neighbours favours slow paths whose poses fall between reference frames)
+    free_objective : "mean" (default) or "input_time", the free-length objective (see above)
     weights, joint_weights, prefilter, time_unit, knn, candidates : objective options, see
         :func:`prepare_warp` (long takes: ``knn="auto"`` switches to the approximate kNN beyond ~3,000 x 3,000
         frames and the search to the coarse-to-fine heuristic beyond 6,000; 20,000 frames take ~20-30 s)
