@@ -154,7 +154,8 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     ----------
     tn : (N,) normalised sample times in [0, 1]
     targets : (N, 4) (x, y, z, w) sampled rotations, sign-continuous within each pair
-    pair : (N,) pair index of each sample, samples of a pair contiguous, every pair non-empty
+    pair : (N,) pair index of each sample, samples of a pair contiguous and in order of pairs; a pair
+        without samples gets the chord (the linear rotation spline)
     v0, v3 : (P, 4) end knots of each pair
     iterations : Levenberg–Marquardt steps after the closed-form start (0: the start only)
 
@@ -181,32 +182,57 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     # extension (a knee over half a running stride) has such a leg. So the start is the best, by the true
     # cost, of the Euclidean polygon shrunk toward its chord by the factors ``_SHRINK`` whose legs all stay
     # within a half turn; factor 0 is the chord, i.e. the paper's linear rotation spline.
+    # The shrink factors are tried in turn and a pair stops at the first factor that does not lower its
+    # cost once it has a legal polygon (the cost along the factor is unimodal in practice: the unshrunk
+    # polygon is the least-squares one); only the pairs still improving are evaluated again, so the start
+    # costs about two spline evaluations instead of len(_SHRINK).
     x = quat_log(quat_mul(quat_conj(v0[pair]), targets))
     b3 = quat_log(quat_mul(quat_conj(v0), v3))
     inner = _fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
+    del x
     chord = np.stack([b3 / 3.0, 2.0 * b3 / 3.0], axis=1)
     e3 = quat_exp(b3)
     cost = np.full(P, np.inf)
     c1 = c2 = r = None
+    active = np.ones(P, dtype=bool)
     for alpha in _SHRINK:
-        e = quat_exp(chord + alpha * (inner - chord))                     # (P, 2, 4) controls relative to v0
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        whole = idx.size == P
+        e = quat_exp(chord[idx] + alpha * (inner[idx] - chord[idx]))      # (n, 2, 4) controls relative to v0
         legal = ((e[:, 0, 3] > 0) & (np.sum(e[:, 0] * e[:, 1], axis=1) > 0)
-                 & (np.sum(e[:, 1] * e3, axis=1) > 0)) | (alpha == 0.0)
-        a1 = quat_mul(v0, e[:, 0]).T
-        a2 = quat_mul(v0, e[:, 1]).T
-        ra = residual(a1, a2)
-        ca = np.where(legal, pair_cost(ra), np.inf)
-        use = ca < cost
+                 & (np.sum(e[:, 1] * e3[idx], axis=1) > 0)) | (alpha == 0.0)
+        a1 = quat_mul(v0[idx], e[:, 0]).T
+        a2 = quat_mul(v0[idx], e[:, 1]).T
+        if whole:
+            ra = residual(a1, a2)
+            ca = np.where(legal, pair_cost(ra), np.inf)
+        else:                                   # the samples of the active pairs, pairs renumbered 0..n-1
+            smask = active[pair]
+            sp = (np.cumsum(active) - 1)[pair[smask]]
+            ra = K.spline_residual_into(np.ascontiguousarray(T4[:, smask]), np.ascontiguousarray(V0[:, idx]),
+                                        a1, a2, np.ascontiguousarray(V3[:, idx]), sp, tn[smask],
+                                        np.empty((3, sp.size)))
+            ca = np.where(legal, np.bincount(sp, ra[0] * ra[0] + ra[1] * ra[1] + ra[2] * ra[2], idx.size), np.inf)
+        use = ca < cost[idx]
         if c1 is None:
             c1, c2, r = a1, a2, ra
         else:
-            c1 = np.where(use, a1, c1)
-            c2 = np.where(use, a2, c2)
-            r = np.where(use[pair], ra, r)
-        cost = np.where(use, ca, cost)
+            c1[:, idx[use]] = a1[:, use]
+            c2[:, idx[use]] = a2[:, use]
+            if whole:
+                r = np.where(use[pair], ra, r)
+            else:
+                r[:, np.flatnonzero(smask)[use[sp]]] = ra[:, use[sp]]
+        cost[idx[use]] = ca[use]
+        active[idx] = use | ~np.isfinite(cost[idx])      # improving, or no legal polygon yet
 
     lam = np.full(P, 1e-6)
     starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1])
+    present = pair[starts] if pair.size else np.zeros(0, np.int64)   # pairs with samples (others: zero step)
+    if pair.size == 0:
+        iterations = 0
     eye = np.eye(6)
     for _ in range(iterations):
         Jac = np.empty((6,) + r.shape)
@@ -216,8 +242,10 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
             step = K.qexp(np.ascontiguousarray(np.broadcast_to(e, (3, P))))
             rp = residual(K.qmul(c1, step), c2) if j < 3 else residual(c1, K.qmul(c2, step))
             Jac[j] = (rp - r) / _FD_STEP
-        JTJ = np.add.reduceat(np.einsum("ian,jan->nij", Jac, Jac), starts, axis=0)
-        JTr = np.add.reduceat(np.einsum("ian,an->ni", Jac, r), starts, axis=0)
+        JTJ = np.zeros((P, 6, 6))
+        JTr = np.zeros((P, 6))
+        JTJ[present] = np.add.reduceat(np.einsum("ian,jan->nij", Jac, Jac), starts, axis=0)
+        JTr[present] = np.add.reduceat(np.einsum("ian,an->ni", Jac, r), starts, axis=0)
         scale = np.trace(JTJ, axis1=1, axis2=2) / 6.0 + 1e-12
         A = JTJ + (lam * scale)[:, None, None] * eye
         delta = -np.linalg.solve(A, JTr[..., None])[..., 0]
@@ -413,7 +441,9 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     r = residual(omega)
     cost = joint_cost(r)
     lam = np.full(C, 1e-4)
-    starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1])
+    if pair.size == 0:
+        iterations = 0
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1]) if pair.size else np.zeros(0, np.int64)
     parity = np.arange(Kn) % 2
     # unknown index of (knot k, column c, component j): (c * Kn + k) * 3 + j  (banded per column)
     base_a = (col[starts] * Kn + seg[starts]) * 3          # per pair: its a-knot (k) and b-knot (k + 1)
@@ -562,6 +592,16 @@ def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
     return root_values, rtan, rtable, rcounts
 
 
+def _fit_mask(sub, first, last, targets, values, joint, J):
+    """The samples (N,) bool the splines are fitted to: ``sub`` (:func:`fit_subset`) without the samples
+    that cannot inform a fit. The end samples of a pair are its knot values, which every spline of that pair
+    meets (the Bernstein weights of the inner controls vanish there: no residual, no Jacobian); joints whose
+    samples all equal their first knot bit for bit (static joints) fit exactly with a zero velocity, their
+    start. Leaving them out keeps the fit (to rounding) and saves their share of every spline evaluation."""
+    moving = np.bincount(joint, np.any(targets != values[0][joint], axis=1), J) > 0
+    return sub & ~first & ~last & moving[joint]
+
+
 def _fit_stats(angles, inner, iterations, continuity):
     """``metadata["fit"]`` of :func:`fit_staggered` from the residual angles (rad) of every sample."""
     return {"mean_residual_rad": float(angles[inner].mean()) if inner.any() else 0.0,
@@ -666,8 +706,8 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         raise ValueError(f"fit_staggered: fit_samples must be an integer >= 4 or None, got {fit_samples!r}")
     report = progress if progress is not None else (lambda f: None)
     report(0.1)
-    sub = fit_subset(m, counts, pair, fit_samples)
-    tn_f, targets_f, pair_f = (tn, targets, pair) if sub.all() else (tn[sub], targets[sub], pair[sub])
+    sub = _fit_mask(fit_subset(m, counts, pair, fit_samples), first, last, targets, values, joint, J)
+    tn_f, targets_f, pair_f = tn[sub], targets[sub], pair[sub]
     if continuity == "C1":
         start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
         report(0.3)
@@ -795,7 +835,7 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
         return None                                    # a knot value on the other sign of its samples
     targets = np.where(real[seg][:, None], cont, targets)
     report(0.2)
-    sub = fit_subset(m, cnt, pair, fit_samples)
+    sub = _fit_mask(fit_subset(m, cnt, pair, fit_samples), first, last, targets, vs, pair % J, J)
     tn_f, targets_f, pair_f = tn[sub], targets[sub], pair[sub]
     if continuity == "C1":
         start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
