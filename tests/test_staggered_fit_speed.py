@@ -75,3 +75,24 @@ def test_fit_without_end_samples_and_static_joints_equals_the_full_fit(monkeypat
     assert new.metadata["fit"]["mean_residual_rad"] == pytest.approx(old.metadata["fit"]["mean_residual_rad"],
                                                                       rel=1e-6)
     assert quat_angle(st.evaluate(new).local_quats, m.local_quats).max() < 1e-9
+
+
+@pytest.mark.parametrize("name", ["walk", "run"])
+def test_local_evidence_equals_the_trail_by_trail_version(name):
+    """local_evidence works on limb-major component arrays; the reference rotates each axis with
+    quat_rotate (public motion_trails) and takes curvature and arc length trail by trail."""
+    from stagger_nb.staggered.features import laplacian_smooth, local_evidence, motion_trails
+    from stagger_nb.staggered.features import motion_trail_curvature as kappa
+    m = sn.data.load(name)
+    (joint, _, _, _, length), m1, m2 = motion_trails(m)
+    p = np.zeros((m.num_frames, m.num_joints + 1))
+    w = np.zeros(m.num_joints + 1)
+    for i, j in enumerate(joint):
+        p[:, j] = np.maximum(p[:, j], np.maximum(kappa(m1[:, i]), kappa(m2[:, i])))
+        w[j] += length[i] * np.linalg.norm(np.diff(m1[:, i], axis=0), axis=1).sum()
+    p[:, -1] = kappa(m.root_positions)
+    w[-1] = np.linalg.norm(np.diff(m.root_positions, axis=0), axis=1).sum()
+    got_p, got_w = local_evidence(m, smoothing_iterations=3)
+    # rounding only (two rotation formulas, summation order)
+    np.testing.assert_allclose(got_p, laplacian_smooth(p, 3), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got_w, w, rtol=1e-12)
