@@ -394,9 +394,6 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     -------
     omega : (K, C, 3); tangents : (P, 2, 4); cost : (P,) sum of squared residual angles per pair
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.linalg import spsolve
-
     Kn, C = knots.shape
     P = (Kn - 1) * C
     d = np.diff(knots, axis=0)
@@ -445,43 +442,26 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
         iterations = 0
     starts = np.concatenate([[0], np.flatnonzero(np.diff(pair)) + 1]) if pair.size else np.zeros(0, np.int64)
     parity = np.arange(Kn) % 2
-    # unknown index of (knot k, column c, component j): (c * Kn + k) * 3 + j  (banded per column)
-    base_a = (col[starts] * Kn + seg[starts]) * 3          # per pair: its a-knot (k) and b-knot (k + 1)
-    base_b = base_a + 3
-    n_unk = C * Kn * 3
-    ii, jj = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+    pc, pk = col[starts], seg[starts]                      # per pair with samples: column, a-knot (k)
+    a_even = (seg % 2 == 0)                                 # samples whose a-knot has colour 0
     for _ in range(iterations):
-        Jc = np.empty((2, 3) + r.shape)                    # colour, component, residual row, sample
+        Ja = np.empty((3,) + r.shape)                      # component, residual row, sample: d r / d ω_a
+        Jb = np.empty((3,) + r.shape)                      # ... d r / d ω_b
         for c in (0, 1):
             for j in range(3):
                 om = np.array(omega)
                 om[parity == c, :, j] += _FD_STEP
-                Jc[c, j] = (residual(om) - r) / _FD_STEP
-        ka = seg % 2                                       # colour of each sample's a-knot
-        Ja = np.where(ka == 0, Jc[0], Jc[1])               # (3 comp, 3 rows, N): d r / d ω_a
-        Jb = np.where(ka == 0, Jc[1], Jc[0])
+                dr = residual(om)
+                dr -= r
+                dr /= _FD_STEP
+                np.copyto(Ja[j], dr, where=a_even if c == 0 else ~a_even)
+                np.copyto(Jb[j], dr, where=~a_even if c == 0 else a_even)
+                del dr
         if fix.any():                                      # fixed knots: no Jacobian, so a zero step
-            Ja = Ja * ~fix[seg]
-            Jb = Jb * ~fix[seg + 1]
-        Saa = np.add.reduceat(np.einsum("ian,jan->nij", Ja, Ja), starts, axis=0)
-        Sbb = np.add.reduceat(np.einsum("ian,jan->nij", Jb, Jb), starts, axis=0)
-        Sab = np.add.reduceat(np.einsum("ian,jan->nij", Ja, Jb), starts, axis=0)
-        ga = np.add.reduceat(np.einsum("ian,an->ni", Ja, r), starts, axis=0)
-        gb = np.add.reduceat(np.einsum("ian,an->ni", Jb, r), starts, axis=0)
-        rows = np.concatenate([(base_a[:, None, None] + ii).ravel(), (base_b[:, None, None] + ii).ravel(),
-                               (base_a[:, None, None] + ii).ravel(), (base_b[:, None, None] + ii).ravel()])
-        cols = np.concatenate([(base_a[:, None, None] + jj).ravel(), (base_b[:, None, None] + jj).ravel(),
-                               (base_b[:, None, None] + jj).ravel(), (base_a[:, None, None] + jj).ravel()])
-        vals = np.concatenate([Saa.ravel(), Sbb.ravel(), Sab.ravel(), Sab.transpose(0, 2, 1).ravel()])
-        A = coo_matrix((vals, (rows, cols)), shape=(n_unk, n_unk)).tocsr()
-        g_idx = np.concatenate([(base_a[:, None] + np.arange(3)).ravel(), (base_b[:, None] + np.arange(3)).ravel()])
-        g = np.bincount(g_idx,
-                        np.concatenate([ga.ravel(), gb.ravel()]), n_unk)
-        diag = A.diagonal()
-        lam_u = np.repeat(lam, Kn * 3)
-        A = A + coo_matrix((lam_u * np.maximum(diag, 1e-12) + 1e-12, (np.arange(n_unk), np.arange(n_unk))),
-                           shape=(n_unk, n_unk)).tocsr()
-        delta = -spsolve(A.tocsc(), g)
+            Ja *= ~fix[seg]
+            Jb *= ~fix[seg + 1]
+        delta = _solve_c1_step(Ja, Jb, r, starts, pc, pk, C, Kn, lam)
+        del Ja, Jb
         new = omega + delta.reshape(C, Kn, 3).transpose(1, 0, 2)
         rn = residual(new)
         cn = joint_cost(rn)
@@ -494,6 +474,53 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     a, b = _tangents_from_velocities(values, omega, d)
     pair_cost = np.bincount(pair, r[0] * r[0] + r[1] * r[1] + r[2] * r[2], P)
     return omega, np.stack([quat_normalize(a.T), quat_normalize(b.T)], axis=1), pair_cost
+
+
+def _solve_c1_step(Ja, Jb, r, starts, pc, pk, C, Kn, lam):
+    """The damped Gauss-Newton step of :func:`fit_rotation_tangents_c1`, (C * Kn * 3,) ordered
+    ``(c * Kn + k) * 3 + j`` (column c, knot k, component j).
+
+    ``Ja, Jb (3, 3, N)``: derivatives of the residuals ``r (3, N)`` by the velocities of each sample's first
+    and second knot; samples of a pair contiguous from ``starts``, the pair's column ``pc`` and first knot
+    ``pk``; ``lam (C,)`` Levenberg-Marquardt damping per column (relative to the diagonal). A segment
+    couples only its two knots, so the normal equations of a column are block-tridiagonal (3 x 3 blocks)
+    and the whole system is a symmetric band of half-width 5: a banded Cholesky (LAPACK pbsv) solves it in
+    O(C Kn).
+    """
+    from scipy.linalg import LinAlgError, solve_banded, solveh_banded
+
+    def block(x, y):
+        return np.add.reduceat(np.einsum("ian,jan->nij", x, y), starts, axis=0)
+
+    D = np.zeros((C, Kn, 3, 3))                            # diagonal blocks per (column, knot)
+    E = np.zeros((C, Kn - 1, 3, 3))                        # blocks (knot k, knot k + 1)
+    G = np.zeros((C, Kn, 3))
+    D[pc, pk] += block(Ja, Ja)                             # (pc, pk) unique per pair
+    D[pc, pk + 1] += block(Jb, Jb)
+    E[pc, pk] = block(Ja, Jb)
+    G[pc, pk] += np.add.reduceat(np.einsum("ian,an->ni", Ja, r), starts, axis=0)
+    G[pc, pk + 1] += np.add.reduceat(np.einsum("ian,an->ni", Jb, r), starts, axis=0)
+    n = C * Kn * 3
+    ab = np.zeros((6, n))                                  # upper band: ab[5 + i - j, j] = A[i, j]
+    Df = D.reshape(C * Kn, 3, 3)
+    for i in range(3):
+        for j in range(i, 3):
+            ab[5 + i - j, j::3] = Df[:, i, j]
+    col0 = ((np.arange(C)[:, None] * Kn + np.arange(1, Kn)) * 3).ravel()   # first unknown of knot k + 1
+    for i in range(3):
+        for j in range(3):
+            ab[2 + i - j, col0 + j] = E[:, :, i, j].ravel()
+    diag = ab[5].copy()
+    ab[5] += np.repeat(lam, Kn * 3) * np.maximum(diag, 1e-12) + 1e-12
+    g = G.reshape(n)
+    try:
+        return -solveh_banded(ab, g, check_finite=False)
+    except LinAlgError:                                    # not positive definite in rounding: LU instead
+        full = np.zeros((11, n))
+        full[:6] = ab
+        for k in range(1, 6):                              # lower band = mirrored upper band
+            full[5 + k, :n - k] = ab[5 - k, k:]
+        return -solve_banded((5, 5), full, g, check_finite=False)
 
 
 def velocities_from_tangents(values, tangents, knots):
