@@ -35,6 +35,7 @@ _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 i
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
 _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
 _LOCAL_MAX_SHARE = 0.6   # refit_merged declines when the segments it would refit span more of the clip
+_FD_BATCH = 1 << 18   # fits with at most this many samples x 6 take their finite differences in one kernel call
 _SHRINK = (1.0, 0.85, 0.7, 0.55, 0.4, 0.2, 0.0)   # start polygons tried: Euclidean fit shrunk toward its chord
 
 
@@ -444,14 +445,37 @@ def fit_rotation_tangents_c1(tn, targets, pair, values, knots, omega, iterations
     parity = np.arange(Kn) % 2
     pc, pk = col[starts], seg[starts]                      # per pair with samples: column, a-knot (k)
     a_even = (seg % 2 == 0)                                 # samples whose a-knot has colour 0
-    for _ in range(iterations):
-        Ja = np.empty((3,) + r.shape)                      # component, residual row, sample: d r / d ω_a
-        Jb = np.empty((3,) + r.shape)                      # ... d r / d ω_b
+    N = tn.size
+    if 6 * N <= _FD_BATCH:
+        # small fits (cull refits): the six perturbed fits as one set of 6 C columns, one kernel call
+        T6, tn6 = np.tile(T4, 6), np.tile(tn, 6)
+        pair6 = (seg * 6 * C + (np.arange(6) * C)[:, None] + col).ravel()
+        values6, d6 = np.tile(values, (1, 6, 1)), np.tile(d, (1, 6))
+        V06 = np.ascontiguousarray(values6[:-1].reshape(-1, 4).T)
+        V36 = np.ascontiguousarray(values6[1:].reshape(-1, 4).T)
+
+    def perturbed_residuals():                             # (colour, component) -> d r / d ω (3, N)
+        oms = []
         for c in (0, 1):
             for j in range(3):
                 om = np.array(omega)
                 om[parity == c, :, j] += _FD_STEP
-                dr = residual(om)
+                oms.append(om)
+        if 6 * N > _FD_BATCH:
+            for om in oms:
+                yield residual(om)
+            return
+        a, b = _tangents_from_velocities(values6, np.concatenate(oms, axis=1), d6)
+        out = K.spline_residual_into(T6, V06, a, b, V36, pair6, tn6, np.empty((3, 6 * N)))
+        yield from (out[:, i * N:(i + 1) * N] for i in range(6))
+
+    for _ in range(iterations):
+        Ja = np.empty((3,) + r.shape)                      # component, residual row, sample: d r / d ω_a
+        Jb = np.empty((3,) + r.shape)                      # ... d r / d ω_b
+        fd = perturbed_residuals()
+        for c in (0, 1):
+            for j in range(3):
+                dr = next(fd)
                 dr -= r
                 dr /= _FD_STEP
                 np.copyto(Ja[j], dr, where=a_even if c == 0 else ~a_even)
