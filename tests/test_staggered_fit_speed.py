@@ -1,8 +1,11 @@
 """The fit's speed-ups give the fit of the straightforward code they replaced (issue 13, long takes).
 
-- The start of :func:`fit_rotation_tangents` stops shrinking a pair's polygon once the cost stops falling:
-  compared with trying every factor of ``_SHRINK`` on every pair (brute force with the public
-  :func:`rotation_residuals`).
+- The start of :func:`fit_rotation_tangents` stops shrinking a pair's polygon once the cost stops falling
+  (long fits), or tries every factor in one batched call (small fits): both compared with trying every
+  factor of ``_SHRINK`` on every pair (brute force with the public :func:`rotation_residuals`).
+- Small C1 fits take their six finite differences in one call: compared with one call each.
+- The refit of a StaggeredMotion makes its samples sign-continuous per joint without sorting: compared with
+  the sorted version.
 - :func:`fit_staggered` leaves the pairs' end samples (the knot values) and static joints out of the spline
   fit: compared with the fit to every selected sample. Tolerance 1e-6 rad: the two differ only through the
   finite-difference Jacobian's rounding (end samples add Jacobian entries of ~1e-10), which two
@@ -52,8 +55,10 @@ def _brute_start(tn, q, pair, v0, v3, P):
     return best
 
 
-def test_start_stops_shrinking_where_the_brute_force_would(samples):
+@pytest.mark.parametrize("batch", [0, fitting._FD_BATCH])    # 0: the lazy loop of long takes
+def test_start_stops_shrinking_where_the_brute_force_would(samples, monkeypatch, batch):
     tn, q, pair, v0, v3, P = samples
+    monkeypatch.setattr(fitting, "_FD_BATCH", batch)
     _, cost = fit_rotation_tangents(tn, q, pair, v0, v3, P, iterations=0)
     want = _brute_start(tn, q, pair, v0, v3, P)
     # rounding only: the kernel's polynomial sine vs libm in rotation_residuals
@@ -96,3 +101,18 @@ def test_local_evidence_equals_the_trail_by_trail_version(name):
     # rounding only (two rotation formulas, summation order)
     np.testing.assert_allclose(got_p, laplacian_smooth(p, 3), rtol=0, atol=1e-12)
     np.testing.assert_allclose(got_w, w, rtol=1e-12)
+
+
+@pytest.mark.parametrize("continuity", ["C1", "C0"])
+def test_batched_finite_differences_and_unsorted_continuity_equal_the_plain_versions(monkeypatch, continuity):
+    m = sn.data.load("walk")
+    sm = st.extract(m, continuity=continuity)
+    new = st.cull(sm, 40, continuity=continuity, local=False)
+    with monkeypatch.context() as mp:
+        mp.setattr(fitting, "_FD_BATCH", 0)                        # one kernel call per perturbation
+        mp.setattr(fitting, "_segment_major", lambda *a: False)   # the sorted continuity pass
+        old = st.cull(sm, 40, continuity=continuity, local=False)
+    # the batched call evaluates the same per-sample formulas: bit for bit up to the polynomial sine's
+    # degree, which adapts to the largest arc of a call (1e-12 covers it)
+    assert quat_angle(new.tangents, old.tangents).max() < 1e-12
+    np.testing.assert_allclose(new.displacements, old.displacements, rtol=0, atol=1e-12)

@@ -183,10 +183,10 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     # extension (a knee over half a running stride) has such a leg. So the start is the best, by the true
     # cost, of the Euclidean polygon shrunk toward its chord by the factors ``_SHRINK`` whose legs all stay
     # within a half turn; factor 0 is the chord, i.e. the paper's linear rotation spline.
-    # The shrink factors are tried in turn and a pair stops at the first factor that does not lower its
-    # cost once it has a legal polygon (the cost along the factor is unimodal in practice: the unshrunk
-    # polygon is the least-squares one); only the pairs still improving are evaluated again, so the start
-    # costs about two spline evaluations instead of len(_SHRINK).
+    # Small fits (culls) try every factor on every pair in one kernel call. Long ones try the factors in
+    # turn and a pair stops at the first factor that does not lower its cost once it has a legal polygon
+    # (the cost along the factor is unimodal in practice: the unshrunk polygon is the least-squares one);
+    # only the pairs still improving are evaluated again: about two spline evaluations, not len(_SHRINK).
     x = quat_log(quat_mul(quat_conj(v0[pair]), targets))
     b3 = quat_log(quat_mul(quat_conj(v0), v3))
     inner = _fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
@@ -196,6 +196,9 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
     cost = np.full(P, np.inf)
     c1 = c2 = r = None
     active = np.ones(P, dtype=bool)
+    if len(_SHRINK) * tn.size <= _FD_BATCH:
+        c1, c2, r, cost = _start_every_factor(T4, V0, V3, tn, pair, chord, inner, e3, P)
+        active[:] = False
     for alpha in _SHRINK:
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -261,6 +264,28 @@ def fit_rotation_tangents(tn, targets, pair, v0, v3, num_pairs, iterations: int 
         r = np.where(ok[pair], rn, r)
         lam = np.where(ok, lam * 0.1, lam * 10.0)
     return np.stack([quat_normalize(c1.T), quat_normalize(c2.T)], axis=1), cost
+
+
+def _start_every_factor(T4, V0, V3, tn, pair, chord, inner, e3, P):
+    """The start of :func:`fit_rotation_tangents` with every shrink factor tried on every pair, as one
+    kernel call over ``len(_SHRINK)`` copies of the pairs; per pair the first factor of least cost among
+    the legal ones. Returns ``c1, c2 (4, P), r (3, N), cost (P,)``."""
+    S, N = len(_SHRINK), tn.size
+    al = np.asarray(_SHRINK)[:, None, None, None]
+    e = quat_exp(chord + al * (inner - chord))                             # (S, P, 2, 4) relative to v0
+    legal = (((e[..., 0, 3] > 0) & (np.sum(e[..., 0, :] * e[..., 1, :], axis=-1) > 0)
+              & (np.sum(e[..., 1, :] * e3, axis=-1) > 0)) | (al[:, :, 0, 0] == 0.0))
+    v0 = V0.T
+    a1, a2 = quat_mul(v0, e[..., 0, :]), quat_mul(v0, e[..., 1, :])      # (S, P, 4)
+    pS = (pair + P * np.arange(S)[:, None]).ravel()
+    R = K.spline_residual_into(np.tile(T4, S), np.tile(V0, S), np.ascontiguousarray(a1.reshape(S * P, 4).T),
+                               np.ascontiguousarray(a2.reshape(S * P, 4).T), np.tile(V3, S), pS, np.tile(tn, S),
+                               np.empty((3, S * N)))
+    costs = np.where(legal, np.bincount(pS, R[0] * R[0] + R[1] * R[1] + R[2] * R[2], S * P).reshape(S, P), np.inf)
+    best = np.argmin(costs, axis=0)                                         # first of the least (ties: earlier)
+    ar = np.arange(P)
+    r = R.reshape(3, S, N)[:, best[pair], np.arange(N)]
+    return a1[best, ar].T, a2[best, ar].T, r, costs[best, ar]
 
 
 def fit_rotation_tangents_nelder_mead(tn, targets, v0, v3, w_f: float = 1000.0, w_c: float = 1.0,
@@ -611,7 +636,9 @@ def _segment_major(seg, joint, m) -> bool:
 def _continuous_per_joint(q, joint, seg, m):
     """Flip signs of samples ``q (N, 4)`` so each joint's samples, taken in time order (segment, then
     sample index), have non-negative consecutive dot products."""
-    order = np.argsort(joint, kind="stable") if _segment_major(seg, joint, m) else np.lexsort((m, seg, joint))
+    if _segment_major(seg, joint, m):
+        return _continuous_segment_major(q, joint, seg)
+    order = np.lexsort((m, seg, joint))
     seq = q[order]
     js = joint[order]
     d = np.sum(seq[1:] * seq[:-1], axis=1)
@@ -621,6 +648,31 @@ def _continuous_per_joint(q, joint, seg, m):
     out = np.empty_like(q)
     out[order] = np.where(((neg - base) % 2 == 1)[:, None], -seq, seq)
     return out
+
+
+def _continuous_segment_major(q, joint, seg):
+    """:func:`_continuous_per_joint` for samples in (segment, joint, sample) order with every (segment,
+    joint) pair present (as :func:`sample_segments` lays them out), without sorting: a sample's flip is the
+    parity of the negative consecutive dot products before it in its joint's sequence, counted inside its
+    pair, plus those of the joint's earlier pairs and of the joins between them (per pair, a cumulative sum
+    down the segments)."""
+    N = q.shape[0]
+    new_pair = np.concatenate([[True], (np.diff(seg) != 0) | (np.diff(joint) != 0)])
+    starts = np.flatnonzero(new_pair)
+    ends = np.concatenate([starts[1:], [N]]) - 1
+    C = int(joint[starts].max()) + 1
+    Ks = starts.size // C
+    neg = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
+    neg[new_pair[1:]] = False                                   # joins between pairs are counted below
+    cnt = np.concatenate([[0], np.cumsum(neg)])                 # negatives before each sample
+    inside = (cnt[ends] - cnt[starts]).reshape(Ks, C)           # within each pair
+    join = np.zeros((Ks, C), dtype=np.int64)                   # pair (k - 1, c) -> (k, c)
+    join[1:] = (np.einsum("ij,ij->i", q[ends[:-C]], q[starts[C:]]) < 0).reshape(Ks - 1, C)
+    before = np.cumsum(join, axis=0)
+    before[1:] += np.cumsum(inside, axis=0)[:-1]
+    pair_of = np.cumsum(new_pair) - 1
+    flip = (before.reshape(-1)[pair_of] + cnt[:N] - cnt[starts][pair_of]) % 2 == 1
+    return np.where(flip[:, None], -q, q)
 
 
 def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
@@ -734,12 +786,17 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     pair, m, counts, tn, frames = sample_segments(knots, ft, start_time, oversample)
     P = counts.size
     joint = pair % J
-    targets = rot_at(frames, joint)
-    if from_sm:
+    N = pair.size
+    edit_frames, edit_joints = np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K)
+    if from_sm:                     # one evaluation for the samples and the editing knots
+        both = rot_at(np.concatenate([frames, edit_frames]), np.concatenate([joint, edit_joints]))
+        targets, editing = both[:N], both[N:].reshape(K, J, 4)
+        del both
         targets = _continuous_per_joint(targets, joint, pair // J, m)
-        ends = np.concatenate([np.flatnonzero(m == 0), [np.flatnonzero(pair == P - J + j)[-1] for j in range(J)]])
+        ends = np.concatenate([np.flatnonzero(m == 0), np.cumsum(counts)[P - J:] - 1])
         values = targets[ends].reshape(K, J, 4)
     else:
+        targets = rot_at(frames, joint)
         kf = (knots - start_time) / ft
         values = rot_at(kf.reshape(-1), np.tile(np.arange(J), K)).reshape(K, J, 4)
     v0 = values[:-1].reshape(P, 4)
@@ -781,7 +838,8 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     rk = (pose_times + rr)[:, None]
     root_values, rtan, rtable, rcounts = _fit_root(root_at, rk[:, 0], ft, start_time, oversample, continuity)
 
-    editing = rot_at(np.repeat((pose_times - start_time) / ft, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
+    if not from_sm:
+        editing = rot_at(edit_frames, edit_joints).reshape(K, J, 4)
     editing = np.where((refinements != 0)[..., None], editing, values)
 
     # passed through on absolute time (a source not starting at 0 s: the caller passes its own)
