@@ -116,3 +116,24 @@ def test_batched_finite_differences_and_unsorted_continuity_equal_the_plain_vers
     # degree, which adapts to the largest arc of a call (1e-12 covers it)
     assert quat_angle(new.tangents, old.tangents).max() < 1e-12
     np.testing.assert_allclose(new.displacements, old.displacements, rtol=0, atol=1e-12)
+
+
+def test_displacement_rotvecs_equals_the_core_rotations_version(rng):
+    """Component-first displacement_rotvecs against the (N, 4) formulas it replaced: s^-1 v with
+    quat_mul/quat_conj, the first sample of each pair on w >= 0, sign continuity, 2 quat_log."""
+    N = 3000
+    q = rng.normal(size=(N, 4))
+    s = rng.normal(size=(N, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    s /= np.linalg.norm(s, axis=1, keepdims=True)
+    s[:40] = q[:40]                                     # zero displacements: the Taylor branch
+    pair = np.sort(rng.integers(0, 200, N))
+    first = np.concatenate([[True], pair[1:] != pair[:-1]])
+    e = quat_mul(quat_conj(s), q)
+    e[first] = np.where(e[first, 3:] < 0, -e[first], e[first])
+    cont = e.copy()
+    for i in range(1, N):                               # sequential sign continuity inside each pair
+        if not first[i] and np.dot(cont[i], cont[i - 1]) < 0:
+            cont[i] = -cont[i]
+    want = 2.0 * quat_log(cont)
+    np.testing.assert_allclose(fitting.displacement_rotvecs(s, q, pair), want, rtol=0, atol=1e-14)  # rounding

@@ -35,6 +35,7 @@ _RIDGE = 1e-9       # pulls under-determined inner controls (segments with < 2 i
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
 _ON_FRAME = 1e-6    # fractional frames closer than this to an integer are read directly (no slerp)
 _LOCAL_MAX_SHARE = 0.6   # refit_merged declines when the segments it would refit span more of the clip
+_LOG_SMALL = 1e-12   # below this |v| the logarithm uses its Taylor branch (as core.rotations)
 _FD_BATCH = 1 << 18   # fits with at most this many samples x 6 take their finite differences in one kernel call
 _SHRINK = (1.0, 0.85, 0.7, 0.55, 0.4, 0.2, 0.0)   # start polygons tried: Euclidean fit shrunk toward its chord
 
@@ -609,11 +610,31 @@ def displacement_rotvecs(s, targets, pair):
     The quaternions ``s^-1 v`` are made sign-continuous along each pair's samples (starting on the
     ``w >= 0`` side), then mapped by the logarithm without hemisphere folding, so angles run continuously
     in [0, 2 pi): linear interpolation between neighbouring samples then never jumps across the pi
-    ambiguity (large residuals occur on long merged segments)."""
-    e = quat_mul(quat_conj(s), targets)
+    ambiguity (large residuals occur on long merged segments).
+
+    ``s, targets (N, 4)`` (transposed views of component-first ``(4, N)`` arrays are used without a
+    copy); ``pair (N,)``, samples of a pair contiguous. Works on ``(4, N)`` rows throughout."""
+    S = np.asarray(s, dtype=float).T
+    T = np.asarray(targets, dtype=float).T
+    N = S.shape[1]
+    sc = np.empty((4, N))
+    np.negative(S[:3], out=sc[:3])
+    sc[3] = S[3]
+    e = K.qmul_into(sc, T, np.empty((4, N)), np.empty(N))             # s^-1 v
+    del sc
     first = np.concatenate([[True], pair[1:] != pair[:-1]])
-    e[first] = quat_hemisphere(e[first])
-    return 2.0 * quat_log(_continuous_per_pair(e, first))
+    f = np.flatnonzero(first)
+    e[:, f] = np.where(e[3, f] < 0, -e[:, f], e[:, f])                  # each pair starts with w >= 0
+    d = K.dot_into(e[:, 1:], e[:, :-1], np.empty(N - 1), np.empty(N - 1)) if N > 1 else np.zeros(0)
+    neg = np.concatenate([[0], np.cumsum((d < 0) & ~first[1:])])
+    flip = (neg - np.repeat(neg[f], np.diff(np.append(f, N)))) % 2 == 1
+    e *= np.where(flip, -2.0, 2.0)                                      # sign-continuous, and x2: rotvec = 2 log
+    n = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])               # 2 |v|
+    half = np.arctan2(n, e[3])                                          # half angle in [0, pi]
+    big = n > 2.0 * _LOG_SMALL
+    # angle / |v| = 2 half / |v|; Taylor below _LOG_SMALL: 2 / w (as core.rotations.quat_log)
+    scale = np.where(big, 2.0 * half / np.where(big, n, 1.0), 2.0 / np.where(e[3] != 0, e[3], 1.0))
+    return (e[:3] * scale).T
 
 
 def _continuous_per_pair(e, first):
