@@ -176,10 +176,10 @@ def motion_trails(motion: Motion):
 
 
 def _rotated_axes(qc, u):
-    """Components ``[x, y, z]`` each (L, F) of the axes ``u (L, 3)`` rotated by the quaternions ``qc``
-    (4, L, F) (rows x, y, z, w): ``v = u + w t + q × t`` with ``t = 2 q × u``."""
+    """Components ``[x, y, z]`` (each shaped like ``qc[0]``) of the axis ``u (3,)`` rotated by the
+    quaternions ``qc`` (4, ...) (rows x, y, z, w): ``v = u + w t + q × t`` with ``t = 2 q × u``."""
     x, y, z, w = qc
-    ux, uy, uz = (u[:, d, None] for d in range(3))
+    ux, uy, uz = (float(c) for c in u)
     tx = 2.0 * (y * uz - z * uy)
     ty = 2.0 * (z * ux - x * uz)
     tz = 2.0 * (x * uy - y * ux)
@@ -207,26 +207,25 @@ def local_evidence(motion: Motion, smoothing_iterations: int | None = None, smoo
     F, J = motion.num_frames, motion.num_joints
     if smoothing_iterations is None:
         smoothing_iterations = default_smoothing_iterations(motion.frame_time, lam=smoothing_lambda)
-    # limb-major, component-first layout: every trail coordinate is a contiguous (L, F) array
+    # one limb at a time on component rows: every array is one (F,) row (a few MB at 100,000 frames,
+    # cache-sized where (F, L, 3) arrays are not)
     joint, _, u1, u2, length = limb_axes(motion.skeleton)
     pt = np.zeros((J + 1, F))                                                    # p transposed
     w = np.zeros(J + 1)
-    if joint.size:
-        qc = np.ascontiguousarray(motion.local_quats.transpose(2, 1, 0))[:, joint]   # (4, L, F)
-        m1 = _rotated_axes(qc, u1)
-        m2 = _rotated_axes(qc, u2)
-        del qc
-        k = np.maximum(_curvature_components([c.T for c in m1]).T, _curvature_components([c.T for c in m2]).T)
-        del m2
-        for i, j in enumerate(joint):                                            # max over a joint's trails
-            np.maximum(pt[j], k[i], out=pt[j])
-        d2 = np.zeros((joint.size, F - 1))
+    qc = np.ascontiguousarray(motion.local_quats.transpose(1, 2, 0)) if joint.size else None   # (J, 4, F)
+    for i, j in enumerate(joint):
+        m1 = _rotated_axes(qc[j], u1[i])
+        k = np.maximum(_curvature_components(m1), _curvature_components(_rotated_axes(qc[j], u2[i])))
+        np.maximum(pt[j], k, out=pt[j])                                          # max over a joint's trails
+        d2 = np.zeros(F - 1)
         for c in m1:
-            d = np.diff(c, axis=1)
+            d = np.diff(c)
             d2 += d * d
-        np.add.at(w, joint, length * np.sqrt(d2).sum(axis=1))                   # limb length x arc length
-        del m1, k, d2
+        w[j] += length[i] * np.sqrt(d2).sum()                                    # limb length x arc length
+    del qc
     root = motion.root_positions
     pt[J] = motion_trail_curvature(root)
     w[J] = root_translation_weight * float(np.linalg.norm(np.diff(root, axis=0), axis=-1).sum())
-    return laplacian_smooth(pt.T, smoothing_iterations, smoothing_lambda), w
+    for row in pt:                                    # row by row: each (F,) row stays in cache
+        row[:] = laplacian_smooth(row, smoothing_iterations, smoothing_lambda)
+    return pt.T, w
