@@ -617,24 +617,34 @@ def displacement_rotvecs(s, targets, pair):
     S = np.asarray(s, dtype=float).T
     T = np.asarray(targets, dtype=float).T
     N = S.shape[1]
-    sc = np.empty((4, N))
-    np.negative(S[:3], out=sc[:3])
-    sc[3] = S[3]
-    e = K.qmul_into(sc, T, np.empty((4, N)), np.empty(N))             # s^-1 v
-    del sc
+    CH = K.CHUNK                                     # blocks of samples: every temporary stays in cache
+    e = np.empty((4, N))                             # s^-1 v
+    sc, tmp = np.empty((4, CH)), np.empty(CH)
+    for a in range(0, N, CH):
+        b = min(N, a + CH)
+        np.negative(S[:3, a:b], out=sc[:3, :b - a])
+        sc[3, :b - a] = S[3, a:b]
+        K.qmul_into(sc[:, :b - a], T[:, a:b], e[:, a:b], tmp[:b - a])
     first = np.concatenate([[True], pair[1:] != pair[:-1]])
     f = np.flatnonzero(first)
     e[:, f] = np.where(e[3, f] < 0, -e[:, f], e[:, f])                  # each pair starts with w >= 0
-    d = K.dot_into(e[:, 1:], e[:, :-1], np.empty(N - 1), np.empty(N - 1)) if N > 1 else np.zeros(0)
+    d = np.empty(max(N - 1, 0))
+    for a in range(0, N - 1, CH):
+        b = min(N - 1, a + CH)
+        K.dot_into(e[:, a + 1:b + 1], e[:, a:b], d[a:b], tmp[:b - a])
     neg = np.concatenate([[0], np.cumsum((d < 0) & ~first[1:])])
-    flip = (neg - np.repeat(neg[f], np.diff(np.append(f, N)))) % 2 == 1
-    e *= np.where(flip, -2.0, 2.0)                                      # sign-continuous, and x2: rotvec = 2 log
-    n = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])               # 2 |v|
-    half = np.arctan2(n, e[3])                                          # half angle in [0, pi]
-    big = n > 2.0 * _LOG_SMALL
-    # angle / |v| = 2 half / |v|; Taylor below _LOG_SMALL: 2 / w (as core.rotations.quat_log)
-    scale = np.where(big, 2.0 * half / np.where(big, n, 1.0), 2.0 / np.where(e[3] != 0, e[3], 1.0))
-    return (e[:3] * scale).T
+    scale2 = np.where((neg - np.repeat(neg[f], np.diff(np.append(f, N)))) % 2 == 1, -2.0, 2.0)
+    out = np.empty((N, 3))
+    for a in range(0, N, CH):
+        b = min(N, a + CH)
+        x = e[:, a:b] * scale2[a:b]                 # sign-continuous, and x2: rotvec = 2 log(q)
+        n = np.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])          # 2 |v|
+        half = np.arctan2(n, x[3])                                      # half angle in [0, pi]
+        big = n > 2.0 * _LOG_SMALL
+        # angle / |v| = 2 half / |v|; Taylor below _LOG_SMALL: 2 / w (as core.rotations.quat_log)
+        sc_ = np.where(big, 2.0 * half / np.where(big, n, 1.0), 2.0 / np.where(x[3] != 0, x[3], 1.0))
+        out[a:b] = (x[:3] * sc_).T
+    return out
 
 
 def _continuous_per_pair(e, first):
