@@ -55,10 +55,10 @@ def _brute_start(tn, q, pair, v0, v3, P):
     return best
 
 
-@pytest.mark.parametrize("batch", [0, fitting._FD_BATCH])    # 0: the lazy loop of long takes
+@pytest.mark.parametrize("batch", [0, 1 << 30])    # 0: the lazy loop of long takes; 2^30: one batched call
 def test_start_stops_shrinking_where_the_brute_force_would(samples, monkeypatch, batch):
     tn, q, pair, v0, v3, P = samples
-    monkeypatch.setattr(fitting, "_FD_BATCH", batch)
+    monkeypatch.setattr(fitting, "_START_BATCH", batch)
     _, cost = fit_rotation_tangents(tn, q, pair, v0, v3, P, iterations=0)
     want = _brute_start(tn, q, pair, v0, v3, P)
     # rounding only: the kernel's polynomial sine vs libm in rotation_residuals
