@@ -620,6 +620,8 @@ def displacement_rotvecs(s, targets, pair):
     S = np.asarray(s, dtype=float).T
     T = np.asarray(targets, dtype=float).T
     N = S.shape[1]
+    if N == 0:
+        return np.zeros((0, 3))
     CH = K.CHUNK                                     # blocks of samples: every temporary stays in cache
     e = np.empty((4, N))                             # s^-1 v
     sc, tmp = np.empty((4, CH)), np.empty(CH)
@@ -729,14 +731,42 @@ def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
     return root_values, rtan, rtable, rcounts
 
 
-def _fit_mask(sub, first, last, targets, values, joint, J):
+def _fit_mask(sub, first, last, moving):
     """The samples (N,) bool the splines are fitted to: ``sub`` (:func:`fit_subset`) without the samples
     that cannot inform a fit. The end samples of a pair are its knot values, which every spline of that pair
-    meets (the Bernstein weights of the inner controls vanish there: no residual, no Jacobian); joints whose
-    samples all equal their first knot bit for bit (static joints) fit exactly with a zero velocity, their
-    start. Leaving them out keeps the fit (to rounding) and saves their share of every spline evaluation."""
-    moving = np.bincount(joint, np.any(targets != values[0][joint], axis=1), J) > 0
-    return sub & ~first & ~last & moving[joint]
+    meets (the Bernstein weights of the inner controls vanish there: no residual, no Jacobian); samples of
+    static joints (``moving`` False, :func:`_static_joints`) fit exactly with a zero velocity, their start.
+    Leaving them out keeps the fit (to rounding) and saves their share of every spline evaluation."""
+    return sub & ~first & ~last & moving
+
+
+def _pin_static(tangents, static, const):
+    """``tangents (P, 2, 4)`` (pairs segment-major over J joints) with the controls of static joints set to
+    their quaternion bit for bit (the fit gives it up to the last bit of a normalisation), so the result is
+    recognised as static by :func:`_static_joints` when it is refitted (culls)."""
+    if not static.any():
+        return tangents
+    J = static.size
+    jp = np.arange(tangents.shape[0]) % J
+    sel = static[jp]
+    tangents = np.array(tangents)
+    tangents[sel] = const[jp[sel]][:, None, :]
+    return tangents
+
+
+def _static_joints(source):
+    """``(J,) bool, (J, 4)``: the joints whose rotation is one quaternion over the whole ``source``, and
+    each joint's first rotation. A Motion: every frame equal bit for bit. A StaggeredMotion: every knot and
+    control equal to the first knot and the displacement map zero (its ``evaluate`` is then that
+    quaternion up to rounding)."""
+    if isinstance(source, StaggeredMotion):
+        c = source.values[0]
+        static = (np.all(source.values == c, axis=(0, 2))
+                  & np.all(source.tangents == c[None, :, None, :], axis=(0, 2, 3))
+                  & ~np.any(source.displacements, axis=(0, 2, 3)))
+        return static, c
+    q = source.local_quats
+    return np.all(q == q[0], axis=(0, 2)), q[0]
 
 
 def _fit_stats(angles, inner, iterations, continuity):
@@ -816,6 +846,20 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         def root_at(frames):
             return _read(rp, frames, None, quat=False)
 
+    # static joints (one quaternion throughout) are that quaternion at every sample: not evaluated, not
+    # fitted (the zero velocity is exact), their displacement maps zero
+    static, const = _static_joints(source)
+    if static.any():
+        sample_at = rot_at
+
+        def rot_at(frames, joints):
+            mov = ~static[joints]
+            out = np.empty((joints.size, 4))
+            out[~mov] = const[joints[~mov]]
+            if mov.any():
+                out[mov] = sample_at(frames[mov], joints[mov])
+            return out
+
     # rotations: every (segment, joint) pair at once
     pair, m, counts, tn, frames = sample_segments(knots, ft, start_time, oversample)
     P = counts.size
@@ -848,7 +892,7 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         raise ValueError(f"fit_staggered: fit_samples must be an integer >= 4 or None, got {fit_samples!r}")
     report = progress if progress is not None else (lambda f: None)
     report(0.1)
-    sub = _fit_mask(fit_subset(m, counts, pair, fit_samples), first, last, targets, values, joint, J)
+    sub = _fit_mask(fit_subset(m, counts, pair, fit_samples), first, last, ~static[joint])
     tn_f, targets_f, pair_f = tn[sub], targets[sub], pair[sub]
     if continuity == "C1":
         start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
@@ -859,11 +903,18 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         tangents, cost = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, iterations)
     report(0.7)
     del tn_f, targets_f, pair_f
+    tangents = _pin_static(tangents, static, const)
+    mov = ~static[joint] if static.any() else slice(None)
+    pm = pair[mov]
     s = _kernels.spline_into(np.ascontiguousarray(v0.T), np.ascontiguousarray(tangents[:, 0].T),
-                      np.ascontiguousarray(tangents[:, 1].T), np.ascontiguousarray(v3.T), pair,
-                      np.ascontiguousarray(tn), np.empty((4, tn.size))).T
-    disp = displacement_rotvecs(s, targets, pair)
-    del s
+                             np.ascontiguousarray(tangents[:, 1].T), np.ascontiguousarray(v3.T), pm,
+                             np.ascontiguousarray(tn[mov]), np.empty((4, pm.size))).T
+    if static.any():
+        disp = np.zeros((N, 3))
+        disp[mov] = displacement_rotvecs(s, targets[mov], pm)
+    else:
+        disp = displacement_rotvecs(s, targets, pair)
+    del s, pm
     report(0.9)
     M = int(counts.max())
     table = np.zeros((P, M, 3))
@@ -978,7 +1029,7 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
         return None                                    # a knot value on the other sign of its samples
     targets = np.where(real[seg][:, None], cont, targets)
     report(0.2)
-    sub = _fit_mask(fit_subset(m, cnt, pair, fit_samples), first, last, targets, vs, pair % J, J)
+    sub = _fit_mask(fit_subset(m, cnt, pair, fit_samples), first, last, ~_static_joints(sm)[0][pair % J])
     tn_f, targets_f, pair_f = tn[sub], targets[sub], pair[sub]
     if continuity == "C1":
         start, _ = fit_rotation_tangents(tn_f, targets_f, pair_f, v0, v3, P, 0)
@@ -1002,7 +1053,7 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
                              np.arange(rp.size), np.ascontiguousarray(tn[rs]), np.empty((4, rp.size))).T
     disp = displacement_rotvecs(s, targets[rs], rp)
     dest = sel[:-1][real]                                               # culled segment of each real one
-    tangents[dest] = tg.reshape(Ks - 1, J, 2, 4)[real]
+    tangents[dest] = _pin_static(tg, *_static_joints(sm)).reshape(Ks - 1, J, 2, 4)[real]
     counts[dest] = cnt.reshape(Ks - 1, J)[real]
     M = int(counts.max())
     table = np.zeros((Kc - 1, J, M, 3))
