@@ -6,11 +6,12 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast and lean: the motion block is parsed in ~1 MB pieces by :func:`._numparse.parse_columns`
-(pyarrow's CSV reader, bit-identical to ``float``; pieces with tabs or runs of spaces are rewritten
-single-spaced first), each piece converted straight into the output arrays, which the Motion takes without
-copies; when a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line
-and raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
+Reading is fast and lean: the motion block is cut into ~1 MB pieces at line breaks, each parsed by
+:func:`._numparse.parse_lines` (vectorised tokenising and pyarrow's float conversion, bit-identical to
+``float``, any spacing) and converted straight into its frames of the output arrays, which the Motion takes
+without copies; the pieces are spread over the CPUs (up to 4 threads: numpy and pyarrow release the GIL).
+When a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line and
+raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
 :data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
 :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
 are refused. Writing formats the channel table with a vectorised fixed-point formatter
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import os
 import re
+import threading
 import warnings
 
 import numpy as np
@@ -30,7 +32,7 @@ from ..core.skeleton import Skeleton
 from ._common import (MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
                       euler_deg_to_quat, finite_number, read_bytes, split_values)
 from ._numformat import format_table
-from ._numparse import NUMBER_RE, parse_columns
+from ._numparse import NUMBER_RE, content_end, parse_lines
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -286,41 +288,101 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
 
-_CHUNK_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size
+_PIECE_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size ...
+_MIN_PIECE_BYTES = 1 << 18  # ... split among the CPUs, but no smaller than this (a thread hand-off costs ~0.1 ms)
+_MAX_PIECE_BYTES = 4 << 20  # a piece this long (one huge line) goes to the line parser: bounded memory
 
 
 def _data_end(raw: bytes, pos: int) -> int:
-    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed), found
-    from the end in chunks so nothing large is copied."""
-    end = len(raw)
-    while end > pos:
-        start = max(pos, end - _CHUNK_BYTES)
-        kept = len(raw[start:end].rstrip())
-        if kept:
-            return start + kept
-        end = start
-    return pos
+    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed)."""
+    return pos + content_end(memoryview(raw)[pos:])
+
+
+def _pieces(raw: bytes, pos: int, stop: int, workers: int) -> list[tuple[int, int]]:
+    """``[pos, stop)`` cut after line breaks into pieces of about ``_PIECE_BYTES`` (at least ``workers``
+    of them when each still gets ``_MIN_PIECE_BYTES``)."""
+    size = stop - pos
+    n = max(1, min(-(-size // _MIN_PIECE_BYTES), max(workers, -(-size // _PIECE_BYTES))))
+    step = -(-size // n)
+    out = []
+    while pos < stop:
+        nl = raw.find(b"\n", min(pos + step, stop), stop)
+        end = stop if nl < 0 else nl + 1
+        out.append((pos, end))
+        pos = end
+    return out
+
+
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
+_MAX_THREADS = 4
+_POOL = None
+_POOL_PID = None
+
+
+def _pool(workers: int):
+    """A thread pool of ``workers - 1`` threads (the caller's thread is the other one), created once per
+    process (a forked child makes its own: threads do not survive ``fork``)."""
+    global _POOL, _POOL_PID
+    if _POOL is None or _POOL_PID != os.getpid():
+        from concurrent.futures import ThreadPoolExecutor
+        _POOL = ThreadPoolExecutor(max_workers=workers - 1, thread_name_prefix="stagger_nb-read_bvh")
+        _POOL_PID = os.getpid()
+    return _POOL
 
 
 def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> bool:
     """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
-    :func:`._numparse.parse_table`, each piece converted into ``out`` at once; ``False`` when a piece cannot
-    be certified or the line count disagrees (the caller then runs the line-by-line parser)."""
-    row = 0
-    while pos < stop:
-        nl = raw.find(b"\n", min(pos + _CHUNK_BYTES, stop), stop)
-        end = stop if nl < 0 else nl + 1
-        rows = raw.count(b"\n", pos, end) + (0 if raw[end - 1:end] == b"\n" else 1)
-        if row + rows > nf or end - pos > 64 * rows * C:  # lines cannot hold C numbers of sane length
-            return False
-        chunk = raw[pos:end]
-        data = parse_columns(chunk, rows, C)
+    :func:`._numparse.parse_lines`, each piece converted into its frames of ``out`` at once, the pieces
+    spread over the CPUs (numpy and pyarrow release the GIL); ``False`` when a piece cannot be certified
+    or the line count disagrees (the caller then runs the line-by-line parser).
+
+    A piece's first frame is the sum of the line counts of the pieces before it, which each piece
+    publishes as soon as it is parsed; pieces start in order, so a piece only ever waits for pieces that
+    have already started."""
+    workers = min(_cpus(), _MAX_THREADS)
+    bounds = _pieces(raw, pos, stop, workers)
+    n = len(bounds)
+    rows = [-1] * n
+    parsed = [threading.Event() for _ in range(n)]
+    view = memoryview(raw)
+
+    def piece(k: int) -> bool:
+        a, b = bounds[k]
+        try:
+            data = parse_lines(view[a:b], C, max_rows=nf) if b - a <= _MAX_PIECE_BYTES else None
+            if data is not None:
+                rows[k] = data.shape[1]
+        finally:
+            parsed[k].set()
         if data is None:
             return False
-        layout.fill(data, row, out)
-        row += rows
-        pos = end
-    return row == nf
+        first = 0
+        for j in range(k):
+            parsed[j].wait()
+            if rows[j] < 0:
+                return False
+            first += rows[j]
+        if first + rows[k] > nf:
+            return False
+        layout.fill(data, first, out)
+        return True
+
+    if n == 1 or workers == 1:
+        ok = all(piece(k) for k in range(n))
+    else:
+        futures = [_pool(workers).submit(piece, k) for k in range(1, n)]
+        ok = False
+        try:
+            ok = piece(0)
+        finally:  # no thread may still write into ``out`` when this returns
+            ok = all([f.result() for f in futures]) and ok
+    return ok and sum(rows) == nf
 
 
 class _Layout:
