@@ -130,7 +130,7 @@ def split_values(text, n: int, truncated: bool, what: str, source: str, line: in
     return vals
 
 
-_EULER_BLOCK = 4096  # rows per block in euler_deg_to_quat (32 KB per temporary)
+_EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temporary)
 
 
 def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
@@ -166,14 +166,19 @@ def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
     eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
     flat = np.asarray(angles, dtype=float).reshape(3, -1)
     q = np.empty((4, flat.shape[1]))
+    plus, minus = (np.add, np.subtract) if eps > 0 else (np.subtract, np.add)
     for r0 in range(0, flat.shape[1], _EULER_BLOCK):
         r1 = r0 + _EULER_BLOCK
         (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(np.array(flat[:, r0:r1]))
         c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-        q[i, r0:r1] = s1c2 * c3 + eps * c1s2 * s3
-        q[j, r0:r1] = c1s2 * c3 - eps * s1c2 * s3
-        q[k, r0:r1] = c1c2 * s3 + eps * s1s2 * c3
-        q[3, r0:r1] = c1c2 * c3 - eps * s1s2 * s3
+        tmp = np.multiply(c1s2, s3, out=s1)  # s1 is no longer needed: its buffer holds each second term
+        plus(np.multiply(s1c2, c3, out=q[i, r0:r1]), tmp, out=q[i, r0:r1])  # s1 c2 c3 + eps c1 s2 s3
+        np.multiply(s1c2, s3, out=tmp)
+        minus(np.multiply(c1s2, c3, out=q[j, r0:r1]), tmp, out=q[j, r0:r1])  # c1 s2 c3 - eps s1 c2 s3
+        np.multiply(s1s2, c3, out=tmp)
+        plus(np.multiply(c1c2, s3, out=q[k, r0:r1]), tmp, out=q[k, r0:r1])  # c1 c2 s3 + eps s1 s2 c3
+        np.multiply(s1s2, s3, out=tmp)
+        minus(np.multiply(c1c2, c3, out=q[3, r0:r1]), tmp, out=q[3, r0:r1])  # c1 c2 c3 - eps s1 s2 s3
     return q.reshape((4,) + np.shape(angles)[1:])
 
 
