@@ -608,7 +608,7 @@ class Session:
                 raise ValueError(f"{k}: unknown field in a session file")
         if data.get("format") != SESSION_FORMAT:
             _fail("format", repr(SESSION_FORMAT), data.get("format"))
-        if data.get("version") != SESSION_VERSION:
+        if type(data.get("version")) is not int or data.get("version") != SESSION_VERSION:  # true == 1
             _fail("version", str(SESSION_VERSION), data.get("version"))
         opts = check_extract_options(data.get("extract_options", {}))
         ops = cls._typed_list(data.get("ops"), "ops")

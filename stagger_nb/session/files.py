@@ -65,6 +65,8 @@ def read_session_json(path) -> Any:
         return json.loads(text_, parse_constant=no_constants)
     except json.JSONDecodeError as e:
         raise ValueError(f"session: {path} is not valid JSON ({e})") from None
+    except ValueError as e:  # an integer of more than 4,300 digits (int()'s limit); NaN is said above
+        raise ValueError(str(e) if str(e).startswith("session:") else f"session: {path}: {e}") from None
     except RecursionError:
         raise ValueError(f"session: {path} nests JSON too deeply for a session file") from None
 
@@ -179,6 +181,9 @@ def motion_from_json(d: Any, field: str) -> Motion:
     offsets = _float_array(d["offsets"], f"{field}.offsets", (3,))
     root = _float_array(d["root_positions"], f"{field}.root_positions", (3,))
     q = _float_array(d["local_quats"], f"{field}.local_quats", (J, 4))
+    norms = np.linalg.norm(q, axis=-1) if q.size else np.ones(1)
+    if not (np.all(norms > 1e-6) and np.all(np.isfinite(norms))):  # Motion would make a zero one identity
+        _fail(f"{field}.local_quats", "non-zero quaternions of finite length", "a zero or overflowing quaternion")
     lt = d.get("local_translations")
     lt = None if lt is None else _float_array(lt, f"{field}.local_translations", (J, 3))
     try:

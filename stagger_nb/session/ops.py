@@ -51,7 +51,7 @@ from typing import Any, Callable, ClassVar
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -60,6 +60,12 @@ MAX_SKIP = 127  # guided warping's largest input step per output frame (timewarp
 #: Most items in any list of an op (joints, poses, frames, keytimes, deltas): a hostile session file must
 #: not make the checks themselves run for minutes (a 100,000-frame take has fewer poses than this).
 MAX_ITEMS = 100_000
+#: Bounds of the timing and weight parameters (a hostile file's 1e308 is refused naming the field instead of
+#: overflowing inside the technique): a succession delay or random spread of more than a minute per bone, a
+#: succession exponent above 10 (depth^l; depths are ~10), an exaggeration weight beyond +-100.
+MAX_SECONDS = 60.0
+MAX_EXPONENT = 10.0
+MAX_WEIGHT = 100.0
 
 
 def canonical(value) -> str:
@@ -380,8 +386,8 @@ class Succession(Op):
     name: ClassVar[str] = "succession"
     needs: ClassVar[str] = "staggered"
     root: str = _spec(text)
-    s: float = _spec(_finite)
-    l: float = _spec(_positive, 1.0)  # noqa: E741 (the paper's name)
+    s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
+    l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
 
 
@@ -391,7 +397,7 @@ class RandomTiming(Op):
 
     name: ClassVar[str] = "random_timing"
     needs: ClassVar[str] = "staggered"
-    tau: float = _spec(_nonneg)
+    tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
 
@@ -402,7 +408,7 @@ class Exaggerate(Op):
 
     name: ClassVar[str] = "exaggerate"
     needs: ClassVar[str] = "staggered"
-    w_r: float = _spec(_finite)
+    w_r: float = _spec(number(-MAX_WEIGHT, MAX_WEIGHT))
     poses: tuple | None = _spec(optional(tuple_of(_index, "a list of pose indices")), None)
     reference: Any = _spec(pose_reference, "previous")
     mode: str = _spec(_mode, "staggered")
