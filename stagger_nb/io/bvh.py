@@ -46,34 +46,42 @@ class BVHError(FormatError):
 
 
 _TOKEN = re.compile(r"\S+")
+_LINE = re.compile(r"\S[^\n]*")  # from a line's first token to its end (blank lines skipped in C)
+_LONG_LINE = 4096  # characters: longer header lines are tokenised lazily, one token at a time
+
+
+def _header_tokens(head: str):
+    """``(token, line)`` pairs of ``head``, produced lazily: each non-blank line is split at once (the
+    usual ~5 tokens), a line longer than ``_LONG_LINE`` one token at a time (a header of millions of
+    junk tokens on one line is never held as a list)."""
+    ln, at = 1, 0
+    for m in _LINE.finditer(head):
+        start = m.start()
+        ln += head.count("\n", at, start)
+        at = start
+        if m.end() - start <= _LONG_LINE:
+            for t in m.group().split():
+                yield t, ln
+        else:
+            for t in _TOKEN.finditer(head, start, m.end()):
+                yield t.group(), ln
 
 
 class _Tokens:
-    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (a header
-    of millions of junk tokens is never held as a list: the first bad one is reported at once);
-    ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
+    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (see
+    :func:`_header_tokens`); ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
 
     def __init__(self, head: str, source: str, end_line: int):
-        self._it = _TOKEN.finditer(head)
-        self._head = head
-        self._line, self._at = 1, 0  # line number of position self._at
+        self._it = _header_tokens(head)
         self.source = source
         self.end_line = end_line
-        self._next = self._advance()
-
-    def _advance(self) -> tuple[str, int] | None:
-        m = next(self._it, None)
-        if m is None:
-            return None
-        self._line += self._head.count("\n", self._at, m.start())
-        self._at = m.start()
-        return m.group(), self._line
+        self._next = next(self._it, None)
 
     def next(self, expected: str) -> tuple[str, int]:
         if self._next is None:
             raise BVHError(self.source, self.end_line, f"hierarchy ends early: expected {expected} before 'MOTION'")
         tok = self._next
-        self._next = self._advance()
+        self._next = next(self._it, None)
         return tok
 
     def peek(self) -> tuple[str, int] | None:
@@ -546,14 +554,18 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
     skel = motion.skeleton
     trans = motion.translations()
     pos_dec = _position_decimals(motion)
+    orders = ["".join(c[0].upper() for c in chans if c.lower().endswith("rotation")) for chans in skel.channels]
+    full: dict[int, np.ndarray] = {}  # joint -> (F, 3) angles: one conversion per three-axis order
+    for order in {o for o in orders if len(o) == 3}:
+        joints = [j for j, o in enumerate(orders) if o == order]
+        eul = quat_to_euler(motion.local_quats[:, joints], order)
+        full.update((j, eul[:, k]) for k, j in enumerate(joints))
     cols, dec = [], []
     for j in joint_order:
         chans = skel.channels[j]
-        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
-        eul = None
-        if len(order) == 3:
-            eul = quat_to_euler(motion.local_quats[:, j], order)
-        elif order:  # fewer than three rotation channels: the listed angles of a completed sequence
+        order = orders[j]
+        eul = full.get(j)
+        if order and eul is None:  # fewer than three rotation channels: the listed angles of a completed sequence
             eul = _partial_euler(motion.local_quats[:, j], order)
         r = 0
         for c in chans:
