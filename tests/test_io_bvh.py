@@ -473,3 +473,81 @@ def test_random_skeletons_round_trip(seed):
     # the writer keeps 6 decimals of a degree (<= 1e-8 rad per angle) and 1e-8 of the largest translation
     assert np.max(np.abs(p1 - p2)) <= 1e-6 * size
     assert np.max(quat_angle(q1, q2)) <= 1e-6
+
+
+# ---------------------------------------------------------------- the motion block in pieces, on threads
+def _pieces_file(rng, F=40, rot="Zrotation Xrotation Yrotation"):
+    head = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition " + rot + "\n"
+            "JOINT b\n{\nOFFSET 0 1 0\nCHANNELS 3 " + rot + "\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\n")
+    vals = rng.uniform(-400, 400, (F, 9))
+    body = "".join(" ".join(f"{v:.6f}" for v in row) + "\n" for row in vals)
+    return head + f"Frames: {F}\nFrame Time: 0.01\n", body
+
+
+@pytest.mark.parametrize("cpus", [1, 2, 4])
+def test_pieces_on_threads_give_the_same_motion_as_the_line_parser(monkeypatch, rng, cpus):
+    """Tiny pieces (a few lines each) spread over up to 4 threads: every frame lands in its place, bit for
+    bit the motion the line-by-line parser gives."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng)
+    whole = parse_bvh(head + body, "x.bvh")
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: cpus)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 200)
+    assert len(bvh_mod._pieces((head + body).encode(), len(head), len(head + body), cpus)) > 8
+    m = parse_bvh(head + body, "x.bvh")
+    C = 9
+    data = _parse_motion_lines(body.encode(), 1, 40, C, "x")
+    assert np.array_equal(m.root_positions, data[:, :3])
+    np.testing.assert_array_equal(m.local_quats, whole.local_quats)
+    ref = euler_deg_to_quat(data[:, 3:].reshape(40, 2, 3), "ZXY")
+    assert np.max(quat_angle(m.local_quats, ref)) < 1e-12  # up to sign (continuity)
+
+
+@pytest.mark.parametrize("bad_line", [0, 17, 39])
+def test_a_bad_line_in_any_piece_is_reported_with_its_line(monkeypatch, rng, bad_line):
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng)
+    lines = body.splitlines()
+    lines[bad_line] = lines[bad_line].replace(" ", " x", 1)
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: 4)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 200)
+    first = head.count("\n") + 1
+    with pytest.raises(BVHError, match=rf"x\.bvh, line {first + bad_line}: expected a number on frame {bad_line}"):
+        parse_bvh(head + "\n".join(lines) + "\n", "x.bvh")
+
+
+def test_concurrent_reads_share_the_pool(rng):
+    """Threads reading at once (a session warming up while the notebook reads) each get their own motion."""
+    from concurrent.futures import ThreadPoolExecutor
+    texts = ["".join(_pieces_file(np.random.default_rng(s), F=3000)) for s in range(6)]
+    expect = [parse_bvh(t, "x.bvh").local_quats for t in texts]
+    with ThreadPoolExecutor(6) as ex:
+        got = list(ex.map(lambda t: parse_bvh(t, "x.bvh").local_quats, texts * 2))
+    for k, q in enumerate(got):
+        np.testing.assert_array_equal(q, expect[k % 6])
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform")
+def test_read_in_a_forked_child_after_the_parent_used_its_threads(rng):
+    """Threads do not survive fork: a child (Dask/multiprocessing workers) must not wait on the parent's pool."""
+    from stagger_nb.io import bvh as bvh_mod
+    text = "".join(_pieces_file(rng, F=6000))
+    expect = parse_bvh(text, "x.bvh").local_quats  # the parent's pool exists now (2+ CPUs)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: report 1 if it read the same motion, within the parent's timeout
+        try:
+            bvh_mod._cpus = lambda: 2
+            ok = np.array_equal(parse_bvh(text, "x.bvh").local_quats, expect)
+            os.write(w, b"1" if ok else b"0")
+        finally:
+            os._exit(0)
+    os.close(w)
+    import select
+    ready, _, _ = select.select([r], [], [], 60)
+    got = os.read(r, 1) if ready else b"timeout"
+    os.close(r)
+    os.waitpid(pid, 0) if ready else os.kill(pid, 9)
+    assert got == b"1"
