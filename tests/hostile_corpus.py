@@ -597,6 +597,36 @@ def run(out_dir: Path, only: str | None = None):
         r["named"] = r["result"] == "ValueError" and src.name in r.get("message", "")
         r["untouched"] = src.read_bytes() == src_bytes
         emit(r)
+        # write targets that must not be replaced, or cannot be written: named ValueErrors, nothing replaced
+        link = out_dir / "link_to_source.bvh"
+        if not link.is_symlink():
+            os.symlink(src, link)
+        hard = out_dir / "hard_link_to_source.bvh"
+        if not hard.exists():
+            os.link(src, hard)
+        fifo = out_dir / "fifo.out"
+        if hasattr(os, "mkfifo") and not fifo.exists():
+            os.mkfifo(fifo)
+        dangling = out_dir / "dangling.bvh"
+        if not dangling.is_symlink():
+            os.symlink(out_dir / "nowhere" / "x.bvh", dangling)
+        targets = [("a folder", out_dir, None), ("/dev/null", Path("/dev/null"), None),
+                   ("a FIFO", fifo, None), ("a missing folder", out_dir / "missing" / "x.bvh", None),
+                   ("a dangling symlink", dangling, None), ("a symlink to the source", link, "source"),
+                   ("a hard link to the source", hard, "source")]
+        for what, target, kind in targets:
+            for how, fn in (("export_bvh", s.export_bvh), ("export_gltf", s.export_gltf), ("save", s.save),
+                            ("write_bvh", lambda t: sn.write_bvh(s.source, t))):
+                if kind == "source" and how == "write_bvh":
+                    continue  # write_bvh knows no source: replacing a link to it is an ordinary write
+                stat_before = os.lstat(target) if os.path.lexists(target) else None
+                r = _run_case("session", f"{how} to {what}", lambda fn=fn, t=target: fn(t))
+                r["named"] = r["result"] == "ValueError" and str(target.name) in r.get("message", "")
+                after = os.lstat(target) if os.path.lexists(target) else None
+                r["untouched"] = ((stat_before is None) == (after is None) and (
+                    after is None or (after.st_ino, after.st_mode) == (stat_before.st_ino, stat_before.st_mode))
+                    and src.read_bytes() == src_bytes)
+                emit(r)
     if only in (None, "odd"):
         for k, (name, raw, expect) in enumerate(bvh_odd_valid()):
             p = out_dir / f"odd_{k}.bvh"

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core.rotations import quat_mul
 
-__all__ = ["atomic_write_bytes", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
+__all__ = ["atomic_write_bytes", "WriteError", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
            "MAX_INPUT_BYTES", "read_regular_file"]
 
 #: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips).
@@ -267,6 +267,28 @@ def _fsync_folder(folder: str) -> None:
         os.close(fd)
 
 
+class WriteError(OSError, ValueError):
+    """A file that cannot be written, or must not be replaced; the message names the path. Both an
+    ``OSError`` (what writing raises) and a ``ValueError`` (a bad path argument), like
+    ``io.UnsupportedOperation``."""
+
+
+def _check_write_target(path: str) -> None:
+    """Refuse a destination that exists and is not a regular file (a folder, a device such as
+    ``/dev/null``, a FIFO, a socket, a broken symbolic link): renaming over it would replace it."""
+    if not os.path.lexists(path):
+        return
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        raise WriteError(f"{path}: cannot write here: {e.strerror or e} (a broken symbolic link?)") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise WriteError(f"{path}: is a folder; write to a file path in it")
+    if not stat.S_ISREG(st.st_mode):
+        raise WriteError(f"{path}: exists and is not a regular file (a device, pipe or socket); "
+                         "it is not replaced")
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically and durably: readers see the old file or the new one, never
     half of one, and after a crash the new file is complete or absent.
@@ -275,8 +297,22 @@ def atomic_write_bytes(path, data: bytes) -> None:
     temporary file), is synced (``fsync``), then given a hidden name and renamed over ``path``, and the
     folder is synced. Where unnamed files are not available, a hidden temporary file (``.tmp-*``) is used
     instead and removed on any error. The file gets the usual permissions (umask, or the mode of the file
-    it replaces)."""
-    path = os.fspath(path)
+    it replaces). Raises :class:`WriteError` (an ``OSError`` and a ``ValueError``) naming the path when it
+    cannot be written (missing folder, full disk) or is not a regular file (a folder, ``/dev/null``, a FIFO:
+    never replaced)."""
+    path = os.fsdecode(os.fspath(path))
+    if not path or "\0" in path:
+        raise WriteError(f"{path!r}: not a usable file path")
+    _check_write_target(path)
+    try:
+        _atomic_write(path, data)
+    except WriteError:
+        raise
+    except OSError as e:  # a missing or read-only folder, a full disk: named, and a ValueError too
+        raise WriteError(f"{path}: cannot write: {e.strerror or e}") from None
+
+
+def _atomic_write(path: str, data: bytes) -> None:
     folder = os.path.dirname(os.path.abspath(path))
     try:
         mode = os.stat(path).st_mode & 0o7777
