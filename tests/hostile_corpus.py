@@ -479,6 +479,48 @@ def _maybe_valid(op: str, f: str, w) -> bool:
 
 
 # --------------------------------------------------------------------------------------------------
+# an independent glTF re-reader (pygltflib for the container, scipy for the rotations)
+# --------------------------------------------------------------------------------------------------
+def gltf_positions(path) -> tuple[list[str], float, np.ndarray]:
+    """``(joint names, metres per file unit, world positions (F, J, 3) in metres)`` of the skin's joints
+    in a ``.glb`` written by ``write_gltf``, sampled at its animation's keys."""
+    import pygltflib
+    from scipy.spatial.transform import Rotation
+    g = pygltflib.GLTF2().load(str(path))
+    blob = g.binary_blob()
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+    dtype = {5126: np.float32, 5121: np.uint8, 5123: np.uint16}
+
+    def read(i):
+        a = g.accessors[i]
+        bv = g.bufferViews[a.bufferView]
+        n = width[a.type]
+        out = np.frombuffer(blob, dtype[a.componentType], count=a.count * n,
+                            offset=(bv.byteOffset or 0) + (a.byteOffset or 0))
+        return out.reshape(a.count, n).astype(float)
+    joints = g.skins[0].joints
+    parent = {c: i for i, nd in enumerate(g.nodes) for c in (nd.children or [])}
+    anim = g.animations[0]
+    F = g.accessors[anim.samplers[0].input].count
+    rot = {j: np.tile([0.0, 0.0, 0.0, 1.0], (F, 1)) for j in joints}
+    trans = {j: np.tile(np.asarray(g.nodes[j].translation or [0.0, 0.0, 0.0], float), (F, 1)) for j in joints}
+    for ch in anim.channels:
+        values = read(anim.samplers[ch.sampler].output)
+        (rot if ch.target.path == "rotation" else trans)[ch.target.node] = values
+    world_r, world_p = {}, {}
+    for j in joints:  # parents come first in write_gltf's node order
+        r = Rotation.from_quat(rot[j])
+        if j in parent:
+            pr = world_r[parent[j]]
+            world_p[j] = world_p[parent[j]] + pr.apply(trans[j])
+            world_r[j] = pr * r
+        else:
+            world_p[j], world_r[j] = trans[j], r
+    pos = np.stack([world_p[j] for j in joints], axis=1)
+    return [g.nodes[j].name for j in joints], float(g.asset.extras["metres_per_unit"]), pos
+
+
+# --------------------------------------------------------------------------------------------------
 # the runner
 # --------------------------------------------------------------------------------------------------
 def _names_where(msg: str, path: str | None, kind: str) -> bool:
@@ -653,8 +695,12 @@ def run(out_dir: Path, only: str | None = None):
                     raise AssertionError(f"export re-reads {err:.3g} x height away from the edited motion")
                 glb = out_dir / f"odd_{k}.glb"
                 sn.write_gltf(edited, glb)
-                if glb.stat().st_size == 0:
-                    raise AssertionError("empty glTF")
+                names, scale, pos = gltf_positions(glb)
+                if list(names) != list(edited.skeleton.names):
+                    raise AssertionError("glTF joint names differ")
+                err = float(np.max(np.abs(pos - p1 * scale))) / (h * scale)
+                if not err <= 1e-5:
+                    raise AssertionError(f"glTF re-reads {err:.3g} x height away from the edited motion")
             r = _run_case("odd", name, read_edit_export)
             emit(r)
     return results
