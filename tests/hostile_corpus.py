@@ -297,6 +297,13 @@ def asf_amc_cases() -> list[tuple[str, str, str]]:
     a("AMC huge frame number", amc=AMC.replace("\n3\n", "\n" + "9" * 5000 + "\n"))
     a("AMC binary garbage", amc=bytes(range(256)).decode("latin-1") * 8)
     a("AMC empty", amc="")
+    a("AMC a line of a million values", amc=AMC.replace("ltibia 5", "ltibia " + "1 " * 1_000_000, 1))
+    bones = "".join(f"  begin\n    id {k}\n    name b{k}\n    direction 0 1 0\n    length 1\n    axis 0 0 0 XYZ\n"
+                    f"    dof rx\n  end\n" for k in range(3, 20_003))
+    chain = "".join(f"    {'ltibia' if k == 3 else f'b{k - 1}'} b{k}\n" for k in range(3, 20_003))
+    a("ASF 20,000-bone chain, AMC naming a bone it lacks",
+      ASF.replace(":hierarchy", bones + ":hierarchy").replace("    lfemur ltibia\n", "    lfemur ltibia\n" + chain),
+      AMC.replace("ltibia 5", "ltibia 5\nnosuchbone 1", 1))
     return c
 
 
