@@ -81,3 +81,17 @@ def test_odd_rigs_read_edit_and_export_faithfully(corpus):
     secs, peak = _bounds()
     bad = [r for r in rows if r["result"] != "no error" or r["seconds"] > secs or r["peak"] > peak]
     assert not bad, _report(bad)
+
+
+def test_numpy_scalars_are_numbers_and_numpy_bools_are_not():
+    """Ops built in code often carry numpy scalars (``np.argmax`` frames, float32 sliders): accepted and
+    stored as plain ints/floats (JSON-serialisable); numpy and Python bools are refused like in JSON."""
+    import numpy as np
+    from stagger_nb.session.ops import canonical, validate_op
+    op = validate_op({"op": "edit_frame", "frame": np.int64(3), "deltas": {"a": [np.float32(1), 0, 0]}})
+    assert op["frame"] == 3 and type(op["frame"]) is int and canonical(op)
+    assert validate_op({"op": "cull", "count": np.int32(5)})["count"] == 5
+    assert validate_op({"op": "cull", "percent": np.float32(50)})["percent"] == 50.0
+    for bad in (np.bool_(True), True):
+        with pytest.raises(ValueError, match=r"^op\.percent: expected a number"):
+            validate_op({"op": "cull", "percent": bad})

@@ -44,6 +44,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
@@ -101,7 +102,7 @@ def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = 
         expected = f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]"
 
     def check(value, name):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):  # numpy floats and ints are Real
             _fail(name, expected if lo is not None or hi is not None else "a finite number", value)
         try:
             v = float(value)  # an int beyond the float range (e.g. 10**400 in a file) overflows here
@@ -120,12 +121,16 @@ def integer(lo: int | None = 0, hi: int | None = None) -> Callable:
                 else f"an integer in [{lo}, {hi}]")
 
     def check(value, name):
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo) or (
+        if isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral) and not isinstance(
+                value, bool):
+            try:
+                value = int(value) if float(value).is_integer() else value  # 2.0 -> 2
+            except (OverflowError, ValueError):  # inf, nan
+                pass
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or (lo is not None and value < lo) or (
                 hi is not None and value > hi):
             _fail(name, expected, value)
-        return int(value)
+        return int(value)  # numpy integers become ints (JSON-serialisable)
     return check
 
 
