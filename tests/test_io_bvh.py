@@ -551,3 +551,20 @@ def test_read_in_a_forked_child_after_the_parent_used_its_threads(rng):
     os.close(r)
     os.waitpid(pid, 0) if ready else os.kill(pid, 9)
     assert got == b"1"
+
+
+@pytest.mark.parametrize("pad,end", [(" \t  ", ""), ("\t", ""), ("  ", "  "), (" ", " \r")])
+def test_padded_blocks_take_the_fast_path(monkeypatch, rng, pad, end):
+    """Tabs and runs of blanks between values (and CR before the line break) are read by the vectorised
+    parser, not the line-by-line fallback."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng, F=50)
+    expect = parse_bvh(head + body, "x.bvh")
+    padded = "\n".join(pad.join(line.split(" ")) + end for line in body.splitlines())
+
+    def no_fallback(*a, **k):
+        raise AssertionError("the line-by-line parser ran")
+    monkeypatch.setattr(bvh_mod, "_parse_motion_lines", no_fallback)
+    m = parse_bvh(head + padded + "\n", "x.bvh")
+    np.testing.assert_array_equal(m.local_quats, expect.local_quats)
+    np.testing.assert_array_equal(m.root_positions, expect.root_positions)

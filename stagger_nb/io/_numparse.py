@@ -84,16 +84,21 @@ def parse_lines(block, cols: int, max_rows: int | None = None) -> np.ndarray | N
     """The ``(cols, rows)`` table of a block of lines of ``cols`` numbers each, however many lines it has
     (trailing blank lines allowed); ``None`` when it cannot certify it (see the module docstring), and
     at once, before allocating by the line count, when it has more than ``max_rows`` lines or more than
-    four separators per value of ``max_rows`` lines (millions of blank lines, runs of blanks)."""
+    16 whitespace bytes per value of ``max_rows`` lines (millions of blank lines, megabytes of blanks)."""
     if cols < 1 or _load_arrow() is None:
         return None
     n = content_end(block)
     if n == 0 or n >= 1 << 31:  # Arrow string offsets are 32-bit: the callers' pieces are far smaller
         return None
     buf = np.frombuffer(block, np.uint8, count=n)
+    if max_rows is not None:  # line breaks counted in 64 KB steps: no temporary the size of the block
+        breaks = 0
+        for i in range(0, n, 1 << 16):
+            breaks += np.count_nonzero(buf[i:i + (1 << 16)] == 10)
+            if breaks >= max_rows:
+                return None
     blank = buf <= 32
-    if max_rows is not None and (np.count_nonzero(buf == 10) >= max_rows
-                                 or np.count_nonzero(blank) >= 4 * max_rows * cols):
+    if max_rows is not None and np.count_nonzero(blank) >= 16 * max_rows * cols:
         return None
     sep = np.flatnonzero(blank)  # (T - 1,) separators; a virtual line break ends the last line
     del blank
