@@ -345,10 +345,11 @@ def test_parser_takes_long_tokens():
 
 @pytest.mark.parametrize("order", ["".join(p) for p in itertools.permutations("XYZ")] + ["X", "ZY", "YXY"])
 def test_euler_closed_form_matches_scipy(order, rng):
-    a = rng.uniform(-720, 720, size=(200, len(order)))
-    q = euler_deg_to_quat(a, order)
-    r = Rotation.from_euler(order, a, degrees=True).as_quat()
-    assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
+    for limit in (720, 180):  # angles that need wrapping to [-180, 180], and angles that do not
+        a = rng.uniform(-limit, limit, size=(200, len(order)))
+        q = euler_deg_to_quat(a, order)
+        r = Rotation.from_euler(order, a, degrees=True).as_quat()
+        assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
 
 
 # ---------------------------------------------------------------- writing

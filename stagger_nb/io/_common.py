@@ -142,10 +142,12 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     # in place (``angles_deg`` is overwritten) on two buffers: every fresh large temporary costs page
     # faults, which are expensive in VMs
     a = angles_deg
-    tmp = np.divide(a, 360.0)
-    np.rint(tmp, out=tmp)
-    tmp *= 360.0
-    a -= tmp
+    tmp = np.empty_like(a)
+    if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
+        np.divide(a, 360.0, out=tmp)
+        np.rint(tmp, out=tmp)
+        tmp *= 360.0
+        a -= tmp
     a *= np.pi / 720.0  # a/4 in radians
     t = np.tan(a, out=a)
     den = np.multiply(t, t, out=tmp)
