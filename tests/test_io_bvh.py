@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -569,3 +570,68 @@ def test_padded_blocks_take_the_fast_path(monkeypatch, rng, pad, end):
     m = parse_bvh(head + padded + "\n", "x.bvh")
     np.testing.assert_array_equal(m.local_quats, expect.local_quats)
     np.testing.assert_array_equal(m.root_positions, expect.root_positions)
+
+
+@pytest.mark.parametrize("case", ["truncated last line", "extra line", "missing lines", "odd whitespace"])
+def test_the_line_parser_takes_over_only_from_the_first_uncertified_piece(monkeypatch, rng, case):
+    """A long take with a bad last line costs one piece of slow parsing, not the whole file: the line-by-line
+    parser starts at the failing piece, with its frame and line numbers right."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng, F=60)
+    lines = body.splitlines()
+    if case == "truncated last line":
+        lines[-1] = " ".join(lines[-1].split()[:5])
+    elif case == "extra line":
+        lines.append(lines[0])
+    elif case == "missing lines":
+        lines = lines[:-2]
+    else:  # a vertical tab between two values of the last frame: whitespace to bytes.split and the fast path
+        lines[-1] = lines[-1].replace(" ", "\x0b", 1)
+    text = head + "\n".join(lines) + "\n"
+    starts = []
+    real = bvh_mod._parse_motion_lines
+
+    def spy(block, first_ln, num_frames, C, source, start=0, first_frame=0):
+        starts.append(first_frame)
+        return real(block, first_ln, num_frames, C, source, start, first_frame)
+    monkeypatch.setattr(bvh_mod, "_parse_motion_lines", spy)
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: 2)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 300)
+    first = head.count("\n") + 1  # the line of frame 0
+    if case == "odd whitespace":
+        m = parse_bvh(text, "x.bvh")
+        ref = parse_bvh(text.replace("\x0b", " "), "x.bvh")
+        np.testing.assert_array_equal(m.local_quats, ref.local_quats)
+        assert starts == []  # read by the fast path alone
+        return
+    else:
+        msg = {"truncated last line": rf"line {first + 59}: expected 9 values on frame 59, found 5",
+               "extra line": rf"line {first + 60}: more frame lines than 'Frames: 60' declares",
+               "missing lines": rf"line {first + 57}: file ends early: 'Frames: 60' declared, 58 frame lines"}[case]
+        with pytest.raises(BVHError, match=msg):
+            parse_bvh(text, "x.bvh")
+    assert len(starts) == 1 and starts[0] >= 50  # only the last piece(s) went through the line parser
+
+
+def test_the_first_read_in_a_process_uses_the_fast_path_on_every_thread():
+    """pyarrow is imported on first use; the first file's pieces are parsed on several threads at once, and
+    none may see "import tried" before the import finished (it fell back to the line parser: a race)."""
+    import subprocess
+    import sys
+    code = ("import numpy as np\n"
+            "from stagger_nb.io import bvh\n"
+            "bvh._cpus = lambda: 4\n"
+            "bvh._MIN_PIECE_BYTES, bvh._PIECE_BYTES = 64, 300\n"
+            "def boom(*a, **k):\n"
+            "    raise SystemExit('the line-by-line parser ran')\n"
+            "bvh._parse_motion_lines = boom\n"
+            "rows = '\\n'.join(' '.join(['1.5'] * 9) for _ in range(200))\n"
+            "head = ('HIERARCHY\\nROOT a\\n{\\nOFFSET 0 0 0\\nCHANNELS 6 Xposition Yposition Zposition Zrotation "
+            "Xrotation Yrotation\\nJOINT b\\n{\\nOFFSET 0 1 0\\nCHANNELS 3 Zrotation Xrotation Yrotation\\n}\\n}\\n"
+            "MOTION\\nFrames: 200\\nFrame Time: 0.01\\n')\n"
+            "print(bvh.parse_bvh(head + rows + '\\n', 'x').num_frames)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).resolve().parents[1]),
+                                                         os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 0 and r.stdout.strip() == "200", r.stderr[-2000:]

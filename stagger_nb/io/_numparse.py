@@ -23,6 +23,7 @@ pyarrow is a runtime dependency; without it (a broken install) everything goes t
 from __future__ import annotations
 
 import re
+import threading
 
 import numpy as np
 
@@ -35,17 +36,24 @@ _ARROW = _ARROW_CAST = None
 _ARROW_TRIED = False
 
 
+_ARROW_LOCK = threading.Lock()
+
+
 def _load_arrow():
-    """pyarrow, imported once on first use, or ``None`` when it is not importable."""
+    """pyarrow, imported once on first use, or ``None`` when it is not importable. Thread-safe: the
+    pieces of the first file read are parsed on several threads at once, and a thread must not see
+    "tried" before the import has finished."""
     global _ARROW, _ARROW_CAST, _ARROW_TRIED
     if not _ARROW_TRIED:
-        _ARROW_TRIED = True
-        try:
-            import pyarrow
-            import pyarrow.compute
-            _ARROW, _ARROW_CAST = pyarrow, pyarrow.compute.cast
-        except ImportError:  # pragma: no cover - a broken install: the line parser still reads the file
-            pass
+        with _ARROW_LOCK:
+            if not _ARROW_TRIED:
+                try:
+                    import pyarrow
+                    import pyarrow.compute
+                    _ARROW, _ARROW_CAST = pyarrow, pyarrow.compute.cast
+                except ImportError:  # pragma: no cover - a broken install: the line parser still reads the file
+                    pass
+                _ARROW_TRIED = True
     return _ARROW
 
 

@@ -195,14 +195,16 @@ def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
 
 
 def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str,
-                        start: int = 0):
-    """Line-by-line parse of the frame lines ``block[start:]`` into ``(F, C)`` floats; raises
-    :class:`BVHError` at the first bad line (the reference for :func:`parse_table`, and its fallback).
+                        start: int = 0, first_frame: int = 0):
+    """Line-by-line parse of the frame lines ``block[start:]`` (frames ``first_frame`` on, the first on
+    line ``first_ln``) into ``(num_frames - first_frame, C)`` floats; raises :class:`BVHError` at the first
+    bad line (the reference for :func:`parse_table`, and the fallback where a piece cannot be certified).
     Lines are taken one at a time and split into at most ``C + 1`` pieces, so a hostile block (millions
     of blank lines, a line of millions of values) costs no more memory than its output."""
     stop = _data_end(block, start)
-    out = np.empty((min(num_frames, block.count(b"\n", start, stop) + 1), num_channels))
-    k, pos = 0, start
+    out = np.empty((max(0, min(num_frames - first_frame, block.count(b"\n", start, stop) + 1)), num_channels))
+    first_ln -= first_frame  # so that frame k is on line first_ln + k
+    k, pos = first_frame, start
     longest = (num_channels + 1) * (MAX_TOKEN + 1)
     while pos < stop:
         nl = block.find(b"\n", pos, stop)
@@ -219,7 +221,7 @@ def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channe
             v = float(t)
             if not np.isfinite(v):
                 raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t[:40])!r}")
-            out[k, c] = v
+            out[k - first_frame, c] = v
         k += 1
     if k < num_frames:
         raise BVHError(source, first_ln + max(k - 1, 0),
@@ -280,18 +282,18 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     num_channels = sum(len(c) for c in skel.channels)
     layout = _Layout(skel)
     stop = _data_end(raw, pos)
-    out = None
+    out, done = None, 0
     if num_channels == 0:
         if stop == pos:
-            out = layout.empty(nf)
+            out, done = layout.empty(nf), nf
     elif stop - pos >= nf * num_channels:  # cannot hold the declared values otherwise: allocate nothing
         out = layout.empty(nf)
-        if not _read_chunks(raw, pos, stop, nf, num_channels, layout, out):
-            out = None
-    if out is None:  # the line-by-line parser finds and reports the first bad line
-        data = _parse_motion_lines(raw, ln + 1, nf, num_channels, source, start=pos)
-        out = layout.empty(nf)
-        layout.fill(data.T, 0, out)
+        pos, done = _read_chunks(raw, pos, stop, nf, num_channels, layout, out)
+    if done < nf or pos < stop:  # the line-by-line parser reads the rest, or reports its first bad line
+        data = _parse_motion_lines(raw, ln + 1 + done, nf, num_channels, source, start=pos, first_frame=done)
+        if out is None:
+            out = layout.empty(nf)
+        layout.fill(data.T, done, out)
     root_pos, quats, trans = out
     return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
@@ -344,11 +346,13 @@ def _pool(workers: int):
     return _POOL
 
 
-def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> bool:
+def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> tuple[int, int]:
     """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
     :func:`._numparse.parse_lines`, each piece converted into its frames of ``out`` at once, the pieces
-    spread over the CPUs (numpy and pyarrow release the GIL); ``False`` when a piece cannot be certified
-    or the line count disagrees (the caller then runs the line-by-line parser).
+    spread over the CPUs (numpy and pyarrow release the GIL). Returns ``(position, frames)``: where the
+    first piece that could not be certified starts and the frames before it (``(stop, nf)`` when all
+    were), so the line-by-line parser reads or reports only the rest: a bad last line of a long take
+    costs one piece of slow parsing, not the whole file.
 
     A piece's first frame is the sum of the line counts of the pieces before it, which each piece
     publishes as soon as it is parsed; pieces start in order, so a piece only ever waits for pieces that
@@ -382,15 +386,22 @@ def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Lay
         return True
 
     if n == 1 or workers == 1:
-        ok = all(piece(k) for k in range(n))
+        ok = []
+        for k in range(n):
+            ok.append(piece(k))
+            if not ok[-1]:
+                break
     else:
         futures = [_pool(workers).submit(piece, k) for k in range(1, n)]
-        ok = False
+        ok = [False]
         try:
-            ok = piece(0)
+            ok[0] = piece(0)
         finally:  # no thread may still write into ``out`` when this returns
-            ok = all([f.result() for f in futures]) and ok
-    return ok and sum(rows) == nf
+            ok += [f.result() for f in futures]
+    first_bad = next((k for k, good in enumerate(ok) if not good), None)
+    if first_bad is None:
+        return stop, sum(rows)
+    return bounds[first_bad][0], sum(rows[:first_bad])
 
 
 class _Layout:
