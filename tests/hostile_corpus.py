@@ -144,6 +144,14 @@ def bvh_cases() -> list[tuple[str, bytes]]:
     add("a line of a million values", bvh(rows=[ROWS[0], " ".join(["1"] * 1_000_000), ROWS[2]]))
     add("a million blank lines", bvh(rows=[ROWS[0]] + [""] * 1_000_000 + ROWS[1:]))
     add("values that are absurdly long", bvh(rows=[ROWS[0], ROWS[1].replace("21", "2" * 100_000), ROWS[2]]))
+    # a long take (27,510 frames x 31 joints, ~30 MB) broken at its very end: one piece of slow parsing
+    head, n = _wide(30)
+    line = " ".join(["-12.345678"] * n)
+    long_rows = [line] * 27_509
+    add("long take, truncated last line", bvh(head, frames="27510", rows=long_rows + [line[:-30]]))
+    add("long take, NaN on its last line", bvh(head, frames="27510", rows=long_rows + [line.replace("-12.345678",
+                                                                                                   "nan", 1)]))
+    add("long take, one line missing", bvh(head, frames="27510", rows=long_rows))
     # sizes
     head, n = _chain(12_000)
     add("12,000-level chain (over the joint limit)", bvh(head, frames="1", rows=[" ".join(["0"] * n)]))
