@@ -362,6 +362,11 @@ def session_cases(source_path: str, tmp: Path) -> list[tuple[str, object]]:
     c.append(("5000-digit integer", json.dumps(doc([{"op": "cull", "count": 1}])).replace('"count": 1',
                                                                                           '"count": ' + "9" * 5000)))
     c.append(("deep nesting", "[" * 200_000 + "]" * 200_000))
+    big = ", ".join(["0.5"] * 2_000_000)
+    c.append(("session file over the size limit (40 MB)", '{"format": "stagger_nb.session", "version": 1, '
+              '"ops": [{"op": "cull", "keep": [' + ", ".join([big] * 4) + "]}]}"))
+    c.append(("nested huge float arrays just under the size limit", '{"format": "stagger_nb.session", "version": 1, '
+              '"ops": [{"op": "cull", "keep": [[' + "], [".join([big] * 3) + "]]}]}"))
     c.append(("deep nesting in an op", json.dumps(doc([{"op": "cull", "keep": 1}])).replace(
         '"keep": 1', '"keep": ' + "[" * 100_000 + "]" * 100_000)))
     c.append(("invalid UTF-8", b'{"format": "stagger_nb.session", "x": "\xff\xfe"}'))

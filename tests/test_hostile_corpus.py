@@ -95,3 +95,19 @@ def test_numpy_scalars_are_numbers_and_numpy_bools_are_not():
     for bad in (np.bool_(True), True):
         with pytest.raises(ValueError, match=r"^op\.percent: expected a number"):
             validate_op({"op": "cull", "percent": bad})
+
+
+def test_save_refuses_what_load_would_refuse(tmp_path, monkeypatch):
+    """A session file over the size limit is refused on saving too (nothing written), not only on loading."""
+    import stagger_nb as sn
+    from stagger_nb.session import Session, files
+    s = Session(sn.data.load("walk").slice(0, 20))  # no source path: the motion is embedded
+    s.save(tmp_path / "ok.json")
+    size = (tmp_path / "ok.json").stat().st_size
+    assert Session.load(tmp_path / "ok.json").source.num_frames == 20
+    monkeypatch.setattr(files, "MAX_SESSION_BYTES", size - 1)
+    with pytest.raises(ValueError, match=r"^session: .* over the .*-byte limit .*embed_source=False"):
+        s.save(tmp_path / "big.json")
+    assert not (tmp_path / "big.json").exists()
+    with pytest.raises(ValueError, match=r"^session: session file .*ok\.json: .* over the"):
+        Session.load(tmp_path / "ok.json")
