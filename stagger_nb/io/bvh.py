@@ -286,7 +286,8 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     if num_channels == 0:
         if stop == pos:
             out, done = layout.empty(nf), nf
-    elif stop - pos >= nf * num_channels:  # cannot hold the declared values otherwise: allocate nothing
+    elif stop - pos >= 2 * nf * num_channels - 1:  # a value and its separator take >= 2 bytes: a block that
+        # cannot hold the declared values allocates nothing (the line parser reports where it ends)
         out = layout.empty(nf)
         pos, done = _read_chunks(raw, pos, stop, nf, num_channels, layout, out)
     if done < nf or pos < stop:  # the line-by-line parser reads the rest, or reports its first bad line
