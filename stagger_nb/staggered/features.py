@@ -158,7 +158,8 @@ def limb_axes(skeleton):
     off = np.asarray(off, dtype=float).reshape(-1, 3)
     length = np.linalg.norm(off, axis=1)
     keep = length > 1e-9
-    joint, child, off, length = np.asarray(joint)[keep], np.asarray(child)[keep], off[keep], length[keep]
+    joint, child = np.asarray(joint, dtype=np.int64)[keep], np.asarray(child, dtype=np.int64)[keep]  # ints when empty
+    off, length = off[keep], length[keep]
     u1 = off / length[:, None]
     return joint, child, u1, _orthogonal(u1), length
 
