@@ -136,3 +136,18 @@ def test_walking_pose_times_fall_near_foot_events(shared_motion, name):
     # ~a quarter of the inter-event gap away
     assert np.median(d) * m.frame_time <= 0.2
     assert np.abs(sm.refinements).max() <= 0.25 + 1e-12
+
+
+@pytest.mark.parametrize("name", ["xia_neutral_walk.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
+                                  "pymo_walk_turnaround.bvh"])
+def test_contacts_from_effector_chains_equal_full_fk_on_real_clips(shared_motion, name):
+    """detect_contacts' default FK covers only the effectors' and feet's chains; the contacts (and, hands'
+    support test included, every position it reads) equal those from full forward kinematics."""
+    from stagger_nb.core.kinematics import forward_kinematics
+    m = shared_motion(name)
+    full = staggered.detect_contacts(m, positions=forward_kinematics(m)[0])
+    assert full, f"{name}: a walk or run has foot contacts, or the comparison proves nothing"
+    assert staggered.detect_contacts(m) == full
+    # the plain Appendix B test (hands included without the support test) agrees too
+    assert (staggered.detect_contacts(m, hand_support=None)
+            == staggered.detect_contacts(m, positions=forward_kinematics(m)[0], hand_support=None))

@@ -12,8 +12,9 @@ import re
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from ..core.kinematics import forward_kinematics, skeleton_height
+from ..core.kinematics import skeleton_height
 from ..core.motion import Motion
+from .constraints import _fk_joints
 
 __all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE", "DEFAULT_HAND_SUPPORT"]
 
@@ -82,7 +83,8 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
     joints : iterable of names or indices, optional
         Effectors to test (default :func:`end_effectors`).
     positions : (F, J, 3), optional
-        World joint positions if already computed.
+        World joint positions if already computed (only the tested effectors' and the feet's rows are
+        read). Default: forward kinematics of those joints' chains only (bit-identical to full FK there).
     hand_support : float or None
         A hand's still window is a contact only if its mean height (+Y, the BVH up axis) is at most
         ``hand_support * skeleton height`` above the lowest foot joint over that window. Applies when
@@ -102,14 +104,14 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
     if joints is None:
         joints = end_effectors(sk)
     joints = [sk.index(j) if isinstance(j, str) else int(j) for j in joints]
-    if positions is None:
-        positions, _ = forward_kinematics(motion)
     F = motion.num_frames
     L = max(int(np.ceil(min_duration / motion.frame_time - 1e-9)) + 1, 2)   # frames spanning min_duration
     out = []
     if F < L:
         return out
     feet = [j for j, n in enumerate(sk.names) if _FOOT.search(n) and not _FINGER.search(n)]
+    if positions is None:            # the effectors' and feet's chains only (~1/3 of a body's joints)
+        positions = _fk_joints(motion, joints + feet)[0]
     support = None
     if hand_support is not None:
         if not hand_support >= 0:
