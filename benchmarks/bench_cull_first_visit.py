@@ -78,3 +78,38 @@ print(f"cull refit of each of {len(kpcs)} kept sets (K = {sm.num_poses}), CPU, l
       f"median {1e3 * np.median(now):.1f} ms, max {1e3 * now.max():.1f} ms; previous fit (every sample): "
       f"median {1e3 * np.median(prev):.1f} ms ({np.median(prev) / np.median(now):.2f}x); "
       f"load average {os.getloadavg()[0]:.1f}")
+
+
+# evaluate_samples, the refit's source reads: one lexicographic search over all joints (now) against the
+# previous per-joint np.unique / mask / searchsorted loop, on the scattered (time, joint) pairs of a refit
+# (every frame of every joint, shuffled), same kernels after the segment search; CPU, least of 7
+from stagger_nb.staggered.representation import _rotations_at, evaluate_samples, knot_times  # noqa: E402
+
+
+def evaluate_samples_per_joint_loop(sm, times, joints):
+    J = sm.num_joints
+    T = np.maximum.accumulate(knot_times(sm), axis=0)
+    seg = np.empty(times.size, dtype=np.int64)
+    for j in np.unique(joints):
+        sel = joints == j
+        seg[sel] = np.searchsorted(T[:, j], times[sel], side="right") - 1
+    np.clip(seg, 0, sm.num_poses - 2, out=seg)
+    a, b = T[seg, joints], T[seg + 1, joints]
+    tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
+    return np.array(_rotations_at(sm, seg * J + joints, tn).T)
+
+
+rng = np.random.default_rng(0)
+fr = np.repeat(np.arange(m.num_frames), sm.num_joints)
+perm = rng.permutation(fr.size)
+st, sj = (fr * sm.frame_time)[perm], np.tile(np.arange(sm.num_joints), m.num_frames)[perm]
+best = {}
+for f in (evaluate_samples_per_joint_loop, evaluate_samples) * 8:
+    t = time.process_time()
+    f(sm, st, sj)
+    best[f] = min(best.get(f, 1e9), time.process_time() - t)
+a, b = best[evaluate_samples_per_joint_loop], best[evaluate_samples]
+print(f"evaluate_samples on {st.size} (time, joint) pairs, CPU least of 8: {1e3 * b:.2f} ms vs per-joint loop "
+      f"{1e3 * a:.2f} ms (ratio {b / a:.2f}); max |diff| "
+      f"{np.abs(evaluate_samples(sm, st, sj) - evaluate_samples_per_joint_loop(sm, st, sj)).max():.1e}; "
+      f"load average {os.getloadavg()[0]:.1f}")

@@ -350,3 +350,28 @@ def test_displacement_rotvecs_unwrap_past_half_turn():
     from stagger_nb.staggered import _kernels as K
     back = K.qexp(np.ascontiguousarray(0.5 * d.T)).T
     assert quat_angle(back, targets).max() < 1e-12
+
+
+def test_evaluate_samples_equals_evaluate_at_scattered_pairs(extracted, rng):
+    """evaluate_samples (one lexicographic search over all joints) against evaluate_arrays' per-joint
+    segments: scattered (time, joint) pairs, including times exactly on knots (the usual refit case: knots
+    on source frames), before the first and after the last knot, and crossing knots. The segments equal a
+    per-joint searchsorted exactly; values agree to 1e-12 (not bit for bit: evaluate_arrays computes t' with
+    a reciprocal, and sin_poly's degree adapts to each batch's largest arc)."""
+    from stagger_nb.staggered.representation import _segments_of_pairs, evaluate_samples, knot_times
+    _, sm = extracted("xia_angry_run.bvh")
+    r = np.array(sm.refinements)
+    r[1:-1] += 0.3 * np.sign(np.arange(r.shape[1]) % 2 - 0.5)     # some knots pushed past their neighbours
+    for s in (sm, dataclasses.replace(sm, refinements=r)):
+        J = s.num_joints
+        on_knots = knot_times(s).reshape(-1)
+        times = np.concatenate([on_knots, rng.uniform(-0.5, s.duration + 0.5, 400), [-1.0, s.duration + 1.0]])
+        joints = np.concatenate([np.tile(np.arange(J), s.num_poses), rng.integers(0, J, 402)])
+        perm = rng.permutation(times.size)
+        times, joints = times[perm], joints[perm]
+        T = np.maximum.accumulate(knot_times(s), axis=0)
+        brute = np.array([np.searchsorted(T[:, j], t, side="right") - 1 for t, j in zip(times, joints)])
+        np.testing.assert_array_equal(_segments_of_pairs(T, times, joints), brute)
+        got = evaluate_samples(s, times, joints)
+        want = np.stack([evaluate_arrays(s, [t])[0][0, j] for t, j in zip(times, joints)])
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)

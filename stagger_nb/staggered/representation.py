@@ -387,19 +387,35 @@ def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
     return p + displacement_at(sm.root_displacements[rseg], sm.root_displacement_counts[rseg], rtn)
 
 
+def _segments_of_pairs(T: np.ndarray, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    """``searchsorted(T[:, joints[n]], times[n], side="right") - 1`` for every sample n, in one search.
+
+    ``T (K, J)`` non-decreasing down each column. Complex numbers order lexicographically in numpy's sort
+    and search, so the joint-major keys ``joint + 1j * time`` of all knots form one sorted array and each
+    query ``joints[n] + 1j * times[n]`` lands in its own joint's run, compared by time exactly (no
+    floating offsets that could move a sample lying on a knot)."""
+    Kp, J = T.shape
+    keys = np.empty((J, Kp), dtype=complex)
+    keys.real = np.arange(J)[:, None]
+    keys.imag = T.T
+    q = np.empty(times.size, dtype=complex)
+    q.real = joints
+    q.imag = times
+    seg = np.searchsorted(keys.reshape(-1), q, side="right")
+    seg -= joints * Kp + 1
+    return seg
+
+
 def evaluate_samples(sm: StaggeredMotion, times, joints) -> np.ndarray:
     """Local rotation of joint ``joints[n]`` at ``times[n]`` seconds for every n: ``(N, 4)`` (x, y, z, w).
 
     The same formula as :func:`evaluate`, for scattered (time, joint) samples (used to refit after edits)."""
     times = np.asarray(times, dtype=float).reshape(-1)
     joints = np.asarray(joints, dtype=np.int64).reshape(-1)
-    J = sm.num_joints
+    J, Kp = sm.num_joints, sm.num_poses
     T = np.maximum.accumulate(knot_times(sm), axis=0)
-    seg = np.empty(times.size, dtype=np.int64)
-    for j in np.unique(joints):
-        sel = joints == j
-        seg[sel] = np.searchsorted(T[:, j], times[sel], side="right") - 1
-    np.clip(seg, 0, sm.num_poses - 2, out=seg)
+    seg = _segments_of_pairs(T, times, joints)
+    np.clip(seg, 0, Kp - 2, out=seg)
     a, b = T[seg, joints], T[seg + 1, joints]
     tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
     return np.array(_rotations_at(sm, seg * J + joints, tn).T)
