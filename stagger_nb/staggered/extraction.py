@@ -20,7 +20,7 @@ from ..core.motion import Motion
 from . import _checks
 from .contacts import contact_events, detect_contacts
 from .features import local_evidence
-from .fitting import fit_staggered, refit_merged
+from .fitting import check_evaluated, fit_staggered, refit_merged
 from .representation import StaggeredMotion
 
 __all__ = ["extract", "cull", "cull_keep", "locate_poses", "PoseEvidence", "tent_filter", "pose_probability",
@@ -314,7 +314,7 @@ def cull_keep(sm: StaggeredMotion, percent: float | None = None, *, count: int |
 
 def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None = None,
          interval=None, iterations: int = 2, continuity: str = "C1", fit_samples: int | None = 12,
-         progress=None, local: bool = True) -> StaggeredMotion:
+         progress=None, local: bool = True, evaluated=None) -> StaggeredMotion:
     """Keep the highest-priority poses (§4.1, "Prioritized pose extraction"); first and last always stay.
 
     Parameters
@@ -337,6 +337,9 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
         ``continuity``, else falls back to the full refit. False: refit every segment (:func:`fit_staggered`).
         Both reproduce ``sm`` exactly at the frames; their splines differ by what the full refit's global
         C1 steps move away from the removed poses (tests/test_staggered_cull_local.py bounds it).
+    evaluated : Motion, optional
+        ``evaluate(sm)`` when the caller already has it: the refit reads ``sm``'s samples on frames from it
+        instead of evaluating them again (same result up to rounding ~1e-15 and quaternion sign).
 
     Returns
     -------
@@ -352,6 +355,7 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
     keep = cull_keep(sm, percent, count=count, interval=interval)
     _checks.frame_time("cull", sm.frame_time)
+    evaluated = check_evaluated("cull", sm, evaluated)
     K = sm.num_poses
     t = sm.pose_times
     if keep.size == K:
@@ -370,13 +374,13 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     meta = {k: v for k, v in sm.metadata.items() if k != "fit"}
     if local and on_grid and np.array_equal(kt2, kt) and np.array_equal(rk2, rk):
         out = refit_merged(sm, keep, iterations=iterations, continuity=continuity, fit_samples=fit_samples,
-                           metadata=meta, progress=progress)
+                           metadata=meta, progress=progress, evaluated=evaluated)
         if out is not None:
             return out
     return fit_staggered(sm, tk, ref, rref,
                          pose_probability=sm.pose_probability[keep], contacts=sm.contacts,
                          iterations=iterations, continuity=continuity, oversample=1 if on_grid else 4,
-                         fit_samples=fit_samples, metadata=meta, progress=progress)
+                         fit_samples=fit_samples, metadata=meta, progress=progress, evaluated=evaluated)
 
 
 def _strictly_increasing(knots: np.ndarray, frame_time: float) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.rotations import (quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, quat_normalize,
                               quat_bezier, slerp)
+from ..core.motion import Motion
 from . import _kernels
 from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
@@ -776,10 +777,41 @@ def _fit_stats(angles, inner, iterations, continuity):
             "iterations": iterations, "continuity": continuity}
 
 
+def check_evaluated(name: str, sm: StaggeredMotion, evaluated):
+    """Validate ``evaluated`` (None or ``evaluate(sm)``: a Motion of ``sm``'s joints and frame time whose
+    frame f is at ``pose_times[0] + f * frame_time``); returns it."""
+    if evaluated is None:
+        return None
+    F = int(np.floor(sm.duration / sm.frame_time + 1e-6)) + 1
+    if (not isinstance(evaluated, Motion) or evaluated.num_joints != sm.num_joints
+            or evaluated.num_frames != F or evaluated.frame_time != sm.frame_time):
+        raise ValueError(f"{name}: evaluated must be evaluate(sm) (a Motion of {F} frames x {sm.num_joints} "
+                         f"joints at frame_time {sm.frame_time}), got {evaluated!r}")
+    return evaluated
+
+
+def _samples_of(sm: StaggeredMotion, evaluated, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    """``evaluate_samples(sm, times, joints)`` (N, 4), read from ``evaluated = evaluate(sm)`` (or None) at
+    the samples that fall on its frames."""
+    if evaluated is None:
+        return evaluate_samples(sm, times, joints)
+    lq = evaluated.local_quats
+    f = (times - sm.pose_times[0]) / sm.frame_time
+    r = np.rint(f)
+    on = (np.abs(f - r) < 1e-9) & (r >= 0) & (r <= lq.shape[0] - 1)
+    if on.all():
+        return lq[r.astype(np.int64), joints]
+    out = np.empty((times.size, 4))
+    out[on] = lq[r[on].astype(np.int64), joints[on]]
+    off = ~on
+    out[off] = evaluate_samples(sm, times[off], joints[off])
+    return out
+
+
 def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
                   pose_probability=None, contacts=(), start_time: float = 0.0, iterations: int = 2,
                   continuity: str = "C1", oversample: int = 1, fit_samples: int | None = 12,
-                  metadata: dict | None = None, progress=None) -> StaggeredMotion:
+                  metadata: dict | None = None, progress=None, evaluated=None) -> StaggeredMotion:
     """Fit splines and displacement maps for given staggered poses (§4.1.1).
 
     Parameters
@@ -808,6 +840,10 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         ``fit_samples`` samples are fitted exactly as with None. Keeps the fit's cost at
         O(K J fit_samples) whatever the frame rate and segment lengths (long takes, culls).
     progress : callable(fraction in [0, 1]) or None, called as the fit advances
+    evaluated : Motion, optional
+        ``evaluate(source)`` for a StaggeredMotion ``source`` when the caller already has it (the editor
+        does): samples on its frames are read from it instead of evaluated again; other samples still are.
+        The result is the same up to rounding (~1e-15) and the sign of quaternions (q ≡ -q).
 
     Returns
     -------
@@ -829,11 +865,14 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
         raise ValueError("fit_staggered: refined knot times must be strictly increasing for every joint")
     ft = source.frame_time
     from_sm = isinstance(source, StaggeredMotion)
-    if from_sm:                     # resample the representation itself (exact after any edit), §5.1
+    if evaluated is not None and not from_sm:
+        raise ValueError("fit_staggered: evaluated applies to a StaggeredMotion source only")
+    if from_sm:
+        evaluated = check_evaluated("fit_staggered", source, evaluated)                     # resample the representation itself (exact after any edit), §5.1
         start_time = 0.0
 
         def rot_at(frames, joints):
-            return evaluate_samples(source, frames * ft, joints)
+            return _samples_of(source, evaluated, frames * ft, joints)
 
         def root_at(frames):
             return root_positions_at(source, frames * ft)
@@ -950,7 +989,7 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
 
 
 def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: str = "C1",
-                 fit_samples: int | None = 12, metadata: dict | None = None, progress=None):
+                 fit_samples: int | None = 12, metadata: dict | None = None, progress=None, evaluated=None):
     """The refit of :func:`~.extraction.cull` done locally: only segments that merge removed poses change.
 
     ``keep (K',)`` sorted pose indices of ``sm`` (first and last included). A kept segment between two
@@ -967,6 +1006,7 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     both reproduce ``sm`` exactly at the frames.
 
     The root translation is refitted whole (cheap, and then identical to the full refit).
+    ``evaluated``: ``evaluate(sm)`` if the caller has it (see :func:`fit_staggered`; validated by the caller).
 
     Returns the new StaggeredMotion, or None when the local refit does not apply or does not pay (the
     refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the frame grid,
@@ -1021,7 +1061,7 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     first = m == 0
     inner = real[seg] & ~first & ~last
     targets = np.empty((pair.size, 4))
-    targets[inner] = evaluate_samples(sm, frames[inner] * ft, pair[inner] % J)
+    targets[inner] = _samples_of(sm, evaluated, frames[inner] * ft, pair[inner] % J)
     targets[first] = v0[pair[first]]
     targets[last] = v3[pair[last]]
     cont = _continuous_per_pair(targets, first)
