@@ -108,6 +108,18 @@ def replays(m, sm):
         row(name, timed(lambda: f(next(counter)), 15), t_ev, "evaluate alone")
 
 
+def static_off(f):
+    """``f()`` with evaluate's static-joint shortcut off (every joint through the spline, the previous
+    evaluate): the baseline of that shortcut, measured in this process."""
+    from stagger_nb.staggered import representation as R
+    orig = R.static_rotations
+    R.static_rotations = lambda sm: (np.zeros(sm.num_joints, bool), sm.values[0])
+    try:
+        return f()
+    finally:
+        R.static_rotations = orig
+
+
 def main():
     m, label = clip()
     sm = staggered.extract(m)
@@ -128,6 +140,8 @@ def main():
     t_ev = timed(lambda: staggered.evaluate(sm), 50)
     row("evaluate 900 frames [goal 8 ms, aim 4]", t_ev, t_sample, "Motion.sample")
     row("  baseline evaluate_reference (per joint)", t_ref, t_ev, "evaluate")
+    row("  baseline all joints through the spline", static_off(lambda: timed(lambda: staggered.evaluate(sm), 50)),
+        t_ev, "evaluate")
 
     def edit():
         e = staggered.random_timing(staggered.succession(sm, root=root, s=0.02, l=1.0), tau=0.05, seed=0)

@@ -375,3 +375,20 @@ def test_evaluate_samples_equals_evaluate_at_scattered_pairs(extracted, rng):
         got = evaluate_samples(s, times, joints)
         want = np.stack([evaluate_arrays(s, [t])[0][0, j] for t, j in zip(times, joints)])
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+def test_static_joints_evaluate_to_their_quaternion_exactly(extracted):
+    """Joints with one quaternion throughout (8 of cmu_131_01's 31) skip the spline in evaluate: they are the
+    source's quaternion bit for bit; every joint agrees with the straightforward evaluate_reference (1e-12:
+    the component-first kernels round differently)."""
+    from stagger_nb.staggered.representation import static_rotations
+    m, sm = extracted("cmu_131_01_walk_startstop.bvh")
+    static, c = static_rotations(sm)
+    want = np.all(m.local_quats == m.local_quats[:1], axis=(0, 2))
+    assert static.sum() >= 1 and np.array_equal(static, want)
+    out = staggered.evaluate(sm)
+    src = np.where(np.sum(m.local_quats * out.local_quats, -1, keepdims=True) < 0, -m.local_quats, m.local_quats)
+    np.testing.assert_array_equal(out.local_quats[:, static], src[:, static])
+    ref = evaluate_reference(sm, out.times)
+    ref = np.where(np.sum(ref * out.local_quats, -1, keepdims=True) < 0, -ref, ref)
+    np.testing.assert_allclose(out.local_quats, ref, rtol=0, atol=1e-12)

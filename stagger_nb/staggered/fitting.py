@@ -25,7 +25,7 @@ from ..core.motion import Motion
 from . import _kernels
 from . import _kernels as K
 from .representation import (StaggeredMotion, bezier_cubic, evaluate_samples, root_positions_at,
-                             rotation_spline, translation_source_times)
+                             rotation_spline, static_rotations, translation_source_times)
 
 __all__ = ["fit_staggered", "refit_merged", "fit_subset", "velocity_jumps", "displacement_rotvecs", "match_tangents",
            "match_translation_tangents", "fit_rotation_tangents_c1", "velocities_from_tangents",
@@ -761,11 +761,7 @@ def _static_joints(source):
     control equal to the first knot and the displacement map zero (its ``evaluate`` is then that
     quaternion up to rounding)."""
     if isinstance(source, StaggeredMotion):
-        c = source.values[0]
-        static = (np.all(source.values == c, axis=(0, 2))
-                  & np.all(source.tangents == c[None, :, None, :], axis=(0, 2, 3))
-                  & ~np.any(source.displacements, axis=(0, 2, 3)))
-        return static, c
+        return static_rotations(source)
     q = source.local_quats
     return np.all(q == q[0], axis=(0, 2)), q[0]
 

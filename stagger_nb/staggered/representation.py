@@ -27,7 +27,8 @@ from . import _kernels as K
 
 __all__ = ["StaggeredMotion", "evaluate", "knot_times", "default_times", "segment_coordinates",
            "rotation_spline", "translation_spline", "displacement_at", "bezier_cubic", "evaluate_reference",
-           "evaluate_samples", "root_positions_at", "evaluate_arrays", "translation_source_times"]
+           "evaluate_samples", "root_positions_at", "evaluate_arrays", "translation_source_times",
+           "static_rotations"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -421,13 +422,36 @@ def evaluate_samples(sm: StaggeredMotion, times, joints) -> np.ndarray:
     return np.array(_rotations_at(sm, seg * J + joints, tn).T)
 
 
+def static_rotations(sm: StaggeredMotion):
+    """``(J,) bool, (J, 4)``: joints whose rotation is one quaternion throughout (every knot and control
+    equal to the first knot, the displacement map zero: the spline of equal controls is that quaternion),
+    and each joint's first knot ``values[0]``."""
+    c = sm.values[0]
+    static = (np.all(sm.values == c, axis=(0, 2))
+              & np.all(sm.tangents == c[None, :, None, :], axis=(0, 2, 3)))
+    if static.any():
+        static[static] = ~np.any(sm.displacements[:, static], axis=(0, 2, 3))
+    return static, c
+
+
 def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
-    """:func:`evaluate_arrays` returning a view of workspace memory for ``q`` (valid until the next call)."""
+    """:func:`evaluate_arrays` returning, for ``q``, a view of workspace memory (valid until the next call)
+    or a new array. Static joints (:func:`static_rotations`, e.g. 6 of CMU's 31) are their quaternion
+    exactly, without evaluating the spline (which returns it to ~1e-16)."""
     times = np.asarray(times, dtype=float).reshape(-1)
-    J = sm.num_joints
-    seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
-    idx = seg.reshape(-1) * J + np.tile(np.arange(J), times.size)   # pair index (segment-major)
-    q = _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(times.size, J, 4)
+    J, N = sm.num_joints, times.size
+    static, c = static_rotations(sm)
+    if not static.any():
+        seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
+        idx = seg.reshape(-1) * J + np.tile(np.arange(J), N)         # pair index (segment-major)
+        return _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(N, J, 4), root_positions_at(sm, times)
+    mov = np.flatnonzero(~static)
+    q = np.empty((N, J, 4))
+    q[:, static] = c[static]
+    if mov.size:
+        seg, tn = segment_coordinates(knot_times(sm)[:, mov], times)  # (N, moving joints)
+        idx = seg.reshape(-1) * J + np.tile(mov, N)
+        q[:, mov] = _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(N, mov.size, 4)
     return q, root_positions_at(sm, times)
 
 
