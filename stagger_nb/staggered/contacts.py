@@ -12,9 +12,8 @@ import re
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from ..core.kinematics import skeleton_height
+from ..core.kinematics import _fk_component_major, skeleton_height
 from ..core.motion import Motion
-from .constraints import _fk_joints
 
 __all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE", "DEFAULT_HAND_SUPPORT"]
 
@@ -33,6 +32,37 @@ def end_effectors(skeleton) -> list[int]:
     if not idx:
         idx = [int(j) for j in np.flatnonzero(skeleton.is_leaf())]
     return idx
+
+
+def chain_subset(parents: np.ndarray, joints):
+    """The joints ``joints`` and all their ancestors, as a sub-skeleton.
+
+    Returns ``sub (n,)`` their indices ascending (parents before children, the root first), ``sub_par (n,)``
+    the parent of each within ``sub`` (-1 for the root) and ``where (J,)`` each joint's place in ``sub``
+    (-1 if not kept)."""
+    keep = np.zeros(parents.size, bool)
+    for j in joints:
+        j = int(j)
+        while j >= 0 and not keep[j]:
+            keep[j] = True
+            j = int(parents[j])
+    sub = np.flatnonzero(keep)
+    where = np.full(parents.size, -1)
+    where[sub] = np.arange(sub.size)
+    return sub, np.where(parents[sub] >= 0, where[np.maximum(parents[sub], 0)], -1), where
+
+
+def _chain_positions(motion: Motion, joints) -> dict[int, np.ndarray]:
+    """World positions ``{j: (F, 3)}`` of ``joints``, by forward kinematics of their chains only (the same
+    products in the same order as :func:`~stagger_nb.core.kinematics.forward_kinematics`, so bit-identical;
+    no (F, J) outputs are built for the joints nobody reads)."""
+    sub, sub_par, where = chain_subset(motion.skeleton.parents, joints)
+    Q = np.ascontiguousarray(np.moveaxis(motion.local_quats[:, sub], 0, -1).transpose(1, 0, 2))   # (4, n, F)
+    lt = motion.local_translations
+    T = (motion.skeleton.offsets[sub].T[:, :, None] if lt is None
+         else np.ascontiguousarray(np.moveaxis(lt[:, sub], 0, -1).transpose(1, 0, 2)))
+    _, P = _fk_component_major(Q, T, np.ascontiguousarray(motion.root_positions.T), sub_par)
+    return {int(j): np.ascontiguousarray(P[:, where[j]].T) for j in set(joints)}
 
 
 def _box_extent(p: np.ndarray, length: int) -> np.ndarray:
@@ -110,18 +140,20 @@ def detect_contacts(motion: Motion, tolerance: float | None = None, min_duration
     if F < L:
         return out
     feet = [j for j, n in enumerate(sk.names) if _FOOT.search(n) and not _FINGER.search(n)]
-    if positions is None:            # the effectors' and feet's chains only (~1/3 of a body's joints)
-        positions = _fk_joints(motion, joints + feet)[0]
+    if positions is None:            # the effectors' and feet's chains only
+        pos = _chain_positions(motion, joints + feet)
+    else:
+        pos = {j: positions[:, j] for j in set(joints + feet)}
     support = None
     if hand_support is not None:
         if not hand_support >= 0:
             raise ValueError(f"detect_contacts: hand_support must be >= 0 or None, got {hand_support}")
         if feet:
             support = hand_support * skeleton_height(motion)
-            floor = positions[:, feet, 1].min(axis=1)                 # (F,) lowest foot joint per frame
+            floor = np.min([pos[f][:, 1] for f in feet], axis=0)      # (F,) lowest foot joint per frame
     for j in joints:
         is_hand = support is not None and bool(_HAND.search(sk.names[j])) and j not in feet
-        p = positions[:, j]
+        p = pos[j]
         ok = _box_extent(p, L) <= tolerance                    # window [s, s + L) is still
         starts = np.flatnonzero(ok)
         s = 0
