@@ -49,7 +49,8 @@ def base_layout(title: str, height: int, x_title: str = "time (s)", y_title: str
     ``x_range`` : (2,) seconds, the x axis range (editors give all their time plots the same one: the
     playheads line up); None lets plotly fit the data.
     """
-    xaxis = dict(title=dict(text=x_title, standoff=4), automargin=True, zeroline=False)
+    # hover labels read "1.23" s and 3 significant digits, not float32 noise ("2.233333, 0.5840447")
+    xaxis = dict(title=dict(text=x_title, standoff=4), automargin=True, zeroline=False, hoverformat=".2f")
     if x_range is not None:
         lo, hi = (float(v) for v in x_range)
         if not hi > lo:
@@ -69,7 +70,7 @@ def base_layout(title: str, height: int, x_title: str = "time (s)", y_title: str
                     yanchor="bottom", font=dict(size=11), tracegroupgap=0, itemwidth=30),
         hovermode="x", hoverdistance=-1,
         xaxis=xaxis,
-        yaxis=dict(title=dict(text=y_title, standoff=4), automargin=True),
+        yaxis=dict(title=dict(text=y_title, standoff=4), automargin=True, hoverformat=".3g"),
         template="plotly_white",
         uirevision="keep",   # a user's zoom and legend clicks survive data updates
     )

@@ -64,7 +64,8 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
     if title is None:
         title = f"pose probability P(t): {len(kt)} of {len(ct)} candidate poses kept"
     layout = base_layout(title, height, y_title="P(t)", x_range=x_range if x_range is not None else data_span(t, ct),
-                         yaxis=dict(title=dict(text="P(t)", standoff=4), rangemode="tozero", automargin=True),
+                         yaxis=dict(title=dict(text="P(t)", standoff=4), rangemode="tozero", automargin=True,
+                                    hoverformat=".3g"),
                          shapes=[vline(x, POSE_COLOUR, "dot") for x in kt])
     return dict(data=data, layout=layout)
 
@@ -163,7 +164,8 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
         data.append(legend_line("edited frame" if len(et) == 1 else "edited frames", EDIT_COLOUR, "solid", 3))
     layout = base_layout(title or "falloff from the edited frame", height, y_title="weight",
                          x_range=x_range if x_range is not None else data_span(t),
-                         yaxis=dict(title=dict(text="weight", standoff=4), range=[-0.05, 1.05], automargin=True),
+                         yaxis=dict(title=dict(text="weight", standoff=4), range=[-0.05, 1.05], automargin=True,
+                                    hoverformat=".3g"),
                          shapes=[vline(x, EDIT_COLOUR, "solid", 3) for x in et])
     return dict(data=data, layout=layout)
 
@@ -208,12 +210,12 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
                          xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False, automargin=True,
                                     zeroline=False),
                          yaxis=dict(domain=[0.48, 1], anchor="x", title=dict(text="input time (s)", standoff=4),
-                                    automargin=True),
+                                    automargin=True, hoverformat=".2f"),
                          xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="output time (s)", standoff=4),
-                                     automargin=True, zeroline=False),
+                                     automargin=True, zeroline=False, hoverformat=".2f"),
                          yaxis2=dict(domain=[0, 0.36], anchor="x2", type="log", range=[np.log10(lo), np.log10(hi)],
                                      tickvals=ticks, ticktext=[f"{v:g}×" for v in ticks],
-                                     title=dict(text="speed", standoff=4), automargin=True),
+                                     title=dict(text="speed", standoff=4), automargin=True, hoverformat=".2f"),
                          shapes=[dict(type="line", xref="x2 domain", yref="y2", x0=0, x1=1, y0=1, y1=1,
                                       line=dict(color="#a0aec0", width=1), layer="below")])
     if span is not None:   # both rows (x matches x2): the range is set on x2, the axis that is drawn
