@@ -234,7 +234,12 @@ _PLOT_PROBE = """(scope) => [...document.querySelectorAll(scope + ' .sn-plot-vie
                      return {left: r.left, right: r.right, top: r.top, bottom: r.bottom, width: r.width}; };
   const lines = gd ? [...gd.querySelectorAll('.scatterlayer .trace path.js-line')]
                        .map(p => p.getAttribute('d') || '').filter(d => d.length > 20) : [];
+  const ph = gd ? [...gd.querySelectorAll('.layer-above .shapelayer path')].pop() : null;   // the playhead
+  const area = gd ? gd.querySelector('.nsewdrag') : null;   // the plot area (x/y axes' drag rectangle)
   return {draws: +(el.dataset.draws || 0), error: el.dataset.error || null, frame: el.dataset.frame,
+          synced: el.dataset.synced === '1',
+          playhead_px: ph ? (r => r.left + r.width / 2)(ph.getBoundingClientRect()) : null,
+          plot_area: box(area),
           status: el.dataset.status || null, width: el.getBoundingClientRect().width,
           title: gd && gd.querySelector('.gtitle') ? gd.querySelector('.gtitle').textContent : null,
           lines: lines.length, line0: lines[0] || '',
@@ -265,6 +270,33 @@ def plots_drawn_js(scopes: dict) -> str:
     as :func:`wait_plots_drawn` requires."""
     checks = " && ".join(f"({PLOTS_DRAWN})([{json.dumps(k)}, {json.dumps(v)}])" for k, v in scopes.items())
     return f"() => {checks}"
+
+
+PLOTS_SYNCED = """(scope) => [...document.querySelectorAll(scope + ' .sn-plot-view')]
+                                .every(el => el.dataset.synced === '1')"""
+
+
+def wait_plots_synced(page, scope: str = "", timeout: float = 60.0) -> list[dict]:
+    """Until every PlotView inside ``scope`` has drawn its store's current figure and playhead (call it
+    after the kernel is idle: then nothing newer is on its way). Returns :func:`plot_states`."""
+    page.wait_for_function(PLOTS_SYNCED, arg=scope, timeout=timeout * 1000)
+    return plot_states(page, scope)
+
+
+def misaligned(states: list[dict], slack: float = 1.5) -> list[str]:
+    """Why the stacked time plots of one editor do not line up (empty when they do): their plot areas
+    must have the same left edge and width (CSS px), and their playheads (same frame) the same x."""
+    why = []
+    ref = states[0] if states else None
+    for i, s in enumerate(states[1:], 1):
+        a, b = ref["plot_area"], s["plot_area"]
+        if not a or not b or abs(a["left"] - b["left"]) > slack or abs(a["width"] - b["width"]) > slack:
+            why.append(f"plot {i}: plot area {b} vs plot 0: {a}")
+        if ref["frame"] == s["frame"] and (ref["playhead_px"] is None or s["playhead_px"] is None or
+                                           abs(ref["playhead_px"] - s["playhead_px"]) > slack):
+            why.append(f"plot {i}: playhead at x={s['playhead_px']} px vs plot 0: {ref['playhead_px']} px "
+                       f"(frame {s['frame']})")
+    return why
 
 
 def wait_plots_drawn(page, scope: str, count: int | None = None, timeout: float = 90.0) -> list[dict]:

@@ -36,8 +36,11 @@ def test_joint_curves_knots_sit_on_the_edited_curves():
     f = plotting.joint_curves_figure(T, edited, np.zeros((10, 3)), np.arange(10) / 10,
                                      pose_times=[0.2, 0.6], knot_times=[0.25])
     g = _valid(f)
-    assert [tr.name for tr in g.data][:6] == ["x edited", "y edited", "z edited", "x original", "y original",
-                                             "z original"]
+    assert [tr.name for tr in g.data][:6] == ["x", "y", "z", "x original", "y original", "z original"]
+    # one legend entry per component (edited and original toggle together), then the dotted "original",
+    # the knots and the pose lines' entries
+    assert [tr.name for tr in g.data if tr.showlegend is not False] == ["x", "y", "z", "knots t<sub>k</sub> + r<sub>kj</sub>",
+                                                                      "original", "pose times t<sub>k</sub>"]
     np.testing.assert_allclose(g.data[1].y, 2 * T)
     np.testing.assert_allclose(g.data[6].y, [0.25, 0.5, 0.75])   # linear curves: interpolation is exact
     assert [s.x0 for s in g.layout.shapes] == [0.2, 0.6]
@@ -52,10 +55,11 @@ def test_falloff_every_curve_has_a_legend_and_the_edited_frames_are_marked():
     curves = {"spline": 1 - T, "green": T, "diffusion": T ** 2, "isomap": T / 2}
     f = plotting.falloff_figure(T, curves, edited_times=[0.2, 0.7], sweep=[("σ=1", T), ("σ=2", T)])
     g = _valid(f)
-    assert [tr.meta for tr in g.data] == ["green", "isomap", "diffusion", "spline", "sweep0", "sweep1"]
+    assert [tr.meta for tr in g.data][:6] == ["green", "isomap", "diffusion", "spline", "sweep0", "sweep1"]
     assert all(tr.name and tr.showlegend is not False for tr in g.data)
+    assert g.data[-1].name == "edited frames" and list(g.data[-1].x) == [None]   # names the vertical lines
     assert [s.x0 for s in g.layout.shapes] == [0.2, 0.7]
-    assert len(_valid(plotting.falloff_figure(T, {"green": T})).data) == 1
+    assert len(_valid(plotting.falloff_figure(T, {"green": T})).data) == 1   # no edited frame, no entry
     with pytest.raises(ValueError, match=r"curves\['isomap'\]"):
         plotting.falloff_figure(T, {"isomap": T[:3]})
 
@@ -74,3 +78,24 @@ def test_warp_speed_is_clipped_on_a_labelled_log_axis():
         plotting.warp_figure(T, T, np.ones(31), keytimes=[[1, 2, 3]])
     with pytest.raises(ValueError, match="speed=3"):
         plotting.warp_figure(T, T, np.ones(3))
+
+
+def test_time_plots_given_one_x_range_share_margins_and_range():
+    """What lines an editor's playheads up: the same x range and the same left/right margins on every time
+    plot (the legend under the axes widens nothing), whatever their titles, legends and y labels."""
+    span = (0.0, 1.0)
+    figs = [plotting.joint_curves_figure(T, np.stack([T, -100 * T, T], 1), pose_times=[0.2], x_range=span),
+            plotting.pose_probability_figure(None, None, [0.1], [0.3], [], [], x_range=span),
+            plotting.falloff_figure(T, {"green": T, "isomap": T, "spline": T}, edited_times=[0.5], x_range=span)]
+    w = plotting.warp_figure(T, T, np.ones(31), x_range=span)
+    for f in figs:
+        g = _valid(f)
+        assert list(g.layout.xaxis.range) == [0.0, 1.0] and g.layout.xaxis.autorange is False
+        assert (g.layout.margin.l, g.layout.margin.r) == (figs[0]["layout"]["margin"]["l"],
+                                                          figs[0]["layout"]["margin"]["r"])
+        assert g.layout.legend.orientation == "h" and g.layout.legend.yref == "container"
+    assert list(_valid(w).layout.xaxis2.range) == [0.0, 1.0]   # the drawn axis of the two rows
+    # without a range the data's span, not plotly's padded autorange
+    assert list(_valid(plotting.falloff_figure(T, {"green": T})).layout.xaxis.range) == [0.0, 1.0]
+    with pytest.raises(ValueError, match="x_range"):
+        plotting.falloff_figure(T, {"green": T}, x_range=(1.0, 1.0))

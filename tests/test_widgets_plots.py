@@ -36,8 +36,10 @@ def test_state_holds_the_current_figure_as_typed_arrays():
     v = PlotView(plotting.falloff_figure(T, {"green": T}), frame_time=1 / 30)
     fig = plotting.falloff_figure(T, {"green": T ** 2, "isomap": 1 - T}, edited_times=[0.5])
     v.figure = fig
-    state = v.get_state()["figure"]   # what every new view (e.g. after a page reload) draws
-    assert [tr["name"] for tr in state["data"]] == ["Green's function", "ISOMAP distance"]
+    state = v.store.get_state()["figure"]   # what every new view (e.g. after a page reload) draws
+    assert "figure" not in v.get_state()   # only in the store: anywidget may drop kernel updates to the view
+    assert v.get_state()["store"] == "IPY_MODEL_" + v.store.model_id
+    assert [tr["name"] for tr in state["data"]] == ["Green's function", "ISOMAP distance", "edited frame"]
     # float32 on the wire: 7 significant digits are plenty to draw
     np.testing.assert_allclose(_decode(state["data"][0]["y"]), T ** 2, rtol=1e-6)
     assert state["data"][0]["x"]["dtype"] == "f4"
@@ -46,20 +48,31 @@ def test_state_holds_the_current_figure_as_typed_arrays():
         v.figure = {"traces": []}
     with pytest.raises(traitlets.TraitError, match="frame_time"):
         v.frame_time = 0.0
+    with pytest.raises(traitlets.TraitError, match="figure"):
+        PlotView({"traces": []})
+    v.frame_time, v.playhead_x, v.frame = 0.04, [0.0, 0.5], 1
+    st = v.store.get_state()
+    assert (st["frame_time"], st["playhead_x"], st["frame"]) == (0.04, [0.0, 0.5], 1)
+    v.store.frame = 2   # a click in the browser seeks through the store
+    assert v.frame == 2
+    v.close()
+    assert v.store.comm is None   # closing the view closes its store
 
 
 def test_plotly_js_is_sent_on_request_never_in_the_state():
     v = PlotView(plotting.falloff_figure(T, {"green": T}))
-    state = v.get_state()
-    assert len(json.dumps(figure_to_json(state))) < 30_000   # the small module and the figure: no plotly.js
+    state, stored = v.get_state(), v.store.get_state()
+    assert len(json.dumps(figure_to_json(state))) < 30_000   # the small module: no plotly.js
+    assert len(json.dumps(figure_to_json(stored))) < 30_000   # the figure: no plotly.js
     assert "http" not in state["_esm"]   # no URL to fetch anything from
     sent = []
-    orig = v.comm.send
-    v.comm.send = lambda data=None, metadata=None, buffers=None: sent.append((data, buffers))
-    try:   # what the browser's first view sends
-        v._handle_msg({"content": {"data": {"method": "custom", "content": {"event": "need_plotly"}}}, "buffers": []})
+    orig = v.store.comm.send
+    v.store.comm.send = lambda data=None, metadata=None, buffers=None: sent.append((data, buffers))
+    try:   # what the browser's first view sends (to a store: its messages always arrive)
+        v.store._handle_msg({"content": {"data": {"method": "custom", "content": {"event": "need_plotly"}}},
+                             "buffers": []})
     finally:
-        v.comm.send = orig
+        v.store.comm.send = orig
     (data, buffers), = sent
     from plotly.offline import get_plotlyjs
     assert data["content"] == {"event": "plotly.js"} and bytes(buffers[0]) == get_plotlyjs().encode()
@@ -67,16 +80,20 @@ def test_plotly_js_is_sent_on_request_never_in_the_state():
 
 def test_frame_from_the_browser_is_not_echoed_and_updates_are_one_message():
     v = PlotView(plotting.falloff_figure(T, {"green": T}), frame_time=1 / 30)
-    log = _sends(v)
+    log, stored = _sends(v), _sends(v.store)
     for f in range(1, 31):   # what a jsdlink from a Play widget sends during playback
         v.set_state({"frame": f})
-    assert v.frame == 30 and log == []
-    v.set_state({"frame_time": 0.04})   # an echoed trait, for contrast: the check above can fail
-    assert [m["method"] for m in log] == ["echo_update"]
-    log.clear()
+    # drawn in the browser already: nothing goes back, and the store's kernel copy (what a reload draws) follows
+    assert v.frame == 30 and log == [] and stored == [] and v.store.frame == 30
+    stored.clear()
+    v.store.set_state({"frame_time": 0.04})   # an echoed trait, for contrast: the check above can fail
+    assert [m["method"] for m in stored] == ["echo_update"]
+    stored.clear()
     v.figure = plotting.falloff_figure(T, {"green": 1 - T})
     v.frame = 3
-    assert [sorted(m["state"]) for m in log] == [["figure"], ["frame"]]
+    # the figure once (to the store), the frame to both (the view's model may be the one a jsdlink drives)
+    assert [sorted(m["state"]) for m in stored] == [["figure"], ["frame"]]
+    assert [sorted(m["state"]) for m in log] == [["frame"]]
 
 
 def test_click_seeks_to_the_nearest_frame_and_reports():
@@ -89,9 +106,9 @@ def test_click_seeks_to_the_nearest_frame_and_reports():
     assert v.frame == 2
     # a click message from the browser (which sets frame itself) only calls the callbacks
     v.frame = 0
-    v._handle_msg({"content": {"data": {"method": "custom", "content": {"event": "click", "x": 1.3, "y": None,
-                                                                          "frame": 3}}},
-                   "buffers": []})
+    v.store._handle_msg({"content": {"data": {"method": "custom", "content": {"event": "click", "x": 1.3,
+                                                                                "y": None, "frame": 3}}},
+                         "buffers": []})
     assert got[-1] == (1.3, None, 3) and v.frame == 0
     v.seek_on_click = False
     v.click(0.7)
@@ -102,7 +119,7 @@ def test_deprecated_plot_classes_build_the_same_figures():
     jp = JointCurvesPlot(1 / 30)
     jp.update(T, np.stack([T, 2 * T, 3 * T], 1), np.zeros((31, 3)), pose_times=[0.2], knot_times=[0.25])
     ref = plotting.joint_curves_figure(T, np.stack([T, 2 * T, 3 * T], 1), np.zeros((31, 3)), T,
-                                       pose_times=[0.2], knot_times=[0.25], height=280)
+                                       pose_times=[0.2], knot_times=[0.25], height=jp.figure["layout"]["height"])
     np.testing.assert_allclose(jp.figure["data"][6]["y"], ref["data"][6]["y"])
     np.testing.assert_allclose(jp.figure["data"][3]["x"], T)
     pp = ProbabilityPlot(1 / 30)

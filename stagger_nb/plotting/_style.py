@@ -31,28 +31,68 @@ def same_length(**arrays) -> None:
         raise ValueError("lengths differ: " + ", ".join(f"{k}={n}" for k, n in lengths.items()))
 
 
-def base_layout(title: str, height: int, x_title: str = "time (s)", y_title: str = "", **extra) -> dict:
+# Every time plot of an editor has the same left/right margins and x range, so one frame is one x position
+# down the column (the playheads line up). The y-axis labels fit in MARGIN_LEFT (automargin only grows it
+# for unusually wide labels); the legend sits under the x axis, so it never changes the plot's width and
+# never covers data.
+MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP = 64, 16, 34
+LEGEND_ROW = 22   # px per legend row under the axes (11 px font); figures add it to their height
+
+
+def base_layout(title: str, height: int, x_title: str = "time (s)", y_title: str = "", x_range=None,
+                **extra) -> dict:
     """A layout that takes the width it is given (no ``width``: the view sizes it to its output area),
-    a title on the left, the legend right of the axes, and a hover line along x so a
-    click anywhere in the plot reports the nearest sample (the view uses it to seek)."""
+    a title on the left, fixed left/right margins, the legend in one or more rows under the x axis (its
+    height is reserved below the axis titles: it widens nothing and covers nothing), and a hover line
+    along x so a click anywhere in the plot reports the nearest sample (the view uses it to seek).
+
+    ``x_range`` : (2,) seconds, the x axis range (editors give all their time plots the same one: the
+    playheads line up); None lets plotly fit the data.
+    """
+    # hover labels read "1.23" s and 3 significant digits, not float32 noise ("2.233333, 0.5840447")
+    xaxis = dict(title=dict(text=x_title, standoff=4), automargin=True, zeroline=False, hoverformat=".2f")
+    if x_range is not None:
+        lo, hi = (float(v) for v in x_range)
+        if not hi > lo:
+            raise ValueError(f"x_range: expected (lo, hi) with hi > lo, got {x_range!r}")
+        xaxis["range"] = [lo, hi]
+        xaxis["autorange"] = False
     layout = dict(
-        title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)),
+        title=dict(text=title, x=0.01, xanchor="left", y=1, yanchor="top", yref="container",
+                   pad=dict(t=8), font=dict(size=14)),
         height=int(height), autosize=True,
-        margin=dict(l=60, r=20, t=40, b=10, autoexpand=True),
+        margin=dict(l=MARGIN_LEFT, r=MARGIN_RIGHT, t=MARGIN_TOP, b=8, autoexpand=True),
         font=dict(size=12),
         showlegend=True,   # also with one trace: every curve is named
-        # right of the axes, top-aligned: plotly widens the right margin for it, so it never covers the
-        # x-axis title (a horizontal legend under the axes did at 260 px height)
-        legend=dict(orientation="v", x=1.01, xanchor="left", y=1, yanchor="top", font=dict(size=11),
-                    tracegroupgap=4),
+        # under the axes, anchored to the bottom of the figure (container coordinates): plotly reserves its
+        # height below the x-axis title, so it never overlaps the axis or the data, at any height
+        legend=dict(orientation="h", xref="paper", x=0, xanchor="left", yref="container", y=0,
+                    yanchor="bottom", font=dict(size=11), tracegroupgap=0, itemwidth=30),
         hovermode="x", hoverdistance=-1,
-        xaxis=dict(title=dict(text=x_title), automargin=True, zeroline=False),
-        yaxis=dict(title=dict(text=y_title), automargin=True),
+        xaxis=xaxis,
+        yaxis=dict(title=dict(text=y_title, standoff=4), automargin=True, hoverformat=".3g"),
         template="plotly_white",
         uirevision="keep",   # a user's zoom and legend clicks survive data updates
     )
     layout.update(extra)
     return layout
+
+
+def legend_line(name: str, color: str, dash: str = "solid", width: float = 1.5, xaxis: str = "x",
+                yaxis: str = "y") -> dict:
+    """A trace with no data and a legend entry: names the vertical marker lines (shapes have no legend)."""
+    return dict(type="scatter", x=[None], y=[None], mode="lines", name=name, hoverinfo="skip",
+                line=dict(color=color, dash=dash, width=width), xaxis=xaxis, yaxis=yaxis)
+
+
+def data_span(*arrays):
+    """(lo, hi) of the first non-empty array, or None (an x range that covers the data)."""
+    for a in arrays:
+        a = np.asarray(a, dtype=float)
+        if a.size and np.isfinite(a).any():
+            lo, hi = float(np.nanmin(a)), float(np.nanmax(a))
+            return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
+    return None
 
 
 def vline(x: float, color: str, dash: str = "dash", width: float = 1.0, xref: str = "x") -> dict:

@@ -18,8 +18,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, METHOD_COLOURS, METHOD_NAMES, POSE_COLOUR, base_layout,
-                     floats, same_length, vline)
+from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, LEGEND_ROW, METHOD_COLOURS, METHOD_NAMES, POSE_COLOUR,
+                     base_layout, data_span, floats, legend_line, same_length, vline)
 
 __all__ = ["pose_probability_figure", "joint_curves_figure", "falloff_figure", "warp_figure",
            "SPEED_LIMITS"]
@@ -28,7 +28,7 @@ SPEED_LIMITS = (0.1, 10.0)   # speed axis range: tenfold slow motion to tenfold 
 
 
 def pose_probability_figure(times, probability, candidate_times, candidate_values, kept_times, kept_values, *,
-                            title: str | None = None, height: int = 240) -> dict:
+                            title: str | None = None, height: int = 240 + LEGEND_ROW, x_range=None) -> dict:
     """Pose probability ``P(t)`` with the candidate poses and the staggered poses kept after culling.
 
     Parameters
@@ -37,9 +37,11 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
     candidate_times, candidate_values : (C,) seconds and P at each candidate pose (all peaks, §4.1)
     kept_times, kept_values : (K,) seconds and P at each kept (staggered) pose
     title : str, default "pose probability P(t): K of C candidate poses kept"
+    x_range : (2,) seconds or None (the span of ``times``, else of the candidates); an editor gives all
+        its time plots the same range so their playheads line up
 
-    Traces: 0 ``P(t)`` line, 1 candidates (hollow circles), 2 kept poses (filled, also drawn as dashed
-    vertical lines).
+    Traces: 0 ``P(t)`` line, 1 candidates (hollow circles), 2 kept poses (filled diamonds, also drawn as
+    dotted vertical lines of the same colour).
     """
     ct, cv = floats(candidate_times, "candidate_times"), floats(candidate_values, "candidate_values")
     kt, kv = floats(kept_times, "kept_times"), floats(kept_values, "kept_values")
@@ -55,20 +57,23 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
     data = [
         dict(type="scatter", x=t, y=p, mode="lines", name="P(t)", line=dict(color="#2b6cb0", width=2)),
         dict(type="scatter", x=ct, y=cv, mode="markers", name=f"candidates ({len(ct)})",
-             marker=dict(size=7, color="rgba(0,0,0,0)", line=dict(color="#4a5568", width=1.5))),
+             marker=dict(size=7, color="rgba(0,0,0,0)", line=dict(color="#4a5568", width=1.5)), cliponaxis=False),
         dict(type="scatter", x=kt, y=kv, mode="markers", name=f"staggered poses ({len(kt)})",
-             marker=dict(size=10, color=POSE_COLOUR, symbol="diamond")),
+             marker=dict(size=10, color=POSE_COLOUR, symbol="diamond"), cliponaxis=False),
     ]
     if title is None:
         title = f"pose probability P(t): {len(kt)} of {len(ct)} candidate poses kept"
-    layout = base_layout(title, height, y_title="P(t)", yaxis=dict(title=dict(text="P(t)"), rangemode="tozero",
-                                                                   automargin=True),
+    layout = base_layout(title, height, y_title="P(t)", x_range=x_range if x_range is not None else data_span(t, ct),
+                         yaxis=dict(title=dict(text="P(t)", standoff=4), rangemode="tozero", automargin=True,
+                                    hoverformat=".3g"),
                          shapes=[vline(x, POSE_COLOUR, "dot") for x in kt])
     return dict(data=data, layout=layout)
 
 
 def joint_curves_figure(times, edited_deg, original_deg=None, original_times=None, *, pose_times=(),
-                        knot_times=(), title: str | None = None, height: int = 280) -> dict:
+                        knot_times=(), title: str | None = None, height: int = 280 + LEGEND_ROW,
+                        x_range=None, pose_label: str = "pose times t<sub>k</sub>",
+                        pose_colour: str = POSE_COLOUR) -> dict:
     """One joint's rotation over time as a rotation vector, edited (solid) against original (dotted).
 
     Parameters
@@ -79,8 +84,13 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
     original_times : (F0,) seconds of ``original_deg`` (required with it)
     pose_times : (K,) seconds, staggered pose times ``t_k`` drawn as dashed vertical lines
     knot_times : (K,) seconds, this joint's refinement knots ``t_k + r_{k,j}``, drawn on the edited curves
+    x_range : (2,) seconds or None (the span of ``times``)
+    pose_label, pose_colour : legend name and colour of the dashed vertical lines (e.g. "edited frames" in
+        the wand editor, in the falloff plot's edited-frame colour ``plotting.EDIT_COLOUR``)
 
-    Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None); 6 knots.
+    Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None); 6 knots;
+    7 "original (dotted)" and 8 the pose lines' legend entries (no data). The legend shows x, y, z once
+    each (a click hides a component, edited and original together).
     """
     t = floats(times, "times")
     e = floats(edited_deg, "edited_deg", ndim=2)
@@ -96,24 +106,29 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
     else:
         o, ot = np.zeros((0, 3)), np.zeros(0)
     pt, kt = floats(pose_times, "pose_times"), floats(knot_times, "knot_times")
-    data = [dict(type="scatter", x=t, y=e[:, i], mode="lines", name=f"{c} edited", legendgroup=c,
+    data = [dict(type="scatter", x=t, y=e[:, i], mode="lines", name=c, legendgroup=c,
                  line=dict(color=col, width=2)) for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
     data += [dict(type="scatter", x=ot, y=o[:, i], mode="lines", name=f"{c} original", legendgroup=c,
-                  line=dict(color=col, width=1.2, dash="dot")) for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
+                  showlegend=False, line=dict(color=col, width=1.2, dash="dot"))
+             for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
     if len(kt) and len(t):
         ky = np.stack([np.interp(kt, t, e[:, i]) for i in range(3)], axis=1)   # (K, 3) on the edited curves
         kx, ky = np.repeat(kt, 3), ky.reshape(-1)
     else:
         kx, ky = np.zeros(0), np.zeros(0)
-    data.append(dict(type="scatter", x=kx, y=ky, mode="markers", name="knots t_k + r_kj",
-                     marker=dict(symbol="diamond", size=7, color="#1a202c")))
+    data.append(dict(type="scatter", x=kx, y=ky, mode="markers", name="knots t<sub>k</sub> + r<sub>kj</sub>",
+                     marker=dict(symbol="diamond", size=7, color="#1a202c"), showlegend=bool(len(kx)),
+                     cliponaxis=False))   # a knot at the clip's first or last frame is drawn whole
+    data.append({**legend_line("original", "#4a5568", "dot"), "showlegend": bool(len(ot))})
+    data.append({**legend_line(pose_label, pose_colour, "dash"), "showlegend": bool(len(pt))})
     layout = base_layout(title or "joint rotation: edited (solid) vs original (dotted)", height,
-                         y_title="rotation (°)", shapes=[vline(x, POSE_COLOUR) for x in pt])
+                         y_title="rotation (°)", x_range=x_range if x_range is not None else data_span(t, ot),
+                         shapes=[vline(x, pose_colour) for x in pt])
     return dict(data=data, layout=layout)
 
 
 def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times=(), sweep=None,
-                   title: str | None = None, height: int = 260) -> dict:
+                   title: str | None = None, height: int = 260 + LEGEND_ROW, x_range=None) -> dict:
     """Falloff weights from the edited frames over the timeline, one named curve per method.
 
     Parameters
@@ -124,9 +139,10 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
     edited_times : (E,) seconds of the edited frames, drawn as solid vertical lines (w = 1 there)
     sweep : list of ``(label, (F,) weights)``, drawn thin from blue (first) to orange (last), e.g. a σ sweep
         (Dean et al. 2018, Fig. 5)
+    x_range : (2,) seconds or None (the span of ``times``)
 
-    Traces: the present methods in the order green, isomap, diffusion, spline, others; then the sweep.
-    Every trace has a legend entry.
+    Traces: the present methods in the order green, isomap, diffusion, spline, others; then the sweep;
+    last, the "edited frame" legend entry of the vertical lines (no data). Every curve has a legend entry.
     """
     t = floats(times, "times")
     names = [n for n in METHOD_COLOURS if n in curves] + [n for n in curves if n not in METHOD_COLOURS]
@@ -144,13 +160,18 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
         data.append(dict(type="scatter", x=t, y=y, mode="lines", name=str(label), meta=f"sweep{k}", opacity=0.8,
                          line=dict(width=1.2, color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
     et = floats(edited_times, "edited_times")
+    if len(et):
+        data.append(legend_line("edited frame" if len(et) == 1 else "edited frames", EDIT_COLOUR, "solid", 3))
     layout = base_layout(title or "falloff from the edited frame", height, y_title="weight",
-                         yaxis=dict(title=dict(text="weight"), range=[-0.05, 1.05], automargin=True),
+                         x_range=x_range if x_range is not None else data_span(t),
+                         yaxis=dict(title=dict(text="weight", standoff=4), range=[-0.05, 1.05], automargin=True,
+                                    hoverformat=".3g"),
                          shapes=[vline(x, EDIT_COLOUR, "solid", 3) for x in et])
     return dict(data=data, layout=layout)
 
 
-def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = None, height: int = 420) -> dict:
+def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = None, height: int = 420 + LEGEND_ROW,
+                x_range=None) -> dict:
     """A time warp and its speed: top, input time against output time with the linear warp and the
     keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1×, 0.5×, 1×, 2×, 10× (clipped
     to [0.1, 10]).
@@ -161,9 +182,11 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
     warp : (N,) seconds, input time shown at each output frame
     speed : (N,) dimensionless warp derivative (1 = original speed)
     keytimes : (M, 2) (input, output) seconds or None
+    x_range : (2,) output seconds or None (the span of ``out_times``)
 
-    Traces: 0 linear warp (dotted), 1 warp, 2 keytimes, 3 speed (on x2/y2). Both rows share the x axis, so a
-    playhead at x = output time spans both.
+    Traces: 0 linear warp (dotted), 1 warp, 2 keytimes (legend entry only when there are some), 3 speed (on
+    x2/y2). Both rows share the x axis, so a playhead at x = output time spans both. The legend sits under
+    the lower row (it covers neither curve).
     """
     x, w, s = floats(out_times, "out_times"), floats(warp, "warp"), floats(speed, "speed")
     same_length(out_times=x, warp=w, speed=s)
@@ -175,19 +198,27 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
     data = [
         dict(type="scatter", mode="lines", name="linear", line=dict(color="#a0aec0", dash="dot"), **linear),
         dict(type="scatter", x=x, y=w, mode="lines", name="warp", line=dict(color="#2b6cb0", width=2.5)),
-        dict(type="scatter", x=kt[:, 1], y=kt[:, 0], mode="markers", name="keytimes",
-             marker=dict(size=11, color=POSE_COLOUR, symbol="x-thin", line=dict(width=3, color=POSE_COLOUR))),
+        dict(type="scatter", x=kt[:, 1], y=kt[:, 0], mode="markers", name="keytimes", showlegend=bool(len(kt)),
+             marker=dict(size=11, color=POSE_COLOUR, symbol="x-thin", line=dict(width=3, color=POSE_COLOUR)),
+             cliponaxis=False),
         dict(type="scatter", x=x, y=np.clip(s, lo, hi), mode="lines", name="speed", xaxis="x2", yaxis="y2",
              line=dict(color="#2f855a", width=2)),
     ]
     ticks = [0.1, 0.5, 1, 2, 10]   # five labels fit the lower row's ~120 px
+    span = x_range if x_range is not None else data_span(x)
     layout = base_layout(title or "time warp", height, x_title="",
-                         xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False, automargin=True),
-                         yaxis=dict(domain=[0.48, 1], anchor="x", title=dict(text="input time (s)"), automargin=True),
-                         xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="output time (s)"), automargin=True),
+                         xaxis=dict(domain=[0, 1], anchor="y", matches="x2", showticklabels=False, automargin=True,
+                                    zeroline=False),
+                         yaxis=dict(domain=[0.48, 1], anchor="x", title=dict(text="input time (s)", standoff=4),
+                                    automargin=True, hoverformat=".2f"),
+                         xaxis2=dict(domain=[0, 1], anchor="y2", title=dict(text="output time (s)", standoff=4),
+                                     automargin=True, zeroline=False, hoverformat=".2f"),
                          yaxis2=dict(domain=[0, 0.36], anchor="x2", type="log", range=[np.log10(lo), np.log10(hi)],
                                      tickvals=ticks, ticktext=[f"{v:g}×" for v in ticks],
-                                     title=dict(text="speed"), automargin=True),
+                                     title=dict(text="speed", standoff=4), automargin=True, hoverformat=".2f"),
                          shapes=[dict(type="line", xref="x2 domain", yref="y2", x0=0, x1=1, y0=1, y1=1,
                                       line=dict(color="#a0aec0", width=1), layer="below")])
+    if span is not None:   # both rows (x matches x2): the range is set on x2, the axis that is drawn
+        lo_x, hi_x = base_layout("", 1, x_range=span)["xaxis"]["range"]
+        layout["xaxis2"].update(range=[lo_x, hi_x], autorange=False)
     return dict(data=data, layout=layout)

@@ -21,7 +21,7 @@ from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees, warp_table_key
 from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
 from ..timewarp.guided import AUTO_APPROX_PAIRS
-from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
+from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -39,6 +39,12 @@ def _session_for(motion, session: Session | None, source_path=None) -> Session:
     if not isinstance(motion, Motion):
         raise ValueError(f"motion: expected a Motion or a Session, got {type(motion).__name__}")
     return Session(motion, source_path=source_path)
+
+
+def _x_span(edited: Motion) -> tuple:
+    """The x range (seconds) of every time plot of an editor: the edited motion's span, the frames the
+    playhead walks; one range for all plots, so their playheads line up down the column."""
+    return (0.0, max(float(edited.times[-1]), float(edited.frame_time)))
 
 
 def _default_joint(names, *preferred) -> str:
@@ -550,7 +556,8 @@ class StaggerEditor(_Editor):
             self._last_staggered = None
             if not self.probability.figure:
                 self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
-                                                                  title="pose probability: extracting poses…")
+                                                                  title="pose probability: extracting poses…",
+                                                                  x_range=_x_span(edited))
             self._show_motion(edited)
             return   # first paint: the extraction is computed after it (warm), then this draws the rest
         sm = self.session.staggered()
@@ -577,7 +584,7 @@ class StaggerEditor(_Editor):
         kept = np.asarray(sm.pose_times)
         self.probability.figure = pose_probability_figure(
             times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
-            np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
+            np.interp(kept, times, prob) if prob is not None else sm.pose_probability, x_range=_x_span(edited))
         self._draw_curves(edited, sm)
         self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
@@ -600,7 +607,7 @@ class StaggerEditor(_Editor):
         self.curves.figure = joint_curves_figure(
             edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
             pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
-            title=f"{name}: rotation vector (°), edited vs original")
+            title=f"{name}: rotation vector (°), edited vs original", x_range=_x_span(edited))
         self.view.highlight_joints([name])
 
 
@@ -738,12 +745,13 @@ class WandEditor(_Editor):
             curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
             self.falloff_plot.figure = falloff_figure(
                 m.times, curves, edited_times=[g * m.frame_time for g in (mod.edited_frames or [f])],
-                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})")
+                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited))
         j = m.skeleton.index(mod.joint)
         self.curves.figure = joint_curves_figure(
             edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
-            pose_times=[g * m.frame_time for g in mod.edited_frames],
-            title=f"{mod.joint}: rotation vector (°), edited vs original")
+            pose_times=[g * m.frame_time for g in mod.edited_frames], pose_label="edited frames",
+            pose_colour=EDIT_COLOUR,
+            title=f"{mod.joint}: rotation vector (°), edited vs original", x_range=_x_span(edited))
         self._show_motion(edited, pose_frames=mod.edited_frames or [f])
         self.view.highlight_joints([mod.joint])
 

@@ -1,9 +1,14 @@
-// PlotView: one plotly figure drawn by plotly.js, fed from the widget model (anywidget ESM).
+// PlotView: one plotly figure drawn by plotly.js, fed from the kernel (anywidget ESM).
+// - the figure and playhead settings live on the view's `store`, a plain @jupyter-widgets/base WidgetModel:
+//   anywidget drops every kernel message to a model whose module did not load within 2 s (a busy page, a
+//   reload restoring many models at once), a base WidgetModel never does, so updates and plotly.js arrive;
 // - plotly.js is the installed plotly package's bundle, sent by the kernel once per page on request (a
-//   binary message), never from a CDN and never in the widget state;
-// - every view draws the model's current `figure` (so a new view, e.g. after a page reload, shows the
-//   current data) and redraws with Plotly.react on every change;
-// - `frame` is drawn as a vertical line (the playhead) and moved with one relayout;
+//   binary message to a store), never from a CDN and never in the widget state;
+// - every view draws the store's current `figure` (so a new view, e.g. after a page reload, shows the
+//   current data) and redraws with Plotly.react on every change; until plotly.js and a figure are there it
+//   shows a placeholder line saying what it waits for (never empty axes);
+// - `frame` (the store's, set by the kernel, or the view model's, set by a browser-side jsdlink) is drawn
+//   as a vertical line (the playhead) and moved with one relayout;
 // - a click sets `frame` (seek) and tells the kernel {event: "click", x, y, curve, frame};
 // - the plot takes the width of its container (ResizeObserver), drawing only once it has a width.
 const LIB_KEY = Symbol.for("stagger_nb.plotly.js");
@@ -11,17 +16,17 @@ const LIB_KEY = Symbol.for("stagger_nb.plotly.js");
 function loadPlotly(model) {
   // plotly.js is asked from the kernel (a binary message), once per page: it never sits in the widget
   // state, so restoring the widgets after a page reload stays small. Every view that waits registers its
-  // model; the request is repeated (after 15 s, 30 s, 60 s, ... round robin over those models) until one answer
-  // arrives: after a reload a model's comm may be dead (JupyterLab's restore race), another's is not.
+  // model (a store); the request is repeated (after 6 s, 12 s, 24 s, then every 30 s, round robin over those
+  // models) until one answer arrives: an answer to a closed or slow comm is not waited for forever.
   let g = globalThis[LIB_KEY];
   if (!g) {
-    g = globalThis[LIB_KEY] = { askers: [], timer: null, delay: 15000, next: 0 };
+    g = globalThis[LIB_KEY] = { askers: [], timer: null, delay: 6000, next: 0 };
     g.promise = new Promise((resolve, reject) => { g.resolve = resolve; g.reject = reject; });
     const retry = () => {
       if (g.done || !g.askers.length) return;
       const m = g.askers[g.next++ % g.askers.length];
       try { m.send({ event: "need_plotly" }); } catch (err) { console.warn("stagger_nb PlotView:", err); }
-      g.delay = Math.min(2 * g.delay, 60000);
+      g.delay = Math.min(2 * g.delay, 30000);
       g.timer = setTimeout(retry, g.delay);
     };
     g.timer = setTimeout(retry, g.delay);
@@ -50,13 +55,12 @@ function loadPlotly(model) {
   return g.promise;
 }
 
-function playheadShape(model) {
-  const f = model.get("frame");
+function playheadShape(model, f) {
   const xs = model.get("playhead_x") || [];
   const x = xs.length ? xs[Math.max(0, Math.min(xs.length - 1, f))] : f * model.get("frame_time");
   return {
     type: "line", name: "playhead", xref: model.get("playhead_xref") || "x", yref: "paper",
-    x0: x, x1: x, y0: 0, y1: 1, line: { color: "#e53e3e", width: 2 },
+    x0: x, x1: x, y0: 0, y1: 1, line: { color: "rgba(26, 32, 44, 0.75)", width: 2 },
     visible: !!model.get("show_playhead"), layer: "above",
   };
 }
@@ -72,43 +76,73 @@ function frameOfX(model, x) {
   return Math.max(0, Math.round(x / ft));
 }
 
+async function storeOf(model, signal) {
+  // the view's state model ("IPY_MODEL_<id>"); during a page reload's restore it may be registered a little
+  // after this view's model: ask again until it is (or the view is gone)
+  const id = String(model.get("store") || "").replace(/^IPY_MODEL_/, "");
+  for (let wait = 100; ; wait = Math.min(2 * wait, 2000)) {
+    try {
+      return await model.widget_manager.get_model(id);
+    } catch (err) {
+      if (signal.disposed) throw err;
+      await new Promise((r) => setTimeout(r, wait));
+    }
+  }
+}
+
 async function render({ model, el }) {
   el.classList.add("sn-plot-view");
+  const note = document.createElement("div");   // what the view waits for, until the first draw
+  note.className = "sn-plot-note";
+  note.style.cssText = "color:#718096;font:12px sans-serif;padding:8px 4px;min-height:120px;";
   const div = document.createElement("div");
   div.className = "sn-plot";
-  el.appendChild(div);
-  let Plotly = null, drawn = false, running = false, disposed = false;
+  el.append(note, div);
+  let Plotly = null, store = null, drawn = false, running = false;
+  const life = { disposed: false };
   let dirty = 2;   // 0 nothing, 1 playhead, 2 whole figure
   let draws = 0;
+  let frame = model.get("frame") || 0;
   const config = { responsive: true, displaylogo: false, modeBarButtonsToRemove: ["select2d", "lasso2d"] };
+  const status = (text) => { el.dataset.status = text; if (!drawn) note.textContent = text; };
+
+  function hasData() {
+    const fig = store.get("figure") || {};
+    return Array.isArray(fig.data) && fig.data.length > 0;
+  }
 
   function figureArgs() {
-    const fig = model.get("figure") || {};
+    const fig = store.get("figure") || {};
     // own copies: plotly.js annotates the objects it is given, and other views share the model's
     const data = structuredClone(fig.data || []);
     const layout = structuredClone(fig.layout || {});
     delete layout.width;   // the container decides the width
     layout.autosize = true;
-    layout.shapes = (layout.shapes || []).concat([playheadShape(model)]);
+    layout.shapes = (layout.shapes || []).concat([playheadShape(store, frame)]);
     return [data, layout];
   }
 
   function onClick(ev) {
     const p = ev && ev.points && ev.points[0];
     if (!p || typeof p.x !== "number") return;
-    const frame = frameOfX(model, p.x);
-    model.send({ event: "click", x: p.x, y: typeof p.y === "number" ? p.y : null, curve: p.curveNumber, frame });
-    if (model.get("seek_on_click")) {
-      model.set("frame", frame);
-      model.save_changes();
+    const f = frameOfX(store, p.x);
+    store.send({ event: "click", x: p.x, y: typeof p.y === "number" ? p.y : null, curve: p.curveNumber, frame: f });
+    if (store.get("seek_on_click")) {
+      frame = f;
+      store.set("frame", f);
+      store.save_changes();
+      dirty = Math.max(dirty, 1);
+      pump();
     }
   }
 
   async function pump() {
-    if (running || disposed) return;
+    if (running || life.disposed || !Plotly || !store) return;
+    if (!hasData()) { status("waiting for the plot's data"); return; }
+    if (div.clientWidth <= 0) { status("waiting for a width"); return; }
     running = true;
     try {
-      while (dirty && !disposed && Plotly && div.clientWidth > 0) {
+      while (dirty && !life.disposed && div.clientWidth > 0) {
         const what = drawn ? dirty : 2;
         dirty = 0;
         if (what === 2) {
@@ -116,19 +150,23 @@ async function render({ model, el }) {
           await Plotly.react(div, data, layout, config);
           if (!drawn) {
             drawn = true;
+            note.remove();
             div.on("plotly_click", onClick);
           }
           el.dataset.draws = String(++draws);   // browser tests wait on this
           el.dataset.status = "drawn";
+          el.dataset.title = ((layout.title || {}).text) || "";
         } else {
           // attribute-wise: replacing the whole shape object leaves the old line drawn (a trail)
-          const n = (((model.get("figure") || {}).layout || {}).shapes || []).length;
-          const s = playheadShape(model);
+          const n = (((store.get("figure") || {}).layout || {}).shapes || []).length;
+          const s = playheadShape(store, frame);
           await Plotly.relayout(div, { [`shapes[${n}].x0`]: s.x0, [`shapes[${n}].x1`]: s.x1,
                                        [`shapes[${n}].xref`]: s.xref, [`shapes[${n}].visible`]: s.visible });
         }
-        el.dataset.frame = String(model.get("frame"));
+        el.dataset.frame = String(frame);
       }
+      // the store's current figure and frame are drawn (tests wait on it, not on sleeps)
+      el.dataset.synced = dirty || !drawn ? "0" : "1";
     } catch (err) {
       el.dataset.error = String(err);
       console.error("stagger_nb PlotView:", err);
@@ -137,12 +175,13 @@ async function render({ model, el }) {
     }
   }
 
-  const onFigure = () => { dirty = 2; pump(); };
-  const onPlayhead = () => { dirty = Math.max(dirty, 1); pump(); };
-  model.on("change:figure", onFigure);
-  for (const k of ["frame", "frame_time", "playhead_x", "playhead_xref", "show_playhead"]) {
-    model.on(`change:${k}`, onPlayhead);
-  }
+  const onFigure = () => { dirty = 2; el.dataset.synced = "0"; pump(); };
+  const onPlayhead = () => { dirty = Math.max(dirty, 1); el.dataset.synced = "0"; pump(); };
+  // the playhead: the kernel's frame (store) or a browser-side link's (this view's model), latest wins
+  const onStoreFrame = () => { frame = store.get("frame"); onPlayhead(); };
+  const onViewFrame = () => { frame = model.get("frame"); onPlayhead(); };
+  const KEYS = ["frame_time", "playhead_x", "playhead_xref", "show_playhead"];
+  model.on("change:frame", onViewFrame);
   let lastWidth = 0;
   const ro = new ResizeObserver(() => {
     const w = div.clientWidth;
@@ -154,26 +193,34 @@ async function render({ model, el }) {
   });
   ro.observe(div);
 
-  el.dataset.status = "loading plotly.js";
-  try {
-    Plotly = await loadPlotly(model);
-  } catch (err) {
-    el.dataset.error = String(err);
-    div.textContent = "stagger_nb: plotly.js could not be loaded: " + err;
-    return;
-  }
-  el.dataset.status = div.clientWidth > 0 ? "drawing" : "waiting for a width";
-  pump();
-
-  return () => {
-    disposed = true;
+  const dispose = () => {
+    life.disposed = true;
     ro.disconnect();
-    model.off("change:figure", onFigure);
-    for (const k of ["frame", "frame_time", "playhead_x", "playhead_xref", "show_playhead"]) {
-      model.off(`change:${k}`, onPlayhead);
+    model.off("change:frame", onViewFrame);
+    if (store) {
+      store.off("change:figure", onFigure);
+      store.off("change:frame", onStoreFrame);
+      for (const k of KEYS) store.off(`change:${k}`, onPlayhead);
     }
     if (Plotly) Plotly.purge(div);
   };
+  try {
+    status("connecting to the plot's data");
+    store = await storeOf(model, life);
+    if (life.disposed) return dispose;
+    frame = store.get("frame");
+    store.on("change:figure", onFigure);
+    store.on("change:frame", onStoreFrame);
+    for (const k of KEYS) store.on(`change:${k}`, onPlayhead);
+    status("loading plotly.js");
+    Plotly = await loadPlotly(store);
+  } catch (err) {
+    el.dataset.error = String(err);
+    note.textContent = "stagger_nb: the plot could not be drawn: " + err;
+    return dispose;
+  }
+  pump();
+  return dispose;
 }
 
 export default { render };

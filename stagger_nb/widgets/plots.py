@@ -32,12 +32,13 @@ from pathlib import Path
 from typing import Callable
 
 import anywidget
+import ipywidgets as widgets
 import numpy as np
 import traitlets as t
 
 from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 
-__all__ = ["PlotView", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
+__all__ = ["PlotView", "PlotState", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
            "WarpPlot"]
 
 _JS = (Path(__file__).with_name("plot_view.js")).read_text(encoding="utf-8")
@@ -85,36 +86,8 @@ def plotly_js_bytes() -> bytes:
     return _PLOTLY_JS[0]
 
 
-class PlotView(anywidget.AnyWidget):
-    """A view of one plotly figure on plotly.js, fed from Python.
-
-    Traits
-    ------
-    figure : dict, plotly JSON ``{"data": [...], "layout": {...}}``; numpy arrays allowed
-    frame : int >= 0, the playhead frame (set by a click when ``seek_on_click``)
-    frame_time : float > 0, seconds per frame: the playhead is drawn at ``x = frame * frame_time``
-    playhead_x : list of float, optional x of each frame (for a plot whose x axis is not the frame's time,
-        e.g. a warp's input time); clicks seek to the frame with the nearest x
-    playhead_xref : str, the x axis the playhead is drawn on (``"x"``; ``"x2"`` for a lower subplot)
-    show_playhead, seek_on_click : bool
-    """
-
-    _esm = _JS
-    _css = _CSS
-    figure = t.Dict().tag(sync=True, to_json=figure_to_json)
-    frame = t.Int(0, min=0).tag(sync=True, echo_update=False)
-    frame_time = t.Float(1 / 30).tag(sync=True)
-    playhead_x = t.List(t.Float()).tag(sync=True)
-    playhead_xref = t.Unicode("x").tag(sync=True)
-    show_playhead = t.Bool(True).tag(sync=True)
-    seek_on_click = t.Bool(True).tag(sync=True)
-
-    def __init__(self, figure: dict | None = None, **kwargs):
-        if figure is not None:
-            kwargs["figure"] = figure
-        super().__init__(**kwargs)
-        self._click_callbacks: list[Callable] = []
-        self.on_msg(self._on_custom_msg)
+class _Checked(t.HasTraits):
+    """The checks of a figure and a frame time (shared by the view and its state)."""
 
     @t.validate("frame_time")
     def _check_frame_time(self, proposal):
@@ -130,6 +103,101 @@ class PlotView(anywidget.AnyWidget):
                                f"{sorted(fig)}")
         return fig
 
+
+class PlotState(_Checked, widgets.Widget):
+    """The synced state of one :class:`PlotView`: a data-only ipywidgets model (``WidgetModel`` of
+    ``@jupyter-widgets/base``, no view of its own), which the browser view reads and observes.
+
+    Why apart from the anywidget model: anywidget 0.11 gives each model 2 s to load its module; a model
+    that misses it (a busy page: two CPU hogs, a reload restoring a thousand models in one task) still
+    renders its initial state, but drops every later message from the kernel (``_handle_comm_msg`` waits
+    on the failed load), so its plot would keep stale data or never get plotly.js. A base ``WidgetModel``
+    has no such step: kernel updates and the plotly.js answer always arrive.
+    """
+
+    figure = t.Dict().tag(sync=True, to_json=figure_to_json)
+    frame = t.Int(0, min=0).tag(sync=True, echo_update=False)
+    frame_time = t.Float(1 / 30).tag(sync=True)
+    playhead_x = t.List(t.Float()).tag(sync=True)
+    playhead_xref = t.Unicode("x").tag(sync=True)
+    show_playhead = t.Bool(True).tag(sync=True)
+    seek_on_click = t.Bool(True).tag(sync=True)
+
+
+_MIRRORED = ("figure", "frame_time", "playhead_x", "playhead_xref", "show_playhead", "seek_on_click")
+
+
+class PlotView(_Checked, anywidget.AnyWidget):
+    """A view of one plotly figure on plotly.js, fed from Python.
+
+    Traits
+    ------
+    figure : dict, plotly JSON ``{"data": [...], "layout": {...}}``; numpy arrays allowed
+    frame : int >= 0, the playhead frame (set by a click when ``seek_on_click``)
+    frame_time : float > 0, seconds per frame: the playhead is drawn at ``x = frame * frame_time``
+    playhead_x : list of float, optional x of each frame (for a plot whose x axis is not the frame's time,
+        e.g. a warp's input time); clicks seek to the frame with the nearest x
+    playhead_xref : str, the x axis the playhead is drawn on (``"x"``; ``"x2"`` for a lower subplot)
+    show_playhead, seek_on_click : bool
+
+    ``view.store`` (:class:`PlotState`) carries these to the browser (``frame`` also travels on the view
+    itself, so a browser-side ``jsdlink`` to ``(view, "frame")`` moves the playhead without the kernel).
+    """
+
+    _esm = _JS
+    _css = _CSS
+    store = t.Instance(PlotState).tag(sync=True, **widgets.widget_serialization)
+    figure = t.Dict()
+    frame = t.Int(0, min=0).tag(sync=True, echo_update=False)
+    frame_time = t.Float(1 / 30)
+    playhead_x = t.List(t.Float())
+    playhead_xref = t.Unicode("x")
+    show_playhead = t.Bool(True)
+    seek_on_click = t.Bool(True)
+
+    def __init__(self, figure: dict | None = None, **kwargs):
+        if figure is not None:
+            kwargs["figure"] = figure
+        own = {k: kwargs[k] for k in _MIRRORED + ("frame",) if k in kwargs}
+        # the state model first (validated; its comm opens with the whole state), then the view that
+        # refers to it: a browser creating the view finds the state already there
+        super().__init__(store=PlotState(**own), **kwargs)
+        store = self.store
+        self._store_links = [t.dlink((self, k), (store, k)) for k in _MIRRORED]
+        self._browser_frame = False
+        self.observe(self._frame_to_store, names="frame")
+        store.observe(self._frame_from_store, names="frame")   # a click in the browser seeks
+        self._click_callbacks: list[Callable] = []
+        store.on_msg(self._on_custom_msg)
+
+    def set_state(self, sync_data):
+        """State from the browser (ipywidgets calls it): a ``frame`` set there (a ``jsdlink`` from a Play
+        widget) is already drawn, so the store takes it without sending it back."""
+        self._browser_frame = "frame" in sync_data
+        try:
+            super().set_state(sync_data)
+        finally:
+            self._browser_frame = False
+
+    def _frame_to_store(self, change) -> None:
+        if self._browser_frame:
+            self.store.set_state({"frame": change["new"]})   # the kernel's copy only (what a reload draws)
+        else:
+            self.store.frame = change["new"]
+
+    def _frame_from_store(self, change) -> None:
+        self.frame = change["new"]
+
+    def close(self):
+        """Close the view's model and its store."""
+        links, self._store_links = getattr(self, "_store_links", None), None
+        if links is not None:   # the first close (ipywidgets closes again on garbage collection)
+            for link in links:
+                link.unlink()
+            self.store.unobserve(self._frame_from_store, names="frame")
+            self.store.close()
+        super().close()
+
     def on_click(self, callback: Callable[[float, float | None, int], None], remove: bool = False) -> None:
         """Call ``callback(x, y, frame)`` when the plot is clicked in a browser (x, y in data units of the
         clicked point; frame as for the seek)."""
@@ -144,7 +212,7 @@ class PlotView(anywidget.AnyWidget):
         if content.get("event") == "click":
             self.click(float(content["x"]), content.get("y"), seek=False)
         elif content.get("event") == "need_plotly":   # the first view of a page asks, once
-            self.send({"event": "plotly.js"}, buffers=[plotly_js_bytes()])
+            self.store.send({"event": "plotly.js"}, buffers=[plotly_js_bytes()])
 
     def frame_of_x(self, x: float) -> int:
         """The frame a click at data x seeks to (what the browser computes)."""
