@@ -119,6 +119,28 @@ def test_timing_warnings_are_summarised_in_messages(walk_session):
     assert s.messages() == [want]
 
 
+def test_timing_warnings_once_per_state_and_equal_to_the_staggered_call(walk_session, monkeypatch):
+    """Session.timing_warnings: the warnings of the last staggered state (what staggered.timing_warnings
+    says of s.staggered()) and its summary; computed once per state, also across undo/redo back to it."""
+    calls = []
+    real = staggered.timing_warnings
+    monkeypatch.setattr(staggered, "timing_warnings", lambda sm, **kw: calls.append(1) or real(sm, **kw))
+    s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0},
+                              {"op": "edit_frame", "frame": 3, "deltas": {"Hips": [5.0, 0.0, 0.0]}}])
+    summary, found = s.timing_warnings()
+    want = real(s.staggered())
+    assert found == tuple(want) and want  # crosses poses (else the check proves nothing)
+    assert summary == staggered.summarize_timing_warnings(want) and s.messages() == [summary]
+    assert len(calls) == 1
+    s.replace(1, {"op": "edit_frame", "frame": 4, "deltas": {"Hips": [5.0, 0.0, 0.0]}})   # after the state
+    assert s.timing_warnings() == (summary, found) and len(calls) == 1
+    s.replace(0, {"op": "succession", "root": "Hips", "s": 0.01, "l": 1.0})
+    assert s.timing_warnings()[1] == tuple(real(s.staggered())) and len(calls) == 2
+    s.undo()
+    assert s.timing_warnings() == (summary, found) and len(calls) == 2   # the same state again
+    assert _fresh(walk_session, []).timing_warnings() == ("", ())
+
+
 def test_propagate_several_frames_and_repetitions(walk_session):
     m = walk_session.source
     j = m.skeleton.names[2]

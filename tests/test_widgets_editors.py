@@ -115,6 +115,30 @@ def test_stagger_undo_restores_the_model_and_errors_clear(stagger_editor):
     assert "999" not in e.message.value and "Error" not in e.message.value
 
 
+def test_stagger_slider_move_redraws_only_what_changed(stagger_editor, walk):
+    """One slider move: the joint-curve plot is drawn once (with the new edit), the probability plot is redrawn
+    when the kept poses change (cull) and left alone when they do not (timing); each shows the current data."""
+    e = stagger_editor
+    e.session.clear()
+    e.model.percent = 60.0
+    sets = {"curves": 0, "probability": 0}
+    e.curves.observe(lambda c: sets.__setitem__("curves", sets["curves"] + 1), names="figure")
+    e.probability.observe(lambda c: sets.__setitem__("probability", sets["probability"] + 1), names="figure")
+    prob_before = e.probability.figure
+    e.model.s = 0.02
+    assert sets == {"curves": 1, "probability": 0} and e.probability.figure is prob_before
+    j = walk.skeleton.index(e.model.joint)
+    np.testing.assert_allclose(_y(e.curves, 0), joint_rotation_degrees(e.session.edited(), j)[:, 0], atol=1e-9)
+    e.model.percent = 40.0
+    assert sets == {"curves": 2, "probability": 1}
+    kept = np.asarray(e.session.staggered().pose_times)
+    xs = [np.asarray(t["x"], dtype=float) for t in e.probability.figure["data"] if len(t.get("x", ())) == kept.size]
+    assert any(np.allclose(x, kept) for x in xs)   # the redrawn plot marks the poses kept now
+    e.session.undo()                                 # back to 60 %: the plot follows
+    assert sets["probability"] == 2 and e.model.percent == 60.0
+    e.session.clear()
+
+
 def test_stagger_playhead_pose_and_nudge(stagger_editor, walk):
     e = stagger_editor
     e.session.clear()

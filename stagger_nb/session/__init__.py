@@ -101,10 +101,11 @@ class _Info:
     replays): the warp curve it computed (if a warp), its notes, whether its state is staggered, and the
     timing-warning summary of that state (filled on demand)."""
 
-    __slots__ = ("warp", "notes", "staggered", "summary")
+    __slots__ = ("warp", "notes", "staggered", "summary", "warnings")
 
     def __init__(self, warp, notes, staggered: bool):
-        self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
+        self.warp, self.notes, self.staggered = warp, tuple(notes), staggered
+        self.summary = self.warnings = None
 
 
 def _share(progress: Callable | None, done: int, total: int, a: float, b: float, label: str):
@@ -115,10 +116,9 @@ def _share(progress: Callable | None, done: int, total: int, a: float, b: float,
     return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
 
 
-def _timing_summary(sm) -> str:
-    """One plain sentence about the timing warnings of ``sm`` ('' when none), §5.2."""
+def _timing_summary(found) -> str:
+    """One plain sentence about the timing warnings ``found`` ('' when none), §5.2."""
     from .. import staggered
-    found = staggered.timing_warnings(sm)
     summarize = getattr(staggered, "summarize_timing_warnings", None)
     if summarize is not None:
         return summarize(found)
@@ -424,14 +424,34 @@ class Session:
             if any(k not in self._info for k in keys):
                 return []  # the op list changed since the last replay
             out = [note for k in keys for note in self._info[k].notes]
-            j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
-            if j is not None:
-                inf = self._info[keys[j]]
-                if inf.summary is None:
-                    inf.summary = _timing_summary(self._walk(j + 1))
-                if inf.summary:
-                    out.append(inf.summary)
+            summary, _ = self._warnings_of(n)
+            if summary:
+                out.append(summary)
         return out
+
+    def timing_warnings(self) -> tuple[str, tuple]:
+        """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
+        of :meth:`messages` ('' when none) and ``staggered.timing_warnings`` of that state (a tuple of
+        ``TimingWarning``). Both are computed once per state (keyed by the digest of the op prefix that made
+        it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
+        when no op is staggered."""
+        n = len(self._history.ops)
+        if n:
+            self._walk(n)
+        with self._replay_lock:
+            return self._warnings_of(n)
+
+    def _warnings_of(self, n: int) -> tuple[str, tuple]:  # under the replay lock, ops[:n] replayed
+        keys = self._prefix_keys()
+        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+        if j is None:
+            return "", ()
+        inf = self._info[keys[j]]
+        if inf.warnings is None:
+            from .. import staggered
+            found = tuple(staggered.timing_warnings(self._walk(j + 1)))
+            inf.summary, inf.warnings = _timing_summary(found), found
+        return inf.summary, inf.warnings
 
     def warp_curve(self, index: int = -1):
         """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame

@@ -512,18 +512,14 @@ class StaggerEditor(_Editor):
         m.show_ik_target(p)
 
     def _timing_summary(self):
-        """(summary sentence, warnings) of the current staggered state (``staggered.timing_warnings``)."""
-        sm = getattr(self, "_last_staggered", None)
-        if sm is None:
-            return "", []
-        from .. import staggered
-        warnings = list(staggered.timing_warnings(sm))
-        if not warnings:
-            return "", []
-        summarize = getattr(staggered, "summarize_timing_warnings", None)
-        summary = summarize(warnings) if summarize else (f"{len(warnings)} refined times cross a neighbouring "
-                                                         f"pose: lower s, l or τ.")
-        return summary, warnings
+        """(summary sentence, warnings) of the current staggered state: ``Session.timing_warnings`` (computed
+        once per state by the session, not per message redraw)."""
+        if getattr(self, "_last_staggered", None) is None:
+            return "", ()
+        try:
+            return self.session.timing_warnings()
+        except ValueError:   # a replay error: the message line shows it
+            return "", ()
 
     def _notes(self) -> list:
         summary, _ = self._timing_summary()
@@ -545,9 +541,9 @@ class StaggerEditor(_Editor):
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
-        self._draw_curves(edited)
         if not self._needs_staggered() and not self._extraction_ready():
             self._last_staggered = None
+            self._draw_curves(edited)
             if not self.probability.figure:
                 self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
                                                                   title="pose probability: extracting poses…")
@@ -572,12 +568,8 @@ class StaggerEditor(_Editor):
             c["w_r_reference"].options = refs
             c["w_r_reference"].value = self.model.w_r_reference
         ft = m.frame_time
-        prob = full.metadata.get("probability")
-        times = np.arange(m.num_frames) * ft
         kept = np.asarray(sm.pose_times)
-        self.probability.figure = pose_probability_figure(
-            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
-            np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
+        self._draw_probability(full, sm, kept)
         self._draw_curves(edited, sm)
         self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
@@ -590,6 +582,28 @@ class StaggerEditor(_Editor):
         fut = getattr(self, "_first_future", None)
         return fut is not None and fut.done()
 
+    def _draw_probability(self, full, sm, kept: np.ndarray) -> None:
+        """The pose-probability plot: rebuilt only when the extraction or the kept poses changed (a timing or
+        exaggeration slider leaves it as it is: no figure rebuilt, nothing sent)."""
+        key = (full, kept.tobytes(), None if sm.pose_probability is None else np.asarray(sm.pose_probability).tobytes())
+        last = getattr(self, "_probability_key", None)
+        if last is not None and last[0] is full and last[1:] == key[1:] and self.probability.figure:
+            return
+        m = self.session.source
+        prob = full.metadata.get("probability")
+        times = np.arange(m.num_frames) * m.frame_time
+        self.probability.figure = pose_probability_figure(
+            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
+            np.interp(kept, times, prob) if prob is not None else sm.pose_probability)
+        self._probability_key = key
+
+    def _source_degrees(self, j: int) -> np.ndarray:
+        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint."""
+        cache = self.__dict__.setdefault("_source_deg", {})
+        if j not in cache:
+            cache[j] = joint_rotation_degrees(self.session.source, j)
+        return cache[j]
+
     def _draw_curves(self, edited: Motion, sm=None) -> None:
         m = self.session.source
         name = self.model.joint
@@ -598,7 +612,7 @@ class StaggerEditor(_Editor):
         kept = None if sm is None else np.asarray(sm.pose_times)
         knots = None if sm is None else kept + np.asarray(sm.refinements)[:, j]
         self.curves.figure = joint_curves_figure(
-            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
             pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
             title=f"{name}: rotation vector (°), edited vs original")
         self.view.highlight_joints([name])
