@@ -5,6 +5,7 @@ import itertools
 import threading
 from concurrent.futures import CancelledError
 
+import numpy as np
 import pytest
 
 import stagger_nb as sn
@@ -35,6 +36,39 @@ def test_warm_fills_the_caches_the_replay_uses(session):
     session.set_ops([{"op": "propagate", "frame": 10, "sigma": 0.3, "deltas": {m.skeleton.names[2]: [10.0, 0, 0]}}])
     session.edited()
     assert busy == []  # everything came from the warmed cache
+    session.close()
+
+
+def test_warm_replay_fills_every_step_and_leaves_the_op_list_alone(session, monkeypatch):
+    """("replay", lists): each list replayed into the cache under its prefix digests; the session's ops and
+    history do not change; a later set_ops to a warmed list computes nothing and gives exactly the result of
+    a fresh replay; a list that fails is skipped (the failure shows when a user reaches it)."""
+    from stagger_nb import staggered
+    lists = [[{"op": "cull", "percent": p}, {"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0},
+              {"op": "keep_contacts"}] for p in (40.0, 70.0)]
+    bad = [{"op": "edit_pose", "pose": 999, "deltas": {"Hips": [1.0, 0.0, 0.0]}}]
+    assert session.warm(("replay", lists + [bad])).result(120) == 3
+    assert session.ops == [] and not session.can_undo
+    calls = []
+    for name in ("succession", "keep_contacts", "cull", "evaluate", "extract"):
+        real = getattr(staggered, name)
+        monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    for ops in lists:
+        session.set_ops(ops)
+        got = session.edited()
+        assert calls == []   # every step came from the warm-up
+        monkeypatch.undo()
+        fresh = Session(session.source, ops).edited()
+        assert np.array_equal(got.local_quats, fresh.local_quats)
+        assert np.array_equal(got.root_positions, fresh.root_positions)
+        for name in ("succession", "keep_contacts", "cull", "evaluate", "extract"):
+            real = getattr(staggered, name)
+            monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    session.set_ops(bad)
+    with pytest.raises(ValueError, match=r"ops\[0\] \(edit_pose\): pose"):
+        session.edited()
+    with pytest.raises(ValueError, match=r"^jobs\[0\]\[1\]\[0\]\[0\]"):
+        session.warm(("replay", [[{"op": "nope"}]]))
     session.close()
 
 

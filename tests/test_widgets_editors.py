@@ -352,6 +352,30 @@ def test_stagger_first_paint_then_warm_up(walk):
         e.close()
 
 
+def test_stagger_warm_up_makes_first_cull_visits_hits(walk, monkeypatch):
+    """After the editor's warm-up, a first visit of a cull position replays nothing (refit, timing tail and
+    evaluation all cached) and shows exactly what a fresh session computes."""
+    from stagger_nb.widgets import StaggerEditor
+    m = walk.slice(0, 240)
+    e = StaggerEditor(m)
+    try:
+        for f in e._futures():
+            f.result(timeout=300)
+        calls = []
+        for name in ("cull", "keep_contacts", "evaluate", "extract", "succession"):
+            real = getattr(staggered, name)
+            monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+        for pc in (50.0, 30.0):
+            e.model.percent = pc
+        assert calls == [] and not e.error
+        monkeypatch.undo()
+        fresh = Session(m, e.session.ops).edited()
+        assert np.array_equal(e.session.edited().local_quats, fresh.local_quats)
+        assert e.view.motion is e.session.edited()
+    finally:
+        e.close()
+
+
 def test_warp_style_free_length_and_backward(walk, run):
     from stagger_nb.widgets import WarpEditor
     w, r = walk.slice(0, 150), run.slice(0, 150)

@@ -288,11 +288,23 @@ class Session:
         return hit if hit is not None else self._ctx.cache.peek("state", key)
 
     def _walk(self, upto: int, keep_all: bool = False, progress: Callable | None = None):
-        """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them),
-        resuming from the latest prefix whose state is held or cached and whose earlier steps are known.
-        Linear in ``upto``: prefix keys are chained digests, each state is computed at most once."""
+        """The state after ``ops[:upto]`` of the session's op list (with ``keep_all``, the list of states after
+        each of them): :meth:`_run` on the current ops; the last replay's final state is held."""
         with self._replay_lock:
             ops, keys = self._history.ops, self._prefix_keys()
+            out = self._run(ops, keys, upto, keep_all, progress)
+            if upto:
+                self._held = {keys[upto - 1]: out[-1] if keep_all else out}
+            if upto == len(ops):
+                self._replayed = True
+            return out
+
+    def _run(self, ops: tuple, keys: list, upto: int, keep_all: bool = False, progress: Callable | None = None):
+        """The state after ``ops[:upto]`` (``keys``: their chained prefix digests), resuming from the latest
+        prefix whose state is held or cached and whose earlier steps are known. Linear in ``upto``: each state
+        is computed at most once; every computed state goes to the cache under its prefix digest (so any op
+        list sharing that prefix, e.g. the session's after an undo or a warmed one, finds it)."""
+        with self._replay_lock:
             info, cache = self._info, self._ctx.cache
             known = 0  # steps whose _Info is known, from the start
             while known < upto and keys[known] in info:
@@ -312,7 +324,7 @@ class Session:
             todo = [i for i in range(r, upto) if states[i] is None]
             total = len(todo)
             state = self.source if r == 0 else states[r - 1]
-            origin = (lambda r=r, st=list(states[:r]): self._origin(keys[:r], st))  # noqa: E731 (lazy)
+            origin = (lambda r=r, st=list(states[:r]): self._origin(ops, keys[:r], st))  # noqa: E731 (lazy)
             done = 0
             for i in range(r, upto):
                 if states[i] is not None:  # keep_all: a cached step past a missing one
@@ -346,21 +358,17 @@ class Session:
                     info.move_to_end(k)
             while len(info) > max(4096, 2 * len(keys)):
                 info.popitem(last=False)
-            if upto:
-                self._held = {keys[upto - 1]: state}
-            if upto == len(ops):
-                self._replayed = True
             return states if keep_all else (state if upto else self.source)
 
-    def _origin(self, keys, states) -> Motion:
-        """The Motion the staggered state after ``keys`` was extracted from (the source by default): the
-        latest Motion state before the last run of staggered states."""
+    def _origin(self, ops, keys, states) -> Motion:
+        """The Motion the staggered state after ``keys`` (prefixes of ``ops``) was extracted from (the source
+        by default): the latest Motion state before the last run of staggered states."""
         origin = self.source
         for i in range(len(keys) - 1, -1, -1):
             if not self._info[keys[i]].staggered:
                 if i == len(keys) - 1:
                     return origin  # the state is a Motion: an extraction would start from it
-                st = states[i] if states[i] is not None else self._walk(i + 1)
+                st = states[i] if states[i] is not None else self._run(ops, keys, i + 1)
                 return st
         return origin
 
@@ -544,6 +552,10 @@ class Session:
           ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
           backward and upsample choose the table; a table also serves every smaller skip (sliced), so an
           editor warms its skip slider's largest value only.
+        - ``("replay", op_lists)``: the replay of each op list (a list of op dicts, checked like
+          :meth:`set_ops`) into the cache, step by step under the digest of each op prefix, without changing
+          this session's op list or history: a later ``set_ops`` to one of them (a slider's next positions)
+          replays nothing. Lists share their common prefixes' states. Bounded by the cache (count and bytes).
 
         Jobs are checked now (ValueError naming ``jobs[i]``); they run in order, one item at a time.
         ``progress(done, total, label)`` is called from the worker before each item, with a fractional
@@ -575,6 +587,10 @@ class Session:
                 items.append(("pose graph", lambda r: self.wand_graph()))
                 items += [(f"basis sigma={'default' if s is None else format(s, 'g')}",
                            lambda r, s=s: self.wand_basis(s)) for s in sgs]
+            elif name == "replay" and isinstance(values, (list, tuple)):
+                for k, ops in enumerate(values):
+                    typed = self._typed_list(ops, f"{where}[1][{k}]")
+                    items.append((f"replay {k + 1}/{len(values)}", lambda r, ops=typed: self._replay_into_cache(ops, r)))
             elif name == "warp_tables" and isinstance(values, (list, tuple)):
                 for k, w in enumerate(values):
                     op = self._typed(dict(w, op="guided_warp") if isinstance(w, dict) and "op" not in w else w,
@@ -585,9 +601,25 @@ class Session:
                         self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward,
                         warp_k(warp_size(self.source, op)[0]), r)))
             else:
-                _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas) or ("warp_tables", warps)',
-                      job)
+                _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("warp_tables", warps) or '
+                             '("replay", op_lists)', job)
         return items
+
+    def _replay_into_cache(self, ops: tuple, report: Callable | None = None) -> None:
+        """Replay ``ops`` (typed) into the cache (each step under its op-prefix digest, and the evaluated
+        result), leaving the session's own op list, history and held states alone. An op list that fails is
+        skipped: the same failure is reported when a user's replay reaches it."""
+        keys, prev = [], "source"
+        for op in ops:
+            prev = _chain(prev, op)
+            keys.append(prev)
+        progress = None if report is None else (lambda d, t, label: report(d / t if t else 1.0))
+        try:
+            last = self._run(ops, keys, len(ops), progress=progress)
+            if keys and not isinstance(last, Motion):
+                self._ctx.cache.get("state", keys[-1], "motion", lambda: convert(last, "motion", None))
+        except (ValueError, ArithmeticError):
+            pass
 
     def close(self) -> None:
         """Cancel pending warm-ups (each stops before its next item)."""

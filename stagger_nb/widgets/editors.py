@@ -417,10 +417,12 @@ class StaggerEditor(_Editor):
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
-        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position
+        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position:
+            # its refit, then the whole replay of the current edit at that position (a first visit is then a hit)
             self._first_future = self._warm("extract", then=self._refresh)
             pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
             self._warm(("cull", pcs))
+            self._warm(("replay", [self.binding.ops_for(cull_by="percent", percent=p) for p in pcs]))
 
     # -- actions ---------------------------------------------------------------------------------------
     def _insert_action(self, op: dict) -> None:
