@@ -85,9 +85,8 @@ def main():
         e.model.keep_contacts = False
     cold = []
     for pc in (50.0, 30.0, 70.0):
-        cold.append(timed(lambda: setattr(e.model, "percent", pc))[0])
-    print(f"{'cull % first visits (900 fr)':<34} {', '.join(f'{1000 * t:.0f} ms' for t in cold)} "
-          f"(target <= 100 ms: {'OK' if max(cold) <= 0.1 else 'MISSED'})")
+        cold.append(timed(lambda: setattr(e.model, "percent", pc)))
+    first_visits("cull % first visits (900 fr)", cold)
     bare = Session(m900)
     e.model.percent = 60.0
     e.model.s = 0.03
@@ -103,6 +102,20 @@ def main():
         warm_cull(pcs)
         bare.precompute_cull(pcs)
     results["percent"] = report("StaggerEditor percent (900 fr, warm)", *sweep(e, "percent", [], pcs, bare), 50)
+    e.close()
+
+    # -- cull first visits after the editor's own warm-up (precompute=True: refits, then the replay of the
+    # current edit at every position), on a fresh editor; the warm-up's CPU is waited for and not counted
+    e = StaggerEditor(m900)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for f in e._futures():
+        f.result()
+    print(f"{'  editor warm-up (900 fr)':<34} {time.perf_counter() - w0:.2f} s wall, "
+          f"{time.process_time() - c0:.2f} s cpu (background, after first paint)")
+    warm = []
+    for pc in (50.0, 30.0, 70.0):
+        warm.append(timed(lambda: setattr(e.model, "percent", pc)))
+    first_visits("cull % first visits after warm-up", warm)
     e.close()
 
     # -- WandEditor: sigma on 600 frames --------------------------------------------------------------
@@ -138,6 +151,14 @@ def main():
     r.close()
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return results
+
+
+def first_visits(label, times):
+    """Wall and CPU of each first visit; the target (<= 100 ms) judged on CPU (wall moves with the load)."""
+    cpu = max(c for _, c in times)
+    print(f"{label:<34} wall {', '.join(f'{1000 * w:.0f}' for w, _ in times)} ms | cpu "
+          f"{', '.join(f'{1000 * c:.0f}' for _, c in times)} ms | load {os.getloadavg()[0]:4.1f} | "
+          f"target <= 100 ms cpu: {'OK' if cpu <= 0.1 else 'MISSED'}")
 
 
 def _known_ops(session):

@@ -539,7 +539,7 @@ class StaggerEditor(_Editor):
     # -- views -----------------------------------------------------------------------------------------
     def _needs_staggered(self) -> bool:
         from ..session.models import STAGGER_OPS
-        return any(o["op"] in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.ops)
+        return any(o.name in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.typed_ops)
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
@@ -909,8 +909,9 @@ class WarpEditor(_Editor):
         from .. import timewarp
         ft = edited.frame_time
         warp = None
-        for i in range(len(self.session.ops) - 1, -1, -1):
-            if self.session.ops[i]["op"] in ("guided_warp", "linear_warp"):
+        names = [op.name for op in self.session.typed_ops]   # not .ops: a JSON copy of every op per call
+        for i in range(len(names) - 1, -1, -1):
+            if names[i] in ("guided_warp", "linear_warp"):
                 warp = self.session.warp_curve(i)
                 break
         if warp is None:   # no warp op (e.g. undone): the identity
