@@ -141,6 +141,34 @@ def test_timing_warnings_once_per_state_and_equal_to_the_staggered_call(walk_ses
     assert _fresh(walk_session, []).timing_warnings() == ("", ())
 
 
+def test_same_op_on_the_same_state_is_not_recomputed(walk_session, monkeypatch):
+    """Two cull percents keeping the same poses give the same culled state: the ops after it are found by
+    that state's content name and the op (not recomputed), and the result is the very same motion; a
+    percent keeping other poses is computed, and equals a fresh replay."""
+    sm = walk_session.extraction()
+    by_keep = {}
+    for p in np.arange(5.0, 100.0, 2.5):
+        by_keep.setdefault(tuple(staggered.cull_keep(sm, p)), []).append(float(p))
+    p1, p2 = next(v[:2] for v in by_keep.values() if len(v) > 1)
+    p3 = next(v[0] for k, v in by_keep.items() if p1 not in v)
+    tail = [{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}, {"op": "keep_contacts"}]
+    s = _fresh(walk_session, [{"op": "cull", "percent": p1}] + tail)
+    first = s.edited()
+    calls = []
+    for name in ("succession", "keep_contacts"):
+        real = getattr(staggered, name)
+        monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    s.set_ops([{"op": "cull", "percent": p2}] + tail)
+    assert s.edited() is first and calls == [] and s.messages() == _fresh(walk_session, s.ops).messages()
+    s.set_ops([{"op": "cull", "percent": p3}] + tail)
+    third = s.edited()
+    assert calls == ["succession", "keep_contacts"]
+    monkeypatch.undo()
+    fresh = Session(walk_session.source, s.ops).edited()   # a new cache: computed from scratch
+    assert np.array_equal(third.local_quats, fresh.local_quats)
+    assert np.array_equal(third.root_positions, fresh.root_positions)
+
+
 def test_propagate_several_frames_and_repetitions(walk_session):
     m = walk_session.source
     j = m.skeleton.names[2]

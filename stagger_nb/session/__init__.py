@@ -333,21 +333,34 @@ class Session:
                 op = ops[i]
                 if progress is not None:
                     progress(done, total, op.name)
-                # an op extracting first reports the extraction as its first half, its own work as the rest
-                split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
-                run = Run(self._ctx, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
-                try:
-                    state = convert(state, op.needs, run)
-                    run.progress = _share(progress, done, total, split, 1.0, op.name)
-                    state = RUNNERS[type(op)](state, op, run)
-                except ValueError as e:
-                    raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
-                except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
-                    raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
-                origin = run._origin
+                # the same op on the same state (another prefix reached it: two cull percents keeping the same
+                # poses, an undo to an equal edit) is the state computed then: found by the state's content
+                # name and the op, not recomputed
+                src = cache.token(state)
+                seen = cache.peek("step", src, op.key)
+                hit = None if seen is None or seen not in info else self._available(seen)
+                if hit is not None:
+                    if op.needs == "staggered" and isinstance(state, Motion):
+                        origin = state   # what convert() would have recorded
+                    state, step_info = hit, info[seen]
+                else:
+                    # an op extracting first reports the extraction as its first half, its own work as the rest
+                    split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
+                    run = Run(self._ctx, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
+                    try:
+                        state = convert(state, op.needs, run)
+                        run.progress = _share(progress, done, total, split, 1.0, op.name)
+                        state = RUNNERS[type(op)](state, op, run)
+                    except ValueError as e:
+                        raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
+                    except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
+                        raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
+                    origin = run._origin
+                    step_info = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                    cache.put("step", src, op.key, keys[i])
                 cache.name(state, keys[i])
                 cache.put("state", keys[i], None, state)
-                info[keys[i]] = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                info[keys[i]] = step_info
                 if keep_all:
                     states[i] = state  # otherwise only the bounded cache holds it (memory stays flat)
                 done += 1
@@ -392,7 +405,8 @@ class Session:
         if isinstance(last, Motion):
             return last
         try:
-            return self._ctx.cache.get("state", self._keys[-1], "motion", lambda: convert(last, "motion", None))
+            cache = self._ctx.cache   # keyed by the state's content name: every prefix reaching it shares it
+            return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
         except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
             raise ValueError(f"ops[{n - 1}] ({self._history.ops[n - 1].name}): evaluating the result: {e}") from None
 
@@ -617,7 +631,8 @@ class Session:
         try:
             last = self._run(ops, keys, len(ops), progress=progress)
             if keys and not isinstance(last, Motion):
-                self._ctx.cache.get("state", keys[-1], "motion", lambda: convert(last, "motion", None))
+                cache = self._ctx.cache
+                cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
         except (ValueError, ArithmeticError):
             pass
 

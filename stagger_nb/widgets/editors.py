@@ -180,12 +180,12 @@ class _Editor(widgets.VBox):
         frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
         pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
         ct = None if contacts is None else tuple(tuple(c) for c in contacts)
-        last = getattr(self, "_shown", (None, None, None))
-        pf_new = pf if pf is not None and pf != last[1] else None
-        ct_new = ct if ct is not None and ct != last[2] else None
+        last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
+        pf_new = pf if pf is not None and pf != last[0] else None
+        ct_new = ct if ct is not None and ct != last[1] else None
         if self.view.motion is edited and pf_new is None and ct_new is None:
             return
-        self._shown = (id(edited), pf if pf is not None else last[1], ct if ct is not None else last[2])
+        self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
         if self.view.motion is edited:   # only the highlights changed
             if pf_new is not None:
                 self.view.set_pose_frames(pf_new)
