@@ -177,9 +177,15 @@ class Cache:
             return sum(self._sizes.get(kind, {}).values())
 
     def _trim(self, kind: str, store: OrderedDict) -> None:  # under the lock
-        bound = self._bounds.get(kind, 16)
-        if len(store) > bound:
-            for k in [k for k, f in store.items() if f.done()][: len(store) - bound]:
+        excess = len(store) - self._bounds.get(kind, 16)
+        if excess > 0:   # the oldest finished entries (a pass over the oldest only: a long replay puts many)
+            drop = []
+            for k, f in store.items():
+                if f.done():
+                    drop.append(k)
+                    if len(drop) == excess:
+                        break
+            for k in drop:
                 del store[k]
         sizes = self._sizes.get(kind)
         if sizes is None:
