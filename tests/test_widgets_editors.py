@@ -413,3 +413,22 @@ def test_closing_an_editor_closes_every_widget_it_made(walk):
     assert all(w.comm is not None for w in made)
     e.close()
     assert e.comm is None and all(w.comm is None for w in made)
+
+
+def test_closing_an_editor_cancels_every_warm_up_it_submitted(walk):
+    """Every Session.warm future the editor submitted is cancelled by close() (one left out kept refitting
+    every cull position of a closed editor in the background)."""
+    from stagger_nb.widgets import StaggerEditor
+    seen = []
+    orig = Session.warm
+
+    class Spy(Session):
+        def warm(self, *jobs, progress=None):
+            fut = orig(self, *jobs, progress=progress)
+            seen.append(fut)
+            return fut
+
+    e = StaggerEditor(Spy(walk.slice(0, 120)))
+    e.close()
+    assert seen and e._futures() == seen   # close() cancelled each of them
+    assert all(f.cancelled() or f.done() for f in seen)

@@ -271,6 +271,7 @@ class _Editor(widgets.VBox):
         self.progress.layout.visibility = "visible"
         fut = warm(*jobs, progress=self._on_progress)
         self.warm_future = fut
+        self.__dict__.setdefault("_warm_futures", []).append(fut)   # every one: close() cancels them all
 
         def done(f):
             if f is self.warm_future:
@@ -281,7 +282,8 @@ class _Editor(widgets.VBox):
         return fut
 
     def _futures(self):
-        return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
+        """Every warm-up future this editor submitted (in order)."""
+        return list(self.__dict__.get("_warm_futures", ()))
 
     def close(self):
         """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
@@ -421,8 +423,7 @@ class StaggerEditor(_Editor):
             # its refit, then the whole replay of the current edit at that position (a first visit is then a hit)
             self._first_future = self._warm("extract", then=self._refresh)
             pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
-            self._warm(("cull", pcs))
-            self._warm(("replay", [self.binding.ops_for(cull_by="percent", percent=p) for p in pcs]))
+            self._warm(("cull", pcs), ("replay", [self.binding.ops_for(cull_by="percent", percent=p) for p in pcs]))
 
     # -- actions ---------------------------------------------------------------------------------------
     def _insert_action(self, op: dict) -> None:
