@@ -94,6 +94,28 @@ def test_warm_future_cancels_before_the_next_item(session):
     session.close()
 
 
+def test_close_wait_returns_once_the_running_item_has_finished(session):
+    """close(wait=True): the warm-ups are cancelled and the item running now has finished on return."""
+    gate, entered, finished = threading.Event(), threading.Event(), threading.Event()
+
+    def progress(done, total, label):
+        if label == "extract" and not entered.is_set():
+            entered.set()
+            assert gate.wait(30)
+        if label == "cull 30 %":
+            finished.set()   # the extraction item is over (its successor is announced)
+
+    fut = session.warm("extract", ("cull", [30, 40]), progress=progress)
+    assert entered.wait(30)
+    threading.Timer(0.3, gate.set).start()
+    session.close(wait=True)
+    busy = []
+    session.observe_busy(lambda kind, started: busy.append(kind))
+    assert fut.cancelled() and gate.is_set()
+    assert session.extraction() is not None and busy == []   # the running item had finished: cached
+    assert not finished.is_set()                             # and nothing after the cancel ran
+
+
 def test_warm_checks_its_jobs_at_once(session):
     with pytest.raises(ValueError, match=r"^jobs\[1\]"):
         session.warm("extract", "everything")

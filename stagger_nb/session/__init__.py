@@ -636,9 +636,13 @@ class Session:
         except (ValueError, ArithmeticError):
             pass
 
-    def close(self) -> None:
-        """Cancel pending warm-ups (each stops before its next item)."""
+    def close(self, wait: bool = False) -> None:
+        """Cancel pending warm-ups (each stops before its next item); with ``wait``, also wait until the
+        item running now has finished (the worker is then idle: e.g. before timing something else in this
+        process, whose CPU time would otherwise include it)."""
         self._worker.cancel_all()
+        if wait:
+            self._worker.submit([]).result()   # runs after the cancelled lists have stopped
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:
