@@ -77,8 +77,7 @@ def main():
     e = globals().pop("_e")
     print(f"StaggerEditor first paint, {full.num_frames} frames: {w:.2f} s wall, {c:.2f} s cpu "
           f"(target <= 2 s: {'OK' if w <= 2 else 'MISSED'})")
-    e.close()
-    e.session.close(wait=True)   # its running warm-up item too: not counted in what follows
+    close(e)
 
     # -- StaggerEditor sliders, 900 frames ---------------------------------------------------------------
     e = StaggerEditor(m900, precompute=False)
@@ -103,8 +102,7 @@ def main():
         warm_cull(pcs)
         bare.precompute_cull(pcs)
     results["percent"] = report("StaggerEditor percent (900 fr, warm)", *sweep(e, "percent", [], pcs, bare), 50)
-    e.close()
-    e.session.close(wait=True)   # its running warm-up item too: not counted in what follows
+    close(e)
 
     # -- cull first visits after the editor's own warm-up (precompute=True: refits, then the replay of the
     # current edit at every position), on a fresh editor; the warm-up's CPU is waited for and not counted
@@ -118,8 +116,7 @@ def main():
     for pc in (50.0, 30.0, 70.0):
         warm.append(timed(lambda: setattr(e.model, "percent", pc)))
     first_visits("cull % first visits after warm-up", warm)
-    e.close()
-    e.session.close(wait=True)   # its running warm-up item too: not counted in what follows
+    close(e)
 
     # -- WandEditor: sigma on 600 frames --------------------------------------------------------------
     w = WandEditor(m600, frame=300, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
@@ -133,8 +130,7 @@ def main():
     results["rx"] = report("WandEditor rotate x (600 fr)", *sweep(w, "rx", [], [5.0, 10.0, 15.0, 25.0], bare), 50)
     results["edit_frame"] = report("WandEditor edit_frame (600 fr)",
                                    *sweep(w, "edit_frame", [], [200, 250, 350, 400], bare), 50)
-    w.close()
-    w.session.close(wait=True)
+    close(w)
 
     # -- WarpEditor: duration, skip on 900 frames -------------------------------------------------------
     r = WarpEditor(m900)
@@ -152,10 +148,19 @@ def main():
     op = dict(ops[-1]) if ops else {"op": "guided_warp", "duration": r.model.duration}
     bare.warm(("warp_tables", [dict(op, skip=16)])).result()
     results["skip"] = report("WarpEditor skip (900 fr, warm)", *sweep(r, "skip", [], [4, 6, 10, 12], bare), 50)
-    r.close()
-    r.session.close(wait=True)
+    close(r)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return results
+
+
+def close(editor):
+    """Close ``editor`` and wait until its session's running warm-up item has finished, so it is not counted
+    in the next figures (an older session without ``close(wait=...)``: not waited for)."""
+    editor.close()
+    try:
+        editor.session.close(wait=True)
+    except TypeError:
+        pass
 
 
 def first_visits(label, times):
