@@ -432,3 +432,26 @@ def test_closing_an_editor_cancels_every_warm_up_it_submitted(walk):
     e.close()
     assert seen and e._futures() == seen   # close() cancelled each of them
     assert all(f.cancelled() or f.done() for f in seen)
+
+
+def test_stagger_warm_up_replays_its_own_ops_only(walk):
+    """On a session holding other techniques' ops after the staggered ones (the quickstart's), the warm-up
+    replays every cull position up to the editor's last op: the wand and warp ops after it (their own heads,
+    per edited motion) are left to the visit."""
+    from stagger_nb.widgets import StaggerEditor
+    jobs = []
+    orig = Session.warm
+
+    class Spy(Session):
+        def warm(self, *j, progress=None):
+            jobs.extend(j)
+            return orig(self, *j, progress=progress)
+
+    m = walk.slice(0, 120)
+    e = StaggerEditor(Spy(m, ops=_quickstart(m)))
+    e.close()
+    lists = [v for name, v in (j for j in jobs if isinstance(j, tuple)) if name == "replay"][0]
+    assert len(lists) == 19
+    for ops in lists:
+        assert [o["op"] for o in ops] == ["cull", "succession"]   # keep_contacts: off, as the session had it
+        assert ops[1] == dict(_quickstart(m)[0], joints=None)

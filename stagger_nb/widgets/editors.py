@@ -423,7 +423,14 @@ class StaggerEditor(_Editor):
             # its refit, then the whole replay of the current edit at that position (a first visit is then a hit)
             self._first_future = self._warm("extract", then=self._refresh)
             pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
-            self._warm(("cull", pcs), ("replay", [self.binding.ops_for(cull_by="percent", percent=p) for p in pcs]))
+            self._warm(("cull", pcs), ("replay", [self._own_prefix(self.binding.ops_for(cull_by="percent", percent=p))
+                                                  for p in pcs]))
+
+    def _own_prefix(self, ops: list) -> list:
+        """``ops`` up to this editor's last op: what the warm-up replays (ops of other techniques after it, e.g.
+        a guided warp of the edited motion with its own kNN tables, are left to the visit)."""
+        last = max((i for i, o in enumerate(ops) if o["op"] in self.binding.owned), default=-1)
+        return ops[:last + 1]
 
     # -- actions ---------------------------------------------------------------------------------------
     def _insert_action(self, op: dict) -> None:
