@@ -169,6 +169,27 @@ def test_same_op_on_the_same_state_is_not_recomputed(walk_session, monkeypatch):
     assert np.array_equal(third.root_positions, fresh.root_positions)
 
 
+def test_exaggerate_basis_built_once_per_pre_exaggerate_state(walk_session, monkeypatch):
+    """A w_r move re-runs exaggerate with the cached pose_offset_basis of the state before it (one basis
+    per such state); the result matches the plain technique call (to rounding: the basis reorders sums)."""
+    if not hasattr(staggered, "pose_offset_basis"):
+        pytest.skip("this staggered has no pose_offset_basis yet (eval-speed)")
+    calls = []
+    real = staggered.pose_offset_basis
+    monkeypatch.setattr(staggered, "pose_offset_basis", lambda sm: calls.append(1) or real(sm))
+    s = _fresh(walk_session, [])
+    for w in (0.3, 0.6, -0.4):
+        s.set_ops([{"op": "cull", "percent": 70.0}, {"op": "exaggerate", "w_r": w}])
+        got = s.edited()
+        culled = staggered.cull(walk_session.extraction(), 70.0)
+        want = staggered.evaluate(staggered.exaggerate(culled, list(range(culled.num_poses)), w))
+        _same_motion(got, want, tol=1e-9)   # rounding only (basis: ~1e-15 rad per knot)
+    assert len(calls) == 1
+    s.set_ops([{"op": "cull", "percent": 40.0}, {"op": "exaggerate", "w_r": 0.3}])
+    s.edited()
+    assert len(calls) == 2   # another pre-exaggerate state: its own basis
+
+
 def test_propagate_several_frames_and_repetitions(walk_session):
     m = walk_session.source
     j = m.skeleton.names[2]
