@@ -13,6 +13,7 @@ report). Prints, against baselines run in this process:
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -32,7 +33,10 @@ from stagger_nb.staggered.fitting import (fit_rotation_tangents_nelder_mead, fit
                                           sample_segments, velocity_jumps)
 from stagger_nb.staggered.representation import evaluate_reference, knot_times  # noqa: E402
 
-SHARED = REPO.parent / "shared" / "mocap"
+# ../shared/mocap and data/ beside/in the repository; STAGGER_NB_SHARED_MOCAP and STAGGER_NB_DATA point
+# elsewhere (as tests/conftest.py and stagger_nb.data), e.g. from a git worktree
+SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
+DATA = Path(os.environ.get("STAGGER_NB_DATA") or REPO / "data")
 
 
 def best(f, repeat=5):
@@ -47,7 +51,7 @@ def best(f, repeat=5):
 
 
 def long_clip():
-    p = REPO / "data" / "cmu_01_01.bvh"
+    p = DATA / "cmu_01_01.bvh"
     if p.is_file():
         return read_bvh(p), "data/cmu_01_01.bvh"
     m = read_bvh(SHARED / "cmu_131_01_walk_startstop.bvh")

@@ -10,7 +10,12 @@ CPU time per call, each beside a baseline run in this process:
 * cull first visits: every percent 1..100 once, as the editor's slider visits them, (a) each percent refitted,
   (b) refits keyed by ``cull_keep`` (percents keeping the same poses share one); goal <= 100 ms per first
   visit; baseline: the previous refit (every sample, ``fit_samples=None``) on the same percents;
-* cull local refit (default) against ``local=False`` on every distinct kept set (``--cull-only`` runs only this).
+* cull local refit (default) against ``local=False`` on every distinct kept set (``--cull-only`` runs only this);
+* the StaggerEditor's replay tails as pure calls (``--replays`` runs only these; issue 11 "bare replay"): the op
+  chain cull(60 %) -> exaggerate(w_r) -> succession(Hips, 0.03, l) -> random_timing(0.06, seed) ->
+  keep_contacts, with the cull cached, for a move of ``l`` (exaggerate cached) and of ``w_r`` (exaggerate
+  recomputed; also with ``pose_offset_basis`` cached, what the session does once it keeps that basis per
+  pre-exaggerate state); goal <= 25 ms CPU each; baseline: ``evaluate`` alone on the same edit.
 """
 from __future__ import annotations
 
@@ -75,9 +80,42 @@ def cull_local_vs_full(sm):
           f"(max {1e3 * wf.max():.1f}, cpu {1e3 * cf:.1f}); ratio full / local cpu {cf / cl:.2f}x")
 
 
+def replays(m, sm):
+    """CPU time per slider move of the StaggerEditor's replay tail (see the module docstring)."""
+    root = "Hips" if "Hips" in m.skeleton.names else m.skeleton.names[0]
+    culled = staggered.cull(sm, 60.0)
+    ks = list(range(culled.num_poses))
+    basis = staggered.pose_offset_basis(culled)
+    held = staggered.exaggerate(culled, ks, 0.3)
+
+    def tail(e, l, seed):
+        return staggered.random_timing(staggered.succession(e, root=root, s=0.03, l=l), tau=0.06, seed=seed)
+
+    ed = tail(held, 1.5, 4)
+    rows = [("l move (exaggerate cached)", lambda i: staggered.keep_contacts(tail(held, 1.0 + 0.1 * (i % 7), 4), m)),
+            ("w_r move", lambda i: staggered.keep_contacts(tail(staggered.exaggerate(culled, ks, 0.2 + 0.05 * (i % 7)),
+                                                                1.5, 4), m)),
+            ("w_r move, offset basis cached", lambda i: staggered.keep_contacts(
+                tail(staggered.exaggerate(culled, ks, 0.2 + 0.05 * (i % 7), basis=basis), 1.5, 4), m)),
+            ("  exaggerate alone", lambda i: staggered.exaggerate(culled, ks, 0.2 + 0.05 * (i % 7))),
+            ("  exaggerate alone, basis cached", lambda i: staggered.exaggerate(culled, ks, 0.2 + 0.05 * (i % 7),
+                                                                                basis=basis)),
+            ("  keep_contacts alone", lambda i: staggered.keep_contacts(ed, m))]
+    counter = iter(range(10 ** 9))
+    t_ev = timed(lambda: staggered.evaluate(ed), 20)
+    print(f"replay tails, K = {culled.num_poses} after cull(60 %) [goal <= 25 ms cpu per move]")
+    for name, f in rows:
+        row(name, timed(lambda: f(next(counter)), 15), t_ev, "evaluate alone")
+
+
 def main():
     m, label = clip()
     sm = staggered.extract(m)
+    if "--replays" in sys.argv:
+        print(f"# {label}: K = {sm.num_poses}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        replays(m, sm)
+        print(f"# load average at the end {os.getloadavg()[0]:.1f}")
+        return
     if "--cull-only" in sys.argv:
         print(f"# {label}: K = {sm.num_poses}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
         cull_local_vs_full(sm)
@@ -121,6 +159,7 @@ def main():
               f"cpu {1e3 * c_old:6.1f} ms; all 100 visits {old.sum():.2f} s   ratio previous / now "
               f"(median) {np.median(old) / np.median(new):.1f}x")
     cull_local_vs_full(sm)
+    replays(m, sm)
     print(f"# load average at the end {os.getloadavg()[0]:.1f}")
 
 

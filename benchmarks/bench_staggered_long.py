@@ -27,7 +27,11 @@ from stagger_nb import read_bvh, staggered  # noqa: E402
 from stagger_nb.core.motion import Motion, concatenate  # noqa: E402
 from stagger_nb.core.rotations import quat_angle  # noqa: E402
 
-CLIP = Path(os.environ.get("STAGGER_NB_SHARED", REPO.parent / "shared")) / "mocap" / "xia_neutral_walk.bvh"
+# ../shared/mocap beside the repository; STAGGER_NB_SHARED_MOCAP (as tests/conftest.py) or STAGGER_NB_SHARED
+# (its parent) point elsewhere, e.g. from a git worktree
+MOCAP = (Path(os.environ["STAGGER_NB_SHARED_MOCAP"]) if os.environ.get("STAGGER_NB_SHARED_MOCAP")
+         else Path(os.environ.get("STAGGER_NB_SHARED", REPO.parent / "shared")) / "mocap")
+CLIP = MOCAP / "xia_neutral_walk.bvh"
 
 
 def walk_clip():

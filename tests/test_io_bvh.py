@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
 from stagger_nb.core.rotations import quat_angle, quat_rotate
 from stagger_nb.io._common import euler_deg_to_quat
 from stagger_nb.io._numformat import format_table
-from stagger_nb.io._numparse import parse_table
+from stagger_nb.io._numparse import parse_columns, parse_table
 from stagger_nb.io.bvh import BVHError, _normalise_breaks, _parse_motion_lines, format_bvh, parse_bvh
 
 from conftest import SHARED_CLIPS, shared_clip_path
@@ -325,9 +326,8 @@ def test_parser_reads_real_clips_bit_identically(name, spacing):
     got = parse_table(block, m.num_frames, C)
     assert got is not None
     assert np.array_equal(got, np.array(block.split(), dtype=float).reshape(m.num_frames, C))
-    if spacing == "as stored":  # pyarrow took the stored block as it is (no rewriting pass)
-        from stagger_nb.io._numparse import _parse_with_arrow
-        assert np.array_equal(_parse_with_arrow(block, m.num_frames, C).T, got)  # column-major
+    cols = parse_columns(memoryview(block), m.num_frames, C)  # column-major, from a view (no copy)
+    assert cols.flags.c_contiguous and np.array_equal(cols.T, got)
 
 
 @pytest.mark.parametrize("block,expect", [
@@ -346,10 +346,11 @@ def test_parser_takes_long_tokens():
 
 @pytest.mark.parametrize("order", ["".join(p) for p in itertools.permutations("XYZ")] + ["X", "ZY", "YXY"])
 def test_euler_closed_form_matches_scipy(order, rng):
-    a = rng.uniform(-720, 720, size=(200, len(order)))
-    q = euler_deg_to_quat(a, order)
-    r = Rotation.from_euler(order, a, degrees=True).as_quat()
-    assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
+    for limit in (720, 180):  # angles that need wrapping to [-180, 180], and angles that do not
+        a = rng.uniform(-limit, limit, size=(200, len(order)))
+        q = euler_deg_to_quat(a, order)
+        r = Rotation.from_euler(order, a, degrees=True).as_quat()
+        assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
 
 
 # ---------------------------------------------------------------- writing
@@ -474,3 +475,163 @@ def test_random_skeletons_round_trip(seed):
     # the writer keeps 6 decimals of a degree (<= 1e-8 rad per angle) and 1e-8 of the largest translation
     assert np.max(np.abs(p1 - p2)) <= 1e-6 * size
     assert np.max(quat_angle(q1, q2)) <= 1e-6
+
+
+# ---------------------------------------------------------------- the motion block in pieces, on threads
+def _pieces_file(rng, F=40, rot="Zrotation Xrotation Yrotation"):
+    head = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition " + rot + "\n"
+            "JOINT b\n{\nOFFSET 0 1 0\nCHANNELS 3 " + rot + "\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\n")
+    vals = rng.uniform(-400, 400, (F, 9))
+    body = "".join(" ".join(f"{v:.6f}" for v in row) + "\n" for row in vals)
+    return head + f"Frames: {F}\nFrame Time: 0.01\n", body
+
+
+@pytest.mark.parametrize("cpus", [1, 2, 4])
+def test_pieces_on_threads_give_the_same_motion_as_the_line_parser(monkeypatch, rng, cpus):
+    """Tiny pieces (a few lines each) spread over up to 4 threads: every frame lands in its place, bit for
+    bit the motion the line-by-line parser gives."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng)
+    whole = parse_bvh(head + body, "x.bvh")
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: cpus)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 200)
+    assert len(bvh_mod._pieces((head + body).encode(), len(head), len(head + body), cpus)) > 8
+    m = parse_bvh(head + body, "x.bvh")
+    C = 9
+    data = _parse_motion_lines(body.encode(), 1, 40, C, "x")
+    assert np.array_equal(m.root_positions, data[:, :3])
+    np.testing.assert_array_equal(m.local_quats, whole.local_quats)
+    ref = euler_deg_to_quat(data[:, 3:].reshape(40, 2, 3), "ZXY")
+    assert np.max(quat_angle(m.local_quats, ref)) < 1e-12  # up to sign (continuity)
+
+
+@pytest.mark.parametrize("bad_line", [0, 17, 39])
+def test_a_bad_line_in_any_piece_is_reported_with_its_line(monkeypatch, rng, bad_line):
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng)
+    lines = body.splitlines()
+    lines[bad_line] = lines[bad_line].replace(" ", " x", 1)
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: 4)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 200)
+    first = head.count("\n") + 1
+    with pytest.raises(BVHError, match=rf"x\.bvh, line {first + bad_line}: expected a number on frame {bad_line}"):
+        parse_bvh(head + "\n".join(lines) + "\n", "x.bvh")
+
+
+def test_concurrent_reads_share_the_pool(rng):
+    """Threads reading at once (a session warming up while the notebook reads) each get their own motion."""
+    from concurrent.futures import ThreadPoolExecutor
+    texts = ["".join(_pieces_file(np.random.default_rng(s), F=3000)) for s in range(6)]
+    expect = [parse_bvh(t, "x.bvh").local_quats for t in texts]
+    with ThreadPoolExecutor(6) as ex:
+        got = list(ex.map(lambda t: parse_bvh(t, "x.bvh").local_quats, texts * 2))
+    for k, q in enumerate(got):
+        np.testing.assert_array_equal(q, expect[k % 6])
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform")
+def test_read_in_a_forked_child_after_the_parent_used_its_threads(rng):
+    """Threads do not survive fork: a child (Dask/multiprocessing workers) must not wait on the parent's pool."""
+    from stagger_nb.io import bvh as bvh_mod
+    text = "".join(_pieces_file(rng, F=6000))
+    expect = parse_bvh(text, "x.bvh").local_quats  # the parent's pool exists now (2+ CPUs)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: report 1 if it read the same motion, within the parent's timeout
+        try:
+            bvh_mod._cpus = lambda: 2
+            ok = np.array_equal(parse_bvh(text, "x.bvh").local_quats, expect)
+            os.write(w, b"1" if ok else b"0")
+        finally:
+            os._exit(0)
+    os.close(w)
+    import select
+    ready, _, _ = select.select([r], [], [], 60)
+    got = os.read(r, 1) if ready else b"timeout"
+    os.close(r)
+    os.waitpid(pid, 0) if ready else os.kill(pid, 9)
+    assert got == b"1"
+
+
+@pytest.mark.parametrize("pad,end", [(" \t  ", ""), ("\t", ""), ("  ", "  "), (" ", " \r")])
+def test_padded_blocks_take_the_fast_path(monkeypatch, rng, pad, end):
+    """Tabs and runs of blanks between values (and CR before the line break) are read by the vectorised
+    parser, not the line-by-line fallback."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng, F=50)
+    expect = parse_bvh(head + body, "x.bvh")
+    padded = "\n".join(pad.join(line.split(" ")) + end for line in body.splitlines())
+
+    def no_fallback(*a, **k):
+        raise AssertionError("the line-by-line parser ran")
+    monkeypatch.setattr(bvh_mod, "_parse_motion_lines", no_fallback)
+    m = parse_bvh(head + padded + "\n", "x.bvh")
+    np.testing.assert_array_equal(m.local_quats, expect.local_quats)
+    np.testing.assert_array_equal(m.root_positions, expect.root_positions)
+
+
+@pytest.mark.parametrize("case", ["truncated last line", "extra line", "missing lines", "odd whitespace"])
+def test_the_line_parser_takes_over_only_from_the_first_uncertified_piece(monkeypatch, rng, case):
+    """A long take with a bad last line costs one piece of slow parsing, not the whole file: the line-by-line
+    parser starts at the failing piece, with its frame and line numbers right."""
+    from stagger_nb.io import bvh as bvh_mod
+    head, body = _pieces_file(rng, F=60)
+    lines = body.splitlines()
+    if case == "truncated last line":
+        lines[-1] = " ".join(lines[-1].split()[:5])
+    elif case == "extra line":
+        lines.append(lines[0])
+    elif case == "missing lines":
+        lines = lines[:-2]
+    else:  # a vertical tab between two values of the last frame: whitespace to bytes.split and the fast path
+        lines[-1] = lines[-1].replace(" ", "\x0b", 1)
+    text = head + "\n".join(lines) + "\n"
+    starts = []
+    real = bvh_mod._parse_motion_lines
+
+    def spy(block, first_ln, num_frames, C, source, start=0, first_frame=0):
+        starts.append(first_frame)
+        return real(block, first_ln, num_frames, C, source, start, first_frame)
+    monkeypatch.setattr(bvh_mod, "_parse_motion_lines", spy)
+    monkeypatch.setattr(bvh_mod, "_cpus", lambda: 2)
+    monkeypatch.setattr(bvh_mod, "_MIN_PIECE_BYTES", 64)
+    monkeypatch.setattr(bvh_mod, "_PIECE_BYTES", 300)
+    first = head.count("\n") + 1  # the line of frame 0
+    if case == "odd whitespace":
+        m = parse_bvh(text, "x.bvh")
+        ref = parse_bvh(text.replace("\x0b", " "), "x.bvh")
+        np.testing.assert_array_equal(m.local_quats, ref.local_quats)
+        assert starts == []  # read by the fast path alone
+        return
+    else:
+        msg = {"truncated last line": rf"line {first + 59}: expected 9 values on frame 59, found 5",
+               "extra line": rf"line {first + 60}: more frame lines than 'Frames: 60' declares",
+               "missing lines": rf"line {first + 57}: file ends early: 'Frames: 60' declared, 58 frame lines"}[case]
+        with pytest.raises(BVHError, match=msg):
+            parse_bvh(text, "x.bvh")
+    assert len(starts) == 1 and starts[0] >= 50  # only the last piece(s) went through the line parser
+
+
+def test_the_first_read_in_a_process_uses_the_fast_path_on_every_thread():
+    """pyarrow is imported on first use; the first file's pieces are parsed on several threads at once, and
+    none may see "import tried" before the import finished (it fell back to the line parser: a race)."""
+    import subprocess
+    import sys
+    code = ("import numpy as np\n"
+            "from stagger_nb.io import bvh\n"
+            "bvh._cpus = lambda: 4\n"
+            "bvh._MIN_PIECE_BYTES, bvh._PIECE_BYTES = 64, 300\n"
+            "def boom(*a, **k):\n"
+            "    raise SystemExit('the line-by-line parser ran')\n"
+            "bvh._parse_motion_lines = boom\n"
+            "rows = '\\n'.join(' '.join(['1.5'] * 9) for _ in range(200))\n"
+            "head = ('HIERARCHY\\nROOT a\\n{\\nOFFSET 0 0 0\\nCHANNELS 6 Xposition Yposition Zposition Zrotation "
+            "Xrotation Yrotation\\nJOINT b\\n{\\nOFFSET 0 1 0\\nCHANNELS 3 Zrotation Xrotation Yrotation\\n}\\n}\\n"
+            "MOTION\\nFrames: 200\\nFrame Time: 0.01\\n')\n"
+            "print(bvh.parse_bvh(head + rows + '\\n', 'x').num_frames)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).resolve().parents[1]),
+                                                         os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 0 and r.stdout.strip() == "200", r.stderr[-2000:]

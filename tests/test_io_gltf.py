@@ -137,11 +137,15 @@ def test_document_structure(shared_motion):
     times = doc.accessors[anim.samplers[0].input]
     assert times.count == F and times.max[0] == pytest.approx((F - 1) * m.frame_time, rel=1e-6)
     assert doc.buffers[0].byteLength == len(data)
-    # a rig with position channels on every joint animates every joint's translation
+    # a rig with position channels on every joint animates the translation of every joint whose channels
+    # ever leave its OFFSET (the channels replace it; a constant value other than the OFFSET counts)
     bandai = shared_motion("bandai_run_cycle.bvh")
     doc, _ = motion_to_gltf(bandai)
     trans = {c.target.node for c in doc.animations[0].channels if c.target.path == "translation"}
-    moving = {j for j in range(bandai.num_joints) if np.ptp(bandai.translations()[:, j], axis=0).max() > 0}
+    s = metres_per_unit(bandai)[1]
+    moving = {j for j in range(bandai.num_joints)
+              if np.any(bandai.translations()[:, j] * s != bandai.skeleton.offsets[j] * s)}
+    assert len(moving) > 1
     assert trans == moving | {0}
 
 
@@ -190,3 +194,18 @@ def test_session_export_gltf_refuses_its_source(tmp_path):
     with pytest.raises(ValueError, match="source"):
         s.export_gltf(src)  # a .bvh name: refused as the source before the suffix is looked at
     assert src.read_bytes() == before
+
+
+def test_constant_position_channels_other_than_the_offset_are_exported(tmp_path):
+    """Position channels replace the OFFSET: a joint held at a constant translation that is not its OFFSET
+    must be animated in the glTF too (it was left at the OFFSET: 1.02 x height off on a 500-joint rig)."""
+    from hostile_corpus import gltf_positions
+    m = random_rig(J=6, F=4, seed=3)
+    lt = np.array(m.local_translations)
+    lt[:, 1:] = m.skeleton.offsets[1:] + [0.5, -2.0, 1.0]  # constant over time, not the OFFSET
+    m = m.replace(local_translations=lt)
+    sn.write_gltf(m, tmp_path / "c.glb")
+    names, scale, pos = gltf_positions(tmp_path / "c.glb")
+    p, _ = sn.forward_kinematics(m)
+    assert names == list(m.skeleton.names)
+    assert np.max(np.abs(pos - p * scale)) <= 1e-5 * skeleton_height(m) * scale  # float32 storage

@@ -208,6 +208,33 @@ def test_exaggerate_several_poses_and_partial(fixture):
     assert np.allclose(out.values[[0, 2, 4]], sm.values[[0, 2, 4]], atol=1e-15)  # other poses untouched
 
 
+@pytest.mark.parametrize("w_r, reference", [(0.5, "previous"), (-0.8, "mean"), (1.5, "next")])
+def test_exaggerate_with_a_basis_equals_without(fixture, w_r, reference):
+    """pose_offset_basis(sm) is the offset-independent half of the re-measuring: the same StaggeredMotion to
+    rounding, for any w_r / reference, after timing edits too (off-frame knots, oversampled grids)."""
+    _, sm = fixture
+    for base in (sm, E.random_timing(E.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.03, seed=1)):
+        basis = E.pose_offset_basis(base)
+        ks = list(range(base.num_poses))
+        a = E.exaggerate(base, ks, w_r, reference=reference)
+        b = E.exaggerate(base, ks, w_r, reference=reference, basis=basis)
+        assert quat_angle(evaluate(a).local_quats, evaluate(b).local_quats).max() < 1e-12   # rounding only
+        assert np.allclose(a.displacements, b.displacements, atol=1e-12)
+        assert np.array_equal(a.values, b.values) and np.array_equal(a.editing_knots, b.editing_knots)
+        # an edit moving under half of the pairs (pose 0: 1 segment of 4) ignores the basis: bit-identical
+        assert np.array_equal(E.exaggerate(base, [0], w_r, basis=basis).displacements,
+                              E.exaggerate(base, [0], w_r).displacements)
+
+
+def test_exaggerate_refuses_a_basis_of_another_motion(fixture):
+    _, sm = fixture
+    other = E.succession(sm, root="Hips", s=0.02, l=1.0)
+    with pytest.raises(ValueError, match="basis"):
+        E.exaggerate(other, [1], 0.5, basis=E.pose_offset_basis(sm))
+    with pytest.raises(ValueError, match="basis"):
+        E.exaggerate(sm, [1], 0.5, basis="cached")
+
+
 # --- temporal editing ---------------------------------------------------------------------------------------
 
 def tree_depth_below(parents, root, j):

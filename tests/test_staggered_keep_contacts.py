@@ -35,7 +35,7 @@ def stagger(sm):
     return staggered.random_timing(staggered.succession(sm, root=root, s=0.02, l=1.0), tau=0.05, seed=0)
 
 
-def check_clip(m, cm_per_unit, label):
+def check_clip(m, cm_per_unit, label, max_drop_cm=1.5):
     sm = staggered.extract(m)
     edited = stagger(sm)
     contacts = list(sm.contacts)
@@ -44,17 +44,48 @@ def check_clip(m, cm_per_unit, label):
     without = horizontal_travel_cm(staggered.evaluate(edited), carried, cm_per_unit)
     out = staggered.keep_contacts(edited, m)
     with_op = horizontal_travel_cm(out, carried, cm_per_unit)
-    drop = (staggered.evaluate(edited).root_positions - out.root_positions)[:, 1].max() * cm_per_unit
+    plain = staggered.evaluate(edited)
+    drop = pelvis_drop_cm(plain, out, cm_per_unit)
+    rise = foot_rise_cm(out, m, contacts, carried, cm_per_unit)
+    # the previous behaviour: the source's plant point, reached by lowering the root alone
+    old_drop = pelvis_drop_cm(plain, staggered.keep_contacts(edited, m, plant="source", lower_root=True), cm_per_unit)
     print(f"{label}: foot travel inside contacts (shrunk {SHRINK_S} s), max over contacts: "
-          f"{without:.2f} cm without keep_contacts, {with_op:.3f} cm with it (root lowered by up to {drop:.1f} cm)")
+          f"{without:.2f} cm without keep_contacts, {with_op:.3f} cm with it; pelvis height changed by up to "
+          f"{drop:.2f} cm (source plant, root lowered: {old_drop:.2f} cm); feet up to {rise:.2f} cm above "
+          f"their plants inside the shrunk contacts")
     assert with_op <= GOAL_CM
     assert without > 5 * GOAL_CM          # the measure sees the skate the timing edit causes
+    assert drop <= max_drop_cm and rise <= max_drop_cm
+    assert drop < 0.3 * old_drop          # the hip-following plant and the shared reach need much less drop
     return out
+
+
+def foot_rise_cm(out, m, contacts, carried, cm_per_unit, shrink_s=SHRINK_S):
+    """Largest height of a contact joint above its source plant (the contact's mean source height) inside
+    its carried contact interval shrunk by ``shrink_s`` at each end, cm."""
+    p_out, p_src = forward_kinematics(out)[0], forward_kinematics(m)[0]
+    n = int(round(shrink_s / out.frame_time))
+    worst = 0.0
+    for (name, a, b), (_, sa, sb) in zip(carried, [c for c in contacts
+                                                   if staggered.carry_contacts(out, [c], m.frame_time)]):
+        j = m.skeleton.index(name)
+        if b - a - 2 * n >= 1:
+            worst = max(worst, float((p_out[a + n:b - n, j, 1] - p_src[sa:sb, j, 1].mean()).max()))
+    return worst * cm_per_unit
+
+
+def pelvis_drop_cm(plain, out, cm_per_unit):
+    """Largest change of the pelvis' world height (the joint named Hips, else joint 0) between the edit
+    without and with keep_contacts, cm."""
+    names = plain.skeleton.names
+    j = names.index("Hips") if "Hips" in names else 0
+    y0, y1 = (forward_kinematics(x)[0][:, j, 1] for x in (plain, out))
+    return float(np.abs(y1 - y0).max()) * cm_per_unit
 
 
 def test_keep_contacts_procedural_walk():
     """Runs without ../shared: the procedural walk (cm)."""
-    check_clip(data.load("walk"), 1.0, "procedural walk")
+    check_clip(data.load("walk"), 1.0, "procedural walk", max_drop_cm=2.5)   # stiff-legged synthetic gait
 
 
 @pytest.mark.parametrize("clip, cm_per_unit", CLIPS)
@@ -143,6 +174,11 @@ def test_keep_contacts_bad_input(walk):
         staggered.keep_contacts(sm, m, contacts=[("Nose", 0, 10)])
     with pytest.raises(ValueError, match="edited"):
         staggered.carry_contacts([1, 2], sm.contacts, m.frame_time)
+    with pytest.raises(ValueError, match="plant"):
+        staggered.keep_contacts(sm, m, plant="ground")
+    for bad in (1.5, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="lower_root"):
+            staggered.keep_contacts(sm, m, lower_root=bad)
     # no contacts: the evaluated motion itself
     assert np.array_equal(staggered.keep_contacts(sm, m, contacts=[]).local_quats, staggered.evaluate(sm).local_quats)
 
@@ -182,3 +218,40 @@ def test_carry_by_limb_uses_the_hip_timing(walk):
     assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
     with pytest.raises(ValueError, match="carry_by"):
         staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="pelvis")
+
+
+def test_keep_contacts_on_hops_removes_the_sliding():
+    """Notebook 01's check on the real hops (both feet land together): after a rough timing edit, sliding over
+    the source contacts falls below 20 % (the plant search stays within a quarter leg of the hip-following
+    point, so landings stay near the edited feet), with the pelvis lowered by less than 8 cm (23 cm with the
+    source plant and the root drop alone)."""
+    try:
+        cmu = data.load("cmu_01_01")
+    except FileNotFoundError as e:
+        pytest.skip(f"cmu_01_01 not prepared: {e}")
+    hops = cmu.resample(1 / 30).slice(0, int(8.5 * 30))
+    sm = staggered.extract(hops)
+    contacts = staggered.detect_contacts(hops)
+    rough = staggered.random_timing(staggered.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.05, seed=1)
+    slid, held = staggered.evaluate(rough), staggered.keep_contacts(rough, hops)
+    skate = [float(staggered.foot_skate(x, contacts).sum()) for x in (slid, held)]
+    drop = float(np.abs(slid.root_positions - held.root_positions)[:, 1].max())
+    print(f"hops: sliding {skate[0]:.1f} -> {skate[1]:.1f} cm, pelvis lowered up to {drop:.2f} cm")
+    assert skate[1] < 0.2 * skate[0]
+    assert drop < 8.0
+
+
+def test_lower_root_share_splits_the_missing_reach(walk):
+    """lower_root=0 keeps the root bit for bit; the pelvis drop grows with the share (0 <= 0.5 <= 1) while the
+    held feet stay put horizontally whatever the share."""
+    m, sm = walk
+    edited = stagger(sm)
+    plain = staggered.evaluate(edited)
+    carried = staggered.carry_contacts(edited, sm.contacts, m.frame_time)
+    drops = []
+    for share in (0.0, 0.5, 1.0):
+        out = staggered.keep_contacts(edited, m, lower_root=share)
+        drops.append(pelvis_drop_cm(plain, out, 1.0))
+        assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
+    assert np.array_equal(staggered.keep_contacts(edited, m, lower_root=False).root_positions, plain.root_positions)
+    assert drops[0] == 0.0 and drops[0] <= drops[1] <= drops[2] and drops[2] > 0

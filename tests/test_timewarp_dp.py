@@ -154,6 +154,23 @@ def test_mean_cost_equals_exhaustive_over_all_lengths(n, s):
     assert dp.path_cost(scores, frames) / (frames.size - 2) == pytest.approx(best[0], rel=1e-12, abs=1e-12)
 
 
+@pytest.mark.parametrize("kind", ["uniform", "knn"])
+@pytest.mark.parametrize("n,s", [(6, 2), (9, 3), (11, 4), (12, 8)])
+def test_input_time_cost_equals_exhaustive_over_all_lengths(n, s, kind):
+    # free length: the least local score integrated over input time, sum f(i, j, k) (k - i) / 2, over every
+    # admissible path of every length, written out here in the most straightforward manner
+    scores = _random_table(np.random.default_rng(11 * n + s), n, s, kind)
+
+    def integrated(f):
+        return sum(scores[f[q], f[q] - f[q - 1] - 1, f[q + 1] - f[q] - 1] * (f[q + 1] - f[q - 1]) / 2.0
+                   for q in range(1, len(f) - 1))
+    best = min(((integrated(f), f) for m in range(2, n + 1) if (m - 1) * s >= n - 1
+                for f in _admissible_paths(n, m, s)), key=lambda t: t[0])
+    frames, cost = dp.input_time_dp(scores)
+    assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    assert integrated(tuple(frames)) == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+
+
 def test_progress_is_reported_up_to_one():
     seen = []
     dp.constrained_dp(_random_table(np.random.default_rng(0), 300, 4, "uniform"), 200, progress=seen.append)

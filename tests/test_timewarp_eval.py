@@ -78,24 +78,37 @@ def test_faster_reference_moves_the_speed_distribution(shared_motion):
     print("\n".join(lines))
 
 
-@pytest.mark.shared
-@pytest.mark.xfail(strict=True, reason="known limitation, open: free length picks the least MEAN score per output "
-                   "frame (so a self / resampled reference gives the right length, and V8 slows down), which lingers "
-                   "on well-matched frames when the reference is another performer's motion: the neutral walk "
-                   "guided by the angry run comes out slower (median 6 vs 10 cm/s) instead of nearer the run's 20")
-def test_free_length_takes_the_reference_speed_from_another_performer(shared_motion):
+def _free_length_from_another_performer(shared_motion, **options):
     walk, angry, line = _xia_walk_and_run(shared_motion)
     speeds, p90, lines = _speeds, _p90, [line]
     s_in, s_ref = speeds(walk), speeds(angry)
     # (a) free output length (the unconstrained search, as for the paper's V8), input upsampled 4x so the
     # search may slow down as well as speed up; the walk's own timing as the control reference
-    g_out = timewarp.guided_warp(walk, angry, None, upsample=4)[0]
-    c_out = timewarp.guided_warp(walk, walk, None, upsample=4)[0]
+    g_out = timewarp.guided_warp(walk, angry, None, upsample=4, **options)[0]
+    c_out = timewarp.guided_warp(walk, walk, None, upsample=4, **options)[0]
     g, own = speeds(g_out), speeds(c_out)
     w1 = {k: wasserstein_distance(v, s_ref) for k, v in (("in", s_in), ("angry", g), ("self", own))}
     lines.append(f"  free length: angry-guided {g_out.num_frames} f, median {np.median(g):.1f}, p90 {p90(g):.1f}; "
                  f"self-guided {c_out.num_frames} f, median {np.median(own):.1f}; W1 to the reference's speeds: "
                  f"input {w1['in']:.1f}, self-guided {w1['self']:.1f}, angry-guided {w1['angry']:.1f} cm/s")
+    print("\n".join(lines))
     assert w1["angry"] < 0.5 * w1["self"] and w1["angry"] < 0.5 * w1["in"]
     assert abs(np.median(g) / np.median(s_ref) - 1.0) < 0.25
-    print("\n".join(lines))
+
+
+@pytest.mark.shared
+@pytest.mark.xfail(strict=True, reason="known limitation, open: the default free-length objective (least MEAN score "
+                   "per output frame, which reproduces V8 in notebooks/03) lingers on well-matched frames when the "
+                   "reference is another performer's motion: the neutral walk guided by the angry run comes out "
+                   "slower (median 6 vs 10 cm/s) instead of nearer the run's 20. free_objective='input_time' meets "
+                   "this measure (next test) but slows V8's unmatched ground frames to 0.37x")
+def test_free_length_takes_the_reference_speed_from_another_performer(shared_motion):
+    _free_length_from_another_performer(shared_motion)
+
+
+@pytest.mark.shared
+def test_free_length_integrated_over_input_time_takes_the_other_performers_speed(shared_motion):
+    """The same measure with ``free_objective="input_time"`` (:func:`stagger_nb.timewarp.input_time_dp`).
+    Measured: angry-guided 47 frames, median 18.1 cm/s (reference 19.8, input 10.2), W1 4.5 against 11.4 for
+    the input and the self-guided output (the default objective: 87 frames, median 6.1, W1 12.0)."""
+    _free_length_from_another_performer(shared_motion, free_objective="input_time")

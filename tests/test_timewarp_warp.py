@@ -109,12 +109,22 @@ def test_expansion_upsamples_and_reverse_plays_backwards(walk30):
 
 def test_unconstrained_length(walk30, walk_tables):
     out, warp = timewarp.guided_warp(walk30, walk30, None, tables=walk_tables)
-    sol = timewarp.solve_warp(walk_tables, None, speed_penalty=0.0)
+    sol = timewarp.solve_warp(walk_tables, None, speed_penalty=0.0, free_objective="input_time")
     assert out.num_frames == timewarp.solve_warp(walk_tables, None).frames.size >= -(-(walk30.num_frames - 1) // 8) + 1
-    # free length minimises the mean score per output frame: no constrained solution of any length does better
+    # free length minimises the mean score per output frame (default) or the score integrated over input time
+    # (free_objective="input_time"): no constrained solution of any length does better on either
+    W = dp.step_weights(walk_tables.skip)
+
+    def integrated(f):
+        a, b = np.diff(f)[:-1], np.diff(f)[1:]
+        return float((walk_tables.scores[f[1:-1], a - 1, b - 1] * W[a - 1, b - 1]).sum())
+    mean_sol = timewarp.solve_warp(walk_tables, None, speed_penalty=0.0)
     for m in (40, 100, 195):
-        assert timewarp.solve_warp(walk_tables, m, speed_penalty=0.0).cost / (m - 2) \
-            >= sol.cost / (sol.frames.size - 2) - 1e-9
+        other = timewarp.solve_warp(walk_tables, m, speed_penalty=0.0)
+        assert integrated(other.frames) >= integrated(sol.frames) - 1e-9
+        assert other.cost / (m - 2) >= mean_sol.cost / (mean_sol.frames.size - 2) - 1e-9
+    with pytest.raises(ValueError, match="free_objective"):
+        timewarp.solve_warp(walk_tables, None, free_objective="sum")
     with pytest.raises(ValueError, match="keytimes"):
         timewarp.solve_warp(walk_tables, None, keytimes=[(1.0, 1.0)])
 

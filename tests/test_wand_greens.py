@@ -130,6 +130,37 @@ def test_sparse_kernel_memory_is_linear_in_frames():
     assert b.eigenvectors.shape == (300, 12)
 
 
+def test_sparse_kernel_entry_by_entry_and_its_pattern_stays_put():
+    """The kernel from the graph's precomputed CSR pattern equals Eq. 1 written out pair by pair on the edge set
+    (kNN either way + the floored chain + the unit diagonal, pairs beyond KERNEL_CUTOFF sigmas left out), for
+    a sigma small enough to drop entries and a large one; building it never changes the pattern."""
+    from stagger_nb.wand.laplacian import CHAIN_FLOOR, KERNEL_CUTOFF, normalized_adjacency
+    m = cyclic_motion(F=120, period=23, noise=0.05, seed=2)
+    g = wand.pose_graph(m, method="sparse", knn=6)
+    before = [np.array(a) for a in (g.pattern.indptr, g.pattern.indices, g.pattern.sq_distances)]
+    X, F = g.pose_vectors, 120
+    pairs = {(i, int(j)) for i in range(F) for j in g.knn.indices[i]}
+    pairs |= {(j, i) for i, j in pairs} | {(i, i + 1) for i in range(F - 1)} | {(i + 1, i) for i in range(F - 1)}
+    for sigma in (0.05 * g.default_sigma, 2.0 * g.default_sigma):
+        naive = np.eye(F)
+        for i, j in pairs:
+            d2 = np.sum((X[i] - X[j]) ** 2)
+            v = np.exp(-d2 / (2 * sigma ** 2))
+            if abs(i - j) == 1:
+                naive[i, j] = max(v, CHAIN_FLOOR)
+            elif d2 <= (KERNEL_CUTOFF * sigma) ** 2:
+                naive[i, j] = v
+        K = sparse_kernel(g.pattern, sigma)
+        np.testing.assert_allclose(K.toarray(), naive, rtol=1e-12, atol=0)   # exp of the same d2 up to round-off
+        r = naive.sum(axis=1)
+        A, _ = normalized_adjacency(K)
+        np.testing.assert_allclose(A.toarray(), naive / np.sqrt(np.outer(r, r)), rtol=1e-12, atol=0)
+        assert (sparse_kernel(g.knn, sigma) != K).nnz == 0              # from the kNN table: the same matrix
+    after = (g.pattern.indptr, g.pattern.indices, g.pattern.sq_distances)
+    assert all(np.array_equal(a, b) for a, b in zip(before, after))
+    assert sparse_kernel(g.pattern, 0.05 * g.default_sigma).nnz < sparse_kernel(g.pattern, g.default_sigma).nnz
+
+
 @pytest.mark.shared
 def test_dense_and_sparse_agree_on_a_1000_frame_clip(shared_motion):
     m = shared_motion("cmu_131_01_walk_startstop.bvh")  # 994 frames at 120 Hz

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core.rotations import quat_mul
 
-__all__ = ["atomic_write_bytes", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
+__all__ = ["atomic_write_bytes", "WriteError", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
            "MAX_INPUT_BYTES", "read_regular_file"]
 
 #: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips).
@@ -130,7 +130,7 @@ def split_values(text, n: int, truncated: bool, what: str, source: str, line: in
     return vals
 
 
-_EULER_BLOCK = 4096  # rows per block in euler_deg_to_quat (32 KB per temporary)
+_EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temporary)
 
 
 def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
@@ -142,10 +142,12 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     # in place (``angles_deg`` is overwritten) on two buffers: every fresh large temporary costs page
     # faults, which are expensive in VMs
     a = angles_deg
-    tmp = np.divide(a, 360.0)
-    np.rint(tmp, out=tmp)
-    tmp *= 360.0
-    a -= tmp
+    tmp = np.empty_like(a)
+    if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
+        np.divide(a, 360.0, out=tmp)
+        np.rint(tmp, out=tmp)
+        tmp *= 360.0
+        a -= tmp
     a *= np.pi / 720.0  # a/4 in radians
     t = np.tan(a, out=a)
     den = np.multiply(t, t, out=tmp)
@@ -166,14 +168,19 @@ def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
     eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
     flat = np.asarray(angles, dtype=float).reshape(3, -1)
     q = np.empty((4, flat.shape[1]))
+    plus, minus = (np.add, np.subtract) if eps > 0 else (np.subtract, np.add)
     for r0 in range(0, flat.shape[1], _EULER_BLOCK):
         r1 = r0 + _EULER_BLOCK
         (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(np.array(flat[:, r0:r1]))
         c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
-        q[i, r0:r1] = s1c2 * c3 + eps * c1s2 * s3
-        q[j, r0:r1] = c1s2 * c3 - eps * s1c2 * s3
-        q[k, r0:r1] = c1c2 * s3 + eps * s1s2 * c3
-        q[3, r0:r1] = c1c2 * c3 - eps * s1s2 * s3
+        tmp = np.multiply(c1s2, s3, out=s1)  # s1 is no longer needed: its buffer holds each second term
+        plus(np.multiply(s1c2, c3, out=q[i, r0:r1]), tmp, out=q[i, r0:r1])  # s1 c2 c3 + eps c1 s2 s3
+        np.multiply(s1c2, s3, out=tmp)
+        minus(np.multiply(c1s2, c3, out=q[j, r0:r1]), tmp, out=q[j, r0:r1])  # c1 s2 c3 - eps s1 c2 s3
+        np.multiply(s1s2, c3, out=tmp)
+        plus(np.multiply(c1c2, s3, out=q[k, r0:r1]), tmp, out=q[k, r0:r1])  # c1 c2 s3 + eps s1 s2 c3
+        np.multiply(s1s2, s3, out=tmp)
+        minus(np.multiply(c1c2, c3, out=q[3, r0:r1]), tmp, out=q[3, r0:r1])  # c1 c2 c3 - eps s1 s2 s3
     return q.reshape((4,) + np.shape(angles)[1:])
 
 
@@ -262,6 +269,28 @@ def _fsync_folder(folder: str) -> None:
         os.close(fd)
 
 
+class WriteError(OSError, ValueError):
+    """A file that cannot be written, or must not be replaced; the message names the path. Both an
+    ``OSError`` (what writing raises) and a ``ValueError`` (a bad path argument), like
+    ``io.UnsupportedOperation``."""
+
+
+def _check_write_target(path: str) -> None:
+    """Refuse a destination that exists and is not a regular file (a folder, a device such as
+    ``/dev/null``, a FIFO, a socket, a broken symbolic link): renaming over it would replace it."""
+    if not os.path.lexists(path):
+        return
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        raise WriteError(f"{path}: cannot write here: {e.strerror or e} (a broken symbolic link?)") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise WriteError(f"{path}: is a folder; write to a file path in it")
+    if not stat.S_ISREG(st.st_mode):
+        raise WriteError(f"{path}: exists and is not a regular file (a device, pipe or socket); "
+                         "it is not replaced")
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically and durably: readers see the old file or the new one, never
     half of one, and after a crash the new file is complete or absent.
@@ -270,8 +299,22 @@ def atomic_write_bytes(path, data: bytes) -> None:
     temporary file), is synced (``fsync``), then given a hidden name and renamed over ``path``, and the
     folder is synced. Where unnamed files are not available, a hidden temporary file (``.tmp-*``) is used
     instead and removed on any error. The file gets the usual permissions (umask, or the mode of the file
-    it replaces)."""
-    path = os.fspath(path)
+    it replaces). Raises :class:`WriteError` (an ``OSError`` and a ``ValueError``) naming the path when it
+    cannot be written (missing folder, full disk) or is not a regular file (a folder, ``/dev/null``, a FIFO:
+    never replaced)."""
+    path = os.fsdecode(os.fspath(path))
+    if not path or "\0" in path:
+        raise WriteError(f"{path!r}: not a usable file path")
+    _check_write_target(path)
+    try:
+        _atomic_write(path, data)
+    except WriteError:
+        raise
+    except OSError as e:  # a missing or read-only folder, a full disk: named, and a ValueError too
+        raise WriteError(f"{path}: cannot write: {e.strerror or e}") from None
+
+
+def _atomic_write(path: str, data: bytes) -> None:
     folder = os.path.dirname(os.path.abspath(path))
     try:
         mode = os.stat(path).st_mode & 0o7777

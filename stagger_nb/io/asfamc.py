@@ -323,6 +323,8 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             if current is not None and len(seen) != need:
                 missing = next(n for n in names if n not in seen)
                 raise AMCError(source, ln, f"frame {expect_no - 1} has no line for {missing!r}")
+            if len(head) > 18:  # also keeps int() from its 4,300-digit ValueError
+                raise AMCError(source, ln, f"frame number {head[:20]}... has {len(head)} digits")
             no = int(head)
             if expect_no is not None and no != expect_no:
                 raise AMCError(source, ln, f"expected frame number {expect_no}, found {no}")

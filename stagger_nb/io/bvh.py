@@ -6,11 +6,12 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast and lean: the motion block is parsed in ~1 MB pieces by :func:`._numparse.parse_columns`
-(pyarrow's CSV reader, bit-identical to ``float``; pieces with tabs or runs of spaces are rewritten
-single-spaced first), each piece converted straight into the output arrays, which the Motion takes without
-copies; when a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line
-and raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
+Reading is fast and lean: the motion block is cut into ~1 MB pieces at line breaks, each parsed by
+:func:`._numparse.parse_lines` (vectorised tokenising and pyarrow's float conversion, bit-identical to
+``float``, any spacing) and converted straight into its frames of the output arrays, which the Motion takes
+without copies; the pieces are spread over the CPUs (up to 4 threads: numpy and pyarrow release the GIL).
+When a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line and
+raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
 :data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
 :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
 are refused. Writing formats the channel table with a vectorised fixed-point formatter
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import os
 import re
+import threading
 import warnings
 
 import numpy as np
@@ -30,7 +32,7 @@ from ..core.skeleton import Skeleton
 from ._common import (MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
                       euler_deg_to_quat, finite_number, read_bytes, split_values)
 from ._numformat import format_table
-from ._numparse import NUMBER_RE, parse_columns
+from ._numparse import NUMBER_RE, content_end, parse_lines
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh"]
 
@@ -44,34 +46,42 @@ class BVHError(FormatError):
 
 
 _TOKEN = re.compile(r"\S+")
+_LINE = re.compile(r"\S[^\n]*")  # from a line's first token to its end (blank lines skipped in C)
+_LONG_LINE = 4096  # characters: longer header lines are tokenised lazily, one token at a time
+
+
+def _header_tokens(head: str):
+    """``(token, line)`` pairs of ``head``, produced lazily: each non-blank line is split at once (the
+    usual ~5 tokens), a line longer than ``_LONG_LINE`` one token at a time (a header of millions of
+    junk tokens on one line is never held as a list)."""
+    ln, at = 1, 0
+    for m in _LINE.finditer(head):
+        start = m.start()
+        ln += head.count("\n", at, start)
+        at = start
+        if m.end() - start <= _LONG_LINE:
+            for t in m.group().split():
+                yield t, ln
+        else:
+            for t in _TOKEN.finditer(head, start, m.end()):
+                yield t.group(), ln
 
 
 class _Tokens:
-    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (a header
-    of millions of junk tokens is never held as a list: the first bad one is reported at once);
-    ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
+    """Whitespace tokens of the header, produced one at a time with their 1-based line numbers (see
+    :func:`_header_tokens`); ``end_line`` is the line of the ``MOTION`` keyword that ends the header."""
 
     def __init__(self, head: str, source: str, end_line: int):
-        self._it = _TOKEN.finditer(head)
-        self._head = head
-        self._line, self._at = 1, 0  # line number of position self._at
+        self._it = _header_tokens(head)
         self.source = source
         self.end_line = end_line
-        self._next = self._advance()
-
-    def _advance(self) -> tuple[str, int] | None:
-        m = next(self._it, None)
-        if m is None:
-            return None
-        self._line += self._head.count("\n", self._at, m.start())
-        self._at = m.start()
-        return m.group(), self._line
+        self._next = next(self._it, None)
 
     def next(self, expected: str) -> tuple[str, int]:
         if self._next is None:
             raise BVHError(self.source, self.end_line, f"hierarchy ends early: expected {expected} before 'MOTION'")
         tok = self._next
-        self._next = self._advance()
+        self._next = next(self._it, None)
         return tok
 
     def peek(self) -> tuple[str, int] | None:
@@ -185,14 +195,16 @@ def _header_value(line: bytes, key: str, source: str, ln: int) -> float:
 
 
 def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channels: int, source: str,
-                        start: int = 0):
-    """Line-by-line parse of the frame lines ``block[start:]`` into ``(F, C)`` floats; raises
-    :class:`BVHError` at the first bad line (the reference for :func:`parse_table`, and its fallback).
+                        start: int = 0, first_frame: int = 0):
+    """Line-by-line parse of the frame lines ``block[start:]`` (frames ``first_frame`` on, the first on
+    line ``first_ln``) into ``(num_frames - first_frame, C)`` floats; raises :class:`BVHError` at the first
+    bad line (the reference for :func:`parse_table`, and the fallback where a piece cannot be certified).
     Lines are taken one at a time and split into at most ``C + 1`` pieces, so a hostile block (millions
     of blank lines, a line of millions of values) costs no more memory than its output."""
     stop = _data_end(block, start)
-    out = np.empty((min(num_frames, block.count(b"\n", start, stop) + 1), num_channels))
-    k, pos = 0, start
+    out = np.empty((max(0, min(num_frames - first_frame, block.count(b"\n", start, stop) + 1)), num_channels))
+    first_ln -= first_frame  # so that frame k is on line first_ln + k
+    k, pos = first_frame, start
     longest = (num_channels + 1) * (MAX_TOKEN + 1)
     while pos < stop:
         nl = block.find(b"\n", pos, stop)
@@ -209,7 +221,7 @@ def _parse_motion_lines(block: bytes, first_ln: int, num_frames: int, num_channe
             v = float(t)
             if not np.isfinite(v):
                 raise BVHError(source, ln, f"expected a finite number on frame {k}, found {decode(t[:40])!r}")
-            out[k, c] = v
+            out[k - first_frame, c] = v
         k += 1
     if k < num_frames:
         raise BVHError(source, first_ln + max(k - 1, 0),
@@ -270,57 +282,127 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     num_channels = sum(len(c) for c in skel.channels)
     layout = _Layout(skel)
     stop = _data_end(raw, pos)
-    out = None
+    out, done = None, 0
     if num_channels == 0:
         if stop == pos:
+            out, done = layout.empty(nf), nf
+    elif stop - pos >= 2 * nf * num_channels - 1:  # a value and its separator take >= 2 bytes: a block that
+        # cannot hold the declared values allocates nothing (the line parser reports where it ends)
+        out = layout.empty(nf)
+        pos, done = _read_chunks(raw, pos, stop, nf, num_channels, layout, out)
+    if done < nf or pos < stop:  # the line-by-line parser reads the rest, or reports its first bad line
+        data = _parse_motion_lines(raw, ln + 1 + done, nf, num_channels, source, start=pos, first_frame=done)
+        if out is None:
             out = layout.empty(nf)
-    elif stop - pos >= nf * num_channels:  # cannot hold the declared values otherwise: allocate nothing
-        out = layout.empty(nf)
-        if not _read_chunks(raw, pos, stop, nf, num_channels, layout, out):
-            out = None
-    if out is None:  # the line-by-line parser finds and reports the first bad line
-        data = _parse_motion_lines(raw, ln + 1, nf, num_channels, source, start=pos)
-        out = layout.empty(nf)
-        layout.fill(data.T, 0, out)
+        layout.fill(data.T, done, out)
     root_pos, quats, trans = out
     return Motion._from_owned(skel, float(ft), root_pos, quats, trans)
 
 
-_CHUNK_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size
+_PIECE_BYTES = 1 << 20  # the motion block is parsed and converted in pieces of about this size ...
+_MIN_PIECE_BYTES = 1 << 18  # ... split among the CPUs, but no smaller than this (a thread hand-off costs ~0.1 ms)
+_MAX_PIECE_BYTES = 4 << 20  # a piece this long (one huge line) goes to the line parser: bounded memory
 
 
 def _data_end(raw: bytes, pos: int) -> int:
-    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed), found
-    from the end in chunks so nothing large is copied."""
-    end = len(raw)
-    while end > pos:
-        start = max(pos, end - _CHUNK_BYTES)
-        kept = len(raw[start:end].rstrip())
-        if kept:
-            return start + kept
-        end = start
-    return pos
+    """The end of the last non-blank byte of ``raw[pos:]`` (trailing blank lines are allowed)."""
+    return pos + content_end(memoryview(raw)[pos:])
 
 
-def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> bool:
-    """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
-    :func:`._numparse.parse_table`, each piece converted into ``out`` at once; ``False`` when a piece cannot
-    be certified or the line count disagrees (the caller then runs the line-by-line parser)."""
-    row = 0
+def _pieces(raw: bytes, pos: int, stop: int, workers: int) -> list[tuple[int, int]]:
+    """``[pos, stop)`` cut after line breaks into pieces of about ``_PIECE_BYTES`` (at least ``workers``
+    of them when each still gets ``_MIN_PIECE_BYTES``)."""
+    size = stop - pos
+    n = max(1, min(-(-size // _MIN_PIECE_BYTES), max(workers, -(-size // _PIECE_BYTES))))
+    step = -(-size // n)
+    out = []
     while pos < stop:
-        nl = raw.find(b"\n", min(pos + _CHUNK_BYTES, stop), stop)
+        nl = raw.find(b"\n", min(pos + step, stop), stop)
         end = stop if nl < 0 else nl + 1
-        rows = raw.count(b"\n", pos, end) + (0 if raw[end - 1:end] == b"\n" else 1)
-        if row + rows > nf or end - pos > 64 * rows * C:  # lines cannot hold C numbers of sane length
-            return False
-        chunk = raw[pos:end]
-        data = parse_columns(chunk, rows, C)
+        out.append((pos, end))
+        pos = end
+    return out
+
+
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
+_MAX_THREADS = 4
+_POOL = None
+_POOL_PID = None
+
+
+def _pool(workers: int):
+    """A thread pool of ``workers - 1`` threads (the caller's thread is the other one), created once per
+    process (a forked child makes its own: threads do not survive ``fork``)."""
+    global _POOL, _POOL_PID
+    if _POOL is None or _POOL_PID != os.getpid():
+        from concurrent.futures import ThreadPoolExecutor
+        _POOL = ThreadPoolExecutor(max_workers=workers - 1, thread_name_prefix="stagger_nb-read_bvh")
+        _POOL_PID = os.getpid()
+    return _POOL
+
+
+def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> tuple[int, int]:
+    """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
+    :func:`._numparse.parse_lines`, each piece converted into its frames of ``out`` at once, the pieces
+    spread over the CPUs (numpy and pyarrow release the GIL). Returns ``(position, frames)``: where the
+    first piece that could not be certified starts and the frames before it (``(stop, nf)`` when all
+    were), so the line-by-line parser reads or reports only the rest: a bad last line of a long take
+    costs one piece of slow parsing, not the whole file.
+
+    A piece's first frame is the sum of the line counts of the pieces before it, which each piece
+    publishes as soon as it is parsed; pieces start in order, so a piece only ever waits for pieces that
+    have already started."""
+    workers = min(_cpus(), _MAX_THREADS)
+    bounds = _pieces(raw, pos, stop, workers)
+    n = len(bounds)
+    rows = [-1] * n
+    parsed = [threading.Event() for _ in range(n)]
+    view = memoryview(raw)
+
+    def piece(k: int) -> bool:
+        a, b = bounds[k]
+        try:
+            data = parse_lines(view[a:b], C, max_rows=nf) if b - a <= _MAX_PIECE_BYTES else None
+            if data is not None:
+                rows[k] = data.shape[1]
+        finally:
+            parsed[k].set()
         if data is None:
             return False
-        layout.fill(data, row, out)
-        row += rows
-        pos = end
-    return row == nf
+        first = 0
+        for j in range(k):
+            parsed[j].wait()
+            if rows[j] < 0:
+                return False
+            first += rows[j]
+        if first + rows[k] > nf:
+            return False
+        layout.fill(data, first, out)
+        return True
+
+    if n == 1 or workers == 1:
+        ok = []
+        for k in range(n):
+            ok.append(piece(k))
+            if not ok[-1]:
+                break
+    else:
+        futures = [_pool(workers).submit(piece, k) for k in range(1, n)]
+        ok = [False]
+        try:
+            ok[0] = piece(0)
+        finally:  # no thread may still write into ``out`` when this returns
+            ok += [f.result() for f in futures]
+    first_bad = next((k for k, good in enumerate(ok) if not good), None)
+    if first_bad is None:
+        return stop, sum(rows)
+    return bounds[first_bad][0], sum(rows[:first_bad])
 
 
 class _Layout:
@@ -484,14 +566,18 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
     skel = motion.skeleton
     trans = motion.translations()
     pos_dec = _position_decimals(motion)
+    orders = ["".join(c[0].upper() for c in chans if c.lower().endswith("rotation")) for chans in skel.channels]
+    full: dict[int, np.ndarray] = {}  # joint -> (F, 3) angles: one conversion per three-axis order
+    for order in {o for o in orders if len(o) == 3}:
+        joints = [j for j, o in enumerate(orders) if o == order]
+        eul = quat_to_euler(motion.local_quats[:, joints], order)
+        full.update((j, eul[:, k]) for k, j in enumerate(joints))
     cols, dec = [], []
     for j in joint_order:
         chans = skel.channels[j]
-        order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
-        eul = None
-        if len(order) == 3:
-            eul = quat_to_euler(motion.local_quats[:, j], order)
-        elif order:  # fewer than three rotation channels: the listed angles of a completed sequence
+        order = orders[j]
+        eul = full.get(j)
+        if order and eul is None:  # fewer than three rotation channels: the listed angles of a completed sequence
             eul = _partial_euler(motion.local_quats[:, j], order)
         r = 0
         for c in chans:

@@ -174,8 +174,10 @@ def motion_to_gltf(motion: Motion, units="auto") -> tuple:
     t_acc = blob.add(times, _FLOAT, gl.SCALAR, bounds=True)
     quats = _continuous(np.asarray(motion.local_quats, dtype=float)).astype(np.float32)
     trans = motion.translations() * scale  # (F, J, 3) metres, root row = root positions
+    # animated: the root, and every joint whose translation ever differs from its node's rest translation
+    # (position channels replace the OFFSET: a constant channel value other than the OFFSET counts too)
     moving = [0] + [j for j in range(1, J) if motion.local_translations is not None
-                    and np.ptp(trans[:, j], axis=0).max() > 0]
+                    and np.any(trans[:, j] != offsets[j])]
     anim = gl.Animation(name="motion")
     for j in range(J):
         anim.samplers.append(gl.AnimationSampler(input=t_acc, output=blob.add(quats[:, j], _FLOAT, gl.VEC4),

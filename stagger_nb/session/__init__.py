@@ -46,7 +46,8 @@ from ..io.bvh import write_bvh
 from . import ops as _ops_module
 from .cache import Cache
 from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, export_gltf,
-                    motion_from_json, motion_to_json, read_session_json, read_source)
+                    motion_from_json, motion_to_json, read_session_json, read_source,
+                    session_bytes)
 from .history import Flag, History
 from .ops import OPS, Op, _fail, check_extract_options, number, text, validate_op
 from .runners import RUNNERS, Heads, Run, apply_pose_deltas, convert, warp_k, warp_size, warp_table_key
@@ -665,8 +666,7 @@ class Session:
         clip or any existing file that is not a session file."""
         path = os.fspath(path)
         check_save_target(path, self.source_path)
-        text_ = json.dumps(self.to_json(embed_source), indent=1, allow_nan=False)
-        atomic_write_bytes(path, text_.encode("utf-8"))
+        atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
 
     @classmethod
     def from_json(cls, data: Any, source: Motion | None = None) -> "Session":
@@ -679,7 +679,7 @@ class Session:
                 raise ValueError(f"{k}: unknown field in a session file")
         if data.get("format") != SESSION_FORMAT:
             _fail("format", repr(SESSION_FORMAT), data.get("format"))
-        if data.get("version") != SESSION_VERSION:
+        if type(data.get("version")) is not int or data.get("version") != SESSION_VERSION:  # true == 1
             _fail("version", str(SESSION_VERSION), data.get("version"))
         opts = check_extract_options(data.get("extract_options", {}))
         ops = cls._typed_list(data.get("ops"), "ops")

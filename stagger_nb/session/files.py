@@ -24,7 +24,7 @@ from ..io.bvh import parse_bvh
 from .ops import _fail, integer, number, text, tuple_of
 
 __all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
-           "read_session_json", "check_save_target", "check_export_target", "same_file", "export_gltf"]
+           "read_session_json", "session_bytes", "MAX_SESSION_BYTES", "check_save_target", "check_export_target", "same_file", "export_gltf"]
 
 SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1
@@ -47,16 +47,33 @@ def read_source(path: str, field: str = "source.path") -> tuple[Motion, str]:
         raise ValueError(f"{field}: {e}") from None
 
 
+#: Largest session file read or written. Parsing JSON of floats costs ~8x its size (a 60 MB file of arrays
+#: peaked at 530 MB RSS), so this keeps a hostile file near 300 MB; ops take kilobytes, and an embedded
+#: CMU 01_01 (2,751 frames) ~7 MB (longer takes are saved by their source path).
+MAX_SESSION_BYTES = 32 << 20
+
+
+def session_bytes(data: Any) -> bytes:
+    """The UTF-8 JSON text of a session dict (no NaN), refused over :data:`MAX_SESSION_BYTES`."""
+    raw = json.dumps(data, indent=1, allow_nan=False).encode("utf-8")
+    if len(raw) > MAX_SESSION_BYTES:
+        raise ValueError(f"session: {len(raw):,} bytes of JSON is over the {MAX_SESSION_BYTES:,}-byte limit of "
+                         "a session file: save a long take by its source path (embed_source=False)")
+    return raw
+
+
 def read_session_json(path) -> Any:
-    """The parsed JSON of a session file (regular file, size limit; no NaN/Infinity; UTF-8)."""
+    """The parsed JSON of a session file (regular file within :data:`MAX_SESSION_BYTES`; no NaN/Infinity;
+    UTF-8)."""
     try:
-        raw = read_regular_file(path, what="session file")
+        raw = read_regular_file(path, what="session file", max_bytes=MAX_SESSION_BYTES)
     except ValueError as e:
         raise ValueError(f"session: {e}") from None
     try:
         text_ = raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise ValueError(f"session: {path} is not UTF-8 JSON text (byte {e.start})") from None
+    del raw  # the text alone while parsing
 
     def no_constants(c):
         raise ValueError(f"session: {c} is not allowed in a session file")
@@ -65,6 +82,8 @@ def read_session_json(path) -> Any:
         return json.loads(text_, parse_constant=no_constants)
     except json.JSONDecodeError as e:
         raise ValueError(f"session: {path} is not valid JSON ({e})") from None
+    except ValueError as e:  # an integer of more than 4,300 digits (int()'s limit); NaN is said above
+        raise ValueError(str(e) if str(e).startswith("session:") else f"session: {path}: {e}") from None
     except RecursionError:
         raise ValueError(f"session: {path} nests JSON too deeply for a session file") from None
 
@@ -179,6 +198,9 @@ def motion_from_json(d: Any, field: str) -> Motion:
     offsets = _float_array(d["offsets"], f"{field}.offsets", (3,))
     root = _float_array(d["root_positions"], f"{field}.root_positions", (3,))
     q = _float_array(d["local_quats"], f"{field}.local_quats", (J, 4))
+    norms = np.linalg.norm(q, axis=-1) if q.size else np.ones(1)
+    if not (np.all(norms > 1e-6) and np.all(np.isfinite(norms))):  # Motion would make a zero one identity
+        _fail(f"{field}.local_quats", "non-zero quaternions of finite length", "a zero or overflowing quaternion")
     lt = d.get("local_translations")
     lt = None if lt is None else _float_array(lt, f"{field}.local_translations", (J, 3))
     try:

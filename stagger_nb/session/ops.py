@@ -44,6 +44,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
@@ -51,7 +52,7 @@ from typing import Any, Callable, ClassVar
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -60,6 +61,12 @@ MAX_SKIP = 127  # guided warping's largest input step per output frame (timewarp
 #: Most items in any list of an op (joints, poses, frames, keytimes, deltas): a hostile session file must
 #: not make the checks themselves run for minutes (a 100,000-frame take has fewer poses than this).
 MAX_ITEMS = 100_000
+#: Bounds of the timing and weight parameters (a hostile file's 1e308 is refused naming the field instead of
+#: overflowing inside the technique): a succession delay or random spread of more than a minute per bone, a
+#: succession exponent above 10 (depth^l; depths are ~10), an exaggeration weight beyond +-100.
+MAX_SECONDS = 60.0
+MAX_EXPONENT = 10.0
+MAX_WEIGHT = 100.0
 
 
 def canonical(value) -> str:
@@ -95,7 +102,7 @@ def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = 
         expected = f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]"
 
     def check(value, name):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):  # numpy floats and ints are Real
             _fail(name, expected if lo is not None or hi is not None else "a finite number", value)
         try:
             v = float(value)  # an int beyond the float range (e.g. 10**400 in a file) overflows here
@@ -114,12 +121,16 @@ def integer(lo: int | None = 0, hi: int | None = None) -> Callable:
                 else f"an integer in [{lo}, {hi}]")
 
     def check(value, name):
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo) or (
+        if isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral) and not isinstance(
+                value, bool):
+            try:
+                value = int(value) if float(value).is_integer() else value  # 2.0 -> 2
+            except (OverflowError, ValueError):  # inf, nan
+                pass
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or (lo is not None and value < lo) or (
                 hi is not None and value > hi):
             _fail(name, expected, value)
-        return int(value)
+        return int(value)  # numpy integers become ints (JSON-serialisable)
     return check
 
 
@@ -380,8 +391,8 @@ class Succession(Op):
     name: ClassVar[str] = "succession"
     needs: ClassVar[str] = "staggered"
     root: str = _spec(text)
-    s: float = _spec(_finite)
-    l: float = _spec(_positive, 1.0)  # noqa: E741 (the paper's name)
+    s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
+    l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
 
 
@@ -391,7 +402,7 @@ class RandomTiming(Op):
 
     name: ClassVar[str] = "random_timing"
     needs: ClassVar[str] = "staggered"
-    tau: float = _spec(_nonneg)
+    tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
 
@@ -402,7 +413,7 @@ class Exaggerate(Op):
 
     name: ClassVar[str] = "exaggerate"
     needs: ClassVar[str] = "staggered"
-    w_r: float = _spec(_finite)
+    w_r: float = _spec(number(-MAX_WEIGHT, MAX_WEIGHT))
     poses: tuple | None = _spec(optional(tuple_of(_index, "a list of pose indices")), None)
     reference: Any = _spec(pose_reference, "previous")
     mode: str = _spec(_mode, "staggered")

@@ -12,8 +12,8 @@ from __future__ import annotations
 from .constraints import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
                           contact_positions, foot_skate, keep_contacts, two_bone_ik)
 from .contacts import detect_contacts, end_effectors
-from .editing import (TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose, random_timing,
-                      retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
+from .editing import (OffsetBasis, TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose,
+                      pose_offset_basis, random_timing, retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
 from .ik import IKPoseResult, ik_pose, solve_limb
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
@@ -24,7 +24,7 @@ __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detec
            "locate_poses",
            "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
            "knot_times",
-           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession", "random_timing",
+           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik", "contact_positions",
            "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts", "keep_contacts",
            "IKPoseResult", "ik_pose", "solve_limb"]

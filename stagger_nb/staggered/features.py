@@ -28,6 +28,10 @@ def motion_trail_curvature(trail: np.ndarray) -> np.ndarray:
     uniformly sampled circle has constant κ̂), 0 on a straight line, 1 where the curve reverses.
     End vertices copy their neighbour; vertices with a zero-length edge get 0.
 
+    Both edges give the same ``n·ê = (1 + ê+·ê-) / |ê+ + ê-| = |ê+ + ê-| / 2``, so the weighted mean is
+    ``|ê+ + ê-| / 2`` whatever the edge lengths; that form is evaluated (no cancellation near straight
+    lines).
+
     Parameters
     ----------
     trail : (F, ..., D) points along axis 0
@@ -37,25 +41,41 @@ def motion_trail_curvature(trail: np.ndarray) -> np.ndarray:
     (F, ...) values in [0, 1].
     """
     x = np.asarray(trail, dtype=float)
-    F = x.shape[0]
-    out = np.zeros(x.shape[:-1])
+    return _curvature_components([x[..., d] for d in range(x.shape[-1])])
+
+
+def _curvature_components(xs) -> np.ndarray:
+    """:func:`motion_trail_curvature` of a trail given as its D coordinate arrays ``xs[d] (F, ...)`` (a
+    component-first layout: every operation runs on whole contiguous arrays)."""
+    F = xs[0].shape[0]
+    out = np.zeros(xs[0].shape)
     if F < 3:
         return out
-    ep = x[2:] - x[1:-1]
-    em = x[:-2] - x[1:-1]
-    lp = np.linalg.norm(ep, axis=-1)
-    lm = np.linalg.norm(em, axis=-1)
+    lp, lm = np.zeros(out[1:-1].shape), np.zeros(out[1:-1].shape)
+    ep, em = [], []
+    for x in xs:
+        a = x[2:] - x[1:-1]
+        b = x[:-2] - x[1:-1]
+        lp += a * a
+        lm += b * b
+        ep.append(a)
+        em.append(b)
+    np.sqrt(lp, out=lp)
+    np.sqrt(lm, out=lm)
     ok = (lp > _STILL) & (lm > _STILL)
-    up = ep / np.where(ok, lp, 1.0)[..., None]
-    um = em / np.where(ok, lm, 1.0)[..., None]
-    nsum = up + um
-    nn = np.linalg.norm(nsum, axis=-1)
-    n = nsum / np.where(nn > 0, nn, 1.0)[..., None]
-    kp = np.sum(n * up, axis=-1)                 # n·e+/|e+|
-    km = np.sum(n * um, axis=-1)                 # n·e-/|e-|
-    k = (lp * kp + lm * km) / np.where(ok, lp + lm, 1.0)
-    k = np.where(ok & (nn > 0), k, 0.0)         # straight (nn = 0) or still: no turning
-    out[1:-1] = np.clip(k, 0.0, 1.0)
+    ip = 1.0 / np.where(ok, lp, 1.0)
+    im = 1.0 / np.where(ok, lm, 1.0)
+    nn = lp                                          # reused: |ê+ + ê-|²
+    nn.fill(0.0)
+    for a, b in zip(ep, em):
+        a *= ip
+        b *= im
+        a += b
+        nn += a * a
+    k = np.sqrt(nn, out=nn)
+    k *= 0.5
+    k[~ok] = 0.0                                     # still: no turning
+    out[1:-1] = np.minimum(k, 1.0)
     out[0] = out[1]
     out[-1] = out[-2]
     return out
@@ -138,7 +158,8 @@ def limb_axes(skeleton):
     off = np.asarray(off, dtype=float).reshape(-1, 3)
     length = np.linalg.norm(off, axis=1)
     keep = length > 1e-9
-    joint, child, off, length = np.asarray(joint)[keep], np.asarray(child)[keep], off[keep], length[keep]
+    joint, child = np.asarray(joint, dtype=np.int64)[keep], np.asarray(child, dtype=np.int64)[keep]  # ints when empty
+    off, length = off[keep], length[keep]
     u1 = off / length[:, None]
     return joint, child, u1, _orthogonal(u1), length
 
@@ -153,6 +174,17 @@ def motion_trails(motion: Motion):
     joint, _, u1, u2, _ = axes
     q = motion.local_quats[:, joint]
     return axes, quat_rotate(q, u1), quat_rotate(q, u2)
+
+
+def _rotated_axes(qc, u):
+    """Components ``[x, y, z]`` (each shaped like ``qc[0]``) of the axis ``u (3,)`` rotated by the
+    quaternions ``qc`` (4, ...) (rows x, y, z, w): ``v = u + w t + q × t`` with ``t = 2 q × u``."""
+    x, y, z, w = qc
+    ux, uy, uz = (float(c) for c in u)
+    tx = 2.0 * (y * uz - z * uy)
+    ty = 2.0 * (z * ux - x * uz)
+    tz = 2.0 * (x * uy - y * ux)
+    return [ux + w * tx + (y * tz - z * ty), uy + w * ty + (z * tx - x * tz), uz + w * tz + (x * ty - y * tx)]
 
 
 def local_evidence(motion: Motion, smoothing_iterations: int | None = None, smoothing_lambda: float = 0.5,
@@ -176,15 +208,25 @@ def local_evidence(motion: Motion, smoothing_iterations: int | None = None, smoo
     F, J = motion.num_frames, motion.num_joints
     if smoothing_iterations is None:
         smoothing_iterations = default_smoothing_iterations(motion.frame_time, lam=smoothing_lambda)
-    (joint, _, _, _, length), m1, m2 = motion_trails(motion)
-    k = np.maximum(motion_trail_curvature(m1), motion_trail_curvature(m2))      # (F, L)
-    p = np.zeros((F, J + 1))
-    if joint.size:
-        np.maximum.at(p.T, joint, k.T)                                           # max over a joint's trails
-    arc = np.linalg.norm(np.diff(m1, axis=0), axis=-1).sum(axis=0)               # (L,)
+    # one limb at a time on component rows: every array is one (F,) row (a few MB at 100,000 frames,
+    # cache-sized where (F, L, 3) arrays are not)
+    joint, _, u1, u2, length = limb_axes(motion.skeleton)
+    pt = np.zeros((J + 1, F))                                                    # p transposed
     w = np.zeros(J + 1)
-    np.add.at(w, joint, length * arc)
+    qc = np.ascontiguousarray(motion.local_quats.transpose(1, 2, 0)) if joint.size else None   # (J, 4, F)
+    for i, j in enumerate(joint):
+        m1 = _rotated_axes(qc[j], u1[i])
+        k = np.maximum(_curvature_components(m1), _curvature_components(_rotated_axes(qc[j], u2[i])))
+        np.maximum(pt[j], k, out=pt[j])                                          # max over a joint's trails
+        d2 = np.zeros(F - 1)
+        for c in m1:
+            d = np.diff(c)
+            d2 += d * d
+        w[j] += length[i] * np.sqrt(d2).sum()                                    # limb length x arc length
+    del qc
     root = motion.root_positions
-    p[:, J] = motion_trail_curvature(root)
+    pt[J] = motion_trail_curvature(root)
     w[J] = root_translation_weight * float(np.linalg.norm(np.diff(root, axis=0), axis=-1).sum())
-    return laplacian_smooth(p, smoothing_iterations, smoothing_lambda), w
+    for row in pt:                                    # row by row: each (F,) row stays in cache
+        row[:] = laplacian_smooth(row, smoothing_iterations, smoothing_lambda)
+    return pt.T, w

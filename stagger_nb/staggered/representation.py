@@ -273,16 +273,19 @@ def segment_coordinates(knots: np.ndarray, times: np.ndarray):
     """
     knots = np.maximum.accumulate(knots, axis=0)
     K, C = knots.shape
-    seg = np.empty((times.size, C), dtype=np.int64)
+    seg = np.empty((C, times.size), dtype=np.int64)                 # one contiguous row per column
     for c in range(C):
-        seg[:, c] = np.searchsorted(knots[:, c], times, side="right") - 1
+        np.subtract(np.searchsorted(knots[:, c], times, side="right"), 1, out=seg[c])
     np.clip(seg, 0, K - 2, out=seg)
-    cols = np.arange(C)
-    a = knots[seg, cols]
-    b = knots[seg + 1, cols]
-    length = b - a
-    tn = np.where(length > 0, (times[:, None] - a) / np.where(length > 0, length, 1.0), 1.0)
-    return seg, np.clip(tn, 0.0, 1.0)
+    seg = np.ascontiguousarray(seg.T)
+    # per segment (K - 1, C): 1 / length, and t' = 1 on zero-length segments; gathered by flat index
+    length = knots[1:] - knots[:-1]
+    inv = np.divide(1.0, length, out=np.zeros_like(length), where=length > 0)
+    flat = seg * C + np.arange(C)
+    tn = times[:, None] - np.take(knots.reshape(-1), flat)
+    tn *= np.take(inv.reshape(-1), flat)
+    tn += np.take((length <= 0).astype(float).reshape(-1), flat)
+    return seg, np.clip(tn, 0.0, 1.0, out=tn)
 
 
 def _sample_translations(lt: np.ndarray, frame_time: float, times: np.ndarray) -> np.ndarray:
@@ -352,7 +355,8 @@ def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
     n = t.size
     c = K.take_cols_into(ctrl, idx, W.get("ev_c", (16, n)))
     arc = K.take_cols_into(arcp, idx, W.get("ev_arc", (9, n)))
-    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_")
+    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_",
+                      normalize=False)   # unit to ~1e-15; Motion() renormalises what is not unit
     # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
     cnt = counts[idx]
     u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))

@@ -16,11 +16,11 @@ Score tables come from :func:`.objective.knn_scores`: ``scores[j, a-1, b-1] = f(
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
 KEEP_COSTS_BYTES = 256 << 20   # constrained_dp keeps every output frame's costs below this, else int8 backpointers
 
-__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "constrained_dp_loop", "path_cost",
+__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "input_time_dp", "step_weights",
+           "constrained_dp_loop", "path_cost",
            "validate_keys"]
 
 
@@ -108,7 +108,9 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
         return np.round(np.linspace(0, n - 1, m)).astype(np.int64), np.inf
     if m == 2:
         return np.array([0, n - 1], dtype=np.int64), 0.0
-    Sa = np.ascontiguousarray(np.transpose(scores, (1, 0, 2)))  # (a, n, b)
+    # Sab[a-1, b-1, j] = f(j - a, j, j + b): middle frames innermost, so every step below runs over long
+    # contiguous rows (c broadcast along b, the min over a) instead of 8-element inner loops
+    Sab = np.ascontiguousarray(np.transpose(scores, (1, 2, 0)))
     # c[a-1, k - lo[q]]: best cost of output frames 0..q with y_q = k, y_{q-1} = k - a.
     # q = 1: y_0 = 0, so the pair (0, k) has a = k and cost 0.
     k = np.arange(blo[1], bhi[1] + 1)
@@ -123,49 +125,50 @@ def constrained_dp(scores: np.ndarray, m: int, keys=None, lo=None, hi=None, prog
     keep_costs = int(widths.sum()) * s * 8 <= KEEP_COSTS_BYTES
     back = [None, None]
     step = max(1, (m - 2) // 100)
-    tmp_buf = np.empty((s, int((bhi - blo).max()) + 1, s))
+    tmp_buf = np.empty((s, s, int((bhi - blo).max()) + 1))
+    item = np.dtype(float).itemsize
     for q in range(1, m - 1):
         l0, l1 = blo[q], bhi[q]
-        # best[j, b] = min_a c[a, j] + f(j - a, j, j + b) over the middle frames j = l0..l1; arg = a - 1
+        # best[b-1, j] = min_a c[a-1, j] + f(j - a, j, j + b) over the middle frames j = l0..l1
         Lq = l1 - l0 + 1
-        tmp = np.add(c[:, :, None], Sa[:, l0:l1 + 1, :], out=tmp_buf[:, :Lq])   # (a, Lq, b)
-        # best lands inside an inf-padded buffer B of rows j = jlo .. jhi (every j = k - b the next output frame
-        # can ask for): the next costs c[b-1, k - n0] = best[k - b - l0, b-1] are a strided *view* of B (no
-        # shifting copies; the same numbers)
+        tmp = np.add(c[:, None, :], Sab[:, :, l0:l1 + 1], out=tmp_buf[:, :, :Lq])     # (a, b, Lq)
+        # best lands inside an inf-padded buffer B (b, columns j = jlo .. jhi: every j = k - b the next
+        # output frame can ask for); the next costs c[b-1, k - n0] = B[b-1, k - b - jlo] are a strided *view*
+        # of B (no shifting copies; the same numbers)
         n0, n1 = blo[q + 1], bhi[q + 1]
         jlo, jhi = min(l0, n0 - s), max(l1, n1 - 1)
-        B = np.empty((jhi - jlo + 1, s))
-        B[:l0 - jlo] = np.inf
-        B[l1 - jlo + 1:] = np.inf
-        best = np.min(tmp, axis=0, out=B[l0 - jlo:l1 - jlo + 1])
+        W = jhi - jlo + 1
+        B = np.empty((s, W))
+        B[:, :l0 - jlo] = np.inf
+        B[:, l1 - jlo + 1:] = np.inf
+        best = np.minimum.reduce(tmp, axis=0, out=B[:, l0 - jlo:l1 - jlo + 1])
         if keep_costs:
             back.append(c)
         else:
-            # argmin over the first axis by comparisons (4x faster than ndarray.argmin(axis=0), which copies);
-            # on exact ties the largest a wins (any minimiser is optimal)
-            arg = np.zeros((Lq, s), dtype=np.int8)
+            # argmin over a by comparisons (faster than ndarray.argmin(axis=0), which copies); on exact ties
+            # the largest a wins (any minimiser is optimal)
+            arg = np.zeros((s, Lq), dtype=np.int8)
             for a in range(1, s):
                 np.copyto(arg, np.int8(a), where=tmp[a] == best)
             back.append(arg)
-        # c[b-1, k - n0] = B[k - b - jlo, b-1]: element (b-1, kk) sits at row (n0 - 1 - jlo) + kk - (b-1)
-        r0 = n0 - 1 - jlo                                        # row of (b = 1, k = n0); rows stay in B
-        c = as_strided(B[r0:], shape=(s, n1 - n0 + 1), strides=(B.strides[1] - B.strides[0], B.strides[0]))
+        # element (b-1, kk) of the next c sits at column (n0 - 1 - jlo) + kk - (b-1) of row b-1 of B
+        c = np.ndarray((s, n1 - n0 + 1), dtype=float, buffer=B, offset=(n0 - 1 - jlo) * item,
+                       strides=((W - 1) * item, item))
         if progress is not None and (q % step == 0 or q == m - 2):
             progress(q / (m - 2))
-    c = c.T
     # q = m - 1: y = n - 1 (lo = hi = n - 1)
-    b = int(np.argmin(c[0]))
-    cost = float(c[0, b])
+    b = int(np.argmin(c[:, 0]))
+    cost = float(c[b, 0])
     frames = np.empty(m, dtype=np.int64)
     frames[m - 1] = n - 1
     y, bb = n - 1, b + 1
     for q in range(m - 1, 1, -1):
         j = y - bb
         if keep_costs:
-            v = back[q][:, j - blo[q - 1]] + Sa[:, j, bb - 1]       # the same sums as the forward pass
+            v = back[q][:, j - blo[q - 1]] + Sab[:, bb - 1, j]      # the same sums as the forward pass
             a = int(s - np.argmin(v[::-1]))                          # the largest minimising a
         else:
-            a = int(back[q][j - blo[q - 1], bb - 1]) + 1
+            a = int(back[q][bb - 1, j - blo[q - 1]]) + 1
         frames[q - 1] = j
         y, bb = j, a
     frames[0] = 0
@@ -244,6 +247,33 @@ def mean_cost_dp(scores: np.ndarray, max_iter: int = 50):
             break
         frames, lam = cand, new
     return frames, float(lam)
+
+
+def step_weights(skip: int) -> np.ndarray:
+    """``W[a-1, b-1] = (a + b) / 2``, shape (s, s): the input time (in searched frames) that an output frame
+    placed between steps ``a`` and ``b`` stands for (half of each neighbouring step)."""
+    a = np.arange(1, int(skip) + 1, dtype=float)
+    return 0.5 * (a[:, None] + a[None, :])
+
+
+def input_time_dp(scores: np.ndarray):
+    """Free-length warp: the path from frame 0 to frame n-1 (any number of output frames) minimising the local
+    score *integrated over input time*, ``sum_q f(y_{q-1}, y_q, y_{q+1}) (y_{q+1} - y_{q-1}) / 2``.
+
+    Each stretch of the input is judged once, by how well the speed the warp gives it matches the reference
+    (eq. 2), however many output frames it spends there: the objective is length-neutral.  The paper's plain
+    sum over output frames (§3.3, V8) always prefers fewer frames (a self-referenced clip comes out at 0.70x
+    its length on CMU 01_01); the mean per output frame (:func:`mean_cost_dp`) is neutral for a self reference
+    but rewards lingering (many slow frames) on poses that match the reference well, which, with another
+    performer's motion as reference, plays the clip slower instead of at the reference's speed.  The price:
+    input poses the reference lacks are timed by whatever speed matches best, and with a slow-motion
+    reference that is slow (V8's ground frames, see :func:`.guided.guided_warp`).  A plain shortest path
+    (:func:`unconstrained_dp`) on the weighted scores ``f * (a + b) / 2``: ``O(n s^2)``.
+
+    Returns ``(frames (m,) int64, weighted cost)``.
+    """
+    scores = np.asarray(scores, dtype=float)
+    return unconstrained_dp(scores * step_weights(scores.shape[1])[None])
 
 
 def path_cost(scores: np.ndarray, frames) -> float:

@@ -20,12 +20,15 @@ nearest (upsampled) input frame and output frame. See :mod:`.postprocess`.
 """
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.digest import content_key
 from ..core.motion import Motion
-from .dp import constrained_dp, mean_cost_dp, path_cost, validate_keys
+from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, validate_keys
 from .features import feature_weights, pose_features, prefilter_frames
 from .linear import check_output_size, validate_num_frames
 from .objective import candidate_scores, knn_scores, validate_skip
@@ -33,7 +36,8 @@ from .postprocess import apply_warp, parse_keytimes, smooth_warp
 
 __all__ = ["WarpTables", "WarpSolution", "prepare_warp", "slice_tables", "solve_warp", "guided_warp",
            "required_upsample", "reverse_motion", "warp_memory", "MAX_WARP_BYTES", "FREE_UPSAMPLE", "FREE_K",
-           "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES"]
+           "SPEED_PENALTY", "SMOOTHING", "MAX_SEARCH_FRAMES", "cached_prepare_warp", "clear_tables_cache",
+           "TABLES_CACHE", "TABLES_CACHE_BYTES"]
 
 MAX_WARP_BYTES = 2 << 30   # refuse (ValueError) a search whose tables would need more memory than this
 SPEED_PENALTY = 0.3        # default speed_penalty (see solve_warp)
@@ -44,6 +48,8 @@ DEFAULT_CANDIDATES = 32    # reference frames per input frame of the approximate
 FREE_UPSAMPLE = 4          # free length: default upsampling (speeds 1/4 .. skip/4 x, slower and faster than m)
 FREE_K = 1                 # free length: kNN count (k = 3 averages away the speed the length is read from)
 AUTO_COARSE_FRAMES = 6000  # solve_warp: the coarse-to-fine heuristic by default above this many searched frames
+TABLES_CACHE = 4           # tables guided_warp keeps between calls (cached_prepare_warp) ...
+TABLES_CACHE_BYTES = 64 << 20   # ... holding at most this many bytes together
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,13 +239,61 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
         n_up = (m.num_frames - 1) * upsample + 1
         src = src.sample(np.arange(n_up) / upsample, m.frame_time / upsample)
     X = pose_features(src, joint_weights, prefilter)
-    R = pose_features(ref, joint_weights, prefilter)
+    # a self reference (the common case, §4.1) has the same features: compute them once
+    R = X if _same_content(src, ref) else pose_features(ref, joint_weights, prefilter)
     if mode == "exact":
         scores = knn_scores(X, R, skip, k, weights, dtype=dtype, progress=progress)
     else:
         scores = candidate_scores(X, R, skip, k, weights, candidates=int(candidates), progress=progress)
     return WarpTables(m, ref, skip, upsample, bool(reverse), int(k), weights, X, R, scores, mode,
                       int(candidates) if mode == "approx" else 0)
+
+
+_TABLES: "OrderedDict[bytes, WarpTables]" = OrderedDict()
+_TABLES_LOCK = threading.Lock()
+
+
+def _table_bytes(t: WarpTables) -> int:
+    return int(t.scores.nbytes + t.X.nbytes + (0 if t.R is t.X else t.R.nbytes))
+
+
+def cached_prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1, **options) -> WarpTables:
+    """:func:`prepare_warp` through a small module cache, so that repeated one-call :func:`guided_warp` calls with
+    the same input, reference and objective options (another length, other keytimes, the same call again)
+    skip the expensive head (features + kNN table, ~80 % of a Table-1-size call).
+
+    Explicit and bounded like the magic wand's graph cache: keyed by the *content* of both motions and every
+    option (:func:`..core.digest.content_key`, ~1 ms per MB, never ``id()``); holds at most
+    :data:`TABLES_CACHE` tables of at most :data:`TABLES_CACHE_BYTES` together, least recently used out first
+    (larger tables, e.g. long takes, are not kept); :func:`clear_tables_cache` empties it.  Tables are
+    frozen and the cached ones' arrays read-only, so sharing them is safe.  Callers
+    that manage their own caching (the session) call :func:`prepare_warp` directly."""
+    progress = options.pop("progress", None)
+    key = content_key(m, "self" if reference is m else reference, skip, upsample, tuple(sorted(options.items())))
+    with _TABLES_LOCK:
+        t = _TABLES.get(key)
+        if t is not None:
+            _TABLES.move_to_end(key)
+    if t is not None:
+        if progress is not None:
+            progress(1.0)
+        return t
+    t = prepare_warp(m, reference, skip, upsample, progress=progress, **options)
+    size = _table_bytes(t)
+    if size <= TABLES_CACHE_BYTES:
+        for a in (t.X, t.R, t.scores):   # shared from now on: an accidental in-place write raises
+            a.setflags(write=False)
+        with _TABLES_LOCK:
+            _TABLES[key] = t
+            while len(_TABLES) > TABLES_CACHE or sum(map(_table_bytes, _TABLES.values())) > TABLES_CACHE_BYTES:
+                _TABLES.popitem(last=False)
+    return t
+
+
+def clear_tables_cache() -> None:
+    """Empty the module cache of :func:`cached_prepare_warp`."""
+    with _TABLES_LOCK:
+        _TABLES.clear()
 
 
 def slice_tables(tables: WarpTables, skip: int) -> WarpTables:
@@ -330,16 +384,19 @@ def _check_speed_penalty(speed_penalty) -> float:
 
 
 def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coarse: int | None = None,
-               band: float | None = None, speed_penalty: float = SPEED_PENALTY, progress=None) -> WarpSolution:
+               band: float | None = None, speed_penalty: float = SPEED_PENALTY, free_objective: str = "mean",
+               progress=None) -> WarpSolution:
     """The optimal discrete warp for a target length and keytimes (§3.3), from precomputed tables.
 
     Parameters
     ----------
     tables : from :func:`prepare_warp`
-    num_frames : m, output frame count, or None for free length: the path of least *mean* score per output
-        frame (:func:`.dp.mean_cost_dp`; the paper's plain sum, §3.3/V8, always prefers fewer frames and plays
-        a self-referenced clip at 0.70x its length); no keytimes. Prepare its tables with ``k=FREE_K`` and
-        ``upsample=FREE_UPSAMPLE`` (what :func:`guided_warp` does by default)
+    num_frames : m, output frame count, or None for free length (no keytimes): the path of least mean score
+        per output frame (``free_objective="mean"``, default, :func:`.dp.mean_cost_dp`) or whose local score
+        integrated over input time is least (``"input_time"``, :func:`.dp.input_time_dp`). Both deviate from
+        the paper's plain sum (§3.3/V8), which always prefers fewer frames and plays a self-referenced clip at
+        0.70x its length; which one fits depends on the reference (see :func:`guided_warp`). Prepare its tables
+        with ``k=FREE_K`` and ``upsample=FREE_UPSAMPLE`` (what :func:`guided_warp` does by default)
     keytimes : list of (input_time_s, output_time_s) pairs or None
     coarse : subsampling factor of the coarse-to-fine heuristic (the paper uses 8), or None for the exact DP
         (None means 8 above ``AUTO_COARSE_FRAMES`` searched frames, where the exact DP would not fit).
@@ -366,7 +423,12 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
     if num_frames is None:
         if keytimes:
             raise ValueError("keytimes need num_frames: the unconstrained search chooses the output length itself")
-        frames, _ = mean_cost_dp(_penalised(tables, lam))
+        if free_objective == "input_time":
+            frames, _ = input_time_dp(_penalised(tables, lam))
+        elif free_objective == "mean":
+            frames, _ = mean_cost_dp(_penalised(tables, lam))
+        else:
+            raise ValueError(f"free_objective must be 'input_time' or 'mean', got {free_objective!r}")
         cost = path_cost(tables.scores, frames)
         pinned = (0, frames.size - 1)
     else:
@@ -399,10 +461,18 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
 
 
 def _same_content(a: Motion, b: Motion) -> bool:
-    return a is b or (a.num_frames == b.num_frames and a.num_joints == b.num_joints
-                      and abs(a.frame_time - b.frame_time) <= 1e-12 * a.frame_time
-                      and np.array_equal(a.local_quats, b.local_quats)
-                      and np.array_equal(a.root_positions, b.root_positions))
+    """Same frames, rig and frame time (so the same pose features)."""
+    if a is b:
+        return True
+    lt_a, lt_b = a.local_translations, b.local_translations
+    return (a.num_frames == b.num_frames and a.num_joints == b.num_joints
+            and abs(a.frame_time - b.frame_time) <= 1e-12 * a.frame_time
+            and (a.skeleton is b.skeleton or (np.array_equal(a.skeleton.parents, b.skeleton.parents)
+                                              and np.array_equal(a.skeleton.offsets, b.skeleton.offsets)))
+            and np.array_equal(a.local_quats, b.local_quats)
+            and np.array_equal(a.root_positions, b.root_positions)
+            and ((lt_a is None and lt_b is None) or (lt_a is not None and lt_b is not None
+                                                     and np.array_equal(lt_a, lt_b))))
 
 
 def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int = 8, keytimes=None, *,
@@ -410,7 +480,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                 weights=(1.0, 1.0, 1.0), joint_weights=None, prefilter: float = 0.1, time_unit: float = 1.0 / 30.0,
                 coarse: int | None = None, band: float | None = None, speed_penalty: float = SPEED_PENALTY,
                 smoothing: float = SMOOTHING, adaptive: bool = True, knn: str = "auto",
-                candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None, progress=None):
+                candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None,
+                free_objective: str = "mean", progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
 
     What an editor can ask for (issue 11 item 5):
@@ -421,8 +492,16 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
       With ``m`` itself as reference it is the identity (the only complete subsequence, §3.1), unless an
       explicit ``upsample > 1`` is given;
     * **free length**: ``num_frames=None`` (§3.3, V8) and the output is as long as the reference's timing
-      makes it: the least mean score per output frame (:func:`.dp.mean_cost_dp`), upsampled by
-      :data:`FREE_UPSAMPLE` so it can be slower than ``m``; no keytimes;
+      makes it, upsampled by :data:`FREE_UPSAMPLE` so it can be slower than ``m``; no keytimes. Two objectives,
+      neither right for every reference (measured at 30 Hz):
+      ``free_objective="mean"`` (default), the least mean score per output frame (:func:`.dp.mean_cost_dp`),
+      reproduces V8 (CMU 01_01 guided by one hop with its flight in 0.4x slow motion: flights 0.32x, the rest
+      1.00x) but lingers when the reference is another performer's motion (the xia neutral walk guided by the
+      angry run: median 6.1 cm/s, slower than the walk's 10.2, not nearer the run's 19.8);
+      ``"input_time"``, the local score integrated over input time (:func:`.dp.input_time_dp`, each stretch of
+      input played at the speed whose velocities best match the reference at that pose), gives that pair
+      18.1 cm/s but slows V8's unmatched ground frames too (flights 0.53x, the rest 0.37x): use it when the
+      reference covers the input's activity;
     * **backward**: ``backward=True`` (alias ``reverse=True``) plays ``m`` backwards, timed like the
       reference; keytimes stay on the original input clock;
     * **keytimes**: ``[(input_time_s, output_time_s), ...]``, end points implied.
@@ -439,8 +518,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     reverse, backward : backward warp (play the input backwards); ``backward`` overrides ``reverse`` if given
     k : kNN count of eq. (2); default 3 (the paper), :data:`FREE_K` = 1 for free length (measured on CMU 01_01
         at 30 Hz, FREE_UPSAMPLE = 4, free length / n for a self / 1.5x slower / 1.5x faster reference: k=1
-        1.000 / 1.69 / 0.669, k=3 1.39 / 1.87 / 1.11: averaging three neighbours favours slow paths whose
-        poses fall between reference frames)
+        1.000 / 1.69 / 0.669 (``free_objective="input_time"``: 1.000 / 1.40 / 0.669); with k=3 1.39 / 1.87 /
+        1.11: averaging three neighbours favours slow paths whose poses fall between reference frames)
+    free_objective : "mean" (default) or "input_time", the free-length objective (see above)
     weights, joint_weights, prefilter, time_unit, knn, candidates : objective options, see
         :func:`prepare_warp` (long takes: ``knn="auto"`` switches to the approximate kNN beyond ~3,000 x 3,000
         frames and the search to the coarse-to-fine heuristic beyond 6,000; 20,000 frames take ~20-30 s)
@@ -451,7 +531,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         95th percentile 0.090 / max 0.166 on CMU 01_01, 0.108 / 0.147 on CMU 131_01 (paper objective with a
         0.1 s box: 0.69 / 1.20 and 0.42 / 1.20); the goal is <= 0.12 / <= 0.25.
     adaptive : adaptive smoothing of the resampled motion under compression (§3.4)
-    tables : precomputed :func:`prepare_warp` result to reuse; then ``reference``, ``skip``, ``upsample``,
+    tables : precomputed :func:`prepare_warp` result to reuse (without it, the tables of the last few calls are
+        reused when the input, reference and objective options are the same: :func:`cached_prepare_warp`); then ``reference``, ``skip``, ``upsample``,
         ``reverse`` and the objective options are the ones the tables were prepared with (the editor's cheap
         tail: cache one table per upsampling factor, :func:`required_upsample` says which one a length needs)
     progress : callable(fraction in [0, 1]) or None
@@ -475,6 +556,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
             or not np.isfinite(smoothing) or smoothing < 0:
         raise ValueError(f"smoothing must be a non-negative number of seconds, got {smoothing!r}")
     _check_speed_penalty(speed_penalty)
+    if free_objective not in ("input_time", "mean"):
+        raise ValueError(f"free_objective must be 'input_time' or 'mean', got {free_objective!r}")
     if backward is not None:
         reverse = bool(backward)
     if k is None:
@@ -495,15 +578,15 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
             raise ValueError(f"num_frames={num_frames} is more than the {m.num_frames} input frames and "
                              f"upsample={u} gives only {(m.num_frames - 1) * u + 1}: expansion needs upsampling")
         head = None if progress is None else (lambda f: progress(0.9 * f))
-        tables = prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
-                              joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit, knn=knn,
-                              candidates=candidates, progress=head)
+        tables = cached_prepare_warp(m, reference, skip, u, reverse=reverse, k=k, weights=weights,
+                                     joint_weights=joint_weights, prefilter=prefilter, time_unit=time_unit,
+                                     knn=knn, candidates=candidates, progress=head)
     elif tables.motion is not m and (tables.motion.num_frames != m.num_frames
                                      or tables.motion.num_joints != m.num_joints):
         raise ValueError("tables were prepared for a different input motion")
     tail = None if progress is None else (lambda f: progress(0.9 + 0.1 * f))
     sol = solve_warp(tables, num_frames, keytimes, coarse=coarse, band=band, speed_penalty=speed_penalty,
-                     progress=tail)
+                     free_objective=free_objective, progress=tail)
     ft = m.frame_time
     window = prefilter_frames(smoothing, ft) if smoothing else 1
     warp = smooth_warp(sol.times, window, pinned=sol.pinned, passes=2)

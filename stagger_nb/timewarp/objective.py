@@ -30,6 +30,9 @@ __all__ = ["knn_scores", "knn_scores_loop", "validate_skip"]
 _BLOCK_ELEMS = 1 << 15  # reference rows x middle frames per elementwise block (128 KiB of float32, in L2)
 _CHUNK_BYTES = 1 << 20  # one (r, L) slab of partial sums per chunk of middle frames ...
 _MIN_CHUNK = 256        # ... but at least this many middle frames, or per-call overhead dominates for large r
+_THREADS_MIN_PAIRS = 1500 * 1500   # workers=None: one thread below this many (input, reference) frame pairs
+                                   # (Table-1 size, 493 x 491: 43.6 ms CPU on one thread, 45.7 ms on two, and
+                                   # no shorter wall time even on an idle machine: 39 vs 41 ms)
 
 
 def validate_skip(skip) -> int:
@@ -116,7 +119,8 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
         ``|phi|^2 + |z|^2 - 2 phi.z`` after centring on the mean reference pose; in float32 their squared
         values carry an absolute error of about ``1e-7 * |features|^2``.
     progress : callable(fraction in [0, 1]) or None, called (from the calling thread) as work units finish
-    workers : threads sharing the work units (chunk of middle frames x skip a); None = min(4, CPUs)
+    workers : threads sharing the work units (chunk of middle frames x skip a); None = min(4, CPUs), or 1 for
+        tables smaller than ``_THREADS_MIN_PAIRS`` frame pairs
     ref_step : reference frames spanned by one output frame (1; larger for the coarse problem, see
         :func:`.features.reference_blocks`)
 
@@ -196,6 +200,8 @@ def knn_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=
             scores[j0:j1, a - 1, b - 1] = d.mean(axis=1)
 
     units = [(j0, a) for j0 in range(0, n, L) for a in range(1, s + 1)]
+    if workers is None and n * rr < _THREADS_MIN_PAIRS:
+        workers = 1   # small tables: the elementwise calls are too short to release the GIL for long
     nw = _workers(workers, len(units))
     if nw == 1:
         for i, u in enumerate(units):

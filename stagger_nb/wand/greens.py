@@ -48,7 +48,6 @@ about a small negative shift, memory ``O(F (k + N))``.  Only the rows an edit ne
 """
 from __future__ import annotations
 
-import hashlib
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -58,9 +57,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..core.digest import content_key
 from ..core.motion import Motion
-from .laplacian import (CHAIN_FLOOR, _check_sigma, normalized_adjacency, KnnGraph, default_sigma, dense_kernel, knn_graph, normalized_laplacian,
-                        pairwise_sq_distances, sparse_kernel)
+from .laplacian import (CHAIN_FLOOR, KernelPattern, KnnGraph, _check_sigma, default_sigma, dense_kernel,
+                        kernel_pattern, knn_graph, normalized_adjacency, normalized_laplacian, pairwise_sq_distances,
+                        sparse_kernel)
 from .pose_space import pose_vectors
 
 __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
@@ -80,10 +81,12 @@ _SHIFT = -1e-5
 _EIGSH_TOL = 1e-8  # ARPACK relative accuracy of the Ritz values (eigenvalues change by ~1e-12 relative vs 0)
 _F32_MIN_FRAMES = 300  # dense eigenpairs in float32 + a float64 Rayleigh-Ritz step above this many frames
 _F32_EXTRA = 8         # extra float32 eigenvectors in that subspace (a buffer at the cut)
-_COEF_TOL = 1e-10
+_COEF_TOL = 1e-10      # spectral weights below this are rounding noise of lambda = 1
 LA_MAX_FRAMES = 4000   # sparse path: plain Lanczos on A up to this many frames, shift-invert above
 _LA_TOL = 1e-10        # its ARPACK tolerance (relative to mu ~ 1)
-_LA_EXTRA = 70         # Krylov space of k + this (measured fastest on CMU 01_01 among 2k+1 .. k+150)  # spectral weights below this are rounding noise of lambda = 1
+_LA_EXTRA = 0          # Krylov space of max(2k + 1, k + this): ARPACK's 2k + 1. Measured on CMU 01_01 (k = 51, five
+                       # sigmas 0.7-1.4 x default, one BLAS thread): 0.138 s CPU mean at 2k + 1 = 103, 0.155 s at
+                       # k + 70, 0.21 s at k + 100 (fewer vectors to re-orthogonalise against; the same restarts)
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,6 +178,9 @@ class PoseGraph:
     landmarks : ndarray, shape (F_l,), int, or None
         ``"landmarks"`` (long takes): the frames the graph is built on (every ``stride``-th frame and the last);
         ``knn`` indexes them, and the eigenvectors are interpolated linearly in time to every frame.
+    pattern : KernelPattern or None
+        Sparse paths: the kernel's CSR structure built from ``knn`` once (:func:`.laplacian.kernel_pattern`),
+        so a new sigma only recomputes kernel values (about a fifth of a new sigma's time on CMU 01_01).
 
     Immutable, with no hidden state: ``basis(sigma)`` computes a new :class:`GreensBasis` on every call.  A
     caller that revisits sigma values keeps the bases it wants (the session's cache does).
@@ -185,6 +191,7 @@ class PoseGraph:
     knn: KnnGraph
     method: str
     landmarks: np.ndarray | None = None
+    pattern: KernelPattern | None = None
 
     @property
     def num_frames(self) -> int:
@@ -211,7 +218,7 @@ class PoseGraph:
             K = dense_kernel(self.sq_distances, s, chain_floor)
             lam, phi, null_dim, r = _dense_eigs(K, N)
         else:
-            K = sparse_kernel(self.knn, s, chain_floor)
+            K = sparse_kernel(self.knn if self.pattern is None else self.pattern, s, chain_floor)
             lam, phi, null_dim, r = _sparse_eigs(K, N)
         if lam.size == 0:
             raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (every frame is its own component); "
@@ -230,7 +237,12 @@ def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.nd
     i1 = np.clip(np.searchsorted(frames, t, side="right"), 1, frames.size - 1)
     i0 = i1 - 1
     w = ((t - frames[i0]) / (frames[i1] - frames[i0])).reshape((F,) + (1,) * (values.ndim - 1))
-    return np.ascontiguousarray(values[i0] * (1.0 - w) + values[i1] * w)
+    lo = values[i0]                           # v0 (1 - w) + v1 w in place: two (F, ...) arrays, not five;
+    lo *= 1.0 - w                             # exact at both ends of every interval
+    out = values[i1]
+    out *= w
+    out += lo
+    return out
 
 
 def _eigh_smallest(L: np.ndarray, hi: int):
@@ -369,10 +381,12 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
     if method == "sparse":
-        return PoseGraph(X, None, knn_graph(X, min(k, F - 1)), "sparse")
+        table = knn_graph(X, min(k, F - 1))
+        return PoseGraph(X, None, table, "sparse", pattern=kernel_pattern(table))
     stride = max(1, -(-F // MAX_LANDMARKS))
     frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
-    return PoseGraph(X, None, knn_graph(X[frames], min(k, frames.size - 1)), "landmarks", frames)
+    table = knn_graph(X[frames], min(k, frames.size - 1))
+    return PoseGraph(X, None, table, "landmarks", frames, kernel_pattern(table))
 
 
 _GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
@@ -380,16 +394,10 @@ _GRAPHS_LOCK = threading.Lock()
 
 
 def _graph_key(motion: Motion, options: dict) -> bytes:
-    """Content key of (motion rotations, skeleton, options): a BLAKE2b digest, never ``id()``."""
-    h = hashlib.blake2b(digest_size=20)
-    h.update(np.ascontiguousarray(motion.local_quats).view(np.uint8).reshape(-1))
-    h.update(np.asarray(motion.skeleton.parents, dtype=np.int64).tobytes())
-    h.update(repr((motion.num_frames, motion.frame_time, motion.skeleton.names)).encode())
-    for name in sorted(options):
-        v = options[name]
-        h.update(name.encode())
-        h.update(np.asarray(v, dtype=float).tobytes() if isinstance(v, np.ndarray) else repr(v).encode())
-    return h.digest()
+    """Content key of (motion rotations, skeleton, options) (:func:`..core.digest.content_key`), never ``id()``."""
+    opts = tuple((name, options[name]) for name in sorted(options))
+    return content_key(motion.local_quats, motion.skeleton.parents,
+                       (motion.num_frames, motion.frame_time, motion.skeleton.names), opts)
 
 
 def cached_pose_graph(motion: Motion, **options) -> PoseGraph:

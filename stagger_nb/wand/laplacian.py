@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["pairwise_sq_distances", "KnnGraph", "knn_graph", "default_sigma", "dense_kernel",
+__all__ = ["pairwise_sq_distances", "KnnGraph", "KernelPattern", "kernel_pattern", "knn_graph", "default_sigma", "dense_kernel",
            "sparse_kernel", "normalized_adjacency", "normalized_laplacian", "DEFAULT_SIGMA_NEIGHBOURS",
            "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges"]
 
@@ -189,34 +189,83 @@ def symmetric_edges(knn: KnnGraph):
     return r, c, d_all, np.abs(r - c) == 1
 
 
-def sparse_kernel(knn: KnnGraph, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr_matrix:
+@dataclass(frozen=True, eq=False)
+class KernelPattern:
+    """The sigma-independent CSR structure of the sparse kernel (:func:`kernel_pattern`): the symmetric kNN +
+    temporal-chain edge set and the diagonal, rows sorted, so a new sigma only recomputes the values.
+
+    Attributes (E entries, diagonal included)
+    ----------
+    indptr : (F + 1,) int; indices : (E,) int32 column of each entry; rows : (E,) int row of each entry
+    sq_distances : (E,) squared pose distance of each entry (0 on the diagonal)
+    chain : (E,) bool, ``|row - col| = 1``; diagonal : (E,) bool
+    """
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    rows: np.ndarray
+    sq_distances: np.ndarray
+    chain: np.ndarray
+    diagonal: np.ndarray
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.indptr.shape[0] - 1)
+
+
+def kernel_pattern(knn: KnnGraph) -> KernelPattern:
+    """The CSR structure of :func:`sparse_kernel` for ``knn`` (computed once per pose graph)."""
+    F = knn.num_frames
+    rows, cols, d2, chain = symmetric_edges(knn)
+    diag = np.arange(F)
+    r = np.concatenate([rows, diag])
+    c = np.concatenate([cols, diag])
+    order = np.lexsort((c, r))
+    indptr = np.zeros(F + 1, dtype=np.int64)
+    np.cumsum(np.bincount(r, minlength=F), out=indptr[1:])
+    is_diag = np.concatenate([np.zeros(rows.size, dtype=bool), np.ones(F, dtype=bool)])
+    arrays = (indptr, c[order].astype(np.int32), r[order], np.concatenate([d2, np.zeros(F)])[order],
+              np.concatenate([chain, np.zeros(F, dtype=bool)])[order], is_diag[order])
+    for a in arrays:
+        a.setflags(write=False)
+    return KernelPattern(*arrays)
+
+
+def sparse_kernel(knn, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr_matrix:
     """Eq. 1 on the symmetric kNN + temporal-chain edge set (plus the unit diagonal), ``(F, F)`` CSR.
 
     ``K_ij = exp(-d_ij^2 / 2 sigma^2)`` where ``j`` is among ``i``'s k nearest, or ``i`` among ``j``'s, or
     ``|i - j| = 1`` (floored at ``chain_floor`` there, as in :func:`dense_kernel`); kNN pairs farther than
-    ``KERNEL_CUTOFF * sigma`` are left out.  Memory ``O(F k)``."""
+    ``KERNEL_CUTOFF * sigma`` are left out.  Memory ``O(F k)``.  ``knn`` is a :class:`KnnGraph` or its
+    precomputed :class:`KernelPattern` (then only the values are computed: no sorting)."""
     s = _check_sigma(sigma)
     fl = _check_floor(chain_floor)
-    F = knn.num_frames
-    rows, cols, d2, chain = symmetric_edges(knn)
+    p = knn if isinstance(knn, KernelPattern) else kernel_pattern(knn)
+    F = p.num_frames
+    vals = np.exp(p.sq_distances * (-0.5 / (s * s)))
+    vals[p.chain] = np.maximum(vals[p.chain], fl)
     # entries beyond KERNEL_CUTOFF sigmas are dropped (K < 1.6e-8): a sparser L factorises faster
-    keep = chain | (d2 <= (KERNEL_CUTOFF * s) ** 2)
-    rows, cols, d2, chain = rows[keep], cols[keep], d2[keep], chain[keep]
-    vals = np.exp(d2 * (-0.5 / (s * s)))
-    vals[chain] = np.maximum(vals[chain], fl)
-    diag = np.arange(F)
-    return sp.csr_matrix((np.concatenate([vals, np.ones(F)]), (np.concatenate([rows, diag]),
-                                                                np.concatenate([cols, diag]))), shape=(F, F))
+    far = (p.sq_distances > (KERNEL_CUTOFF * s) ** 2) & ~p.chain
+    if far.any():
+        keep = ~far
+        indptr = np.zeros(F + 1, dtype=np.int64)
+        np.cumsum(np.bincount(p.rows[keep], minlength=F), out=indptr[1:])
+        K = sp.csr_matrix((vals[keep], p.indices[keep], indptr), shape=(F, F))
+    else:   # copies: scipy may sort or prune a matrix's index arrays in place, the pattern must not change
+        K = sp.csr_matrix((vals, p.indices.copy(), p.indptr.copy()), shape=(F, F))
+    K.has_sorted_indices = True
+    return K
 
 
 def normalized_adjacency(K):
     """Eq. 2: ``A = D^-1/2 K D^-1/2`` with ``D = diag(K 1)``; dense ndarray or scipy sparse in, same out.
     Also returns the degrees ``r (F,)``."""
     if sp.issparse(K):
+        K = K.tocsr()
         r = np.asarray(K.sum(axis=1)).reshape(-1)
         s = 1.0 / np.sqrt(r)
-        Dm = sp.diags(s)
-        return (Dm @ K @ Dm).tocsr(), r
+        rows = np.repeat(np.arange(K.shape[0]), np.diff(K.indptr))
+        return sp.csr_matrix((K.data * s[rows] * s[K.indices], K.indices, K.indptr), shape=K.shape), r
     r = K.sum(axis=1)
     s = 1.0 / np.sqrt(r)
     return K * s[:, None] * s[None, :], r
