@@ -82,12 +82,8 @@ class Heads:
         count = None if count is None else int(count)
         percent = None if count is not None or percent is None else float(percent)
         keep = tuple(int(k) for k in st.cull_keep(sm, percent, count=count))
-        def make():
-            # the refit reads its on-frame samples from sm's evaluation (the same cache entry edited() uses
-            # for this state) instead of evaluating them again: the same refit up to rounding (1e-12)
-            evaluated = self.cache.get("state", self.key(sm), "motion", lambda: st.evaluate(sm))
-            return st.cull(sm, percent, count=count, progress=progress, evaluated=evaluated)
-        return self.cache.get("cull", self.key(sm), ("keep", keep), make)
+        return self.cache.get("cull", self.key(sm), ("keep", keep),
+                              lambda: st.cull(sm, percent, count=count, progress=progress))
 
     def offset_basis(self, sm):
         """``staggered.pose_offset_basis(sm)``: the offset-independent half of an exaggeration of ``sm`` (§5.1),
