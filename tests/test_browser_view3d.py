@@ -357,6 +357,7 @@ def test_view_plays_in_the_browser_and_picks(lab):
     bad = [c for c in console if c.startswith("error") and not any(
         k in c for k in ("t.on is not a function", "@lumino/coreutils", "Failed to load resource", "favicon"))]
     report.update(console_errors=bad, page_errors=page_errors)
+    (ARTIFACTS / "view3d_console.txt").write_text("\n".join(console + page_errors))
     (ARTIFACTS / "view3d_report.json").write_text(json.dumps(report, indent=1))
     print(json.dumps(report, indent=1))
     assert all(h >= 0.40 for h in heights.values()), heights
