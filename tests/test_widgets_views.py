@@ -333,6 +333,7 @@ def test_view_framing_and_joint_pixels():
     v = SkeletonView(m)
     for f in (0, 150, 300):
         assert v.drawn_height(f) >= 0.45
+    assert v.controls.enableKeys is False     # arrow keys move sliders, not the camera of every view
     np.testing.assert_allclose(v.three_camera.quaternion,
                                scene3d.look_at_quaternion(v.three_camera.position, v.controls.target), atol=1e-12)
     x, y = v.joint_pixel("Head", 0)

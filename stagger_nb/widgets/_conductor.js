@@ -42,7 +42,7 @@ function initialize({ model }) {
   const st = {
     player: null, scene: null, rig: null, skeleton: null, ghost: null, trails: null,
     playing: false, baseFrame: 0, baseWall: 0, raf: 0, lastTick: null, bound: 0, correcting: null,
-    data: null, pending: 0,
+    data: null, pending: 0, lastSync: 0,
   };
 
   // the model's buffers decoded once per change (not per frame)
@@ -206,7 +206,10 @@ function initialize({ model }) {
     }
     if (st.trails && st.trails.obj) writeTrails(st.trails.obj, fi);
     if (st.scene) st.scene.trigger("rerender", st.scene, {});
-    model.set("shown_frame", fi);   // local only (not saved): lets tests read what is drawn
+    // local only (not saved): what is drawn, for checks; the root's drawn position is published on the
+    // (hidden) conductor element by render() below
+    model.set("shown", { frame: fi, root: [d.buf[0], d.buf[1], d.buf[2]], frames: d.F });
+    model.set("shown_frame", fi);
   }
 
   function redraw() {
@@ -237,6 +240,18 @@ function initialize({ model }) {
       return;
     }
     show(f);
+    // the Play's own ticks (setInterval) run late on a loaded machine: keep its value (the slider, the kernel's
+    // playhead) within a step of the clock from here too, at most every 200 ms (<= 5 extra messages a second)
+    const now = performance.now();
+    const step = (st.player && st.player.get("step")) || 1;
+    if (st.player && now - st.lastSync >= 200 && Math.floor(f) - st.player.get("value") >= step) {
+      st.lastSync = now;
+      st.correcting = Math.floor(f);
+      st.lastTick = st.correcting;
+      st.player.set("value", st.correcting);
+      st.player.save_changes();
+      st.correcting = null;
+    }
     st.raf = requestAnimationFrame(loop);
   }
 
@@ -338,6 +353,17 @@ function initialize({ model }) {
 
 function render({ model, el }) {
   el.style.display = "none";
+  el.classList.add("sn-conductor");
+  const mark = () => {
+    const s = model.get("shown");
+    if (!s) return;
+    el.dataset.frame = s.frame;
+    el.dataset.frames = s.frames;
+    el.dataset.root = s.root.map((x) => x.toFixed(2)).join(",");
+  };
+  model.on("change:shown", mark);
+  mark();
+  return () => model.off("change:shown", mark);
 }
 
 export default { initialize, render };

@@ -197,7 +197,9 @@ class SkeletonView(widgets.VBox):
         # the camera stays put and the world moves under it: a "rig" group holding everything drawn is shifted by
         # minus the follow path (browser-side, per frame), so orbit controls and picking work in scene coordinates
         self.three_camera = three.PerspectiveCamera(fov=40, aspect=width / height, up=(0, 1, 0))
-        self.controls = three.OrbitControls(controlling=self.three_camera)
+        # no arrow-key panning: three's OrbitControls listens to keys on the whole window, so moving any slider
+        # with the keyboard panned every 3D view on the page (and the panned camera was saved with the notebook)
+        self.controls = three.OrbitControls(controlling=self.three_camera, enableKeys=False)
         self.picker = three.Picker(controlling=self.skeleton_mesh, event="click")
         self.picker.observe(self._on_pick, names=["point", "faceIndex"])
         self.trails_group = three.Group(name="trails")
@@ -570,17 +572,30 @@ class SkeletonView(widgets.VBox):
 
     @traitlets.observe("frame")
     def _on_frame(self, change):
-        if self.player.value != change["new"]:
-            self.player.value = change["new"]   # a seek from Python: the browser shows that frame
-        self.frame_slider.value = change["new"]   # (the browser links them; keep the kernel's copy in step)
+        if getattr(self, "_frame_from_browser", False):
+            return   # the browser already shows it (and links the slider to the Play): writing back would race
+            # the user's next key presses (the slider jumped back to an older frame, seen under load)
+        with self.player.hold_sync(), self.frame_slider.hold_sync():
+            if self.player.value != change["new"]:
+                self.player.value = change["new"]   # a seek from Python: the browser shows that frame
+            self.frame_slider.value = change["new"]   # (the browser links them; keep the kernel's copy in step)
 
     def _on_player_value(self, change):
         if not self.player.playing:            # a scrub; while playing the kernel does not follow per tick
-            self.frame = change["new"]
+            self._set_frame_from_browser(change["new"])
 
     def _on_playing(self, change):
         if not change["new"]:
-            self.frame = self.player.value
+            self._set_frame_from_browser(self.player.value)
+
+    def _set_frame_from_browser(self, frame: int) -> None:
+        self._frame_from_browser = True
+        try:
+            self.frame = frame
+        finally:
+            self._frame_from_browser = False
+        if self.frame != frame:                 # clamped: the browser must show the clamped frame
+            self.player.value = self.frame
 
     @traitlets.observe("show_ghost")
     def _on_ghost(self, change):
