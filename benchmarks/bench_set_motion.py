@@ -39,6 +39,15 @@ def main() -> None:
         q = m.local_quats + 0.02 * rng.standard_normal(m.local_quats.shape)
         edits.append(m.replace(local_quats=q / np.linalg.norm(q, axis=-1, keepdims=True)))
     build = [cpu(lambda: SkeletonView(m, ghost=m)) for _ in range(4)]
+    v = SkeletonView(m, ghost=m)
+    for e in edits[:2]:
+        v.set_motion(e)
+    edit = [cpu(lambda e=e: v.set_motion(e, pose_frames=[10, 200], contacts=[("LeftFoot", 5, 40)]))
+            for e in edits[2:]]
+    b, s = statistics.median(build), statistics.median(edit)
+    print(f"new SkeletonView   cpu min {min(build):6.1f} median {b:6.1f} ms")
+    print(f"set_motion (edit)  cpu min {min(edit):6.1f} median {s:6.1f} ms   edit/new x {s / b:.2f}   "
+          f"bytes {v.edit_bytes:,}")
     import warnings
     import ipywidgets
     from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
@@ -52,15 +61,6 @@ def main() -> None:
         make()
         counts[name] = len(ipywidgets.Widget.widgets) - n0
     print("widget models created:", ", ".join(f"{k} {v}" for k, v in counts.items()))
-    v = SkeletonView(m, ghost=m)
-    for e in edits[:2]:
-        v.set_motion(e)
-    edit = [cpu(lambda e=e: v.set_motion(e, pose_frames=[10, 200], contacts=[("LeftFoot", 5, 40)]))
-            for e in edits[2:]]
-    b, s = statistics.median(build), statistics.median(edit)
-    print(f"new SkeletonView   cpu min {min(build):6.1f} median {b:6.1f} ms")
-    print(f"set_motion (edit)  cpu min {min(edit):6.1f} median {s:6.1f} ms   edit/new x {s / b:.2f}   "
-          f"bytes {v.edit_bytes:,}")
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 
