@@ -1,8 +1,10 @@
-"""Kernel CPU of ``SkeletonView.set_motion`` (an edit replacing the shown motion, tracks updated in place) on
-900 frames of CMU 01_01 (31 joints, with a ghost), no browser attached (serialisation not included).
+"""Kernel CPU of ``SkeletonView.set_motion`` (an edit replacing the shown motion: its world points as one binary
+buffer, the joint states, the rig path and the kernel's still picture of the merged mesh) on 900 frames of
+CMU 01_01 (31 joints, with a ghost shown), no browser attached (serialisation not included).
 
-Baseline, same process: building a new SkeletonView of the same motion (what creating every track, clip and
-action widget costs). Prints CPU ms per call (min / median), the ratio, and the load average.
+Baseline, same process: building a new SkeletonView of the same motion. Prints CPU ms per call (min / median),
+the ratio, bytes per edit, the widget models per view (``len(ipywidgets.Widget.widgets)`` before/after building
+one, and per editor), and the load average.
 
 Run: ``OPENBLAS_NUM_THREADS=1 PYTHONPATH=$PWD nice .venv/bin/python benchmarks/bench_set_motion.py``.
 """
@@ -46,6 +48,19 @@ def main() -> None:
     print(f"new SkeletonView   cpu min {min(build):6.1f} median {b:6.1f} ms")
     print(f"set_motion (edit)  cpu min {min(edit):6.1f} median {s:6.1f} ms   edit/new x {s / b:.2f}   "
           f"bytes {v.edit_bytes:,}")
+    import warnings
+    import ipywidgets
+    from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
+    warnings.simplefilter("ignore", DeprecationWarning)   # Widget.widgets: the public registry, deprecated name
+    counts = {}
+    for name, make in [("SkeletonView (ghost hidden)", lambda: SkeletonView(m, ghost=m, show_ghost=False)),
+                       ("SkeletonView (ghost shown)", lambda: SkeletonView(m, ghost=m, show_ghost=True)),
+                       ("StaggerEditor", lambda: StaggerEditor(m, precompute=False)),
+                       ("WandEditor", lambda: WandEditor(m)), ("WarpEditor", lambda: WarpEditor(m))]:
+        n0 = len(ipywidgets.Widget.widgets)
+        make()
+        counts[name] = len(ipywidgets.Widget.widgets) - n0
+    print("widget models created:", ", ".join(f"{k} {v}" for k, v in counts.items()))
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 

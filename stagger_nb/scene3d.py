@@ -14,9 +14,12 @@ from scipy.ndimage import gaussian_filter1d
 
 from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
+from .core.rotations import quat_rotate
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
-           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys", "body_size"]
+           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys", "body_size",
+           "skeleton_points", "segments", "MeshTemplate", "mesh_template", "skeleton_mesh", "joint_states",
+           "trail_segments", "mesh_index"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -296,19 +299,9 @@ def drawn_height_fraction(points: np.ndarray, camera: Camera, frame: int, width:
 
 def highlight_keys(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),
                    pose_window_s: float = 0.05):
-    """Per-joint state over time for the sphere colours: 0 plain, 1 at a staggered-pose frame (± ``pose_window_s``
-    so it is seen while playing), 2 in contact. ``contacts``: ``[(joint_index, start, end), ...]`` half-open frame
-    ranges. Returns ``{joint: (times (K,) float32, states (K,) uint8)}`` for joints whose state ever changes."""
-    F = int(num_frames)
-    pose = np.zeros(F, dtype=bool)
-    w = max(1, int(round(pose_window_s / frame_time)))
-    for p in np.asarray(pose_frames, dtype=int).reshape(-1):
-        if 0 <= p < F:
-            pose[max(0, p - w):min(F, p + w + 1)] = True
-    state = np.zeros((F, num_joints), dtype=np.uint8)
-    state[pose] = 1
-    for j, a, b in contacts:
-        state[max(0, int(a)):min(F, int(b)), int(j)] = 2
+    """Per-joint state over time for the sphere colours (:func:`joint_states`) as step keys: returns
+    ``{joint: (times (K,) float32, states (K,) uint8)}`` for joints whose state ever changes or is not 0."""
+    state = joint_states(num_frames, frame_time, num_joints, pose_frames, contacts, pose_window_s)
     out = {}
     for j in range(num_joints):
         s = state[:, j]
@@ -327,3 +320,148 @@ def world_positions(motion: Motion) -> np.ndarray:
 def joint_radius(motion: Motion) -> float:
     """Sphere radius for joints: 2.2 % of the skeleton's rest extent."""
     return 0.022 * skeleton_height(motion)
+
+
+# -- one merged skeleton mesh ----------------------------------------------------------------------------------
+# The 3D view draws the whole skeleton as ONE indexed triangle mesh (a sphere per joint, an open tube per bone)
+# whose vertices the browser recomputes each shown frame from the world points of that frame (``_conductor.js``
+# applies the same affine maps as :func:`skeleton_mesh`). A handful of widget models instead of one per bone,
+# joint, material and keyframe track: what JupyterLab restores quickly after a page reload.
+
+def skeleton_points(motion: Motion) -> np.ndarray:
+    """World positions of the joints and then the End Sites, ``(F, J + E, 3)`` float32, file units.
+
+    End Site k (the k-th of ``sorted(skeleton.end_sites.items())``) is point ``J + k``: its joint's world
+    position plus the joint's world rotation applied to the End Site offset."""
+    p, wq = forward_kinematics(motion)
+    ends = sorted(motion.skeleton.end_sites.items())
+    if not ends:
+        return np.ascontiguousarray(p, dtype=np.float32)
+    idx = np.array([j for j, _ in ends], dtype=int)
+    off = np.array([e for _, e in ends], dtype=float)
+    tips = p[:, idx] + quat_rotate(wq[:, idx], np.broadcast_to(off, (p.shape[0],) + off.shape))
+    return np.ascontiguousarray(np.concatenate([p, tips], axis=1), dtype=np.float32)
+
+
+def segments(motion: Motion) -> np.ndarray:
+    """Bones as point-index pairs ``(B, 2)`` int (parent joint, child joint or End Site point ``J + k``), the
+    order of :func:`bones` (non-root joints, then End Sites; zero-length ones skipped)."""
+    sk = motion.skeleton
+    J = sk.num_joints
+    off = np.asarray(sk.offsets if motion.local_translations is None else motion.local_translations[0], float)
+    pairs = [(int(sk.parents[j]), j, off[j]) for j in range(1, J)]
+    pairs += [(int(j), J + k, np.asarray(e, float)) for k, (j, e) in enumerate(sorted(sk.end_sites.items()))]
+    out = [(a, b) for a, b, v in pairs if np.linalg.norm(v) >= 1e-9]
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
+@dataclass(frozen=True)
+class MeshTemplate:
+    """Unit shapes the skeleton mesh is made of, each vertex a row ``(x, y, z, nx, ny, nz)`` float32.
+
+    sphere : (Vs, 6) unit sphere (radius 1, centre 0); sphere_index : (Ts, 3) triangles (counter-clockwise
+    seen from outside); tube : (Vt, 6) open cylinder of radius 1 from y = 0 to y = 1; tube_index : (Tt, 3).
+    """
+    sphere: np.ndarray
+    sphere_index: np.ndarray
+    tube: np.ndarray
+    tube_index: np.ndarray
+
+
+def _grid_index(rows: int, cols: int) -> np.ndarray:
+    """Triangles of a (rows + 1) x (cols + 1) vertex grid, row-major, two per cell."""
+    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    a = (r * (cols + 1) + c).ravel()
+    b, d = a + cols + 1, a + 1
+    return np.stack([np.stack([a, b, d], 1), np.stack([b, b + 1, d], 1)], 1).reshape(-1, 3)
+
+
+def mesh_template(radial: int = 8, rings: int = 6) -> MeshTemplate:
+    """A lat-long unit sphere (``2 radial`` around, ``rings`` from pole to pole) and an open unit tube
+    (``radial`` sides)."""
+    th = np.linspace(0, np.pi, rings + 1)[:, None]                 # from +y down
+    ph = np.linspace(0, 2 * np.pi, 2 * radial + 1)[None, :]
+    n = np.stack([np.sin(th) * np.sin(ph), np.cos(th) * np.ones_like(ph), np.sin(th) * np.cos(ph)], -1)
+    sphere = np.concatenate([n, n], -1).reshape(-1, 6)
+    ph = np.linspace(0, 2 * np.pi, radial + 1)
+    ring = np.stack([np.sin(ph), np.zeros_like(ph), np.cos(ph)], -1)
+    tube = np.concatenate([np.concatenate([ring + [0, y, 0], ring], -1) for y in (1.0, 0.0)])
+    return MeshTemplate(sphere.astype(np.float32), _grid_index(rings, 2 * radial).astype(np.uint32),
+                        tube.astype(np.float32), _grid_index(1, radial).astype(np.uint32))
+
+
+def _bone_frames(a: np.ndarray, b: np.ndarray):
+    """Right-handed orthonormal frames of bones from ``a (B, 3)`` to ``b (B, 3)``: axes x, y (along the bone),
+    z, each (B, 3), and lengths (B,). A zero-length bone gets y = +y. The helper axis for x is +x, or +z when
+    the bone is nearly along x (same rule in ``_conductor.js``)."""
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    y = np.where(length[:, None] > 1e-12, d / np.maximum(length, 1e-12)[:, None], [0.0, 1.0, 0.0])
+    helper = np.where(np.abs(y[:, :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    x = np.cross(y, helper)
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    return x, y, np.cross(x, y), length
+
+
+def skeleton_mesh(points: np.ndarray, segs: np.ndarray, num_joints: int, joint_radius: float,
+                  bone_radius: float, template: MeshTemplate, selected=(), selected_scale: float = 1.6):
+    """The merged skeleton mesh of one frame: ``positions (V, 3)``, ``normals (V, 3)`` float32.
+
+    ``points (P, 3)``: world points of the frame (:func:`skeleton_points`); vertices are the joint spheres
+    (joint j: rows ``j Vs .. (j+1) Vs``, radius ``joint_radius``, × ``selected_scale`` for ``selected`` joints)
+    then the bone tubes (bone i from ``segs[i, 0]`` to ``segs[i, 1]``, radius ``bone_radius``), each the template
+    mapped by the bone's frame (:func:`_bone_frames`)."""
+    P = np.asarray(points, dtype=float)
+    J = int(num_joints)
+    r = np.full(J, float(joint_radius))
+    r[list(selected)] *= selected_scale
+    s = template.sphere.astype(float)
+    sp = (P[:J, None, :] + r[:, None, None] * s[None, :, :3]).reshape(-1, 3)
+    sn = np.broadcast_to(s[None, :, 3:], (J,) + s[:, 3:].shape).reshape(-1, 3)
+    a, b = P[segs[:, 0]], P[segs[:, 1]]
+    x, y, z, length = _bone_frames(a, b)
+    t = template.tube.astype(float)
+    scale = np.stack([np.full_like(length, bone_radius), length, np.full_like(length, bone_radius)], 1)
+    axes = np.stack([x, y, z], 1)                                  # (B, 3 axes, 3)
+    tp = a[:, None] + np.einsum("vk,bk,bkc->bvc", t[:, :3], scale, axes)
+    tn = np.einsum("vk,bkc->bvc", t[:, 3:], axes)
+    return (np.concatenate([sp, tp.reshape(-1, 3)]).astype(np.float32),
+            np.concatenate([sn, tn.reshape(-1, 3)]).astype(np.float32))
+
+
+def mesh_index(num_joints: int, num_bones: int, template: MeshTemplate):
+    """Triangles of the merged mesh ``(T, 3)`` uint32 and, for picking, the joint each triangle belongs to
+    ``(T,)`` int (a bone belongs to its parent joint, the one that rotates it: pass ``segs[:, 0]``)."""
+    vs, vt = len(template.sphere), len(template.tube)
+    sph = template.sphere_index[None] + (vs * np.arange(num_joints))[:, None, None]
+    tub = template.tube_index[None] + (num_joints * vs + vt * np.arange(num_bones))[:, None, None]
+    return np.concatenate([sph.reshape(-1, 3), tub.reshape(-1, 3)]).astype(np.uint32)
+
+
+def joint_states(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),
+                 pose_window_s: float = 0.05) -> np.ndarray:
+    """Per-frame joint state ``(F, J)`` uint8 for the sphere colours: 0 plain, 1 at a staggered-pose frame
+    (± ``pose_window_s`` so it is seen while playing), 2 in contact (wins over 1). ``contacts``:
+    ``[(joint_index, start, end), ...]`` half-open frame ranges."""
+    F = int(num_frames)
+    pose = np.zeros(F, dtype=bool)
+    w = max(1, int(round(pose_window_s / frame_time)))
+    for p in np.asarray(pose_frames, dtype=int).reshape(-1):
+        if 0 <= p < F:
+            pose[max(0, p - w):min(F, p + w + 1)] = True
+    state = np.zeros((F, int(num_joints)), dtype=np.uint8)
+    state[pose] = 1
+    for j, a, b in contacts:
+        state[max(0, int(a)):min(F, int(b)), int(j)] = 2
+    return state
+
+
+def trail_segments(points: np.ndarray, joints, frame: int, window: int) -> np.ndarray:
+    """Line-segment end points ``(len(joints) * 2 window * 2, 3)`` float32 of the trails of ``joints`` (point
+    indices into ``points (F, P, 3)``) over frames ``frame - window .. frame + window``: segment k of a joint
+    joins frames ``a = frame - window + k`` and ``a + 1``, both clamped to the clip (outside it: a point)."""
+    F = points.shape[0]
+    a = np.clip(int(frame) - int(window) + np.arange(2 * int(window)), 0, F - 1)
+    b = np.clip(int(frame) - int(window) + np.arange(2 * int(window)) + 1, 0, F - 1)
+    out = [np.stack([points[a, j], points[b, j]], 1).reshape(-1, 3) for j in joints]
+    return np.concatenate(out).astype(np.float32) if out else np.zeros((0, 3), np.float32)

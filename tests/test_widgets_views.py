@@ -63,38 +63,91 @@ def _chain_motion(J=6, F=40, seed=0, frame_time=1 / 60):
     return Motion(sk, frame_time, root, q)
 
 
-def test_sent_tracks_reproduce_forward_kinematics():
+def _sent_points(v):
+    c = v.conductor
+    return np.frombuffer(c.points, dtype=np.float32).reshape(c.num_frames, c.num_points, 3)
+
+
+def test_sent_points_reproduce_forward_kinematics_and_end_sites():
     m = sn.data.load("run")
     v = SkeletonView(m, ghost=m)
-    pos, _ = sn.forward_kinematics(m)
+    pos, wq = sn.forward_kinematics(m)
     for f in (0, 77, m.num_frames - 1):
         # float32 on the wire: a ~170-unit figure agrees to ~1e-4
         np.testing.assert_allclose(v.shown_positions(f), pos[f], atol=2e-3)
-    times = v.motion_tracks[0].times            # one times array shared by all tracks (sent once)
-    assert all(tr.times is times for tr in v.motion_tracks) and times.array.dtype == np.float32
-    for tr in v.motion_tracks:                  # binary float32 arrays, not lists
-        assert isinstance(tr.values, np.ndarray) and tr.values.dtype == np.float32
-    # the hierarchy: each joint's group hangs under its parent's group, at its offset
-    g = v.joint_groups
-    for j in range(1, m.num_joints):
-        assert g[j] in g[int(m.skeleton.parents[j])].children
-        np.testing.assert_allclose(g[j].position, m.skeleton.offsets[j], atol=1e-9)
+    pts = _sent_points(v)
+    assert pts.dtype == np.float32 and pts.shape == (m.num_frames, m.num_joints + len(m.skeleton.end_sites), 3)
+    # End Site k hangs |offset| from its joint, in the joint's world frame (naive per-point rotation via scipy)
+    from scipy.spatial.transform import Rotation
+    for k, (j, off) in enumerate(sorted(m.skeleton.end_sites.items())):
+        want = pos[40, j] + Rotation.from_quat(np.array(wq[40, j])).apply(np.array(off, float))
+        np.testing.assert_allclose(pts[40, m.num_joints + k], want, atol=2e-3)
 
 
-def test_a_new_edit_replaces_the_tracks_in_place_and_clamps_the_frame():
+def test_merged_mesh_is_spheres_at_joints_and_tubes_along_bones():
+    m = sn.data.load("walk")
+    v = SkeletonView(m)
+    f = 0
+    g = v.skeleton_mesh.geometry
+    P = scene3d.skeleton_points(m)[f].astype(float)
+    pos, nrm = (np.asarray(g.attributes[k].array, float) for k in ("position", "normal"))
+    vs, J = len(scene3d.mesh_template().sphere), m.num_joints
+    spheres = pos[:J * vs].reshape(J, vs, 3)
+    # each sphere: every vertex at the joint radius from its joint
+    d = np.linalg.norm(spheres - P[:J, None], axis=2)
+    assert np.allclose(d, v._radius, rtol=1e-5)
+    segs = scene3d.segments(m)
+    tubes = pos[J * vs:].reshape(len(segs), -1, 3)
+    tn = nrm[J * vs:].reshape(len(segs), -1, 3)
+    for (a, b), t, n in zip(segs, tubes, tn):
+        axis = (P[b] - P[a]) / np.linalg.norm(P[b] - P[a])
+        rel = t - P[a]
+        along = rel @ axis
+        radial = rel - along[:, None] * axis
+        # on the bone's axis segment [0, L], at the bone radius; normals unit, radial, outwards
+        assert along.min() > -1e-3 and along.max() < np.linalg.norm(P[b] - P[a]) + 1e-3
+        np.testing.assert_allclose(np.linalg.norm(radial, axis=1), 0.45 * v._radius, rtol=1e-4)
+        np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5)
+        np.testing.assert_allclose(n, radial / np.linalg.norm(radial, axis=1, keepdims=True), atol=1e-4)
+    # triangles face outwards (counter-clockwise seen from outside): the face normal agrees with the vertex normals
+    tri = np.asarray(g.index.array).reshape(-1, 3)
+    fn = np.cross(pos[tri[:, 1]] - pos[tri[:, 0]], pos[tri[:, 2]] - pos[tri[:, 0]])
+    ok = np.linalg.norm(fn, axis=1) > 1e-9                  # (degenerate pole triangles have no direction)
+    assert np.all(np.einsum("ij,ij->i", fn[ok], nrm[tri[ok]].sum(axis=1)) > 0)
+
+
+def test_a_view_is_a_few_dozen_widget_models_whatever_the_skeleton():
+    from collections import Counter
+    counts = {}
+    for name in ("walk", "cmu_01_01"):
+        m = sn.data.load(name)
+        n0 = len(Widget.widgets)
+        v = SkeletonView(m, ghost=m, show_ghost=False)
+        counts[name] = (len(Widget.widgets) - n0, v.widget_count, m.num_joints)
+        kinds = Counter(type(w).__name__ for w in list(Widget.widgets.values())[n0:])
+        v.show_ghost = True                  # the ghost is built when first shown: one mesh (5 models)
+        counts[name + "+ghost"] = len(Widget.widgets) - n0
+    print("\nwidget models per SkeletonView:", counts, dict(kinds))
+    # the count does not grow with the number of joints or bones (one mesh), and stays a few dozen (was 283)
+    assert counts["walk"][0] == counts["cmu_01_01"][0] <= 42
+    assert counts["cmu_01_01+ghost"] - counts["cmu_01_01"][0] <= 5
+    assert kinds["Mesh"] == 1 and "AnimationAction" not in kinds and "KeyframeTrack" not in str(kinds)
+
+
+def test_a_new_edit_replaces_the_data_in_place_and_clamps_the_frame():
     m = _chain_motion(F=60)
     v = SkeletonView(m)
     v.frame = 55
     shorter = _chain_motion(F=30, seed=1)
-    before = v.motion_tracks
+    n_widgets = len(Widget.widgets)
     v.set_motion(shorter)
     assert v.frame == 29 and v.player.max == 29 and v.frame_slider.max == 29 and v.player.value == 29
-    after = v.motion_tracks
-    # updated in place: a joint still animated keeps its track widget; a dropped track is closed, not left behind
-    assert all((t in after and t.comm is not None) or t.comm is None for t in before)
-    assert len({id(t.times) for t in after}) == 1 and after[0].times.array.shape == (30,)
+    assert len(Widget.widgets) == n_widgets and v.conductor.num_frames == 30
     p, _ = sn.forward_kinematics(shorter)
     np.testing.assert_allclose(v.shown_positions(12), p[12], atol=1e-4)
+    # the kernel's still picture (saved widget state) is the new motion at the current frame
+    sph = np.asarray(v.skeleton_mesh.geometry.attributes["position"].array)[:len(scene3d.mesh_template().sphere)]
+    np.testing.assert_allclose((sph.max(axis=0) + sph.min(axis=0)) / 2, p[29, 0], atol=1e-3)
     with pytest.raises(ValueError, match="^motion"):
         v.set_motion(_chain_motion(J=5, F=10))
 
@@ -103,24 +156,20 @@ def test_a_second_edit_of_the_same_shape_updates_the_widgets_in_place(recording_
     m = _chain_motion(J=6, F=80)
     v = SkeletonView(m, ghost=m)
     v.set_motion(_chain_motion(J=6, F=80, seed=2), pose_frames=[10, 40], contacts=[("j2", 5, 30)])
-    tracks, actions = v.motion_tracks, list(v.conductor.actions)
-    n_widgets, version = len(Widget.widgets), v.conductor.data_version
+    n_widgets = len(Widget.widgets)
     recording_comm.clear()
     third = _chain_motion(J=6, F=80, seed=3)
     v.set_motion(third, pose_frames=[12, 44], contacts=[("j2", 6, 31)])
     assert len(Widget.widgets) == n_widgets                 # no widget created (none closed)
-    assert v.motion_tracks == tracks and all(t.comm is not None for t in tracks)
-    assert list(v.conductor.actions) == actions and v.conductor.data_version == version + 1
-    # the sent state is the new motion: the tracks (float32) posed by forward kinematics
     p, _ = sn.forward_kinematics(third)
     for f in (0, 17, 79):
         np.testing.assert_allclose(v.shown_positions(f), p[f], atol=1e-3)
-    # bytes: every changed array once, binary; the unchanged times are not re-sent
+    states = np.frombuffer(v.conductor.states, np.uint8).reshape(80, 6)
+    assert states[12].tolist() == [1, 1, 2, 1, 1, 1] and states[40, 2] == 0   # pose (contact wins), plain
+    assert states[20].tolist() == [0, 0, 2, 0, 0, 0]
     binary = sum(b for _, b in recording_comm)
-    tr = scene3d.motion_tracks(third)
-    changed = sum(a.nbytes for a in tr.quats.values())     # same root path and times: those are not re-sent
-    assert changed <= binary <= 1.15 * tr.nbytes and v.edit_bytes == binary
-    assert max(j for j, _ in recording_comm) < 1000    # no array as a JSON list (one track's would be ~3 kB)
+    assert binary >= len(v.conductor.points) and v.edit_bytes == binary
+    assert max(j for j, _ in recording_comm) < 1000    # no array as a JSON list
 
 
 def test_bytes_per_edit_of_a_2751_by_31_clip_are_binary_and_once(recording_comm):
@@ -132,15 +181,14 @@ def test_bytes_per_edit_of_a_2751_by_31_clip_are_binary_and_once(recording_comm)
     v.set_motion(edited)
     json_bytes = sum(j for j, _ in recording_comm)
     binary = sum(b for _, b in recording_comm)
-    tracks = scene3d.motion_tracks(edited)
+    points = scene3d.skeleton_points(edited).nbytes
     print(f"\nbytes per edit ({m.num_frames} x {m.num_joints}): binary {binary:,}, JSON {json_bytes:,}, "
           f"messages {len(recording_comm)}")
-    assert binary >= sum(a.nbytes for a in tracks.quats.values())   # every changed float went, once (the
-    # unchanged times and root path are not re-sent) ...
-    assert binary <= 1.15 * tracks.nbytes             # ... and little else (camera path, highlights)
-    assert json_bytes < 0.05 * binary                 # the arrays are buffers, not JSON lists
+    assert binary >= points                            # every point went, once ...
+    assert binary <= 1.25 * points                     # ... and little else (states, rig path, one still frame)
+    assert json_bytes < 0.05 * binary                  # the arrays are buffers, not JSON lists
     assert v.edit_bytes == pytest.approx(binary, rel=0.02)
-    # a frame step sends no arrays at all: the browser has the clip
+    # a frame step sends no arrays at all: the browser has the data
     recording_comm.clear()
     v.frame = 1000
     assert sum(b for _, b in recording_comm) == 0 and len(recording_comm) <= 3
@@ -179,12 +227,20 @@ def test_link_frame_is_a_browser_side_link():
 def test_picking_a_sphere_or_bone_selects_its_joint():
     m = _chain_motion()
     v = SkeletonView(m)
-    v.picker.object = v.spheres[3]
-    v.picker.point = (1.0, 2.0, 3.0)
+    t = scene3d.mesh_template()
+    ts, tt = len(t.sphere_index), len(t.tube_index)
+    with v.picker.hold_trait_notifications():      # as the browser sends a click: object, face, point at once
+        v.picker.object, v.picker.faceIndex, v.picker.point = v.skeleton_mesh, 3 * ts + 5, (1.0, 2.0, 3.0)
     assert v.selected_joint == "j3"
-    bone = next(c for c in v.joint_groups[4].children if c not in v.joint_groups and c is not v.spheres[4])
-    v.picker.object = bone        # a bone belongs to the joint that rotates it
+    bone = [i for i, (a, b) in enumerate(scene3d.segments(m)) if a == 4][0]
+    v.picker.faceIndex = 6 * ts + bone * tt + 1    # a bone belongs to the joint that rotates it
     assert v.selected_joint == "j4"
+    assert v.conductor.selected == [4]
+    sph = np.asarray(v.skeleton_mesh.geometry.attributes["position"].array)[4 * len(t.sphere):5 * len(t.sphere)]
+    p, _ = sn.forward_kinematics(m)
+    assert np.linalg.norm(sph - p[0, 4], axis=1).max() == pytest.approx(1.6 * v._radius, rel=1e-4)   # larger
+    col = np.asarray(v.skeleton_mesh.geometry.attributes["color"].array)[4 * len(t.sphere)]
+    np.testing.assert_allclose(col, [0xe5 / 255, 0x3e / 255, 0x3e / 255], atol=1e-6)                 # red
     v.selected_joint = "j1"
     assert "selected: j1" in v.legend.value
     with pytest.raises(Exception, match="selected_joint"):
@@ -195,17 +251,24 @@ def test_trails_follow_the_joint_and_the_edits():
     m = _chain_motion(F=50)
     v = SkeletonView(m, trail_joints=["j5"], trail_seconds=0.1)
     pos, _ = sn.forward_kinematics(m)
-    line = v.conductor.trails[0]
-    np.testing.assert_allclose(np.asarray(line.geometry.attributes["position"].array), pos[:, 5], atol=1e-4)
-    assert v.conductor.trail_window == 6   # 0.1 s at 60 Hz each side of the playhead
+    assert v.conductor.trail_window == 6 and v.conductor.trail_joints == [5]   # 0.1 s at 60 Hz each side
+    seg = np.asarray(v.conductor.trails.geometry.attributes["position"].array).reshape(-1, 2, 3)
+    assert len(seg) == 12
+    # at frame 0 the window reaches back before the clip: those segments collapse onto frame 0
+    for k in range(12):
+        a, b = np.clip([k - 6, k - 5], 0, 49)
+        np.testing.assert_allclose(seg[k], pos[[a, b], 5], atol=1e-4)
     m2 = _chain_motion(F=50, seed=3)
+    v.frame = 20
     v.set_motion(m2)
     p2, _ = sn.forward_kinematics(m2)
-    np.testing.assert_allclose(np.asarray(v.conductor.trails[0].geometry.attributes["position"].array),
-                               p2[:, 5], atol=1e-4)
+    seg = np.asarray(v.conductor.trails.geometry.attributes["position"].array).reshape(-1, 2, 3)
+    np.testing.assert_allclose(seg[:, 0], p2[14:26, 5], atol=1e-4)
     assert "trail j5" in v.legend.value
+    n = len(Widget.widgets)
     v.trail_joints = []
-    assert v.conductor.trails == []
+    assert v.conductor.trails is None and v.trails_group.children == ()
+    assert len(Widget.widgets) < n                      # the trail models were closed, not left behind
     with pytest.raises(Exception, match="trail_joints"):
         v.trail_joints = ["nope"]
 
@@ -270,6 +333,7 @@ def test_view_framing_and_joint_pixels():
     v = SkeletonView(m)
     for f in (0, 150, 300):
         assert v.drawn_height(f) >= 0.45
+    assert v.controls.enableKeys is False     # arrow keys move sliders, not the camera of every view
     np.testing.assert_allclose(v.three_camera.quaternion,
                                scene3d.look_at_quaternion(v.three_camera.position, v.controls.target), atol=1e-12)
     x, y = v.joint_pixel("Head", 0)
@@ -289,17 +353,25 @@ def test_joint_sides_and_bones():
     np.testing.assert_allclose(q, [0, 0, -np.sqrt(0.5), np.sqrt(0.5)], atol=1e-12)
 
 
-def test_ghost_is_the_original_overlaid_and_toggles():
+def test_ghost_is_built_when_first_shown_and_toggles():
     m = _chain_motion(F=30)
     edited = _chain_motion(F=30, seed=5)
     v = SkeletonView(edited, ghost=m, show_ghost=False)
-    ghost_group = next(c for c in v.rig.children if getattr(c, "name", "") == "g0")
-    assert not ghost_group.visible
+    assert v.ghost_mesh is None and v.conductor.ghost is None and v.conductor.ghost_points == b""
     v.show_ghost = True
-    assert ghost_group.visible and v.ghost_toggle.value
+    assert v.ghost_mesh is not None and v.ghost_mesh.visible and v.ghost_toggle.value
+    assert v.conductor.ghost is v.ghost_mesh and v.ghost_mesh in v.rig.children
     assert "original (ghost)" in v.legend.value
-    ghost_action = v.conductor.actions[-1]
-    root = next(t for t in ghost_action.clip.tracks if t.name == "g0.position")
-    np.testing.assert_allclose(np.asarray(root.values).reshape(-1, 3), m.root_positions, atol=1e-5)
+    gp = np.frombuffer(v.conductor.ghost_points, np.float32).reshape(30, -1, 3)
+    p, _ = sn.forward_kinematics(m)
+    np.testing.assert_allclose(gp[:, :6], p, atol=1e-4)
+    mesh, sent = v.ghost_mesh, v.conductor.ghost_points
     v.set_motion(edited.slice(0, 20))          # the ghost stays (not re-sent) when not given
-    assert v.conductor.actions[-1] is ghost_action
+    assert v.ghost_mesh is mesh and v.conductor.ghost_points is sent
+    v.show_ghost = False
+    assert not v.ghost_mesh.visible
+    v.set_motion(edited, ghost=edited)         # a new ghost while hidden: sent only once shown again
+    assert v.conductor.ghost_points is sent
+    v.show_ghost = True
+    gp = np.frombuffer(v.conductor.ghost_points, np.float32).reshape(30, -1, 3)
+    np.testing.assert_allclose(gp[:, :6], sn.forward_kinematics(edited)[0], atol=1e-4)

@@ -1,9 +1,12 @@
-// Browser-side playback clock for SkeletonView (an anywidget, model-level: one clock per view model, whether
-// or not the conductor itself is displayed).
+// Browser-side clock and mesh builder for SkeletonView (an anywidget, model-level: one per view model, whether or
+// not the conductor itself is displayed).
 //
-// The motion is in pythreejs AnimationClips (binary keyframe tracks) played by AnimationActions on one
-// AnimationMixer, all paused; this clock sets every action's time and applies it (mixer.update(0)), exactly as
-// pythreejs' own AnimationAction.animateFrame does, then asks the scene to re-render.
+// The kernel sends, once per edit, binary buffers: `points` (F, P, 3) float32 world points (joints, then End
+// Sites), `states` (F, J) uint8 joint states (0 plain, 1 staggered pose, 2 contact), `rig_path` (F, 3) float32,
+// and once the ghost is shown `ghost_points`. For each shown frame (fractional: linear between frames) this clock
+// rewrites the vertices of the ONE skeleton mesh (a unit-sphere template per joint, a unit-tube template per bone,
+// mapped exactly as scene3d.skeleton_mesh does in Python), the ghost mesh, the trail segments and the rig
+// position of the pythreejs models it holds, then asks the scene to re-render.
 //   * playing (the ipywidgets Play's `playing`): a requestAnimationFrame loop on performance.now() runs the
 //     clip at its real rate; the Play's coarse ticks (value += step every interval) are kept near the clock:
 //     when the Play lags by a step or more (late timers on a loaded machine) its value is set to the clock's
@@ -20,33 +23,199 @@ async function resolve(model, ref) {
   return m;
 }
 
+function floats(dv) {   // a DataView / ArrayBuffer / typed array from the comm -> Float32Array (aligned copy if needed)
+  if (!dv) return new Float32Array(0);
+  const buf = dv.buffer || dv;
+  const off = dv.byteOffset || 0;
+  const len = dv.byteLength !== undefined ? dv.byteLength : buf.byteLength;
+  if (off % 4 === 0) return new Float32Array(buf, off, Math.floor(len / 4));
+  return new Float32Array(buf.slice(off, off + len));
+}
+
+function bytes(dv) {
+  if (!dv) return new Uint8Array(0);
+  const buf = dv.buffer || dv;
+  return new Uint8Array(buf, dv.byteOffset || 0, dv.byteLength !== undefined ? dv.byteLength : buf.byteLength);
+}
+
 function initialize({ model }) {
   const st = {
-    player: null, mixer: null, scene: null, actions: [], trails: [],
+    player: null, scene: null, rig: null, skeleton: null, ghost: null, trails: null,
     playing: false, baseFrame: 0, baseWall: 0, raf: 0, lastTick: null, bound: 0, correcting: null,
+    data: null, pending: 0, lastSync: 0,
   };
+
+  // the model's buffers decoded once per change (not per frame)
+  function decode() {
+    const F = Math.max(1, model.get("num_frames") || 1);
+    const P = Math.max(1, model.get("num_points") || 1);
+    st.data = {
+      F, P, J: model.get("num_joints") || 1,
+      points: floats(model.get("points")),
+      ghost: floats(model.get("ghost_points")),
+      ghostF: model.get("ghost_frames") || 0,
+      states: bytes(model.get("states")),
+      rig: floats(model.get("rig_path")),
+      segs: model.get("segments") || [],
+      tpl: floats(model.get("template")),
+      vs: model.get("sphere_vertices") || 0,
+      vt: model.get("tube_vertices") || 0,
+      jr: model.get("joint_radius"),
+      br: model.get("bone_radius"),
+      selected: new Set(model.get("selected") || []),
+      scale: model.get("selected_scale") || 1,
+      palette: model.get("palette") || [],
+      trailJoints: model.get("trail_joints") || [],
+      buf: new Float32Array(P * 3),
+      gbuf: new Float32Array(P * 3),
+      colourKey: null,
+    };
+  }
 
   const frameTime = () => Math.max(model.get("frame_time") || 1 / 60, 1e-4);
   const maxFrame = () => (st.player ? st.player.get("max") : 0);
 
+  // points of frame f (fractional, clamped to [0, n - 1]) into out
+  function pointsAt(src, n, P, f, out) {
+    if (src.length < n * P * 3 || n < 1) return false;
+    const fc = Math.min(Math.max(f, 0), n - 1);
+    const f0 = Math.floor(fc), f1 = Math.min(f0 + 1, n - 1), u = fc - f0;
+    const a = f0 * P * 3, b = f1 * P * 3;
+    for (let i = 0; i < P * 3; i++) out[i] = src[a + i] + u * (src[b + i] - src[a + i]);
+    return true;
+  }
+
+  // The attribute this clock writes: its own copy of the pythreejs one (same class, data, item size), put on the
+  // geometry once; pythreejs keeps its own for the kernel's still pictures.
+  function own(g, name) {
+    const a = g.attributes[name];
+    if (!a || a.snOwn) return a;
+    const fresh = new a.constructor(new Float32Array(a.array), a.itemSize, a.normalized);
+    fresh.snOwn = true;
+    fresh.dynamic = true;
+    g.addAttribute(name, fresh);
+    return fresh;
+  }
+
+  // the merged mesh of one frame: scene3d.skeleton_mesh (spheres, then tubes; same bone frames)
+  function writeMesh(obj, pts, selected) {
+    const d = st.data;
+    const g = obj && obj.geometry;
+    if (!g || !g.attributes.position || !g.attributes.normal) return;
+    const pa = own(g, "position"), na = own(g, "normal");
+    const pos = pa.array, nrm = na.array, T = d.tpl;
+    const nv = d.J * d.vs + (d.segs.length / 2) * d.vt;
+    if (pos.length < nv * 3 || T.length < (d.vs + d.vt) * 6) return;
+    let v = 0;
+    for (let j = 0; j < d.J; j++) {
+      const r = d.jr * (selected.has(j) ? d.scale : 1);
+      const cx = pts[3 * j], cy = pts[3 * j + 1], cz = pts[3 * j + 2];
+      for (let k = 0; k < d.vs; k++, v++) {
+        pos[3 * v] = cx + r * T[6 * k];
+        pos[3 * v + 1] = cy + r * T[6 * k + 1];
+        pos[3 * v + 2] = cz + r * T[6 * k + 2];
+      }
+    }
+    const t0 = d.vs * 6, br = d.br;
+    for (let i = 0; i < d.segs.length; i += 2) {
+      const a = 3 * d.segs[i], b = 3 * d.segs[i + 1];
+      const ax = pts[a], ay = pts[a + 1], az = pts[a + 2];
+      let dx = pts[b] - ax, dy = pts[b + 1] - ay, dz = pts[b + 2] - az;
+      const L = Math.hypot(dx, dy, dz);
+      if (L > 1e-12) { dx /= L; dy /= L; dz /= L; } else { dx = 0; dy = 1; dz = 0; }
+      // helper +x, or +z when the bone is nearly along x; x = y × helper, z = x × y (scene3d._bone_frames)
+      const hx = Math.abs(dx) < 0.9 ? 1 : 0, hz = 1 - hx;
+      let xx = dy * hz, xy = dz * hx - dx * hz, xz = -dy * hx;
+      const xl = Math.hypot(xx, xy, xz) || 1;
+      xx /= xl; xy /= xl; xz /= xl;
+      const zx = xy * dz - xz * dy, zy = xz * dx - xx * dz, zz = xx * dy - xy * dx;
+      for (let k = 0; k < d.vt; k++, v++) {
+        const o = t0 + 6 * k;
+        const tx = T[o] * br, ty = T[o + 1] * L, tz = T[o + 2] * br;
+        pos[3 * v] = ax + tx * xx + ty * dx + tz * zx;
+        pos[3 * v + 1] = ay + tx * xy + ty * dy + tz * zy;
+        pos[3 * v + 2] = az + tx * xz + ty * dz + tz * zz;
+        const nx = T[o + 3], ny = T[o + 4], nz = T[o + 5];
+        nrm[3 * v] = nx * xx + ny * dx + nz * zx;
+        nrm[3 * v + 1] = nx * xy + ny * dy + nz * zy;
+        nrm[3 * v + 2] = nx * xz + ny * dz + nz * zz;
+      }
+    }
+    pa.needsUpdate = true;
+    na.needsUpdate = true;
+    g.computeBoundingSphere();   // the Picker's raycast tests it first
+  }
+
+  function writeColours(obj, fi) {
+    const d = st.data;
+    const g = obj && obj.geometry;
+    const c = g && own(g, "color");
+    if (!c || d.palette.length < 4) return;
+    const row = d.states.length >= d.F * d.J ? Math.min(fi, d.F - 1) * d.J : -1;
+    let key = "";
+    for (let j = 0; j < d.J; j++) key += d.selected.has(j) ? 3 : (row >= 0 ? d.states[row + j] : 0);
+    if (key === d.colourKey) return;
+    d.colourKey = key;
+    const col = c.array;
+    for (let j = 0; j < d.J; j++) {
+      const rgb = d.palette[+key[j]];
+      for (let k = 0, v = j * d.vs; k < d.vs; k++, v++) {
+        col[3 * v] = rgb[0]; col[3 * v + 1] = rgb[1]; col[3 * v + 2] = rgb[2];
+      }
+    }
+    c.needsUpdate = true;
+  }
+
+  function writeTrails(obj, fi) {
+    const d = st.data;
+    const g = obj && obj.geometry;
+    if (!g || !g.attributes.position || !d.trailJoints.length) return;
+    const pos = g.attributes.position.array;
+    const w = Math.floor(pos.length / (d.trailJoints.length * 12));   // 2 w segments x 2 ends x 3 per joint
+    let v = 0;
+    for (const p of d.trailJoints) {
+      for (let k = 0; k < 2 * w; k++) {
+        for (const f of [fi - w + k, fi - w + k + 1]) {
+          const o = (Math.min(Math.max(f, 0), d.F - 1) * d.P + p) * 3;
+          pos[v++] = d.points[o]; pos[v++] = d.points[o + 1]; pos[v++] = d.points[o + 2];
+        }
+      }
+    }
+    g.attributes.position.needsUpdate = true;
+    g.computeBoundingSphere();
+  }
+
   function show(f) {
-    if (!st.mixer || !st.mixer.obj) return;
-    const t = f * frameTime();
-    for (const a of st.actions) {
-      if (a && a.obj) a.obj.time = t;
+    if (!st.data) decode();
+    const d = st.data;
+    const fi = Math.min(Math.max(Math.round(f), 0), d.F - 1);
+    const sk = st.skeleton && st.skeleton.obj;
+    if (sk && pointsAt(d.points, d.F, d.P, f, d.buf)) {
+      writeMesh(sk, d.buf, d.selected);
+      writeColours(sk, fi);
     }
-    st.mixer.obj.update(0);
-    const w = model.get("trail_window");
-    const fi = Math.round(f);
-    for (const tr of st.trails) {
-      const g = tr && tr.obj && tr.obj.geometry;
-      if (!g) continue;
-      const n = g.attributes.position ? g.attributes.position.count : 0;
-      const s = Math.max(0, fi - w);
-      g.setDrawRange(s, Math.max(0, Math.min(n, fi + w + 1) - s));
+    const gh = st.ghost && st.ghost.obj;
+    if (gh && gh.visible && d.ghostF > 0 && pointsAt(d.ghost, d.ghostF, d.P, f, d.gbuf)) {
+      writeMesh(gh, d.gbuf, new Set());
     }
+    const rig = st.rig && st.rig.obj;
+    if (rig && d.rig.length >= d.F * 3) {
+      const fc = Math.min(Math.max(f, 0), d.F - 1), f0 = Math.floor(fc), f1 = Math.min(f0 + 1, d.F - 1);
+      const u = fc - f0;
+      rig.position.set(...[0, 1, 2].map((k) => d.rig[3 * f0 + k] + u * (d.rig[3 * f1 + k] - d.rig[3 * f0 + k])));
+    }
+    if (st.trails && st.trails.obj) writeTrails(st.trails.obj, fi);
     if (st.scene) st.scene.trigger("rerender", st.scene, {});
-    model.set("shown_frame", fi);   // local only (not saved): lets tests read what is drawn
+    // local only (not saved): what is drawn, for checks; the root's drawn position is published on the
+    // (hidden) conductor element by render() below
+    model.set("shown", { frame: fi, root: [d.buf[0], d.buf[1], d.buf[2]], frames: d.F });
+    model.set("shown_frame", fi);
+  }
+
+  function redraw() {
+    if (!st.player) return;
+    if (st.playing) show(clockFrame());
+    else show(st.player.get("value"));
   }
 
   const clockFrame = () => st.baseFrame + (performance.now() - st.baseWall) / (1000 * frameTime());
@@ -71,6 +240,18 @@ function initialize({ model }) {
       return;
     }
     show(f);
+    // the Play's own ticks (setInterval) run late on a loaded machine: keep its value (the slider, the kernel's
+    // playhead) within a step of the clock from here too, at most every 200 ms (<= 5 extra messages a second)
+    const now = performance.now();
+    const step = (st.player && st.player.get("step")) || 1;
+    if (st.player && now - st.lastSync >= 200 && Math.floor(f) - st.player.get("value") >= step) {
+      st.lastSync = now;
+      st.correcting = Math.floor(f);
+      st.lastTick = st.correcting;
+      st.player.set("value", st.correcting);
+      st.player.save_changes();
+      st.correcting = null;
+    }
     st.raf = requestAnimationFrame(loop);
   }
 
@@ -123,100 +304,46 @@ function initialize({ model }) {
     }
   }
 
+  const REFS = ["player", "scene", "rig", "skeleton", "ghost", "trails"];
+
   async function bind() {
     const ticket = ++st.bound;
-    const [player, mixer, scene] = await Promise.all(
-      ["player", "mixer", "scene"].map((k) => resolve(model, model.get(k))));
-    const actions = await Promise.all((model.get("actions") || []).map((r) => resolve(model, r)));
-    const trails = await Promise.all((model.get("trails") || []).map((r) => resolve(model, r)));
+    const got = await Promise.all(REFS.map((k) => resolve(model, model.get(k)).catch(() => null)));
     if (ticket !== st.bound) return;   // a newer binding is on its way
-    const old = st.actions;
+    const [player, scene, rig, skeleton, ghost, trails] = got;
     if (st.player && st.player !== player) {
       st.player.off("change:value", onValue);
       st.player.off("change:playing", onPlaying);
     }
-    // Old actions are stopped, not uncached: three r97 (pythreejs 2.4.2) does not count a property binding
-    // shared by a new action (same root and track name, bound by pythreejs' mixer.clipAction), so
-    // uncacheAction(old) dropped that binding from the mixer while the new action still used it, and the new
-    // action's play() threw "Cannot set properties of undefined (setting '_cacheIndex')" in _lendBinding
-    // (fixed in later three.js: _bindAction increments referenceCount). Cost: the stopped actions stay cached.
-    for (const a of old) {
-      if (a && a.obj && !actions.includes(a)) a.obj.stop();
-    }
-    st.mixer = mixer;
-    st.scene = scene;
-    st.actions = actions.filter((a) => a && a.obj);
-    st.trails = trails.filter((t) => t);
-    for (const a of st.actions) {
-      a.obj.paused = true;   // time is set by this clock; the mixer only applies it
-      a.obj.play();
-    }
+    Object.assign(st, { scene, rig, skeleton, ghost, trails });
     if (player && st.player !== player) {
       st.player = player;
       player.on("change:value", onValue);
       player.on("change:playing", onPlaying);
     }
     if (!st.player) return;
-    if (st.playing) show(clockFrame());
-    else show(st.player.get("value"));
+    redraw();
     onPlaying();
   }
 
-  // An edit updates the tracks in place (new times/values arrays on the same pythreejs track models, tracks added
-  // to or dropped from the same clip) and then bumps data_version. A three.js AnimationAction keeps interpolants
-  // made from its clip's tracks when it was created, so every action is rebuilt from its clip's current tracks:
-  // the mixer's public uncacheAction / clipAction, the new action replacing the old one on its pythreejs model.
-  async function refresh() {
-    const ticket = st.bound;
-    await Promise.all(st.actions.map(async (a) => {   // let the tracks' own updates (sent first) land
-      const clip = a && a.get("clip");
-      const tracks = (clip && clip.get("tracks")) || [];
-      await Promise.all([clip, ...tracks].map((m) => (m && m.state_change) || null));
-    }));
-    await new Promise((r) => setTimeout(r, 0));
-    if (ticket !== st.bound || !st.mixer || !st.mixer.obj) return;   // a rebinding came in between
-    const mixer = st.mixer.obj;
-    for (const a of st.actions) {
-      if (!a || !a.obj) continue;
-      const clip = a.obj.getClip();
-      const root = a.obj.getRoot();
-      clip.resetDuration();
-      a.obj.stop();
-      mixer.uncacheAction(clip, root);
-      const fresh = mixer.clipAction(clip, root);
-      fresh.ipymodelId = a.model_id;
-      fresh.ipymodel = a;
-      fresh.paused = true;
-      fresh.play();
-      a.obj = fresh;
-    }
-    // A dropped track (a joint that no longer moves) released its binding, and three.js then restored that
-    // node's transform as it was when first bound; the kernel's value for it (the joint's new rest rotation) is
-    // on the node's pythreejs model: re-apply the models' transforms, the mixer poses the animated ones on top.
-    if (st.scene && st.scene.obj) {
-      st.scene.obj.traverse((o) => {
-        const m = o.ipymodel;
-        if (!o.isGroup || !m) return;
-        const q = m.get("quaternion");
-        const p = m.get("position");
-        if (q && q.length === 4) o.quaternion.fromArray(q);
-        if (p && p.length === 3) o.position.fromArray(p);
-      });
-    }
-    if (!st.player) return;
-    if (st.playing) show(clockFrame());
-    else show(st.player.get("value"));
+  // data changes (one message per edit, several traits): decode and redraw once, after the message is applied
+  function onData() {
+    st.data = null;
+    if (st.pending) return;
+    st.pending = setTimeout(() => { st.pending = 0; redraw(); }, 0);
   }
 
-  model.on("change:data_version", refresh);
-  model.on("change:actions", bind);
-  model.on("change:trails", bind);
-  model.on("change:player", bind);
-  model.on("change:trail_window", () => { if (st.player && !st.playing) show(st.player.get("value")); });
+  for (const k of ["points", "num_frames", "num_points", "num_joints", "ghost_points", "ghost_frames", "segments",
+                   "template", "sphere_vertices", "tube_vertices", "joint_radius", "bone_radius", "selected",
+                   "selected_scale", "states", "palette", "rig_path", "trail_joints", "trail_window"]) {
+    model.on(`change:${k}`, onData);
+  }
+  for (const k of REFS) model.on(`change:${k}`, bind);
   bind();
   return () => {
     st.playing = false;
     if (st.raf) cancelAnimationFrame(st.raf);
+    if (st.pending) clearTimeout(st.pending);
     if (st.player) {
       st.player.off("change:value", onValue);
       st.player.off("change:playing", onPlaying);
@@ -226,6 +353,17 @@ function initialize({ model }) {
 
 function render({ model, el }) {
   el.style.display = "none";
+  el.classList.add("sn-conductor");
+  const mark = () => {
+    const s = model.get("shown");
+    if (!s) return;
+    el.dataset.frame = s.frame;
+    el.dataset.frames = s.frames;
+    el.dataset.root = s.root.map((x) => x.toFixed(2)).join(",");
+  };
+  model.on("change:shown", mark);
+  mark();
+  return () => model.off("change:shown", mark);
 }
 
 export default { initialize, render };
