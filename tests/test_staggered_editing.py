@@ -258,7 +258,18 @@ def test_succession_offsets_are_s_d_to_the_l(fixture, root, s, l):
     for j in range(len(NAMES)):
         d = tree_depth_below(PARENTS, r, j)
         expect = 0.0 if d is None else s * d ** l
-        assert np.all(dr[1:-1, j] == expect) or np.allclose(dr[1:-1, j], expect, rtol=0, atol=1e-15)  # one add
+        T0 = sm.pose_times + sm.refinements[:, j]
+        raw = T0 + np.r_[0.0, np.full(T0.size - 2, expect), 0.0]     # the knots r + s d^l would give
+        t = sm.pose_times
+        U, L = raw[-1] - (t[-1] - t[-2]) / 2, raw[0] + (t[1] - t[0]) / 2   # end zones (editing.inside_ends)
+        free = (raw[1:-1] <= U) & (raw[1:-1] >= L)
+        # one add where the knot stays out of the end zones
+        assert np.allclose(dr[1:-1, j][free], expect, rtol=0, atol=1e-15)
+        # eased inside them (editing.inside_ends): towards the zone's start, never reaching the end poses' knots
+        eased = dr[1:-1, j][~free]
+        assert np.all((eased * expect >= 0) & (np.abs(eased) < abs(expect)))   # same way, less far
+        got = (out.pose_times + out.refinements[:, j])[1:-1]
+        assert np.all((got > raw[0]) & (got < raw[-1]))
         assert np.all(dr[[0, -1], j] == 0)  # the end poses anchor the clip
     # the root translation follows the root rotation's timing (0 here since d(root) = 0 or not selected)
     assert np.allclose(out.root_refinements, sm.root_refinements + dr[:, 0], atol=1e-15)
@@ -414,7 +425,9 @@ def test_uniform_shift_is_not_a_warning_but_crossing_is(fixture):
     assert all(w.joint != "LeftHand" for w in E.timing_warnings(small))
     big = staggered.succession(sm, root="LeftForeArm", s=0.6, l=1.0, joints=["LeftForeArm", "LeftHand"])
     T = big.knot_times()[:, sm.skeleton.index("LeftHand")]
-    assert T[-2] >= T[-1]                     # pose K-2's knot is past the anchored last pose
+    # r + s would put pose K-2's knot past the anchored last pose; it is eased to stay before it (the last
+    # frame shows the last pose), yet it is much closer to the next pose than its own: warned
+    assert sm.knot_times()[-2, sm.skeleton.index("LeftHand")] + 0.6 >= T[-1] > T[-2]
     assert (sm.num_poses - 2, "LeftHand") in {(w.pose, w.joint) for w in E.timing_warnings(big)}
     del j
 
