@@ -77,7 +77,7 @@ def main():
     e = globals().pop("_e")
     print(f"StaggerEditor first paint, {full.num_frames} frames: {w:.2f} s wall, {c:.2f} s cpu "
           f"(target <= 2 s: {'OK' if w <= 2 else 'MISSED'})")
-    e.close()
+    close(e)
 
     # -- StaggerEditor sliders, 900 frames ---------------------------------------------------------------
     e = StaggerEditor(m900, precompute=False)
@@ -85,9 +85,8 @@ def main():
         e.model.keep_contacts = False
     cold = []
     for pc in (50.0, 30.0, 70.0):
-        cold.append(timed(lambda: setattr(e.model, "percent", pc))[0])
-    print(f"{'cull % first visits (900 fr)':<34} {', '.join(f'{1000 * t:.0f} ms' for t in cold)} "
-          f"(target <= 100 ms: {'OK' if max(cold) <= 0.1 else 'MISSED'})")
+        cold.append(timed(lambda: setattr(e.model, "percent", pc)))
+    first_visits("cull % first visits (900 fr)", cold)
     bare = Session(m900)
     e.model.percent = 60.0
     e.model.s = 0.03
@@ -103,7 +102,21 @@ def main():
         warm_cull(pcs)
         bare.precompute_cull(pcs)
     results["percent"] = report("StaggerEditor percent (900 fr, warm)", *sweep(e, "percent", [], pcs, bare), 50)
-    e.close()
+    close(e)
+
+    # -- cull first visits after the editor's own warm-up (precompute=True: refits, then the replay of the
+    # current edit at every position), on a fresh editor; the warm-up's CPU is waited for and not counted
+    e = StaggerEditor(m900)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for f in e._futures():
+        f.result()
+    print(f"{'  editor warm-up (900 fr)':<34} {time.perf_counter() - w0:.2f} s wall, "
+          f"{time.process_time() - c0:.2f} s cpu (background, after first paint)")
+    warm = []
+    for pc in (50.0, 30.0, 70.0):
+        warm.append(timed(lambda: setattr(e.model, "percent", pc)))
+    first_visits("cull % first visits after warm-up", warm)
+    close(e)
 
     # -- WandEditor: sigma on 600 frames --------------------------------------------------------------
     w = WandEditor(m600, frame=300, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
@@ -117,7 +130,7 @@ def main():
     results["rx"] = report("WandEditor rotate x (600 fr)", *sweep(w, "rx", [], [5.0, 10.0, 15.0, 25.0], bare), 50)
     results["edit_frame"] = report("WandEditor edit_frame (600 fr)",
                                    *sweep(w, "edit_frame", [], [200, 250, 350, 400], bare), 50)
-    w.close()
+    close(w)
 
     # -- WarpEditor: duration, skip on 900 frames -------------------------------------------------------
     r = WarpEditor(m900)
@@ -135,9 +148,27 @@ def main():
     op = dict(ops[-1]) if ops else {"op": "guided_warp", "duration": r.model.duration}
     bare.warm(("warp_tables", [dict(op, skip=16)])).result()
     results["skip"] = report("WarpEditor skip (900 fr, warm)", *sweep(r, "skip", [], [4, 6, 10, 12], bare), 50)
-    r.close()
+    close(r)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return results
+
+
+def close(editor):
+    """Close ``editor`` and wait until its session's running warm-up item has finished, so it is not counted
+    in the next figures (an older session without ``close(wait=...)``: not waited for)."""
+    editor.close()
+    try:
+        editor.session.close(wait=True)
+    except TypeError:
+        pass
+
+
+def first_visits(label, times):
+    """Wall and CPU of each first visit; the target (<= 100 ms) judged on CPU (wall moves with the load)."""
+    cpu = max(c for _, c in times)
+    print(f"{label:<34} wall {', '.join(f'{1000 * w:.0f}' for w, _ in times)} ms | cpu "
+          f"{', '.join(f'{1000 * c:.0f}' for _, c in times)} ms | load {os.getloadavg()[0]:4.1f} | "
+          f"target <= 100 ms cpu: {'OK' if cpu <= 0.1 else 'MISSED'}")
 
 
 def _known_ops(session):

@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pytest
 
-from stagger_nb.session.cache import Cache
+import stagger_nb as sn
+from stagger_nb.session.cache import Cache, nbytes
 
 
 class Thing:  # a weak-referenceable object compared by identity, like Motion / StaggeredMotion
@@ -60,6 +62,27 @@ def test_each_kind_is_bounded_least_recently_used_first():
     assert [cache.peek("basis", "m", s) for s in range(4)] == [0, None, 20, 30]
     assert cache.get("extract", "m", None, lambda: "e") == "e"  # another kind: its own bound
     assert len(cache) == 4
+
+
+def test_a_byte_budget_drops_the_least_recently_used_arrays_first():
+    """Besides its count bound, a budgeted kind keeps the arrays of its finished entries within the budget
+    (least recently used dropped first; the newest always stays, even alone over budget)."""
+    kb = np.zeros(128)                                  # 1 KiB
+    cache = Cache(budgets={"state": 3 * 1024})
+    for i in range(3):
+        cache.put("state", f"p{i}", None, kb.copy())
+    assert cache.nbytes("state") == 3 * 1024
+    cache.get("state", "p0", None)                      # touch p0: now p1 is the oldest
+    cache.put("state", "p3", None, {"a": kb.copy(), "b": [kb.copy()]})   # 2 KiB, nested
+    assert [cache.peek("state", f"p{i}") is not None for i in range(4)] == [True, False, False, True]
+    assert cache.nbytes("state") == 3 * 1024
+    cache.get("state", "big", None, lambda: np.zeros(1024))          # 8 KiB > budget: kept alone
+    assert cache.peek("state", "big") is not None and cache.nbytes("state") == 8 * 1024
+    assert cache.peek("state", "p0") is None and cache.peek("state", "p3") is None
+    cache.get("cull", "m", 1, lambda: np.zeros(10**4))  # a kind without budget: not counted
+    assert cache.nbytes("cull") == 0 and cache.peek("cull", "m", 1) is not None
+    m = sn.data.load("walk")                             # a real state: its arrays are counted
+    assert nbytes(m) >= m.local_quats.nbytes + m.root_positions.nbytes
 
 
 def test_tokens_are_weak_and_never_reused():

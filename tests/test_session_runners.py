@@ -119,6 +119,77 @@ def test_timing_warnings_are_summarised_in_messages(walk_session):
     assert s.messages() == [want]
 
 
+def test_timing_warnings_once_per_state_and_equal_to_the_staggered_call(walk_session, monkeypatch):
+    """Session.timing_warnings: the warnings of the last staggered state (what staggered.timing_warnings
+    says of s.staggered()) and its summary; computed once per state, also across undo/redo back to it."""
+    calls = []
+    real = staggered.timing_warnings
+    monkeypatch.setattr(staggered, "timing_warnings", lambda sm, **kw: calls.append(1) or real(sm, **kw))
+    s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0},
+                              {"op": "edit_frame", "frame": 3, "deltas": {"Hips": [5.0, 0.0, 0.0]}}])
+    summary, found = s.timing_warnings()
+    want = real(s.staggered())
+    assert found == tuple(want) and want  # crosses poses (else the check proves nothing)
+    assert summary == staggered.summarize_timing_warnings(want) and s.messages() == [summary]
+    assert len(calls) == 1
+    s.replace(1, {"op": "edit_frame", "frame": 4, "deltas": {"Hips": [5.0, 0.0, 0.0]}})   # after the state
+    assert s.timing_warnings() == (summary, found) and len(calls) == 1
+    s.replace(0, {"op": "succession", "root": "Hips", "s": 0.01, "l": 1.0})
+    assert s.timing_warnings()[1] == tuple(real(s.staggered())) and len(calls) == 2
+    s.undo()
+    assert s.timing_warnings() == (summary, found) and len(calls) == 2   # the same state again
+    assert _fresh(walk_session, []).timing_warnings() == ("", ())
+
+
+def test_same_op_on_the_same_state_is_not_recomputed(walk_session, monkeypatch):
+    """Two cull percents keeping the same poses give the same culled state: the ops after it are found by
+    that state's content name and the op (not recomputed), and the result is the very same motion; a
+    percent keeping other poses is computed, and equals a fresh replay."""
+    sm = walk_session.extraction()
+    by_keep = {}
+    for p in np.arange(5.0, 100.0, 2.5):
+        by_keep.setdefault(tuple(staggered.cull_keep(sm, p)), []).append(float(p))
+    p1, p2 = next(v[:2] for v in by_keep.values() if len(v) > 1)
+    p3 = next(v[0] for k, v in by_keep.items() if p1 not in v)
+    tail = [{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}, {"op": "keep_contacts"}]
+    s = _fresh(walk_session, [{"op": "cull", "percent": p1}] + tail)
+    first = s.edited()
+    calls = []
+    for name in ("succession", "keep_contacts"):
+        real = getattr(staggered, name)
+        monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    s.set_ops([{"op": "cull", "percent": p2}] + tail)
+    assert s.edited() is first and calls == [] and s.messages() == _fresh(walk_session, s.ops).messages()
+    s.set_ops([{"op": "cull", "percent": p3}] + tail)
+    third = s.edited()
+    assert calls == ["succession", "keep_contacts"]
+    monkeypatch.undo()
+    fresh = Session(walk_session.source, s.ops).edited()   # a new cache: computed from scratch
+    assert np.array_equal(third.local_quats, fresh.local_quats)
+    assert np.array_equal(third.root_positions, fresh.root_positions)
+
+
+def test_exaggerate_basis_built_once_per_pre_exaggerate_state(walk_session, monkeypatch):
+    """A w_r move re-runs exaggerate with the cached pose_offset_basis of the state before it (one basis
+    per such state); the result matches the plain technique call (to rounding: the basis reorders sums)."""
+    if not hasattr(staggered, "pose_offset_basis"):
+        pytest.skip("this staggered has no pose_offset_basis yet (eval-speed)")
+    calls = []
+    real = staggered.pose_offset_basis
+    monkeypatch.setattr(staggered, "pose_offset_basis", lambda sm: calls.append(1) or real(sm))
+    s = _fresh(walk_session, [])
+    for w in (0.3, 0.6, -0.4):
+        s.set_ops([{"op": "cull", "percent": 70.0}, {"op": "exaggerate", "w_r": w}])
+        got = s.edited()
+        culled = staggered.cull(walk_session.extraction(), 70.0)
+        want = staggered.evaluate(staggered.exaggerate(culled, list(range(culled.num_poses)), w))
+        _same_motion(got, want, tol=1e-9)   # rounding only (basis: ~1e-15 rad per knot)
+    assert len(calls) == 1
+    s.set_ops([{"op": "cull", "percent": 40.0}, {"op": "exaggerate", "w_r": 0.3}])
+    s.edited()
+    assert len(calls) == 2   # another pre-exaggerate state: its own basis
+
+
 def test_propagate_several_frames_and_repetitions(walk_session):
     m = walk_session.source
     j = m.skeleton.names[2]

@@ -5,6 +5,7 @@ import itertools
 import threading
 from concurrent.futures import CancelledError
 
+import numpy as np
 import pytest
 
 import stagger_nb as sn
@@ -38,6 +39,39 @@ def test_warm_fills_the_caches_the_replay_uses(session):
     session.close()
 
 
+def test_warm_replay_fills_every_step_and_leaves_the_op_list_alone(session, monkeypatch):
+    """("replay", lists): each list replayed into the cache under its prefix digests; the session's ops and
+    history do not change; a later set_ops to a warmed list computes nothing and gives exactly the result of
+    a fresh replay; a list that fails is skipped (the failure shows when a user reaches it)."""
+    from stagger_nb import staggered
+    lists = [[{"op": "cull", "percent": p}, {"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0},
+              {"op": "keep_contacts"}] for p in (40.0, 70.0)]
+    bad = [{"op": "edit_pose", "pose": 999, "deltas": {"Hips": [1.0, 0.0, 0.0]}}]
+    assert session.warm(("replay", lists + [bad])).result(120) == 3
+    assert session.ops == [] and not session.can_undo
+    calls = []
+    for name in ("succession", "keep_contacts", "cull", "evaluate", "extract"):
+        real = getattr(staggered, name)
+        monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    for ops in lists:
+        session.set_ops(ops)
+        got = session.edited()
+        assert calls == []   # every step came from the warm-up
+        monkeypatch.undo()
+        fresh = Session(session.source, ops).edited()
+        assert np.array_equal(got.local_quats, fresh.local_quats)
+        assert np.array_equal(got.root_positions, fresh.root_positions)
+        for name in ("succession", "keep_contacts", "cull", "evaluate", "extract"):
+            real = getattr(staggered, name)
+            monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+    session.set_ops(bad)
+    with pytest.raises(ValueError, match=r"ops\[0\] \(edit_pose\): pose"):
+        session.edited()
+    with pytest.raises(ValueError, match=r"^jobs\[0\]\[1\]\[0\]\[0\]"):
+        session.warm(("replay", [[{"op": "nope"}]]))
+    session.close()
+
+
 def test_warm_future_cancels_before_the_next_item(session):
     gate, entered = threading.Event(), threading.Event()
     labels = []
@@ -58,6 +92,28 @@ def test_warm_future_cancels_before_the_next_item(session):
     assert done.result(120) == 1
     assert set(labels) == {"extract"}  # no cull item ran after the cancel (extract reports fractions)
     session.close()
+
+
+def test_close_wait_returns_once_the_running_item_has_finished(session):
+    """close(wait=True): the warm-ups are cancelled and the item running now has finished on return."""
+    gate, entered, finished = threading.Event(), threading.Event(), threading.Event()
+
+    def progress(done, total, label):
+        if label == "extract" and not entered.is_set():
+            entered.set()
+            assert gate.wait(30)
+        if label == "cull 30 %":
+            finished.set()   # the extraction item is over (its successor is announced)
+
+    fut = session.warm("extract", ("cull", [30, 40]), progress=progress)
+    assert entered.wait(30)
+    threading.Timer(0.3, gate.set).start()
+    session.close(wait=True)
+    busy = []
+    session.observe_busy(lambda kind, started: busy.append(kind))
+    assert fut.cancelled() and gate.is_set()
+    assert session.extraction() is not None and busy == []   # the running item had finished: cached
+    assert not finished.is_set()                             # and nothing after the cancel ran
 
 
 def test_warm_checks_its_jobs_at_once(session):

@@ -115,6 +115,30 @@ def test_stagger_undo_restores_the_model_and_errors_clear(stagger_editor):
     assert "999" not in e.message.value and "Error" not in e.message.value
 
 
+def test_stagger_slider_move_redraws_only_what_changed(stagger_editor, walk):
+    """One slider move: the joint-curve plot is drawn once (with the new edit), the probability plot is redrawn
+    when the kept poses change (cull) and left alone when they do not (timing); each shows the current data."""
+    e = stagger_editor
+    e.session.clear()
+    e.model.percent = 60.0
+    sets = {"curves": 0, "probability": 0}
+    e.curves.observe(lambda c: sets.__setitem__("curves", sets["curves"] + 1), names="figure")
+    e.probability.observe(lambda c: sets.__setitem__("probability", sets["probability"] + 1), names="figure")
+    prob_before = e.probability.figure
+    e.model.s = 0.02
+    assert sets == {"curves": 1, "probability": 0} and e.probability.figure is prob_before
+    j = walk.skeleton.index(e.model.joint)
+    np.testing.assert_allclose(_y(e.curves, 0), joint_rotation_degrees(e.session.edited(), j)[:, 0], atol=1e-9)
+    e.model.percent = 40.0
+    assert sets == {"curves": 2, "probability": 1}
+    kept = np.asarray(e.session.staggered().pose_times)
+    xs = [np.asarray(t["x"], dtype=float) for t in e.probability.figure["data"] if len(t.get("x", ())) == kept.size]
+    assert any(np.allclose(x, kept) for x in xs)   # the redrawn plot marks the poses kept now
+    e.session.undo()                                 # back to 60 %: the plot follows
+    assert sets["probability"] == 2 and e.model.percent == 60.0
+    e.session.clear()
+
+
 def test_stagger_playhead_pose_and_nudge(stagger_editor, walk):
     e = stagger_editor
     e.session.clear()
@@ -328,6 +352,30 @@ def test_stagger_first_paint_then_warm_up(walk):
         e.close()
 
 
+def test_stagger_warm_up_makes_first_cull_visits_hits(walk, monkeypatch):
+    """After the editor's warm-up, a first visit of a cull position replays nothing (refit, timing tail and
+    evaluation all cached) and shows exactly what a fresh session computes."""
+    from stagger_nb.widgets import StaggerEditor
+    m = walk.slice(0, 240)
+    e = StaggerEditor(m)
+    try:
+        for f in e._futures():
+            f.result(timeout=300)
+        calls = []
+        for name in ("cull", "keep_contacts", "evaluate", "extract", "succession"):
+            real = getattr(staggered, name)
+            monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
+        for pc in (50.0, 30.0):
+            e.model.percent = pc
+        assert calls == [] and not e.error
+        monkeypatch.undo()
+        fresh = Session(m, e.session.ops).edited()
+        assert np.array_equal(e.session.edited().local_quats, fresh.local_quats)
+        assert e.view.motion is e.session.edited()
+    finally:
+        e.close()
+
+
 def test_warp_style_free_length_and_backward(walk, run):
     from stagger_nb.widgets import WarpEditor
     w, r = walk.slice(0, 150), run.slice(0, 150)
@@ -365,3 +413,45 @@ def test_closing_an_editor_closes_every_widget_it_made(walk):
     assert all(w.comm is not None for w in made)
     e.close()
     assert e.comm is None and all(w.comm is None for w in made)
+
+
+def test_closing_an_editor_cancels_every_warm_up_it_submitted(walk):
+    """Every Session.warm future the editor submitted is cancelled by close() (one left out kept refitting
+    every cull position of a closed editor in the background)."""
+    from stagger_nb.widgets import StaggerEditor
+    seen = []
+    orig = Session.warm
+
+    class Spy(Session):
+        def warm(self, *jobs, progress=None):
+            fut = orig(self, *jobs, progress=progress)
+            seen.append(fut)
+            return fut
+
+    e = StaggerEditor(Spy(walk.slice(0, 120)))
+    e.close()
+    assert seen and e._futures() == seen   # close() cancelled each of them
+    assert all(f.cancelled() or f.done() for f in seen)
+
+
+def test_stagger_warm_up_replays_its_own_ops_only(walk):
+    """On a session holding other techniques' ops after the staggered ones (the quickstart's), the warm-up
+    replays every cull position up to the editor's last op: the wand and warp ops after it (their own heads,
+    per edited motion) are left to the visit."""
+    from stagger_nb.widgets import StaggerEditor
+    jobs = []
+    orig = Session.warm
+
+    class Spy(Session):
+        def warm(self, *j, progress=None):
+            jobs.extend(j)
+            return orig(self, *j, progress=progress)
+
+    m = walk.slice(0, 120)
+    e = StaggerEditor(Spy(m, ops=_quickstart(m)))
+    e.close()
+    lists = [v for name, v in (j for j in jobs if isinstance(j, tuple)) if name == "replay"][0]
+    assert len(lists) == 19
+    for ops in lists:
+        assert [o["op"] for o in ops] == ["cull", "succession"]   # keep_contacts: off, as the session had it
+        assert ops[1] == dict(_quickstart(m)[0], joints=None)

@@ -102,10 +102,11 @@ class _Info:
     replays): the warp curve it computed (if a warp), its notes, whether its state is staggered, and the
     timing-warning summary of that state (filled on demand)."""
 
-    __slots__ = ("warp", "notes", "staggered", "summary")
+    __slots__ = ("warp", "notes", "staggered", "summary", "warnings")
 
     def __init__(self, warp, notes, staggered: bool):
-        self.warp, self.notes, self.staggered, self.summary = warp, tuple(notes), staggered, None
+        self.warp, self.notes, self.staggered = warp, tuple(notes), staggered
+        self.summary = self.warnings = None
 
 
 def _share(progress: Callable | None, done: int, total: int, a: float, b: float, label: str):
@@ -116,10 +117,9 @@ def _share(progress: Callable | None, done: int, total: int, a: float, b: float,
     return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
 
 
-def _timing_summary(sm) -> str:
-    """One plain sentence about the timing warnings of ``sm`` ('' when none), §5.2."""
+def _timing_summary(found) -> str:
+    """One plain sentence about the timing warnings ``found`` ('' when none), §5.2."""
     from .. import staggered
-    found = staggered.timing_warnings(sm)
     summarize = getattr(staggered, "summarize_timing_warnings", None)
     if summarize is not None:
         return summarize(found)
@@ -289,11 +289,23 @@ class Session:
         return hit if hit is not None else self._ctx.cache.peek("state", key)
 
     def _walk(self, upto: int, keep_all: bool = False, progress: Callable | None = None):
-        """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them),
-        resuming from the latest prefix whose state is held or cached and whose earlier steps are known.
-        Linear in ``upto``: prefix keys are chained digests, each state is computed at most once."""
+        """The state after ``ops[:upto]`` of the session's op list (with ``keep_all``, the list of states after
+        each of them): :meth:`_run` on the current ops; the last replay's final state is held."""
         with self._replay_lock:
             ops, keys = self._history.ops, self._prefix_keys()
+            out = self._run(ops, keys, upto, keep_all, progress)
+            if upto:
+                self._held = {keys[upto - 1]: out[-1] if keep_all else out}
+            if upto == len(ops):
+                self._replayed = True
+            return out
+
+    def _run(self, ops: tuple, keys: list, upto: int, keep_all: bool = False, progress: Callable | None = None):
+        """The state after ``ops[:upto]`` (``keys``: their chained prefix digests), resuming from the latest
+        prefix whose state is held or cached and whose earlier steps are known. Linear in ``upto``: each state
+        is computed at most once; every computed state goes to the cache under its prefix digest (so any op
+        list sharing that prefix, e.g. the session's after an undo or a warmed one, finds it)."""
+        with self._replay_lock:
             info, cache = self._info, self._ctx.cache
             known = 0  # steps whose _Info is known, from the start
             while known < upto and keys[known] in info:
@@ -313,7 +325,7 @@ class Session:
             todo = [i for i in range(r, upto) if states[i] is None]
             total = len(todo)
             state = self.source if r == 0 else states[r - 1]
-            origin = (lambda r=r, st=list(states[:r]): self._origin(keys[:r], st))  # noqa: E731 (lazy)
+            origin = (lambda r=r, st=list(states[:r]): self._origin(ops, keys[:r], st))  # noqa: E731 (lazy)
             done = 0
             for i in range(r, upto):
                 if states[i] is not None:  # keep_all: a cached step past a missing one
@@ -322,21 +334,34 @@ class Session:
                 op = ops[i]
                 if progress is not None:
                     progress(done, total, op.name)
-                # an op extracting first reports the extraction as its first half, its own work as the rest
-                split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
-                run = Run(self._ctx, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
-                try:
-                    state = convert(state, op.needs, run)
-                    run.progress = _share(progress, done, total, split, 1.0, op.name)
-                    state = RUNNERS[type(op)](state, op, run)
-                except ValueError as e:
-                    raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
-                except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
-                    raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
-                origin = run._origin
+                # the same op on the same state (another prefix reached it: two cull percents keeping the same
+                # poses, an undo to an equal edit) is the state computed then: found by the state's content
+                # name and the op, not recomputed
+                src = cache.token(state)
+                seen = cache.peek("step", src, op.key)
+                hit = None if seen is None or seen not in info else self._available(seen)
+                if hit is not None:
+                    if op.needs == "staggered" and isinstance(state, Motion):
+                        origin = state   # what convert() would have recorded
+                    state, step_info = hit, info[seen]
+                else:
+                    # an op extracting first reports the extraction as its first half, its own work as the rest
+                    split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
+                    run = Run(self._ctx, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
+                    try:
+                        state = convert(state, op.needs, run)
+                        run.progress = _share(progress, done, total, split, 1.0, op.name)
+                        state = RUNNERS[type(op)](state, op, run)
+                    except ValueError as e:
+                        raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
+                    except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
+                        raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
+                    origin = run._origin
+                    step_info = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                    cache.put("step", src, op.key, keys[i])
                 cache.name(state, keys[i])
                 cache.put("state", keys[i], None, state)
-                info[keys[i]] = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                info[keys[i]] = step_info
                 if keep_all:
                     states[i] = state  # otherwise only the bounded cache holds it (memory stays flat)
                 done += 1
@@ -347,21 +372,17 @@ class Session:
                     info.move_to_end(k)
             while len(info) > max(4096, 2 * len(keys)):
                 info.popitem(last=False)
-            if upto:
-                self._held = {keys[upto - 1]: state}
-            if upto == len(ops):
-                self._replayed = True
             return states if keep_all else (state if upto else self.source)
 
-    def _origin(self, keys, states) -> Motion:
-        """The Motion the staggered state after ``keys`` was extracted from (the source by default): the
-        latest Motion state before the last run of staggered states."""
+    def _origin(self, ops, keys, states) -> Motion:
+        """The Motion the staggered state after ``keys`` (prefixes of ``ops``) was extracted from (the source
+        by default): the latest Motion state before the last run of staggered states."""
         origin = self.source
         for i in range(len(keys) - 1, -1, -1):
             if not self._info[keys[i]].staggered:
                 if i == len(keys) - 1:
                     return origin  # the state is a Motion: an extraction would start from it
-                st = states[i] if states[i] is not None else self._walk(i + 1)
+                st = states[i] if states[i] is not None else self._run(ops, keys, i + 1)
                 return st
         return origin
 
@@ -385,7 +406,8 @@ class Session:
         if isinstance(last, Motion):
             return last
         try:
-            return self._ctx.cache.get("state", self._keys[-1], "motion", lambda: convert(last, "motion", None))
+            cache = self._ctx.cache   # keyed by the state's content name: every prefix reaching it shares it
+            return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
         except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
             raise ValueError(f"ops[{n - 1}] ({self._history.ops[n - 1].name}): evaluating the result: {e}") from None
 
@@ -425,14 +447,34 @@ class Session:
             if any(k not in self._info for k in keys):
                 return []  # the op list changed since the last replay
             out = [note for k in keys for note in self._info[k].notes]
-            j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
-            if j is not None:
-                inf = self._info[keys[j]]
-                if inf.summary is None:
-                    inf.summary = _timing_summary(self._walk(j + 1))
-                if inf.summary:
-                    out.append(inf.summary)
+            summary, _ = self._warnings_of(n)
+            if summary:
+                out.append(summary)
         return out
+
+    def timing_warnings(self) -> tuple[str, tuple]:
+        """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
+        of :meth:`messages` ('' when none) and ``staggered.timing_warnings`` of that state (a tuple of
+        ``TimingWarning``). Both are computed once per state (keyed by the digest of the op prefix that made
+        it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
+        when no op is staggered."""
+        n = len(self._history.ops)
+        if n:
+            self._walk(n)
+        with self._replay_lock:
+            return self._warnings_of(n)
+
+    def _warnings_of(self, n: int) -> tuple[str, tuple]:  # under the replay lock, ops[:n] replayed
+        keys = self._prefix_keys()
+        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+        if j is None:
+            return "", ()
+        inf = self._info[keys[j]]
+        if inf.warnings is None:
+            from .. import staggered
+            found = tuple(staggered.timing_warnings(self._walk(j + 1)))
+            inf.summary, inf.warnings = _timing_summary(found), found
+        return inf.summary, inf.warnings
 
     def warp_curve(self, index: int = -1):
         """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
@@ -525,6 +567,10 @@ class Session:
           ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
           backward and upsample choose the table; a table also serves every smaller skip (sliced), so an
           editor warms its skip slider's largest value only.
+        - ``("replay", op_lists)``: the replay of each op list (a list of op dicts, checked like
+          :meth:`set_ops`) into the cache, step by step under the digest of each op prefix, without changing
+          this session's op list or history: a later ``set_ops`` to one of them (a slider's next positions)
+          replays nothing. Lists share their common prefixes' states. Bounded by the cache (count and bytes).
 
         Jobs are checked now (ValueError naming ``jobs[i]``); they run in order, one item at a time.
         ``progress(done, total, label)`` is called from the worker before each item, with a fractional
@@ -556,6 +602,10 @@ class Session:
                 items.append(("pose graph", lambda r: self.wand_graph()))
                 items += [(f"basis sigma={'default' if s is None else format(s, 'g')}",
                            lambda r, s=s: self.wand_basis(s)) for s in sgs]
+            elif name == "replay" and isinstance(values, (list, tuple)):
+                for k, ops in enumerate(values):
+                    typed = self._typed_list(ops, f"{where}[1][{k}]")
+                    items.append((f"replay {k + 1}/{len(values)}", lambda r, ops=typed: self._replay_into_cache(ops, r)))
             elif name == "warp_tables" and isinstance(values, (list, tuple)):
                 for k, w in enumerate(values):
                     op = self._typed(dict(w, op="guided_warp") if isinstance(w, dict) and "op" not in w else w,
@@ -566,13 +616,34 @@ class Session:
                         self.source, op.reference, op.skip, warp_size(self.source, op)[1], op.backward,
                         warp_k(warp_size(self.source, op)[0]), r)))
             else:
-                _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas) or ("warp_tables", warps)',
-                      job)
+                _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("warp_tables", warps) or '
+                             '("replay", op_lists)', job)
         return items
 
-    def close(self) -> None:
-        """Cancel pending warm-ups (each stops before its next item)."""
+    def _replay_into_cache(self, ops: tuple, report: Callable | None = None) -> None:
+        """Replay ``ops`` (typed) into the cache (each step under its op-prefix digest, and the evaluated
+        result), leaving the session's own op list, history and held states alone. An op list that fails is
+        skipped: the same failure is reported when a user's replay reaches it."""
+        keys, prev = [], "source"
+        for op in ops:
+            prev = _chain(prev, op)
+            keys.append(prev)
+        progress = None if report is None else (lambda d, t, label: report(d / t if t else 1.0))
+        try:
+            last = self._run(ops, keys, len(ops), progress=progress)
+            if keys and not isinstance(last, Motion):
+                cache = self._ctx.cache
+                cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
+        except (ValueError, ArithmeticError):
+            pass
+
+    def close(self, wait: bool = False) -> None:
+        """Cancel pending warm-ups (each stops before its next item); with ``wait``, also wait until the
+        item running now has finished (the worker is then idle: e.g. before timing something else in this
+        process, whose CPU time would otherwise include it)."""
         self._worker.cancel_all()
+        if wait:
+            self._worker.submit([]).result()   # runs after the cancelled lists have stopped
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:

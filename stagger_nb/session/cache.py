@@ -8,10 +8,13 @@ dead object whose memory was recycled (the ``id()`` pitfall). ``param`` is any h
 Each entry is a :class:`concurrent.futures.Future`. The first caller of a missing entry runs ``make()`` in
 its own thread, outside the lock; a second caller of the same entry waits for that future (computed
 once); callers of other entries are never blocked. A failed computation is not kept: the next caller
-computes it again. Each kind keeps at most ``bound`` finished entries, least recently used dropped first.
+computes it again. Each kind keeps at most ``bound`` finished entries, least recently used dropped first;
+a kind with a byte budget (:data:`BUDGETS`) also drops its least recently used finished entries while the
+arrays they hold (:func:`nbytes`) exceed it (the most recent entry always stays).
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import threading
 import weakref
@@ -19,7 +22,9 @@ from collections import OrderedDict
 from concurrent.futures import Future
 from typing import Callable, Hashable
 
-__all__ = ["Cache", "BOUNDS"]
+import numpy as np
+
+__all__ = ["Cache", "BOUNDS", "BUDGETS", "nbytes"]
 
 #: Entries kept per kind (finished entries; pending ones are never dropped).
 BOUNDS = {
@@ -30,10 +35,18 @@ BOUNDS = {
     "warp": 8,        # guided-warp kNN tables
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
-    "state": 48,      # replay steps by op-prefix digest (a slider sweep touches a handful)
+    "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
+    "step": 512,      # (state content name, op) -> the op-prefix digest of the state it gave (strings)
+    "state": 64,      # replay steps by op-prefix digest (a slider sweep touches a handful; the editor's
+                      # warm-up replays every cull position: 2-3 steps each)
 }
 
-QUIET = {"state"}  # kinds not reported to ``busy`` (replay steps: the replay reports its own progress)
+#: Bytes of arrays kept per kind (finished entries), besides the count bound: replay states are whole motions
+#: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
+BUDGETS = {"state": 384 * 2**20}
+
+QUIET = {"state", "step", "offset_basis"}  # not reported to ``busy`` (replay steps and a head about one
+# evaluate long: the replay reports its own progress)
 
 
 class Cache:
@@ -46,15 +59,19 @@ class Cache:
         computing thread.
     bounds : dict kind -> int, optional
         Overrides of :data:`BOUNDS`; unknown kinds keep 16 entries.
+    budgets : dict kind -> bytes, optional
+        Overrides of :data:`BUDGETS` (kinds without one are bounded by count only).
     """
 
-    def __init__(self, busy: Callable | None = None, bounds: dict | None = None):
+    def __init__(self, busy: Callable | None = None, bounds: dict | None = None, budgets: dict | None = None):
         self._lock = threading.Lock()
         self._entries: dict[str, OrderedDict] = {}
+        self._sizes: dict[str, dict] = {}   # kind -> {key: nbytes} of finished entries of budgeted kinds
         self._tokens: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
         self._counter = itertools.count(1)
         self._busy = busy
         self._bounds = dict(BOUNDS, **(bounds or {}))
+        self._budgets = dict(BUDGETS, **(budgets or {}))
 
     def token(self, obj) -> str:
         """A key for the live object ``obj`` (held weakly; never reused for another object)."""
@@ -104,7 +121,10 @@ class Cache:
             fut.set_exception(e)
             raise
         fut.set_result(value)
+        size = nbytes(value) if kind in self._budgets else 0
         with self._lock:
+            if kind in self._budgets and store.get(key) is fut:
+                self._sizes.setdefault(kind, {})[key] = size
             self._trim(kind, store)
         return value
 
@@ -114,9 +134,12 @@ class Cache:
         fut = Future()
         fut.set_running_or_notify_cancel()
         fut.set_result(value)
+        size = nbytes(value) if kind in self._budgets else 0
         with self._lock:
             store[(owner, param)] = fut
             store.move_to_end((owner, param))
+            if kind in self._budgets:
+                self._sizes.setdefault(kind, {})[(owner, param)] = size
             self._trim(kind, store)
 
     def peek(self, kind: str, owner: Hashable, param: Hashable = None):
@@ -150,9 +173,52 @@ class Cache:
             s = self._entries.setdefault(kind, OrderedDict())
         return s
 
+    def nbytes(self, kind: str) -> int:
+        """Bytes of arrays held by the finished entries of a budgeted ``kind`` (0 for other kinds)."""
+        with self._lock:
+            return sum(self._sizes.get(kind, {}).values())
+
     def _trim(self, kind: str, store: OrderedDict) -> None:  # under the lock
-        bound = self._bounds.get(kind, 16)
-        if len(store) <= bound:
+        excess = len(store) - self._bounds.get(kind, 16)
+        if excess > 0:   # the oldest finished entries (a pass over the oldest only: a long replay puts many)
+            drop = []
+            for k, f in store.items():
+                if f.done():
+                    drop.append(k)
+                    if len(drop) == excess:
+                        break
+            for k in drop:
+                del store[k]
+        sizes = self._sizes.get(kind)
+        if sizes is None:
             return
-        for k in [k for k, f in store.items() if f.done()][: len(store) - bound]:
+        for k in [k for k in sizes if k not in store]:   # dropped above or failed
+            del sizes[k]
+        total, budget = sum(sizes.values()), self._budgets[kind]
+        if total <= budget:
+            return
+        last = next(reversed(store), None)
+        for k in [k for k, f in store.items() if f.done() and k != last]:
+            if total <= budget:
+                break
+            total -= sizes.pop(k, 0)
             del store[k]
+
+
+def nbytes(value, _depth: int = 0) -> int:
+    """Bytes of the numpy arrays ``value`` holds: itself, or its fields (dataclass or attributes), items of its
+    lists, tuples and dicts, two levels deep (an estimate for the cache's budgets: an array shared by two
+    values counts twice)."""
+    if isinstance(value, np.ndarray):
+        return int(value.nbytes)
+    if _depth > 2 or value is None or isinstance(value, (str, bytes, int, float, bool)):
+        return 0
+    if isinstance(value, dict):
+        items = value.values()
+    elif isinstance(value, (list, tuple)):
+        items = value
+    elif dataclasses.is_dataclass(value):
+        items = [getattr(value, f.name, None) for f in dataclasses.fields(value)]
+    else:
+        items = list(getattr(value, "__dict__", {}).values())
+    return sum(nbytes(v, _depth + 1) for v in items)

@@ -909,6 +909,13 @@ class ModelBinding:
                 n for n in new_refs if n not in self.model.reference_options]
         return p, notes
 
+    def ops_for(self, **changes) -> list:
+        """The session's op list as it would be if the model's op traits took ``changes`` (e.g.
+        ``percent=40.0``), the ops the editor does not own kept in place; neither the model nor the session
+        changes (e.g. to warm a slider's next positions with ``Session.warm(("replay", lists))``)."""
+        new = dict(self.model.params(), **changes)
+        return merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
+
     # -- directions -----------------------------------------------------------------------------------
     def _on_model(self, change) -> None:
         if not self._loading:

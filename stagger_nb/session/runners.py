@@ -85,6 +85,15 @@ class Heads:
         return self.cache.get("cull", self.key(sm), ("keep", keep),
                               lambda: st.cull(sm, percent, count=count, progress=progress))
 
+    def offset_basis(self, sm):
+        """``staggered.pose_offset_basis(sm)``: the offset-independent half of an exaggeration of ``sm`` (§5.1),
+        once per pre-exaggerate state (keyed by its content name): a ``w_r`` slider move reuses it. None when
+        this version of staggered has no such function."""
+        make = getattr(_staggered(), "pose_offset_basis", None)
+        if make is None:
+            return None
+        return self.cache.get("offset_basis", self.key(sm), None, lambda: make(sm))
+
     def wand_graph(self, motion: Motion):
         """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
         return self.cache.get("graph", self.key(motion), None, lambda: _wand().pose_graph(motion))
@@ -278,8 +287,9 @@ def _exaggerate(sm, op: O.Exaggerate, run):
     poses = list(range(sm.num_poses)) if op.poses is None else [_pose(sm, k, "poses") for k in op.poses]
     if isinstance(op.reference, int):
         _pose(sm, op.reference, "reference")
+    basis = run.heads.offset_basis(sm)
     return _staggered().exaggerate(sm, poses, op.w_r, reference=op.reference, mode=op.mode,
-                                   joints=_list(op.joints))
+                                   joints=_list(op.joints), **({} if basis is None else {"basis": basis}))
 
 
 def _radians(deltas) -> dict:

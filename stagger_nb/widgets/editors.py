@@ -186,12 +186,12 @@ class _Editor(widgets.VBox):
         frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
         pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
         ct = None if contacts is None else tuple(tuple(c) for c in contacts)
-        last = getattr(self, "_shown", (None, None, None))
-        pf_new = pf if pf is not None and pf != last[1] else None
-        ct_new = ct if ct is not None and ct != last[2] else None
+        last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
+        pf_new = pf if pf is not None and pf != last[0] else None
+        ct_new = ct if ct is not None and ct != last[1] else None
         if self.view.motion is edited and pf_new is None and ct_new is None:
             return
-        self._shown = (id(edited), pf if pf is not None else last[1], ct if ct is not None else last[2])
+        self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
         if self.view.motion is edited:   # only the highlights changed
             if pf_new is not None:
                 self.view.set_pose_frames(pf_new)
@@ -277,6 +277,7 @@ class _Editor(widgets.VBox):
         self.progress.layout.visibility = "visible"
         fut = warm(*jobs, progress=self._on_progress)
         self.warm_future = fut
+        self.__dict__.setdefault("_warm_futures", []).append(fut)   # every one: close() cancels them all
 
         def done(f):
             if f is self.warm_future:
@@ -287,7 +288,8 @@ class _Editor(widgets.VBox):
         return fut
 
     def _futures(self):
-        return [f for f in (getattr(self, "warm_future", None), getattr(self, "_first_future", None)) if f is not None]
+        """Every warm-up future this editor submitted (in order)."""
+        return list(self.__dict__.get("_warm_futures", ()))
 
     def close(self):
         """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
@@ -423,10 +425,18 @@ class StaggerEditor(_Editor):
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
-        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position
+        if precompute:   # after first paint: the extraction (then the plots that need it), then every cull position:
+            # its refit, then the whole replay of the current edit at that position (a first visit is then a hit)
             self._first_future = self._warm("extract", then=self._refresh)
             pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
-            self._warm(("cull", pcs))
+            self._warm(("cull", pcs), ("replay", [self._own_prefix(self.binding.ops_for(cull_by="percent", percent=p))
+                                                  for p in pcs]))
+
+    def _own_prefix(self, ops: list) -> list:
+        """``ops`` up to this editor's last op: what the warm-up replays (ops of other techniques after it, e.g.
+        a guided warp of the edited motion with its own kNN tables, are left to the visit)."""
+        last = max((i for i, o in enumerate(ops) if o["op"] in self.binding.owned), default=-1)
+        return ops[:last + 1]
 
     # -- actions ---------------------------------------------------------------------------------------
     def _insert_action(self, op: dict) -> None:
@@ -518,18 +528,14 @@ class StaggerEditor(_Editor):
         m.show_ik_target(p)
 
     def _timing_summary(self):
-        """(summary sentence, warnings) of the current staggered state (``staggered.timing_warnings``)."""
-        sm = getattr(self, "_last_staggered", None)
-        if sm is None:
-            return "", []
-        from .. import staggered
-        warnings = list(staggered.timing_warnings(sm))
-        if not warnings:
-            return "", []
-        summarize = getattr(staggered, "summarize_timing_warnings", None)
-        summary = summarize(warnings) if summarize else (f"{len(warnings)} refined times cross a neighbouring "
-                                                         f"pose: lower s, l or τ.")
-        return summary, warnings
+        """(summary sentence, warnings) of the current staggered state: ``Session.timing_warnings`` (computed
+        once per state by the session, not per message redraw)."""
+        if getattr(self, "_last_staggered", None) is None:
+            return "", ()
+        try:
+            return self.session.timing_warnings()
+        except ValueError:   # a replay error: the message line shows it
+            return "", ()
 
     def _notes(self) -> list:
         summary, _ = self._timing_summary()
@@ -547,13 +553,13 @@ class StaggerEditor(_Editor):
     # -- views -----------------------------------------------------------------------------------------
     def _needs_staggered(self) -> bool:
         from ..session.models import STAGGER_OPS
-        return any(o["op"] in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.ops)
+        return any(o.name in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.typed_ops)
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
-        self._draw_curves(edited)
         if not self._needs_staggered() and not self._extraction_ready():
             self._last_staggered = None
+            self._draw_curves(edited)
             if not self.probability.figure:
                 self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
                                                                   title="pose probability: extracting poses…",
@@ -579,12 +585,8 @@ class StaggerEditor(_Editor):
             c["w_r_reference"].options = refs
             c["w_r_reference"].value = self.model.w_r_reference
         ft = m.frame_time
-        prob = full.metadata.get("probability")
-        times = np.arange(m.num_frames) * ft
         kept = np.asarray(sm.pose_times)
-        self.probability.figure = pose_probability_figure(
-            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
-            np.interp(kept, times, prob) if prob is not None else sm.pose_probability, x_range=_x_span(edited))
+        self._draw_probability(full, sm, kept, _x_span(edited))
         self._draw_curves(edited, sm)
         self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
@@ -597,6 +599,29 @@ class StaggerEditor(_Editor):
         fut = getattr(self, "_first_future", None)
         return fut is not None and fut.done()
 
+    def _draw_probability(self, full, sm, kept: np.ndarray, x_range) -> None:
+        """The pose-probability plot: rebuilt only when the extraction or the kept poses changed (a timing or
+        exaggeration slider leaves it as it is: no figure rebuilt, nothing sent)."""
+        key = (full, kept.tobytes(), None if sm.pose_probability is None else np.asarray(sm.pose_probability).tobytes(),
+               tuple(x_range))
+        last = getattr(self, "_probability_key", None)
+        if last is not None and last[0] is full and last[1:] == key[1:] and self.probability.figure:
+            return
+        m = self.session.source
+        prob = full.metadata.get("probability")
+        times = np.arange(m.num_frames) * m.frame_time
+        self.probability.figure = pose_probability_figure(
+            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
+            np.interp(kept, times, prob) if prob is not None else sm.pose_probability, x_range=x_range)
+        self._probability_key = key
+
+    def _source_degrees(self, j: int) -> np.ndarray:
+        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint."""
+        cache = self.__dict__.setdefault("_source_deg", {})
+        if j not in cache:
+            cache[j] = joint_rotation_degrees(self.session.source, j)
+        return cache[j]
+
     def _draw_curves(self, edited: Motion, sm=None) -> None:
         m = self.session.source
         name = self.model.joint
@@ -605,7 +630,7 @@ class StaggerEditor(_Editor):
         kept = None if sm is None else np.asarray(sm.pose_times)
         knots = None if sm is None else kept + np.asarray(sm.refinements)[:, j]
         self.curves.figure = joint_curves_figure(
-            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
             pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
             title=f"{name}: rotation vector (°), edited vs original", x_range=_x_span(edited))
         self.view.highlight_joints([name])
@@ -901,8 +926,9 @@ class WarpEditor(_Editor):
         from .. import timewarp
         ft = edited.frame_time
         warp = None
-        for i in range(len(self.session.ops) - 1, -1, -1):
-            if self.session.ops[i]["op"] in ("guided_warp", "linear_warp"):
+        names = [op.name for op in self.session.typed_ops]   # not .ops: a JSON copy of every op per call
+        for i in range(len(names) - 1, -1, -1):
+            if names[i] in ("guided_warp", "linear_warp"):
                 warp = self.session.warp_curve(i)
                 break
         if warp is None:   # no warp op (e.g. undone): the identity
