@@ -833,7 +833,8 @@ def _eased(r: np.ndarray, t: np.ndarray, moved: np.ndarray) -> np.ndarray:
 
 def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: float = 2.0, *, joints=None,
                poses=None) -> StaggeredMotion:
-    """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``.
+    """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``, eased where it
+    would bring a knot within half a pose spacing of the clip's first/last pose (:func:`inside_ends`).
 
     Parameters
     ----------
@@ -871,7 +872,8 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
                   poses=None) -> StaggeredMotion:
-    """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints.
+    """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints (eased near the
+    clip's ends as in :func:`succession`).
 
     The offsets are drawn for the whole ``(K, J)`` table from ``numpy.random.default_rng(seed)`` and then
     masked, so a given seed gives each (pose, joint) the same offset whatever subset is selected.
