@@ -775,20 +775,72 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
 
 # -- temporal editing (§5.2) ----------------------------------------------------------------------------
 
-def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray) -> StaggeredMotion:
-    """Add refinement offsets ``dr (K, J)``; the root translation follows the root rotation if joint 0 is
+_END_FLOOR = 0.25   # an end segment keeps at least this share of half its pose spacing (x8 squeeze at most)
+
+
+def inside_ends(knots: np.ndarray, pose_times: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """Knot times ``knots (K, C)`` seconds with the ``moved (K, C)`` interior knots kept inside the clip's ends.
+
+    The first and last staggered poses are the clip's first and last frames (§4.1: "We force the first and last
+    frame of the motion to have poses, as this is necessary to fully reconstruct the motion"), so their knots
+    bound every control variable. A timing edit (§5.2) that moves an interior knot of column ``c`` past
+    ``U = knots[-1, c] - h`` (``h`` half the last pose spacing ``t_{K-1} - t_{K-2}``) is eased towards the end:
+
+        T -> U + (1 - f) h (1 - exp(-(T - U) / ((1 - f) h))),   f = 0.25
+
+    identity up to ``U`` (where every knot of an unedited extraction sits: a refinement is closer to its own
+    pose than to the neighbours), C1 there, increasing, and below ``knots[-1, c] - f h``: the last segment
+    keeps at least ``f h`` seconds (its motion plays at most 8x faster than over the pose spacing) instead of
+    being squeezed into a frame or two, and the last pose's knot stays the last (the clip's last frame shows
+    the last pose). The first segment mirrors it (``L = knots[0, c] + (t_1 - t_0) / 2``). Knots that are not
+    ``moved`` and the end rows are returned as they are. ``K < 3``: no interior knots.
+    """
+    out = np.array(knots, dtype=float)
+    K = out.shape[0]
+    if K < 3:
+        return out
+    inner, mv = out[1:-1], np.asarray(moved, bool)[1:-1]
+    for h, edge, sign in ((0.5 * (pose_times[-1] - pose_times[-2]), out[-1], 1.0),
+                          (0.5 * (pose_times[1] - pose_times[0]), out[0], -1.0)):
+        room = (1.0 - _END_FLOOR) * h
+        start = edge - sign * h                                   # U (last segment) or L (first)
+        x = sign * (inner - start)                                # depth into the end zone (s), > 0 inside
+        eased = start + sign * room * -np.expm1(-np.maximum(x, 0.0) / room)
+        inner[...] = np.where(mv & (x > 0), eased, inner)
+    return out
+
+
+def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray, ease_ends: bool = False
+                 ) -> StaggeredMotion:
+    """Add refinement offsets ``dr (K, J)`` (exactly; with ``ease_ends``, interior knots that would reach the
+    clip's ends are eased, :func:`inside_ends`); the root translation follows the root rotation if joint 0 is
     selected (both are the root's timing)."""
     if not np.any(dr):
         return sm
-    fields = dict(refinements=sm.refinements + dr)
+    t = sm.pose_times
+    moved = dr != 0
+    ease = _eased if ease_ends else (lambda r, t, moved: r)
+    fields = dict(refinements=ease(sm.refinements + dr, t, moved))
     if joint_mask[0] and np.any(dr[:, 0]):
-        fields["root_refinements"] = sm.root_refinements + dr[:, 0]
+        fields["root_refinements"] = ease((sm.root_refinements + dr[:, 0])[:, None], t, moved[:, :1])[:, 0]
     return _refresh(sm, **fields)
 
 
+def _eased(r: np.ndarray, t: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """Refinements ``r (K, C)`` whose knots :func:`inside_ends` eases, the others exactly as given."""
+    T = t[:, None] + r
+    E = inside_ends(T, t, moved)
+    return np.where(E != T, E - t[:, None], r)
+
+
 def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: float = 2.0, *, joints=None,
-               poses=None) -> StaggeredMotion:
+               poses=None, ease_ends: bool = False) -> StaggeredMotion:
     """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``.
+
+    The formula is applied exactly (a large ``s`` can bring a knot of the second-to-last pose next to, or past,
+    the last pose: the last segment then plays in a frame or two, and :func:`timing_warnings` says so). With
+    ``ease_ends=True`` knots within half a pose spacing of the clip's first/last pose are eased instead
+    (:func:`inside_ends`: the last pose stays the clip's last frame, its segment keeps >= 1/8 of the spacing).
 
     Parameters
     ----------
@@ -802,6 +854,8 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
         Joints to stagger; default: ``root`` and its descendants (the limb below the chosen joint).
     poses : list of int, optional
         Poses to stagger; default all interior poses (the first and last poses anchor the clip ends).
+    ease_ends : bool
+        Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact formula there.
     """
     _check(sm)
     s, l = _finite(s, "s"), _finite(l, "l")
@@ -821,12 +875,13 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     jm = _joint_mask(sm, joints, default=sub)
     pm = _pose_mask(sm, poses, interior_default=True)
     dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
-    return _with_timing(sm, dr, jm)
+    return _with_timing(sm, dr, jm, bool(ease_ends))
 
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
-                  poses=None) -> StaggeredMotion:
-    """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints.
+                  poses=None, ease_ends: bool = False) -> StaggeredMotion:
+    """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints (``ease_ends``:
+    as in :func:`succession`).
 
     The offsets are drawn for the whole ``(K, J)`` table from ``numpy.random.default_rng(seed)`` and then
     masked, so a given seed gives each (pose, joint) the same offset whatever subset is selected.
@@ -838,6 +893,8 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
         Bound of the offsets, seconds (>= 0).
     seed : int
     poses : list of int, optional; default all interior poses.
+    ease_ends : bool
+        Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact offsets there.
     """
     _check(sm)
     tau = _finite(tau, "tau")
@@ -848,7 +905,7 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     jm = _joint_mask(sm, joints)
     pm = _pose_mask(sm, poses, interior_default=True)
     u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))
-    return _with_timing(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), jm)
+    return _with_timing(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), jm, bool(ease_ends))
 
 
 def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:
