@@ -392,3 +392,17 @@ def test_static_joints_evaluate_to_their_quaternion_exactly(extracted):
     ref = evaluate_reference(sm, out.times)
     ref = np.where(np.sum(ref * out.local_quats, -1, keepdims=True) < 0, -ref, ref)
     np.testing.assert_allclose(out.local_quats, ref, rtol=0, atol=1e-12)
+
+
+def test_displacement_at_given_rows_equals_the_row_copy():
+    """``displacement_at(table, counts, t, rows=seg)`` gathers the two entries each sample reads: bit for bit
+    what interpolating the copied rows ``table[seg]`` gives (the form root_positions_at used before)."""
+    from stagger_nb.staggered.representation import displacement_at
+    rng = np.random.default_rng(3)
+    table = rng.normal(size=(7, 40, 3))
+    counts_of_row = rng.integers(2, 41, size=7)
+    seg = rng.integers(0, 7, size=500)
+    t = np.concatenate([rng.uniform(0, 1, 497), [0.0, 1.0, 1.0 - 1e-17]])
+    want = displacement_at(table[seg], counts_of_row[seg], t)
+    got = displacement_at(table, counts_of_row[seg], t, rows=seg)
+    assert np.array_equal(got, want)

@@ -226,14 +226,19 @@ def translation_spline(p0, p1, p2, p3, t) -> np.ndarray:
     return bezier_cubic(p0, p1, p2, p3, t)
 
 
-def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray) -> np.ndarray:
+def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray, rows: np.ndarray | None = None
+                    ) -> np.ndarray:
     """Linear interpolation of displacement maps on their uniform ``t'`` grids.
 
     Parameters
     ----------
-    table : (N, M, D) samples (rows padded past ``counts``)
-    counts : (N,) valid samples per row (>= 2)
+    table : (R, M, D) samples (rows padded past their counts)
+    counts : (N,) valid samples of each sample's row (>= 2)
     t : (N,) normalised times in [0, 1]
+    rows : (N,) int, optional
+        Row of ``table`` of each sample; default ``arange(N)`` (``table`` holds one row per sample). Passing
+        the rows gathers only the two table entries each sample reads, instead of a copy ``table[rows]`` of
+        whole rows (N x M x D: megabytes on a long segment).
 
     Returns
     -------
@@ -242,7 +247,8 @@ def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray) -> np.
     u = np.clip(t, 0.0, 1.0) * (counts - 1)
     m0 = np.minimum(np.floor(u).astype(np.int64), counts - 2)
     a = (u - m0)[:, None]
-    rows = np.arange(table.shape[0])
+    if rows is None:
+        rows = np.arange(table.shape[0])
     return table[rows, m0] * (1.0 - a) + table[rows, m0 + 1] * a
 
 
@@ -385,7 +391,7 @@ def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
     rseg, rtn = rseg[:, 0], rtn[:, 0]
     rt = sm.root_tangents[rseg]
     p = translation_spline(sm.root_values[rseg], rt[:, 0], rt[:, 1], sm.root_values[rseg + 1], rtn)
-    return p + displacement_at(sm.root_displacements[rseg], sm.root_displacement_counts[rseg], rtn)
+    return p + displacement_at(sm.root_displacements, sm.root_displacement_counts[rseg], rtn, rows=rseg)
 
 
 def _segments_of_pairs(T: np.ndarray, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
