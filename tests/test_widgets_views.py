@@ -308,6 +308,11 @@ def test_follow_camera_keeps_the_character_readable(name):
     eye, target = whole.world(0)
     px = scene3d.project(P.reshape(-1, 3), eye, target, whole.fov, 480, 380)
     assert px.min() >= 0 and px[:, 0].max() <= 480 and px[:, 1].max() <= 380   # every frame in view
+    # the look-at point is the rig's origin: a reloaded page's OrbitControls aim the camera at (0, 0, 0)
+    for c in (cam, whole):
+        assert c.target == (0.0, 0.0, 0.0)
+        assert np.allclose(scene3d.look_at_quaternion(c.position, (0, 0, 0)),
+                           scene3d.look_at_quaternion(c.position, c.target))
 
 
 def test_project_matches_the_pinhole_closed_form():
