@@ -455,3 +455,26 @@ def test_stagger_warm_up_replays_its_own_ops_only(walk):
     for ops in lists:
         assert [o["op"] for o in ops] == ["cull", "succession"]   # keep_contacts: off, as the session had it
         assert ops[1] == dict(_quickstart(m)[0], joints=None)
+
+
+def test_an_editors_controls_share_equal_layouts_and_styles(walk):
+    """Controls with the same layout (or style) settings share one model (fewer models for a page reload to
+    restore); a shared model is still open, and the settings each control shows are unchanged."""
+    import ipywidgets
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk.slice(0, 120), precompute=False)
+    try:
+        seen, stack = {}, list(e.controls.values())
+        for w in stack:
+            for name in ("layout", "style"):
+                sub = getattr(w, name, None) if w.has_trait(name) else None
+                if isinstance(sub, ipywidgets.Widget):
+                    assert sub.comm is not None, (w, name)
+                    key = (type(sub), tuple(sorted((k, repr(v)) for k, v in sub.get_state().items())))
+                    seen.setdefault(key, set()).add(id(sub))
+        assert all(len(ids) == 1 for ids in seen.values()), "equal settings, separate models"
+        assert e.controls["s"].style.description_width == "120px" and e.controls["s"].layout.width == "340px"
+        assert e.controls["cull_by"].style.button_width == "90px"
+        assert e.shared_models_closed > 30
+    finally:
+        e.close()
