@@ -478,3 +478,36 @@ def test_an_editors_controls_share_equal_layouts_and_styles(walk):
         assert e.shared_models_closed > 30
     finally:
         e.close()
+
+
+def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk):
+    """A key press on the frame slider reaches the kernel as the browser sends it: each plot's frame (the Play's
+    jsdlinks, saved inside the Play's change) before the Play's and the slider's own. None of it may come back to
+    the Play or the slider (a stale frame from the kernel made the slider jump back under load and left the
+    kernel a frame off the browser); a click on a plot still seeks."""
+    from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
+    from test_widgets_plots import _sends
+    for make in (lambda: StaggerEditor(walk.slice(0, 120), precompute=False), lambda: WandEditor(walk.slice(0, 120)),
+                 lambda: WarpEditor(walk.slice(0, 120))):
+        e = make()
+        try:
+            play, slider = e.view.player, e.view.frame_slider
+            logs = [_sends(play), _sends(slider)]
+            start = e.model.frame
+            for f in range(start + 1, start + 6):
+                for p in e.plots:
+                    _from_browser(p, frame=f)
+                _from_browser(slider, value=f)
+                _from_browser(play, value=f)
+            assert [m for log in logs for m in log if "value" in m.get("state", {})] == [], type(e).__name__
+            assert e.model.frame == e.view.frame == start + 5
+            e.plots[0].click(2 * walk.frame_time)   # a click seeks (kernel-side, as the store's message does)
+            assert e.model.frame == 2 and play.value == 2
+        finally:
+            e.close()
+
+
+def _from_browser(widget, **state):
+    """Apply ``state`` as an update message from the browser (ipywidgets' comm message handler)."""
+    widget._handle_msg({"content": {"data": {"method": "update", "state": state, "buffer_paths": []}}, "buffers": []})
+

@@ -184,7 +184,8 @@ class _Editor(widgets.VBox):
         self.frame_slider.add_class("sn-frame")
         self._links = [widgets.link((model, "frame"), (view, "frame"))]
         for p in plots:
-            self._links.append(widgets.link((model, "frame"), (p, "frame")))   # a click on a plot seeks
+            self._links.append(widgets.dlink((model, "frame"), (p, "frame")))
+            p.observe(self._plot_seeks, names="frame")   # a click on a plot seeks
             if hasattr(view, "link_frame"):
                 view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
         if model.has_trait("joint") and view.has_trait("selected_joint"):
@@ -206,6 +207,13 @@ class _Editor(widgets.VBox):
         self.add_class(self._css)
         self._update_buttons()
         self._refresh()
+
+    def _plot_seeks(self, change) -> None:
+        """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink (then the
+        Play's own message moves it: acting here too wrote stale frames back to the Play and slider, which
+        jumped back while keys were pressed, and left the kernel a frame off the browser)."""
+        if not change["owner"].frame_from_browser:
+            self.model.frame = change["new"]
 
     def _on_picked(self, change) -> None:
         """Clicking a joint in the 3D view selects it in the editor."""
