@@ -380,3 +380,14 @@ def test_ghost_is_built_when_first_shown_and_toggles():
     v.show_ghost = True
     gp = np.frombuffer(v.conductor.ghost_points, np.float32).reshape(30, -1, 3)
     np.testing.assert_allclose(gp[:, :6], sn.forward_kinematics(edited)[0], atol=1e-4)
+
+
+def test_the_ghost_checkbox_says_why_it_is_greyed_out():
+    m = sn.data.load("walk")
+    v = SkeletonView(m)
+    try:
+        assert v.ghost_toggle.disabled and "no original" in v.ghost_toggle.tooltip
+        v.set_motion(m, ghost=m)
+        assert not v.ghost_toggle.disabled and "no original" not in v.ghost_toggle.tooltip
+    finally:
+        v.close()
