@@ -184,7 +184,7 @@ class Camera:
     """A perspective camera riding on a rig that follows the character.
 
     rig : (F, 3) rig position per frame (world); position, target : (3,) camera position and look-at point
-    relative to the rig; fov : vertical field of view, degrees; ground : y of the ground plane;
+    relative to the rig (:func:`follow_camera` puts the look-at point at the rig's origin); fov : vertical field of view, degrees; ground : y of the ground plane;
     near, far : clip distances (file units).
     """
     rig: np.ndarray
@@ -253,7 +253,12 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
         radius = float(np.linalg.norm(hi - lo)) / 2
         dist = radius / np.sin(min(half, np.arctan(np.tan(half) * aspect))) * 1.05
         target = np.array([0.0, c[1] - ground, 0.0])
-    pos = target + d * dist
+    # the look-at point is the rig's origin (the rig carries its height): a page reload restores the pythreejs
+    # camera but OrbitControls then aims it at (0, 0, 0) (seen in JupyterLab: after a reload the view looked
+    # down at the feet, the head cut off), so the framing must not depend on the controls' target
+    rig = rig + target
+    pos = d * dist
+    target = np.zeros(3)
     return Camera(rig=rig.astype(np.float32), position=tuple(float(x) for x in pos),
                   target=tuple(float(x) for x in target), fov=float(fov), ground=ground,
                   near=float(dist) * 0.01, far=float(dist) * 50 + float(np.ptp(P[..., 0]) + np.ptp(P[..., 2])))

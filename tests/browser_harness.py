@@ -23,6 +23,7 @@ import subprocess
 import sys
 import time
 import urllib.request
+import warnings
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -194,6 +195,7 @@ def run_all_cells(page, done: str = DONE, timeout: float = 240.0) -> None:
 
 
 MODEL_NOT_FOUND = "Error displaying widget: model not found"
+FIRST_RELOAD_FAILURES: list[dict] = []   # every reload that showed MODEL_NOT_FOUND (save_and_reload), for reports
 
 
 def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) -> int:
@@ -207,8 +209,14 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) 
     after the renderers started; creating the ~1,200 models of three editors (pythreejs rigs + ghost rigs)
     then ran as one 1.4-2 s main-thread task that ends with the restore marked done. The poll's next tick
     came after its deadline, so it failed without looking again while the restore was done: the error is
-    final for that page load. Fewer widget models (a shorter task) is the product-side fix. A user reloads once
-    more, and    so does this function, up to ``attempts`` reloads. Returns the number of reloads it took."""
+    final for that page load. Fewer widget models (a shorter task) is the product-side fix (editors share their
+    controls' Layout and style models: three editors 414 -> 311 models).
+
+    A first reload that shows the error is a failure a user sees: it is counted in ``FIRST_RELOAD_FAILURES`` and
+    reported as a warning (in pytest's summary) every time, not hidden. The retry remains because the error is
+    JupyterLab's (the page load's poll gave up; the kernel's widgets are intact) and a user's second F5 shows the
+    widgets as this function's second reload does (review of 2026-11-30, two CPU hogs: 1 of 10 first reloads
+    failed, every second reload restored everything). Returns the number of reloads it took."""
     page.keyboard.press("Control+s")
     page.wait_for_function("() => !document.querySelector('.jp-mod-dirty')", timeout=30000)
     # what a user's F5 reloads: the notebook's URL without ?reset (a reset workspace closes and reopens the
@@ -223,6 +231,11 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5) 
                                timeout=timeout * 1000)
         if not page.evaluate(f"() => document.body.textContent.includes({MODEL_NOT_FOUND!r})"):
             return attempt
+        shown = page.evaluate(f"() => document.body.textContent.split({MODEL_NOT_FOUND!r}).length - 1")
+        FIRST_RELOAD_FAILURES.append({"url": target, "attempt": attempt, "errors_shown": shown,
+                                      "load_average": os.getloadavg()})
+        warnings.warn(f"reload {attempt} of {target} showed {MODEL_NOT_FOUND!r} {shown}x (JupyterLab's restore "
+                      f"race, ipywidgets#4026; load average {os.getloadavg()[0]:.1f}): reloading again")
     raise AssertionError(f"after {attempts} reloads JupyterLab still shows {MODEL_NOT_FOUND!r}")
 
 

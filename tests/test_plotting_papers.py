@@ -28,6 +28,11 @@ def test_strobe_draws_every_bone_of_each_frame_once():
     assert np.allclose(x[~np.isnan(x)], 103)          # frame 3 (x = 3) shifted by 100, both bones
     assert np.isnan(x).sum() == 2                     # 2 bones: one gap after each
     assert g.layout.scene.camera.eye.z == 2.0         # front view
+    for view in ("side", "front", "top"):   # the axis seen end-on (largest eye component) carries no labels
+        sc = _valid(plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [0], view=view)).layout.scene
+        eye = {k: abs(sc.camera.eye[k]) for k in "xyz"}
+        for k in "xyz":
+            assert (sc[f"{k}axis"].showticklabels is False) == (k == max(eye, key=eye.get)), (view, k)
     with pytest.raises(ValueError, match="frames"):
         plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [7])
     with pytest.raises(ValueError, match="parents"):

@@ -455,3 +455,59 @@ def test_stagger_warm_up_replays_its_own_ops_only(walk):
     for ops in lists:
         assert [o["op"] for o in ops] == ["cull", "succession"]   # keep_contacts: off, as the session had it
         assert ops[1] == dict(_quickstart(m)[0], joints=None)
+
+
+def test_an_editors_controls_share_equal_layouts_and_styles(walk):
+    """Controls with the same layout (or style) settings share one model (fewer models for a page reload to
+    restore); a shared model is still open, and the settings each control shows are unchanged."""
+    import ipywidgets
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk.slice(0, 120), precompute=False)
+    try:
+        seen, stack = {}, list(e.controls.values())
+        for w in stack:
+            for name in ("layout", "style"):
+                sub = getattr(w, name, None) if w.has_trait(name) else None
+                if isinstance(sub, ipywidgets.Widget):
+                    assert sub.comm is not None, (w, name)
+                    key = (type(sub), tuple(sorted((k, repr(v)) for k, v in sub.get_state().items())))
+                    seen.setdefault(key, set()).add(id(sub))
+        assert all(len(ids) == 1 for ids in seen.values()), "equal settings, separate models"
+        assert e.controls["s"].style.description_width == "120px" and e.controls["s"].layout.width == "340px"
+        assert e.controls["cull_by"].style.button_width == "90px"
+        assert e.shared_models_closed > 30
+    finally:
+        e.close()
+
+
+def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk):
+    """A key press on the frame slider reaches the kernel as the browser sends it: each plot's frame (the Play's
+    jsdlinks, saved inside the Play's change) before the Play's and the slider's own. None of it may come back to
+    the Play or the slider (a stale frame from the kernel made the slider jump back under load and left the
+    kernel a frame off the browser); a click on a plot still seeks."""
+    from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
+    from test_widgets_plots import _sends
+    for make in (lambda: StaggerEditor(walk.slice(0, 120), precompute=False), lambda: WandEditor(walk.slice(0, 120)),
+                 lambda: WarpEditor(walk.slice(0, 120))):
+        e = make()
+        try:
+            play, slider = e.view.player, e.view.frame_slider
+            logs = [_sends(play), _sends(slider)]
+            start = e.model.frame
+            for f in range(start + 1, start + 6):
+                for p in e.plots:
+                    _from_browser(p, frame=f)
+                _from_browser(slider, value=f)
+                _from_browser(play, value=f)
+            assert [m for log in logs for m in log if "value" in m.get("state", {})] == [], type(e).__name__
+            assert e.model.frame == e.view.frame == start + 5
+            e.plots[0].click(2 * walk.frame_time)   # a click seeks (kernel-side, as the store's message does)
+            assert e.model.frame == 2 and play.value == 2
+        finally:
+            e.close()
+
+
+def _from_browser(widget, **state):
+    """Apply ``state`` as an update message from the browser (ipywidgets' comm message handler)."""
+    widget._handle_msg({"content": {"data": {"method": "update", "state": state, "buffer_paths": []}}, "buffers": []})
+

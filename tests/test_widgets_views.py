@@ -308,6 +308,11 @@ def test_follow_camera_keeps_the_character_readable(name):
     eye, target = whole.world(0)
     px = scene3d.project(P.reshape(-1, 3), eye, target, whole.fov, 480, 380)
     assert px.min() >= 0 and px[:, 0].max() <= 480 and px[:, 1].max() <= 380   # every frame in view
+    # the look-at point is the rig's origin: a reloaded page's OrbitControls aim the camera at (0, 0, 0)
+    for c in (cam, whole):
+        assert c.target == (0.0, 0.0, 0.0)
+        assert np.allclose(scene3d.look_at_quaternion(c.position, (0, 0, 0)),
+                           scene3d.look_at_quaternion(c.position, c.target))
 
 
 def test_project_matches_the_pinhole_closed_form():
@@ -375,3 +380,14 @@ def test_ghost_is_built_when_first_shown_and_toggles():
     v.show_ghost = True
     gp = np.frombuffer(v.conductor.ghost_points, np.float32).reshape(30, -1, 3)
     np.testing.assert_allclose(gp[:, :6], sn.forward_kinematics(edited)[0], atol=1e-4)
+
+
+def test_the_ghost_checkbox_says_why_it_is_greyed_out():
+    m = sn.data.load("walk")
+    v = SkeletonView(m)
+    try:
+        assert v.ghost_toggle.disabled and "no original" in v.ghost_toggle.tooltip
+        v.set_motion(m, ghost=m)
+        assert not v.ghost_toggle.disabled and "no original" not in v.ghost_toggle.tooltip
+    finally:
+        v.close()

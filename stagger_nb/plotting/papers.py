@@ -84,10 +84,16 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
                          line=dict(width=5, color=_colour(n, colors))))
     eye = {"side": dict(x=2.0, y=0.3, z=0.0), "front": dict(x=0.0, y=0.3, z=2.0),
            "top": dict(x=0.0, y=2.0, z=0.01)}[view]
+    # the axis along the line of sight is seen end-on: its tick labels pile up in one spot (unreadable), so it
+    # is drawn without labels; the vertical axis gets few ticks (a wide strobe is a short scene)
+    depth = {"side": "xaxis", "front": "zaxis", "top": "yaxis"}[view]
+    scene = dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
+                                                 projection=dict(type="orthographic")))
+    scene[depth] = dict(showticklabels=False, title=dict(text=""), showspikes=False)
+    if view != "top":
+        scene["yaxis"] = dict(nticks=4)
     layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)), height=int(height),
-                  margin=dict(l=0, r=0, t=40, b=0), template="plotly_white", showlegend=True,
-                  scene=dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
-                                                            projection=dict(type="orthographic"))))
+                  margin=dict(l=0, r=0, t=40, b=0), template="plotly_white", showlegend=True, scene=scene)
     return dict(data=data, layout=layout)
 
 

@@ -109,6 +109,36 @@ def _on_kernel_thread(fn, *args) -> None:
         loop.add_callback(fn, *args)
 
 
+def _share_layouts_and_styles(root: widgets.Widget, keep=()) -> int:
+    """Let the widgets under ``root`` with equal ``layout`` (or equal ``style``) share one model, closing the
+    duplicates (ipywidgets lets controls share a Layout or style instance). Each model is one more for JupyterLab
+    to restore on a page reload, where a long restore shows "model not found" (``save_and_reload`` in
+    tests/browser_harness.py): a StaggerEditor made ~54 Layout and ~30 style models of a handful of distinct
+    settings. The 3D view and the plots (their own models), the widgets in ``keep`` (whose layout is changed
+    later) and the module's ``_WIDE`` are left alone. Call it before the editor is displayed. Returns the number
+    of models closed."""
+    canon, stack, done, closed = {}, [root], set(), 0
+    skip = {id(w) for w in keep}
+    while stack:
+        w = stack.pop()
+        if id(w) in done or id(w) in skip or isinstance(w, (SkeletonView, PlotView)):
+            continue
+        done.add(id(w))
+        stack.extend(getattr(w, "children", ()) or ())
+        for name in ("layout", "style"):
+            sub = getattr(w, name, None) if w.has_trait(name) else None
+            if not isinstance(sub, widgets.Widget):
+                continue
+            key = (type(sub), tuple(sorted((k, repr(v)) for k, v in sub.get_state().items())))
+            first = canon.setdefault(key, sub)
+            if first is not sub:
+                setattr(w, name, first)
+                if sub is not _WIDE:
+                    sub.close()
+                    closed += 1
+    return closed
+
+
 def _inert(control, inert: bool, why: str, tip: str = "") -> None:
     """Disable ``control`` with a tooltip saying why (or enable it with its normal tooltip)."""
     control.disabled = bool(inert)
@@ -154,7 +184,8 @@ class _Editor(widgets.VBox):
         self.frame_slider.add_class("sn-frame")
         self._links = [widgets.link((model, "frame"), (view, "frame"))]
         for p in plots:
-            self._links.append(widgets.link((model, "frame"), (p, "frame")))   # a click on a plot seeks
+            self._links.append(widgets.dlink((model, "frame"), (p, "frame")))
+            p.observe(self._plot_seeks, names="frame")   # a click on a plot seeks
             if hasattr(view, "link_frame"):
                 view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
         if model.has_trait("joint") and view.has_trait("selected_joint"):
@@ -172,9 +203,17 @@ class _Editor(widgets.VBox):
                                                                            max_width="100%"))],
                             layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
         self.children = [top, widgets.VBox(controls), self.message, body]
+        self.shared_models_closed = _share_layouts_and_styles(self, keep=(self.progress,))
         self.add_class(self._css)
         self._update_buttons()
         self._refresh()
+
+    def _plot_seeks(self, change) -> None:
+        """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink (then the
+        Play's own message moves it: acting here too wrote stale frames back to the Play and slider, which
+        jumped back while keys were pressed, and left the kernel a frame off the browser)."""
+        if not change["owner"].frame_from_browser:
+            self.model.frame = change["new"]
 
     def _on_picked(self, change) -> None:
         """Clicking a joint in the 3D view selects it in the editor."""

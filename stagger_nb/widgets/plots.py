@@ -179,6 +179,14 @@ class PlotView(_Checked, anywidget.AnyWidget):
         finally:
             self._browser_frame = False
 
+    @property
+    def frame_from_browser(self) -> bool:
+        """True while the kernel applies a ``frame`` the browser set on this view (a ``jsdlink`` from a Play
+        widget). The Play's own message brings that frame to whatever follows the Play; an observer that moved
+        the Play from here would write it back from the kernel, already out of date under load (its message
+        arrives before the Play's: the browser saves a link's target inside the Play's change)."""
+        return self._browser_frame
+
     def _frame_to_store(self, change) -> None:
         if self._browser_frame:
             self.store.set_state({"frame": change["new"]})   # the kernel's copy only (what a reload draws)

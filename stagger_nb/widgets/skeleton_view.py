@@ -146,6 +146,9 @@ class SkeletonView(widgets.VBox):
     selected_joint = traitlets.Unicode("", help="name of the selected (picked) joint, '' for none")
     trail_joints = traitlets.List(traitlets.Unicode(), help="joints whose motion trails are drawn")
     camera = traitlets.Enum(("follow", "all"), "follow", help="follow the root, or frame the whole clip")
+    # the ghost checkbox says why it is greyed out (a control that does nothing must say why)
+    _GHOST_TIP = {False: "show the original motion as a translucent ghost",
+                  True: "no original to show: pass ghost=<Motion> (the editors pass the unedited clip)"}
     show_ghost = traitlets.Bool(False, help="show the translucent original")
 
     def __init__(self, motion: Motion, ghost: Motion | None = None, width: int = 480, height: int = 380,
@@ -240,7 +243,8 @@ class SkeletonView(widgets.VBox):
                                                    tooltips=["camera follows the character", "frame the whole clip"],
                                                    layout=plain)
         self.ghost_toggle = widgets.Checkbox(value=False, description="original (ghost)", indent=False,
-                                             disabled=ghost is None, layout=widgets.Layout(width="130px"))
+                                             disabled=ghost is None, layout=widgets.Layout(width="130px"),
+                                             tooltip=self._GHOST_TIP[ghost is None])
         self.legend = widgets.HTML(layout=widgets.Layout(margin="0 0 0 4px"))
         self.legend.add_class("sn-legend")
         super().__init__([self.renderer,
@@ -361,6 +365,7 @@ class SkeletonView(widgets.VBox):
                 raise ValueError(f"ghost: has {ghost.num_joints} joints, the view shows {self._motion.num_joints}")
             self._ghost_motion, self._ghost_points = ghost, None
             self.ghost_toggle.disabled = False
+            self.ghost_toggle.tooltip = self._GHOST_TIP[False]
         if pose_frames is not None:
             self._pose_frames = np.unique(np.asarray(pose_frames, dtype=int).reshape(-1))
         if contacts is not None:
