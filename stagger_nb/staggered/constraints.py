@@ -22,6 +22,7 @@ import numpy as np
 from ..core.kinematics import _fk_component_major, forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
+from .contacts import chain_subset
 
 __all__ = ["apply_contact_constraints", "two_bone_ik", "contact_positions", "contact_errors", "foot_skate",
            "attenuation_weights", "carry_contacts", "keep_contacts"]
@@ -42,17 +43,7 @@ def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None) ->
     Returns full-shaped ``(F, J, 3)`` positions and ``(F, J, 4)`` world rotations, equal (bit for bit: the
     same products in the same order) to :func:`forward_kinematics` on the computed joints and NaN on the
     others, so a read of a joint that was not asked for cannot pass unnoticed."""
-    par = motion.skeleton.parents
-    keep = np.zeros(motion.num_joints, bool)
-    for j in joints:
-        j = int(j)
-        while j >= 0 and not keep[j]:
-            keep[j] = True
-            j = int(par[j])
-    sub = np.flatnonzero(keep)                          # ascending: parents before children, root first
-    where = np.full(motion.num_joints, -1)
-    where[sub] = np.arange(sub.size)
-    sub_par = np.where(par[sub] >= 0, where[np.maximum(par[sub], 0)], -1)
+    sub, sub_par, _ = chain_subset(motion.skeleton.parents, joints)   # parents before children, root first
     F = motion.num_frames
     # component-major (C, joints, F) in and out, as forward_kinematics does, without its (F, J, C) round trips
     lq = motion.local_quats if local_quats is None else local_quats
