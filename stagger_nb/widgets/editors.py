@@ -283,6 +283,15 @@ class _Editor(widgets.VBox):
             self.error = f"{type(e).__name__}: {e}"
         self._show_message()
 
+    def _redraw(self, draw) -> None:
+        """``draw(session.edited())`` for a view-only change (no new ops): an error is shown, as in
+        :meth:`_refresh`, never raised into the front end."""
+        try:
+            draw(self.session.edited())
+        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+            self.error = f"{type(e).__name__}: {e}"
+            self._show_message()
+
     def _notes(self) -> list:
         """Plain notes of the last replay (``Session.messages`` when the session has it)."""
         get = getattr(self.session, "messages", None)
@@ -537,11 +546,7 @@ class StaggerEditor(_Editor):
             _inert(self.delete_button, True, why.format("insert_pose / delete_pose"))
 
     def _on_selection(self, change=None) -> None:
-        try:
-            self._draw_curves(self.session.edited())
-        except Exception as e:  # noqa: BLE001 - shown
-            self.error = f"{type(e).__name__}: {e}"
-            self._show_message()
+        self._redraw(self._draw_curves)
 
     def _effector_positions(self, edited: Motion):
         if self._fk_cache[0] is not edited:
@@ -793,11 +798,7 @@ class WandEditor(_Editor):
         self.limit_range.value = bool(m.frame_range)
 
     def _on_view_state(self, change=None) -> None:
-        try:
-            self._update_views(self.session.edited())
-        except Exception as e:  # noqa: BLE001 - shown
-            self.error = f"{type(e).__name__}: {e}"
-            self._show_message()
+        self._redraw(self._update_views)
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
