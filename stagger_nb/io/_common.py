@@ -159,15 +159,17 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     return t, den
 
 
-def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
+def euler_components(angles: np.ndarray, axes: str, out: np.ndarray | None = None) -> np.ndarray:
     """Component-major form of :func:`euler_deg_to_quat` for three distinct axes: ``angles (3, ...)``
     degrees (first index: the angle about ``axes[k]``) -> ``(4, ...)`` quaternion components x, y, z, w.
     Every step is one contiguous numpy operation on a block of ``_EULER_BLOCK`` rotations (the
-    temporaries stay in cache and are reused: fresh pages are expensive in VMs)."""
+    temporaries stay in cache and are reused: fresh pages are expensive in VMs). With ``out``, an
+    ``(N, 4)`` float64 array (N rotations: ``angles`` holds ``(3, N)`` values), the components are written
+    straight into its columns (x, y, z, w; no transpose afterwards) and ``out.T`` is returned."""
     i, j, k = ("XYZ".index(ax) for ax in axes.upper())
     eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
     flat = np.asarray(angles, dtype=float).reshape(3, -1)
-    q = np.empty((4, flat.shape[1]))
+    q = np.empty((4, flat.shape[1])) if out is None else out.T
     plus, minus = (np.add, np.subtract) if eps > 0 else (np.subtract, np.add)
     for r0 in range(0, flat.shape[1], _EULER_BLOCK):
         r1 = r0 + _EULER_BLOCK
@@ -181,7 +183,7 @@ def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
         plus(np.multiply(c1c2, s3, out=q[k, r0:r1]), tmp, out=q[k, r0:r1])  # c1 c2 s3 + eps s1 s2 c3
         np.multiply(s1s2, s3, out=tmp)
         minus(np.multiply(c1c2, c3, out=q[3, r0:r1]), tmp, out=q[3, r0:r1])  # c1 c2 c3 - eps s1 s2 s3
-    return q.reshape((4,) + np.shape(angles)[1:])
+    return q if out is not None else q.reshape((4,) + np.shape(angles)[1:])
 
 
 def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:

@@ -1,0 +1,190 @@
+/* The BVH motion block's numbers, parsed in C: an optional accelerator for stagger_nb.io.bvh.
+
+   parse_rows(buf, start, stop, rows, out, base, stride) -> int
+
+   Parses exactly ``rows`` lines of ``buf[start:stop]``, each holding ``len(base)`` numbers, and writes the
+   value of line r, column c to ``out[base[c] + r * stride[c]]`` (``out`` a writable float64 buffer,
+   ``base``/``stride`` int64 buffers: any layout, e.g. channel-major or straight into an angle table).
+   Returns the offset just after the last line parsed (after its '\n', or ``stop`` when that line ends
+   there), or -1 -- "not handled" -- on anything it does not certify: a byte other than a plain decimal
+   token ([+-]digits[.digits][(e|E)[+-]digits], or .digits), space, tab, CR or LF; a token longer than
+   MAX_TOKEN bytes; a line with the wrong number of tokens (a blank line included); fewer lines than
+   ``rows`` before ``stop``; a value that is not finite. The caller then runs its own parser, which
+   reports the problem with its file and line. ``out`` may be partly written when -1 is returned.
+
+   Numbers are rounded correctly, bit-identical to Python's float(token): Clinger's fast path (an integer
+   mantissa <= 2^53 and a decimal exponent of at most 22 in magnitude: one exact IEEE multiplication or
+   division by an exact power of ten) and, for every other token, PyOS_string_to_double (CPython's own
+   correctly rounded, locale-independent strtod) with the GIL held. The GIL is released otherwise.
+   Nothing is read outside [start, stop) nor written outside ``out``. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#define MAX_TOKEN 64                     /* bytes of one number: real files have <= 25 */
+#define MAX_MANTISSA ((uint64_t)1 << 53) /* Clinger's fast path: the mantissa is an exact double */
+
+static const double POW10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+static inline int is_blank(unsigned char ch) { return ch == ' ' || ch == '\t' || ch == '\r'; }
+static inline int is_digit(unsigned char ch) { return (unsigned char)(ch - '0') < 10; }
+
+/* The token at p (p < end, *p not blank): its value in *value and the position after it, or NULL when it
+   is not a plain decimal number followed by a blank, '\n' or ``end``. ``*slow`` is set when the value
+   must come from PyOS_string_to_double (then *value is not set). */
+static inline const char *scan_number(const char *p, const char *end, double *value, int *slow)
+{
+    const char *tok = p;
+    int negative = 0;
+    uint64_t m = 0;  /* the digits as an integer, while there are at most 19 of them (< 2^64) */
+    int nd = 0;      /* digits read into m (leading zeros included) */
+    int digits = 0;  /* digits in the mantissa */
+    long exp10 = 0;  /* decimal exponent: minus the digits after the point, plus the explicit exponent */
+    if (*p == '+' || *p == '-') {
+        negative = *p == '-';
+        if (++p == end) return NULL;
+    }
+    const char *d0 = p;
+    while (p < end && is_digit(*p)) {
+        m = m * 10 + (unsigned)(*p - '0');
+        ++p;
+    }
+    digits = (int)(p - d0);
+    if (p < end && *p == '.') {
+        const char *f0 = ++p;
+        while (p < end && is_digit(*p)) {
+            m = m * 10 + (unsigned)(*p - '0');
+            ++p;
+        }
+        exp10 = -(long)(p - f0);
+        digits += (int)(p - f0);
+    }
+    nd = digits; /* m wrapped around when nd > 19: only the grammar counts then */
+    if (digits == 0) return NULL; /* "", "+", ".", "-." */
+    if (p < end && (*p == 'e' || *p == 'E')) {
+        int eneg = 0;
+        long e = 0;
+        if (++p == end) return NULL;
+        if (*p == '+' || *p == '-') {
+            eneg = *p == '-';
+            if (++p == end) return NULL;
+        }
+        if (!is_digit(*p)) return NULL;
+        for (; p < end && is_digit(*p); ++p) {
+            if (e < 100000) e = e * 10 + (*p - '0'); /* saturates: such exponents take the slow path */
+        }
+        exp10 += eneg ? -e : e;
+    }
+    if (p - tok > MAX_TOKEN) return NULL;
+    if (p < end && !is_blank(*p) && *p != '\n') return NULL;
+    if (nd <= 19 && m <= MAX_MANTISSA && exp10 >= -22 && exp10 <= 22) {
+        double v = (double)m; /* exact: m <= 2^53 */
+        v = exp10 < 0 ? v / POW10[-exp10] : v * POW10[exp10];
+        *value = negative ? -v : v;
+        *slow = 0;
+    } else {
+        *slow = 1;
+    }
+    return p;
+}
+
+/* PyOS_string_to_double on the token [tok, tok + len) (len <= MAX_TOKEN), the GIL reacquired; 0 and
+   *value set on success, -1 when the value is not finite or the call fails. */
+static int slow_number(const char *tok, Py_ssize_t len, double *value)
+{
+    char text[MAX_TOKEN + 1];
+    char *endp = NULL;
+    double v;
+    int ok;
+    memcpy(text, tok, (size_t)len);
+    text[len] = '\0';
+    PyGILState_STATE st = PyGILState_Ensure();
+    v = PyOS_string_to_double(text, &endp, NULL); /* NULL: overflow gives +-HUGE_VAL, no exception */
+    ok = !PyErr_Occurred() && endp == text + len;
+    if (PyErr_Occurred()) PyErr_Clear();
+    PyGILState_Release(st);
+    if (!ok || !isfinite(v)) return -1;
+    *value = v;
+    return 0;
+}
+
+static Py_ssize_t parse_block(const char *buf, Py_ssize_t start, Py_ssize_t stop, Py_ssize_t rows,
+                              Py_ssize_t cols, double *out, const int64_t *base, const int64_t *stride)
+{
+    const char *p = buf + start, *end = buf + stop;
+    Py_ssize_t r = 0, c = 0;
+    while (r < rows) {
+        while (p < end && is_blank(*p)) ++p;
+        if (p == end || *p == '\n') { /* the end of a line (or of the block) */
+            if (c != cols) return -1; /* a blank line, a short line, or too few lines */
+            c = 0;
+            ++r;
+            if (p == end) return r == rows ? stop : -1;
+            ++p;
+            continue;
+        }
+        if (c == cols) return -1; /* a long line */
+        double v;
+        int slow;
+        const char *after = scan_number(p, end, &v, &slow);
+        if (after == NULL) return -1;
+        if (slow && slow_number(p, after - p, &v) < 0) return -1;
+        out[base[c] + (int64_t)r * stride[c]] = v;
+        ++c;
+        p = after;
+    }
+    return p - buf;
+}
+
+static PyObject *parse_rows(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    Py_buffer buf, out, base, stride;
+    Py_ssize_t start, stop, rows, res = -1;
+    PyObject *result = NULL;
+    if (!PyArg_ParseTuple(args, "y*nnnw*y*y*", &buf, &start, &stop, &rows, &out, &base, &stride)) return NULL;
+    Py_ssize_t cols = base.len / (Py_ssize_t)sizeof(int64_t);
+    Py_ssize_t n_out = out.len / (Py_ssize_t)sizeof(double);
+    if (start < 0 || stop < start || stop > buf.len) {
+        PyErr_SetString(PyExc_ValueError, "parse_rows: start and stop must satisfy 0 <= start <= stop <= len(buf)");
+        goto done;
+    }
+    if (rows < 1 || cols < 1 || base.len != stride.len || base.len % (Py_ssize_t)sizeof(int64_t)) {
+        PyErr_SetString(PyExc_ValueError, "parse_rows: rows >= 1, and base and stride must be int64 buffers of one length >= 1");
+        goto done;
+    }
+    const int64_t *b = (const int64_t *)base.buf, *s = (const int64_t *)stride.buf;
+    for (Py_ssize_t c = 0; c < cols; ++c) { /* every index base[c] + r * stride[c], r < rows, lies in out */
+        if (b[c] < 0 || s[c] < 0 || b[c] >= n_out || s[c] > n_out ||
+            (rows > 1 && (n_out - 1 - b[c]) / (rows - 1) < s[c])) {
+            PyErr_Format(PyExc_ValueError, "parse_rows: column %zd (base %lld, stride %lld) leaves out, which holds "
+                         "%zd float64 values", c, (long long)b[c], (long long)s[c], n_out);
+            goto done;
+        }
+    }
+    Py_BEGIN_ALLOW_THREADS
+    res = parse_block((const char *)buf.buf, start, stop, rows, cols, (double *)out.buf, b, s);
+    Py_END_ALLOW_THREADS
+    result = PyLong_FromSsize_t(res);
+done:
+    PyBuffer_Release(&buf);
+    PyBuffer_Release(&out);
+    PyBuffer_Release(&base);
+    PyBuffer_Release(&stride);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"parse_rows", parse_rows, METH_VARARGS,
+     "parse_rows(buf, start, stop, rows, out, base, stride) -> int\n\n"
+     "Parse ``rows`` lines of ``buf[start:stop]`` (``len(base)`` plain decimal numbers each) into\n"
+     "``out[base[c] + r * stride[c]]``; the offset after the last line, or -1 when not handled."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_cparse",
+                                    "C parser of the BVH motion block (see _cparse.c).", -1, methods,
+                                    NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__cparse(void) { return PyModule_Create(&module); }
