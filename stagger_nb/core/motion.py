@@ -233,7 +233,7 @@ def _continuous_inplace(q: np.ndarray, block: int = 4096) -> None:
         neg = np.einsum("fji,fji->fj", seg[1:], seg[:-1]) < 0  # against the (already fixed) previous frame
         if lo == f0:  # first block: frame 0 is never flipped
             neg = np.concatenate([np.zeros((1,) + neg.shape[1:], dtype=bool), neg])
-        flips = np.cumsum(neg, axis=0) % 2 == 1
+        flips = np.logical_xor.accumulate(neg, axis=0)  # odd number of sign changes so far
         if flips.any():
             q[f0:f1][flips] *= -1.0
 

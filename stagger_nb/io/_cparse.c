@@ -35,34 +35,72 @@ static inline int is_digit(unsigned char ch) { return (unsigned char)(ch - '0') 
 /* The token at p (p < end, *p not blank): its value in *value and the position after it, or NULL when it
    is not a plain decimal number followed by a blank, '\n' or ``end``. ``*slow`` is set when the value
    must come from PyOS_string_to_double (then *value is not set). */
+/* How many of the 8 bytes of w (little-endian: byte 0 first) are ASCII digits before the first other
+   byte (8 when all are), with each digit byte's value in the matching byte of *digits. Branch-free
+   (SWAR): no carry crosses a byte. */
+static inline int digit_run8(uint64_t w, uint64_t *digits)
+{
+    const uint64_t x = w ^ 0x3030303030303030ULL; /* digits -> 0..9; every other byte -> >= 10 */
+    const uint64_t big = (((x & 0x7F7F7F7F7F7F7F7FULL) + 0x7676767676767676ULL) | x) & 0x8080808080808080ULL;
+    *digits = x;
+    return big ? __builtin_ctzll(big) >> 3 : 8;
+}
+
+/* The number written by the first n (1..8) digit bytes of x (as from digit_run8), most significant first. */
+static inline uint64_t digits_value8(uint64_t x, int n)
+{
+    uint64_t v = x << (8 * (8 - n)); /* the n digits become the low-order digits of an 8-digit number */
+    v = v * 10 + (v >> 8);            /* pairs of digits (simdjson's parse_eight_digits_unrolled) */
+    v = (((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))) +
+         (((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32;
+    return v & 0xFFFFFFFFULL;
+}
+
+static const uint64_t UPOW10[9] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000};
+
+/* A run of digits at p appended to m (m * 10^k + the run's value, wrapping harmlessly when the caller's
+   digit count exceeds 19); the position after the run. Eight bytes at a time where they lie before end. */
+static inline const char *digit_run(const char *p, const char *end, uint64_t *m)
+{
+    while (end - p >= 8) {
+        uint64_t w, x;
+        memcpy(&w, p, 8);
+        int n = digit_run8(w, &x);
+        if (n == 0) return p;
+        *m = *m * UPOW10[n] + digits_value8(x, n);
+        p += n;
+        if (n < 8) return p;
+    }
+    while (p < end && is_digit(*p)) {
+        *m = *m * 10 + (unsigned)(*p - '0');
+        ++p;
+    }
+    return p;
+}
+
+/* The token at p (p < end, *p not blank): its value in *value and the position after it, or NULL when it
+   is not a plain decimal number followed by a blank, '\n' or ``end``. ``*slow`` is set when the value
+   must come from PyOS_string_to_double (then *value is not set). */
 static inline const char *scan_number(const char *p, const char *end, double *value, int *slow)
 {
     const char *tok = p;
     int negative = 0;
-    uint64_t m = 0;  /* the digits as an integer, while there are at most 19 of them (< 2^64) */
-    int nd = 0;      /* digits read into m (leading zeros included) */
-    int digits = 0;  /* digits in the mantissa */
+    uint64_t m = 0;  /* the digits as an integer; exact while there are at most 19 of them (< 2^64) */
+    long digits;     /* digits in the mantissa (leading zeros included) */
     long exp10 = 0;  /* decimal exponent: minus the digits after the point, plus the explicit exponent */
     if (*p == '+' || *p == '-') {
         negative = *p == '-';
         if (++p == end) return NULL;
     }
     const char *d0 = p;
-    while (p < end && is_digit(*p)) {
-        m = m * 10 + (unsigned)(*p - '0');
-        ++p;
-    }
-    digits = (int)(p - d0);
+    p = digit_run(p, end, &m);
+    digits = p - d0;
     if (p < end && *p == '.') {
         const char *f0 = ++p;
-        while (p < end && is_digit(*p)) {
-            m = m * 10 + (unsigned)(*p - '0');
-            ++p;
-        }
+        p = digit_run(p, end, &m);
         exp10 = -(long)(p - f0);
-        digits += (int)(p - f0);
+        digits += p - f0;
     }
-    nd = digits; /* m wrapped around when nd > 19: only the grammar counts then */
     if (digits == 0) return NULL; /* "", "+", ".", "-." */
     if (p < end && (*p == 'e' || *p == 'E')) {
         int eneg = 0;
@@ -80,7 +118,7 @@ static inline const char *scan_number(const char *p, const char *end, double *va
     }
     if (p - tok > MAX_TOKEN) return NULL;
     if (p < end && !is_blank(*p) && *p != '\n') return NULL;
-    if (nd <= 19 && m <= MAX_MANTISSA && exp10 >= -22 && exp10 <= 22) {
+    if (digits <= 19 && m <= MAX_MANTISSA && exp10 >= -22 && exp10 <= 22) {
         double v = (double)m; /* exact: m <= 2^53 */
         v = exp10 < 0 ? v / POW10[-exp10] : v * POW10[exp10];
         *value = negative ? -v : v;

@@ -29,7 +29,7 @@ import numpy as np
 from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.rotations import quat_angle, quat_to_euler
 from ..core.skeleton import Skeleton
-from ._common import (MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
+from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
                       euler_deg_to_quat, finite_number, read_bytes, split_values)
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, content_end, parse_lines
@@ -461,7 +461,8 @@ class _Layout:
         without transposes. ``(R, base (C,), stride (C,), group offsets, scratch size)``."""
         if self._plan is None:
             C = self.num_channels
-            R = max(1, _ACCEL_VALUES // C)
+            rotating = sum(len(joints) for _, joints, _ in self.groups)  # a piece's rotations: one block of
+            R = max(1, min(_ACCEL_VALUES // C, _EULER_BLOCK // max(1, rotating)))  # euler_components
             base, stride = np.empty(C, np.int64), np.empty(C, np.int64)
             pos_cols = [col for _, col in self.root_pos] + [col for _, _, col in self.trans]
             base[pos_cols] = np.arange(len(pos_cols))
@@ -506,10 +507,10 @@ class _Layout:
                 ang = scratch[off:off + L * R * Jg].reshape(L, R, Jg)[:, :n]  # (L, n, Jg) degrees
                 if L == 3 and len(set(order)) == 3:
                     if self.direct:  # rotation (frame, joint) is row frame * J + joint of the output
-                        euler_components(ang.reshape(3, -1), order, out=quats[sl].reshape(-1, 4))
+                        euler_components(ang.reshape(3, -1), order, out=quats[sl].reshape(-1, 4), overwrite=True)
                     else:
                         q = np.empty((n * Jg, 4))
-                        euler_components(ang.reshape(3, -1), order, out=q)
+                        euler_components(ang.reshape(3, -1), order, out=q, overwrite=True)
                         quats[sl, joints] = q.reshape(n, Jg, 4)
                 else:
                     quats[sl, joints] = euler_deg_to_quat(np.moveaxis(ang, 0, -1), order)
