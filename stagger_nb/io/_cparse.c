@@ -129,6 +129,51 @@ static inline const char *scan_number(const char *p, const char *end, double *va
     return p;
 }
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define QUICK_SPAN 32 /* bytes quick_number may look at: 16 in one load, digits read 8 at a time after them */
+
+/* The usual token -- [+-]digits[.digits] with at most 8 digits on each side, followed within 16 bytes by a
+   blank or '\n' -- in one step, p + QUICK_SPAN <= end: 1 with its length in *len and its value in *value,
+   0 for any other token (the caller then scans it with scan_number). The token's end is found from one
+   16-byte load, so parsing it does not delay finding the next one (scan_number walks the digits first). */
+static inline int quick_number(const char *p, int *len, double *value)
+{
+    const __m128i v = _mm_loadu_si128((const __m128i *)p);
+    const __m128i sep = _mm_or_si128(
+        _mm_or_si128(_mm_cmpeq_epi8(v, _mm_set1_epi8(' ')), _mm_cmpeq_epi8(v, _mm_set1_epi8('\n'))),
+        _mm_or_si128(_mm_cmpeq_epi8(v, _mm_set1_epi8('\t')), _mm_cmpeq_epi8(v, _mm_set1_epi8('\r'))));
+    const unsigned smask = (unsigned)_mm_movemask_epi8(sep);
+    if (smask == 0) return 0;
+    const int L = __builtin_ctz(smask);
+    const unsigned low = (1u << L) - 1; /* the token's bytes */
+    const __m128i d = _mm_sub_epi8(v, _mm_set1_epi8('0'));
+    const unsigned digit = (unsigned)_mm_movemask_epi8(
+        _mm_and_si128(_mm_cmpgt_epi8(d, _mm_set1_epi8(-1)), _mm_cmplt_epi8(d, _mm_set1_epi8(10)))) & low;
+    const unsigned dot = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(v, _mm_set1_epi8('.'))) & low;
+    const unsigned negative = p[0] == '-', sign = negative | (p[0] == '+');
+    if ((digit | dot | sign) != low || (dot & (dot - 1))) return 0; /* another byte, or two dots */
+    const int at = dot ? __builtin_ctz(dot) : L;  /* the point, or the end */
+    const int n1 = at - (int)sign, n2 = dot ? L - at - 1 : 0;
+    if (n1 + n2 == 0 || n1 > 8 || n2 > 8) return 0;
+    uint64_t m = 0, w;
+    if (n1) {
+        memcpy(&w, p + sign, 8);
+        m = digits_value8(w ^ 0x3030303030303030ULL, n1);
+    }
+    if (n2) {
+        memcpy(&w, p + at + 1, 8); /* at + 9 <= 24 < QUICK_SPAN */
+        m = m * UPOW10[n2] + digits_value8(w ^ 0x3030303030303030ULL, n2);
+    }
+    if (m > MAX_MANTISSA) return 0; /* 16 digits may pass 2^53 */
+    double x = (double)m;
+    x = n2 ? x / POW10[n2] : x; /* Clinger's fast path: exact operands, one correctly rounded division */
+    *value = negative ? -x : x;  /* IEEE rounding is symmetric */
+    *len = L;
+    return 1;
+}
+#endif
+
 /* PyOS_string_to_double on the token [tok, tok + len) (len <= MAX_TOKEN), the GIL reacquired; 0 and
    *value set on success, -1 when the value is not finite or the call fails. */
 static int slow_number(const char *tok, Py_ssize_t len, double *value)
@@ -166,10 +211,19 @@ static Py_ssize_t parse_block(const char *buf, Py_ssize_t start, Py_ssize_t stop
         }
         if (c == cols) return -1; /* a long line */
         double v;
-        int slow;
-        const char *after = scan_number(p, end, &v, &slow);
-        if (after == NULL) return -1;
-        if (slow && slow_number(p, after - p, &v) < 0) return -1;
+        const char *after;
+#if defined(__SSE2__)
+        int len;
+        if (end - p >= QUICK_SPAN && quick_number(p, &len, &v)) {
+            after = p + len;
+        } else
+#endif
+        {
+            int slow;
+            after = scan_number(p, end, &v, &slow);
+            if (after == NULL) return -1;
+            if (slow && slow_number(p, after - p, &v) < 0) return -1;
+        }
         out[base[c] + (int64_t)r * stride[c]] = v;
         ++c;
         p = after;
