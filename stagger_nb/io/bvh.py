@@ -6,7 +6,11 @@ the joint's translation relative to its parent and *replace* its OFFSET (as Blen
 read them), on the root or on any joint. Line breaks may be LF, CRLF, CR or mixed; tokens may be
 separated by tabs; numbers may have a leading dot or an exponent; joint names may contain colons.
 
-Reading is fast and lean: the motion block is cut into ~1 MB pieces at line breaks, each parsed by
+Reading is fast and lean. Where the optional C accelerator was built (:func:`accelerated`), the motion block
+is parsed by ``_cparse.parse_rows`` (plain decimal tokens only, rounded exactly as ``float``: Clinger's fast
+path, else CPython's own strtod) ~500 frames at a time into a reused scratch buffer laid out so the angles
+convert to quaternions without transposes; a block it does not certify goes to the path below, which
+gives the same values or the error. Otherwise the motion block is cut into ~1 MB pieces at line breaks, each parsed by
 :func:`._numparse.parse_lines` (vectorised tokenising and pyarrow's float conversion, bit-identical to
 ``float``, any spacing) and converted straight into its frames of the output arrays, which the Motion takes
 without copies; the pieces are spread over the CPUs (up to 4 threads: numpy and pyarrow release the GIL).
