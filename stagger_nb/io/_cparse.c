@@ -140,16 +140,14 @@ static inline const char *scan_number(const char *p, const char *end, double *va
 static inline int quick_number(const char *p, int *len, double *value)
 {
     const __m128i v = _mm_loadu_si128((const __m128i *)p);
-    const __m128i sep = _mm_or_si128(
-        _mm_or_si128(_mm_cmpeq_epi8(v, _mm_set1_epi8(' ')), _mm_cmpeq_epi8(v, _mm_set1_epi8('\n'))),
-        _mm_or_si128(_mm_cmpeq_epi8(v, _mm_set1_epi8('\t')), _mm_cmpeq_epi8(v, _mm_set1_epi8('\r'))));
-    const unsigned smask = (unsigned)_mm_movemask_epi8(sep);
+    /* the token ends at the first byte <= ' ' (unsigned), which must be a blank or '\n' */
+    const unsigned smask = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_min_epu8(v, _mm_set1_epi8(' ')), v));
     if (smask == 0) return 0;
     const int L = __builtin_ctz(smask);
+    if (!is_blank(p[L]) && p[L] != '\n') return 0; /* a control byte: scan_number refuses it */
     const unsigned low = (1u << L) - 1; /* the token's bytes */
-    const __m128i d = _mm_sub_epi8(v, _mm_set1_epi8('0'));
-    const unsigned digit = (unsigned)_mm_movemask_epi8(
-        _mm_and_si128(_mm_cmpgt_epi8(d, _mm_set1_epi8(-1)), _mm_cmplt_epi8(d, _mm_set1_epi8(10)))) & low;
+    const __m128i d = _mm_sub_epi8(v, _mm_set1_epi8('0')); /* a digit iff 0 <= d <= 9 unsigned */
+    const unsigned digit = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_min_epu8(d, _mm_set1_epi8(9)), d)) & low;
     const unsigned dot = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(v, _mm_set1_epi8('.'))) & low;
     const unsigned negative = p[0] == '-', sign = negative | (p[0] == '+');
     if ((digit | dot | sign) != low || (dot & (dot - 1))) return 0; /* another byte, or two dots */
