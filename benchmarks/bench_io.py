@@ -209,7 +209,8 @@ def _run(args) -> None:
             ours, theirs = res["read_bvh (stagger_nb)"], res["pybvh.read_bvh_file"]
             ratio = ours[0] / theirs[0]
             print(f"ratio read_bvh ({path_used}) / pybvh: best {ratio:.2f}, median {ours[1] / theirs[1]:.2f}, "
-                  f"CPU {ours[2] / theirs[2]:.2f} (target <= 0.40: {'met' if ratio <= 0.4 else 'NOT met'})")
+                  f"CPU {ours[2] / theirs[2]:.2f} (target <= 0.40 -- wall: {'met' if ratio <= 0.4 else 'NOT met'}, "
+                  f"CPU: {'met' if ours[2] <= 0.4 * theirs[2] else 'NOT met'})")
             ours = res["read_bvh, fallback path"]
             print(f"ratio read_bvh, fallback path (STAGGER_NB_NO_ACCEL=1) / pybvh: best {ours[0] / theirs[0]:.2f}, "
                   f"median {ours[1] / theirs[1]:.2f}, CPU {ours[2] / theirs[2]:.2f}")
