@@ -133,16 +133,17 @@ def split_values(text, n: int, truncated: bool, what: str, source: str, line: in
 _EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temporary)
 
 
-def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
+def _half_sin_cos(angles_deg: np.ndarray, tmp: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``sin`` and ``cos`` of half of each angle (degrees), through one tangent: with ``t = tan(a/4)``,
     ``sin(a/2) = 2t / (1 + t^2)`` and ``cos(a/2) = (1 - t^2) / (1 + t^2)``. numpy vectorises ``tan`` but
     evaluates float64 ``sin``/``cos`` one value at a time (~15x slower here). Angles are first wrapped
     to [-180, 180] so ``|t| <= 1``; wrapping by 360 degrees negates the half-angle pair, i.e. the
-    quaternion, which is the same rotation."""
-    # in place (``angles_deg`` is overwritten) on two buffers: every fresh large temporary costs page
-    # faults, which are expensive in VMs
+    quaternion, which is the same rotation. Works in place: ``angles_deg`` is overwritten (it returns the
+    sines) and ``tmp``, a float64 array of its shape (allocated when not given), receives the cosines."""
+    # in place on two buffers: every fresh large temporary costs page faults, which are expensive in VMs
     a = angles_deg
-    tmp = np.empty_like(a)
+    if tmp is None:
+        tmp = np.empty_like(a)
     if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
         np.divide(a, 360.0, out=tmp)
         np.rint(tmp, out=tmp)
@@ -174,23 +175,37 @@ def euler_components(angles: np.ndarray, axes: str, out: np.ndarray | None = Non
     N = flat.shape[1]
     # with ``out``, each block is computed contiguously (ufuncs writing strided columns are ~4x slower)
     # and copied into the block's rows of ``out`` with one 2-D transpose
-    q = np.empty((4, N)) if out is None else np.empty((4, min(N, _EULER_BLOCK)))
+    q = np.empty((4, N)) if out is None else None
     plus, minus = (np.add, np.subtract) if eps > 0 else (np.subtract, np.add)
+    # one workspace for every temporary of every block: the cosines (3 rows), the four products, a copy of
+    # the angles unless they may be overwritten, the block of components when written to ``out``. Many
+    # separate 128 KB temporaries cost ~30 % more here (each a fresh allocation and its page faults)
+    B = min(N, _EULER_BLOCK)
+    work = np.empty((7 + (0 if overwrite else 3) + (0 if out is None else 4), B))
     for r0 in range(0, N, _EULER_BLOCK):
         r1 = min(N, r0 + _EULER_BLOCK)
-        b0, b1 = (r0, r1) if out is None else (0, r1 - r0)
-        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(flat[:, r0:r1] if overwrite else np.array(flat[:, r0:r1]))
-        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+        n = r1 - r0
+        if overwrite:
+            ang = flat[:, r0:r1]
+        else:
+            ang = work[7:10, :n]
+            np.copyto(ang, flat[:, r0:r1])
+        qb = q[:, r0:r1] if out is None else work[-4:, :n]
+        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(ang, work[0:3, :n])
+        c1c2 = np.multiply(c1, c2, out=work[3, :n])
+        s1s2 = np.multiply(s1, s2, out=work[4, :n])
+        s1c2 = np.multiply(s1, c2, out=work[5, :n])
+        c1s2 = np.multiply(c1, s2, out=work[6, :n])
         tmp = np.multiply(c1s2, s3, out=s1)  # s1 is no longer needed: its buffer holds each second term
-        plus(np.multiply(s1c2, c3, out=q[i, b0:b1]), tmp, out=q[i, b0:b1])  # s1 c2 c3 + eps c1 s2 s3
+        plus(np.multiply(s1c2, c3, out=qb[i]), tmp, out=qb[i])  # s1 c2 c3 + eps c1 s2 s3
         np.multiply(s1c2, s3, out=tmp)
-        minus(np.multiply(c1s2, c3, out=q[j, b0:b1]), tmp, out=q[j, b0:b1])  # c1 s2 c3 - eps s1 c2 s3
+        minus(np.multiply(c1s2, c3, out=qb[j]), tmp, out=qb[j])  # c1 s2 c3 - eps s1 c2 s3
         np.multiply(s1s2, c3, out=tmp)
-        plus(np.multiply(c1c2, s3, out=q[k, b0:b1]), tmp, out=q[k, b0:b1])  # c1 c2 s3 + eps s1 s2 c3
+        plus(np.multiply(c1c2, s3, out=qb[k]), tmp, out=qb[k])  # c1 c2 s3 + eps s1 s2 c3
         np.multiply(s1s2, s3, out=tmp)
-        minus(np.multiply(c1c2, c3, out=q[3, b0:b1]), tmp, out=q[3, b0:b1])  # c1 c2 c3 - eps s1 s2 s3
+        minus(np.multiply(c1c2, c3, out=qb[3]), tmp, out=qb[3])  # c1 c2 c3 - eps s1 s2 s3
         if out is not None:
-            out[r0:r1] = q[:, :b1].T
+            out[r0:r1] = qb.T
     return q.reshape((4,) + np.shape(angles)[1:]) if out is None else out.T
 
 
