@@ -23,6 +23,19 @@
 #include <stdint.h>
 #include <string.h>
 
+/* Eight digits at a time (SWAR) read bytes as a little-endian word; the SSE2 path needs x86. Either can be
+   turned off (-DCPARSE_SCALAR) to test the portable scalar path, which every other machine uses. */
+#if !defined(CPARSE_SCALAR) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define CPARSE_SWAR 1
+#else
+#define CPARSE_SWAR 0
+#endif
+#if CPARSE_SWAR && defined(__SSE2__)
+#define CPARSE_SSE2 1
+#else
+#define CPARSE_SSE2 0
+#endif
+
 #define MAX_TOKEN 64                     /* bytes of one number: real files have <= 25 */
 #define MAX_MANTISSA ((uint64_t)1 << 53) /* Clinger's fast path: the mantissa is an exact double */
 
@@ -62,6 +75,7 @@ static const uint64_t UPOW10[9] = {1, 10, 100, 1000, 10000, 100000, 1000000, 100
    digit count exceeds 19); the position after the run. Eight bytes at a time where they lie before end. */
 static inline const char *digit_run(const char *p, const char *end, uint64_t *m)
 {
+#if CPARSE_SWAR
     while (end - p >= 8) {
         uint64_t w, x;
         memcpy(&w, p, 8);
@@ -71,6 +85,7 @@ static inline const char *digit_run(const char *p, const char *end, uint64_t *m)
         p += n;
         if (n < 8) return p;
     }
+#endif
     while (p < end && is_digit(*p)) {
         *m = *m * 10 + (unsigned)(*p - '0');
         ++p;
@@ -129,7 +144,7 @@ static inline const char *scan_number(const char *p, const char *end, double *va
     return p;
 }
 
-#if defined(__SSE2__)
+#if CPARSE_SSE2
 #include <emmintrin.h>
 #define QUICK_SPAN 32 /* bytes quick_number may look at: 16 in one load, digits read 8 at a time after them */
 
@@ -210,7 +225,7 @@ static Py_ssize_t parse_block(const char *buf, Py_ssize_t start, Py_ssize_t stop
         if (c == cols) return -1; /* a long line */
         double v;
         const char *after;
-#if defined(__SSE2__)
+#if CPARSE_SSE2
         int len;
         if (end - p >= QUICK_SPAN && quick_number(p, &len, &v)) {
             after = p + len;
