@@ -35,10 +35,10 @@ def test_the_env_var_forces_the_fallback(monkeypatch):
     assert bvh.accelerated() == (cparse is not None)
 
 
-def _parse(text: bytes, rows: int, cols: int, start: int = 0, stop: int | None = None):
-    """(return value, (rows, cols) table) of parse_rows laid out row-major."""
+def _parse(text: bytes, rows: int, cols: int, start: int = 0, stop: int | None = None, module=None):
+    """(return value, (rows, cols) table) of parse_rows (of ``module``, else the built one) laid out row-major."""
     out = np.full(rows * cols, np.nan)
-    res = cparse.parse_rows(text, start, len(text) if stop is None else stop, rows, out,
+    res = (module or cparse).parse_rows(text, start, len(text) if stop is None else stop, rows, out,
                             np.arange(cols, dtype=np.int64), np.full(cols, cols, np.int64))
     return res, out.reshape(rows, cols)
 
@@ -66,9 +66,12 @@ def _random_tokens(rng, n: int) -> list[str]:
 
 
 @needs_c
-def test_random_decimals_are_bit_identical_to_float():
+@pytest.mark.parametrize("build", ["default", "scalar"])
+def test_random_decimals_are_bit_identical_to_float(build, request):
+    """20k random decimals (see _random_tokens) in random spacing, CRLF and LF lines: bit for bit float()."""
+    module = request.getfixturevalue("scalar_build") if build == "scalar" else cparse
     rng = np.random.default_rng(13)
-    toks = [t for t in _random_tokens(rng, 30_000) if np.isfinite(float(t))]
+    toks = [t for t in _random_tokens(rng, 20_000) if np.isfinite(float(t))]
     cols = 6
     toks = toks[: len(toks) // cols * cols]
     rows = len(toks) // cols
@@ -76,7 +79,7 @@ def test_random_decimals_are_bit_identical_to_float():
     lines = ["".join(t + s for t, s in zip(toks[r * cols:(r + 1) * cols], seps[r * cols:(r + 1) * cols]))
              for r in range(rows)]
     text = ("\r\n".join(lines[: rows // 2]) + "\n" + "\n".join(lines[rows // 2:])).encode()
-    res, table = _parse(text, rows, cols)
+    res, table = _parse(text, rows, cols, module=module)
     assert res == len(text)
     ref = np.array([float(t) for t in toks]).reshape(rows, cols)
     assert np.array_equal(table.view(np.int64), ref.view(np.int64))  # bit for bit, -0.0 included
@@ -229,11 +232,33 @@ def test_quaternions_match_the_reference_conversion(monkeypatch):
     np.testing.assert_array_equal(m.local_translations[:, 2, 0], vals[:, 11])
 
 
+@pytest.fixture(scope="module")
+def scalar_build(tmp_path_factory):
+    """_cparse.c compiled with -DCPARSE_SCALAR: the portable path other machines (big-endian, no SSE2) run."""
+    import importlib.util
+    import shutil
+    import subprocess
+    import sysconfig
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler here")
+    src = Path(__file__).resolve().parents[1] / "stagger_nb" / "io" / "_cparse.c"
+    so = tmp_path_factory.mktemp("scalar") / ("_cparse" + sysconfig.get_config_var("EXT_SUFFIX"))
+    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-DCPARSE_SCALAR", f"-I{sysconfig.get_paths()['include']}",
+                    str(src), "-o", str(so)], check=True, capture_output=True)
+    spec = importlib.util.spec_from_file_location("_cparse", so)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 @needs_c
-def test_mutated_tables_are_refused_or_parsed_exactly():
+@pytest.mark.parametrize("build", ["default", "scalar"])
+def test_mutated_tables_are_refused_or_parsed_exactly(build, request):
     """Seeded tables in several number formats, 0-2 bytes replaced or inserted, each in a buffer of its
     exact size (so a read past it would show under an ASan build): parse_rows either refuses the block or
     returns exactly float() of its tokens, never a position outside the block."""
+    module = request.getfixturevalue("scalar_build") if build == "scalar" else cparse
     rng = np.random.default_rng(2)
     junk = [b" ", b"\n", b"\t", b"x", b"e", b".", b"-", b"+", b"1", b"\r", b"\x0b", b"\n\n", b"123456789012", b""]
     accepted = 0
@@ -246,7 +271,7 @@ def test_mutated_tables_are_refused_or_parsed_exactly():
             at = int(rng.integers(0, len(text) + 1))
             text[at:at + int(rng.integers(0, 2))] = junk[int(rng.integers(len(junk)))]
         buf = np.frombuffer(bytes(text), np.uint8).copy()
-        res, table = _parse(buf, rows, cols)
+        res, table = _parse(buf, rows, cols, module=module)
         assert res == -1 or 0 < res <= len(buf)
         if res > 0:
             accepted += 1
