@@ -278,3 +278,50 @@ def test_mutated_tables_are_refused_or_parsed_exactly(build, request):
             ref = np.array([float(t) for t in bytes(buf[:res]).split()])
             assert np.array_equal(ref.view(np.int64), table.ravel().view(np.int64)), bytes(buf[:res])
     assert accepted > 300  # most mutations keep a valid table: the comparison above ran
+
+
+@needs_c
+def test_c_continuity_is_quat_continuous_bit_for_bit():
+    """make_continuous (the reader's one-pass hemisphere continuity) against quat_continuous: random
+    quaternions with random sign flips, dot products at rounding level of zero (where the summation
+    order decides), exact zeros and signed zeros, one frame, one joint; bit for bit, -0.0 included."""
+    from stagger_nb.core.rotations import quat_continuous
+    if not bvh._c_continuity():
+        pytest.skip("numpy sums einsum's dot products in another order on this machine: the reader keeps numpy's")
+    rng = np.random.default_rng(11)
+    for F, J in ((1, 3), (2, 1), (257, 1), (300, 31), (41, 7)):
+        q = rng.normal(size=(F, J, 4))
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        near = rng.random((F, J)) < 0.5  # half the frames: nearly orthogonal to the previous one
+        for f in range(1, F):
+            a, b = q[f - 1], q[f]
+            ortho = b - np.sum(a * b, -1, keepdims=True) * a
+            q[f] = np.where(near[f][:, None], ortho, b)
+        q[rng.random((F, J)) < 0.05] = [0.0, -0.0, 0.0, 1.0]  # exact zero dots against (x, y, z, 0) frames
+        q[rng.random((F, J)) < 0.05] = [1.0, 0.0, -0.0, 0.0]
+        q *= np.where(rng.random((F, J, 1)) < 0.3, -1.0, 1.0)
+        ref = quat_continuous(q)
+        mine = q.copy()
+        cparse.make_continuous(mine, J)
+        assert np.array_equal(ref.view(np.int64), mine.view(np.int64)), (F, J)
+    with pytest.raises(ValueError, match="make_continuous"):
+        cparse.make_continuous(np.zeros(6), 1)
+    cparse.make_continuous(np.zeros((0, 2, 4)), 2)  # no frames: nothing read or written
+
+
+@needs_c
+def test_wrapping_angles_read_as_motion_would_build_them(monkeypatch):
+    """Angles far past +-180 (each 360 negates the half-angle pair, so the raw quaternions flip sign
+    often): read_bvh's quaternions are bit for bit Motion(...)'s from the same raw quaternions, with
+    and without the accelerator."""
+    from stagger_nb.io._common import euler_deg_to_quat
+    rng = np.random.default_rng(5)
+    vals = rng.uniform(-2000, 2000, (40, 12)).round(6)
+    text = _tiny(("\n".join(" ".join(f"{v:.6f}" for v in r) for r in vals) + "\n").encode(), 40)
+    m = bvh.parse_bvh(text, "wrap.bvh")
+    raw = np.stack([euler_deg_to_quat(vals[:, 3:6], "ZXY"), euler_deg_to_quat(vals[:, 6:8], "XZ"),
+                    euler_deg_to_quat(vals[:, 8:11], "YXZ")], axis=1)
+    ref = sn.Motion(m.skeleton, m.frame_time, m.root_positions, raw, m.local_translations)
+    assert np.array_equal(m.local_quats.view(np.int64), ref.local_quats.view(np.int64))
+    a, b = _both(lambda: bvh.parse_bvh(text, "wrap.bvh"), monkeypatch)
+    assert _same_motion(a, b)

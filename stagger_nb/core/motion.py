@@ -116,13 +116,17 @@ class Motion:
 
     @classmethod
     def _from_owned(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray,
-                    local_quats: np.ndarray, local_translations: np.ndarray | None = None) -> "Motion":
+                    local_quats: np.ndarray, local_translations: np.ndarray | None = None,
+                    continuous: bool = False) -> "Motion":
         """Package-internal constructor for arrays the caller has just made and hands over (the readers):
         finite, float64, C-contiguous, of the right shapes, quaternions unit to rounding. They are taken
         without copies (made hemisphere-continuous in place, then read-only), so reading a long take
-        holds one quaternion table, not three."""
+        holds one quaternion table, not three. ``continuous=True``: the caller already made the
+        quaternions continuous exactly as :func:`.rotations.quat_continuous` would (the BVH reader's C
+        accelerator does)."""
         ft = check_frame_time(frame_time, "Motion: frame_time")
-        _continuous_inplace(local_quats)
+        if not continuous:
+            _continuous_inplace(local_quats)
         obj = object.__new__(cls)
         for name, a in (("root_positions", root_positions), ("local_quats", local_quats),
                         ("local_translations", local_translations)):

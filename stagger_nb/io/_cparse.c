@@ -281,7 +281,62 @@ done:
     return result;
 }
 
+/* Hemisphere continuity in place, as stagger_nb.core.rotations.quat_continuous: q is F frames of J
+   quaternions (x, y, z, w); frame f's quaternion of joint j is negated when the number of frames g <= f
+   whose ORIGINAL quaternion has a negative dot product with frame g - 1's original one is odd. The dot is
+   summed in the order ``(x x' + z z') + (y y' + w w')`` -- numpy's einsum on this machine (AVX-512
+   build, checked by the caller before use) -- so the decisions, hence the bits, are quat_continuous's. */
+static void continuity(double *q, Py_ssize_t frames, Py_ssize_t joints, double *prev, unsigned char *parity)
+{
+    if (frames < 1) return;
+    for (Py_ssize_t j = 0; j < joints * 4; ++j) prev[j] = q[j];
+    memset(parity, 0, (size_t)joints);
+    for (Py_ssize_t f = 1; f < frames; ++f) {
+        double *row = q + f * joints * 4;
+        for (Py_ssize_t j = 0; j < joints; ++j) {
+            double *a = row + 4 * j, *b = prev + 4 * j;
+            double p0 = a[0] * b[0], p1 = a[1] * b[1], p2 = a[2] * b[2], p3 = a[3] * b[3];
+            double dot = (p0 + p2) + (p1 + p3);
+            b[0] = a[0]; b[1] = a[1]; b[2] = a[2]; b[3] = a[3];
+            parity[j] ^= (unsigned char)(dot < 0.0);
+            if (parity[j]) { a[0] = -a[0]; a[1] = -a[1]; a[2] = -a[2]; a[3] = -a[3]; }
+        }
+    }
+}
+
+static PyObject *make_continuous(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    Py_buffer q;
+    Py_ssize_t joints;
+    if (!PyArg_ParseTuple(args, "w*n", &q, &joints)) return NULL;
+    Py_ssize_t n = q.len / (Py_ssize_t)sizeof(double);
+    if (joints < 1 || q.len % (Py_ssize_t)sizeof(double) || n % (4 * joints)) {
+        PyErr_SetString(PyExc_ValueError, "make_continuous: q must be a float64 buffer of frames x joints x 4 values");
+        PyBuffer_Release(&q);
+        return NULL;
+    }
+    double *prev = PyMem_Malloc((size_t)joints * 4 * sizeof(double));
+    unsigned char *parity = PyMem_Malloc((size_t)joints);
+    if (prev == NULL || parity == NULL) {
+        PyMem_Free(prev);
+        PyMem_Free(parity);
+        PyBuffer_Release(&q);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    continuity((double *)q.buf, n / (4 * joints), joints, prev, parity);
+    Py_END_ALLOW_THREADS
+    PyMem_Free(prev);
+    PyMem_Free(parity);
+    PyBuffer_Release(&q);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
+    {"make_continuous", make_continuous, METH_VARARGS,
+     "make_continuous(q, joints) -> None\n\n"
+     "Hemisphere continuity over time in place: ``q`` a C-contiguous float64 (F, joints, 4) buffer\n"
+     "(x, y, z, w), as stagger_nb.core.rotations.quat_continuous (see _cparse.c for the sum order)."},
     {"parse_rows", parse_rows, METH_VARARGS,
      "parse_rows(buf, start, stop, rows, out, base, stride) -> int\n\n"
      "Parse ``rows`` lines of ``buf[start:stop]`` (``len(base)`` plain decimal numbers each) into\n"
