@@ -325,3 +325,25 @@ def test_wrapping_angles_read_as_motion_would_build_them(monkeypatch):
     assert np.array_equal(m.local_quats.view(np.int64), ref.local_quats.view(np.int64))
     a, b = _both(lambda: bvh.parse_bvh(text, "wrap.bvh"), monkeypatch)
     assert _same_motion(a, b)
+
+
+@needs_c
+@pytest.mark.parametrize("axes", ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"])
+def test_c_quaternions_from_tangents_are_euler_components_bit_for_bit(axes):
+    """quats_from_tangents (the reader's conversion after numpy's tan) against euler_components on the same
+    angles: uniform, +-180 / +-360 / +-720 exactly, signed zeros, subnormal and huge angles, wraps; bit for bit."""
+    from stagger_nb.io._common import euler_components, quarter_tan
+    rng = np.random.default_rng(sum(map(ord, axes)))
+    special = np.array([0.0, -0.0, 180.0, -180.0, 360.0, -360.0, 720.0, 90.0, -90.0, 5e-324, -1e-310, 1e-300,
+                        179.999999, -180.000001, 1e6 + 0.5, -3.0e7, 540.0, 45.0])
+    for ang in (rng.uniform(-180, 180, (3, 5000)), rng.uniform(-5000, 5000, (3, 5000)),
+                rng.choice(special, (3, 4000)), np.where(rng.random((3, 3000)) < 0.5, rng.choice(special, (3, 3000)),
+                                                          rng.uniform(-180, 180, (3, 3000)))):
+        ref = np.ascontiguousarray(euler_components(ang.copy(), axes).T)
+        t = quarter_tan(ang.copy(), np.empty_like(ang))
+        out = np.full((ang.shape[1], 4), np.nan)
+        cparse.quats_from_tangents(t, axes, out)
+        assert np.array_equal(ref.view(np.int64), out.view(np.int64)), axes
+    for bad in (("XXY", np.empty((2, 4))), ("XYZ", np.empty((3, 4))), ("XY", np.empty((2, 4))), ("xyz", np.empty((2, 4)))):
+        with pytest.raises(ValueError, match="quats_from_tangents"):
+            cparse.quats_from_tangents(np.zeros(6), *bad)

@@ -133,6 +133,20 @@ def split_values(text, n: int, truncated: bool, what: str, source: str, line: in
 _EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temporary)
 
 
+def quarter_tan(angles_deg: np.ndarray, tmp: np.ndarray) -> np.ndarray:
+    """``tan(a/4)`` of angles ``a`` in degrees, in place (returns ``angles_deg``), after wrapping them to
+    [-180, 180] when any lies outside (``tmp``: scratch of the same shape): the first step of
+    :func:`_half_sin_cos`, shared with the BVH reader's C accelerator, which does the rest."""
+    a = angles_deg
+    if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
+        np.divide(a, 360.0, out=tmp)
+        np.rint(tmp, out=tmp)
+        tmp *= 360.0
+        a -= tmp
+    a *= np.pi / 720.0  # a/4 in radians
+    return np.tan(a, out=a)
+
+
 def _half_sin_cos(angles_deg: np.ndarray, tmp: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``sin`` and ``cos`` of half of each angle (degrees), through one tangent: with ``t = tan(a/4)``,
     ``sin(a/2) = 2t / (1 + t^2)`` and ``cos(a/2) = (1 - t^2) / (1 + t^2)``. numpy vectorises ``tan`` but
@@ -141,16 +155,9 @@ def _half_sin_cos(angles_deg: np.ndarray, tmp: np.ndarray | None = None) -> tupl
     quaternion, which is the same rotation. Works in place: ``angles_deg`` is overwritten (it returns the
     sines) and ``tmp``, a float64 array of its shape (allocated when not given), receives the cosines."""
     # in place on two buffers: every fresh large temporary costs page faults, which are expensive in VMs
-    a = angles_deg
     if tmp is None:
-        tmp = np.empty_like(a)
-    if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
-        np.divide(a, 360.0, out=tmp)
-        np.rint(tmp, out=tmp)
-        tmp *= 360.0
-        a -= tmp
-    a *= np.pi / 720.0  # a/4 in radians
-    t = np.tan(a, out=a)
+        tmp = np.empty_like(angles_deg)
+    t = quarter_tan(angles_deg, tmp)
     den = np.multiply(t, t, out=tmp)
     den += 1.0  # 1 + t^2
     np.divide(t, den, out=t)

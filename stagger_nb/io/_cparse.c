@@ -16,7 +16,10 @@
    mantissa <= 2^53 and a decimal exponent of at most 22 in magnitude: one exact IEEE multiplication or
    division by an exact power of ten) and, for every other token, PyOS_string_to_double (CPython's own
    correctly rounded, locale-independent strtod) with the GIL held. The GIL is released otherwise.
-   Nothing is read outside [start, stop) nor written outside ``out``. */
+   Nothing is read outside [start, stop) nor written outside ``out``.
+
+   Also quats_from_tangents (the euler -> quaternion conversion after numpy's tan) and make_continuous
+   (hemisphere continuity), both bit for bit the numpy code they replace; see each function. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
@@ -332,7 +335,71 @@ static PyObject *make_continuous(PyObject *Py_UNUSED(self), PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* The rest of stagger_nb.io._common.euler_components after numpy's tan (kept there: numpy's vectorised tan
+   is not libm's, and the bits must be numpy's): t holds 3 rows of n values t = tan(a/4) (row m: the angle
+   about axis m of the channel order), out receives n rows (x, y, z, w). The same IEEE operations in the same
+   order as the numpy code (-ffp-contract=off: no fused multiply-adds), so the same bits:
+   den = t t + 1, s = (t / den) 2, c = 2 / den - 1, then the four products and the closed form below. */
+static void quats_from_tan(const double *t, Py_ssize_t n, int i, int j, int k, int eps, double *out)
+{
+    const double *t1 = t, *t2 = t + n, *t3 = t + 2 * n;
+    for (Py_ssize_t r = 0; r < n; ++r) {
+        double d1 = t1[r] * t1[r] + 1.0, d2 = t2[r] * t2[r] + 1.0, d3 = t3[r] * t3[r] + 1.0;
+        double s1 = (t1[r] / d1) * 2.0, s2 = (t2[r] / d2) * 2.0, s3 = (t3[r] / d3) * 2.0;
+        double c1 = 2.0 / d1 - 1.0, c2 = 2.0 / d2 - 1.0, c3 = 2.0 / d3 - 1.0;
+        double c1c2 = c1 * c2, s1s2 = s1 * s2, s1c2 = s1 * c2, c1s2 = c1 * s2;
+        double *q = out + 4 * r;
+        if (eps > 0) {
+            q[i] = s1c2 * c3 + c1s2 * s3;
+            q[j] = c1s2 * c3 - s1c2 * s3;
+            q[k] = c1c2 * s3 + s1s2 * c3;
+            q[3] = c1c2 * c3 - s1s2 * s3;
+        } else {
+            q[i] = s1c2 * c3 - c1s2 * s3;
+            q[j] = c1s2 * c3 + s1c2 * s3;
+            q[k] = c1c2 * s3 - s1s2 * c3;
+            q[3] = c1c2 * c3 + s1s2 * s3;
+        }
+    }
+}
+
+static PyObject *quats_from_tangents(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    Py_buffer t, out;
+    const char *axes;
+    Py_ssize_t axes_len;
+    int idx[3];
+    if (!PyArg_ParseTuple(args, "y*s#w*", &t, &axes, &axes_len, &out)) return NULL;
+    Py_ssize_t n = out.len / (Py_ssize_t)(4 * sizeof(double));
+    int ok = axes_len == 3 && out.len % (Py_ssize_t)(4 * sizeof(double)) == 0 &&
+             t.len == 3 * n * (Py_ssize_t)sizeof(double);
+    for (int m = 0; ok && m < 3; ++m) {
+        const char *at = strchr("XYZ", axes[m]);
+        ok = axes[m] != '\0' && at != NULL;
+        if (ok) idx[m] = (int)(at - "XYZ");
+    }
+    if (ok) ok = idx[0] != idx[1] && idx[1] != idx[2] && idx[0] != idx[2];
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "quats_from_tangents: t must hold 3 x n float64 values, out 4 x n, "
+                                          "axes three distinct letters of 'XYZ'");
+        PyBuffer_Release(&t);
+        PyBuffer_Release(&out);
+        return NULL;
+    }
+    int eps = ((idx[1] - idx[0] + 3) % 3 == 1) ? 1 : -1; /* +1 when e_i x e_j = e_k */
+    Py_BEGIN_ALLOW_THREADS
+    quats_from_tan((const double *)t.buf, n, idx[0], idx[1], idx[2], eps, (double *)out.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&t);
+    PyBuffer_Release(&out);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
+    {"quats_from_tangents", quats_from_tangents, METH_VARARGS,
+     "quats_from_tangents(t, axes, out) -> None\n\n"
+     "``t`` (3, n) float64 tangents of a quarter of each angle (numpy's tan), ``axes`` e.g. 'ZXY':\n"
+     "``out`` (n, 4) quaternions (x, y, z, w), bit for bit euler_components' (see _cparse.c)."},
     {"make_continuous", make_continuous, METH_VARARGS,
      "make_continuous(q, joints) -> None\n\n"
      "Hemisphere continuity over time in place: ``q`` a C-contiguous float64 (F, joints, 4) buffer\n"

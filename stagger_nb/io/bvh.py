@@ -34,7 +34,7 @@ from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Moti
 from ..core.rotations import quat_angle, quat_continuous, quat_to_euler
 from ..core.skeleton import Skeleton
 from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
-                      euler_deg_to_quat, finite_number, read_bytes, split_values)
+                      euler_deg_to_quat, finite_number, quarter_tan, read_bytes, split_values)
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, content_end, parse_lines
 
@@ -523,11 +523,13 @@ class _Layout:
 
     def read_accelerated(self, raw: bytes, pos: int, stop: int, nf: int, out) -> bool:
         """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) with the C parser, ``R`` frames at a
-        time into one reused scratch buffer, each piece converted into its frames of ``out`` at once.
+        time into one reused scratch buffer, each piece converted into its frames of ``out`` at once
+        (numpy's tan, then the rest of :func:`euler_components` in C: the same bits).
         False when the C parser does not certify the block (``out`` is then partly written: the caller
         parses the block again, which rewrites every value it sets)."""
         R, base, stride, offsets, size = self._accel_plan()
         scratch = np.empty(size)
+        tmp = np.empty(3 * R * max([len(joints) for _, joints, _ in self.groups] + [0]))  # quarter_tan's scratch
         root_pos, quats, trans = out
         P = len(self.root_pos) + len(self.trans)
         row = 0
@@ -549,11 +551,15 @@ class _Layout:
                 Jg, L = cols.shape
                 ang = scratch[off:off + L * R * Jg].reshape(L, R, Jg)[:, :n]  # (L, n, Jg) degrees
                 if L == 3 and len(set(order)) == 3:
+                    # numpy's tan (its bits), then the rest of euler_components in one C loop (same operations)
+                    t = quarter_tan(ang.reshape(3, -1), tmp[:3 * n * Jg].reshape(3, -1))
+                    if n < R:  # the last piece: three rows at a stride of R * Jg
+                        t = np.ascontiguousarray(t)
                     if self.direct:  # rotation (frame, joint) is row frame * J + joint of the output
-                        euler_components(ang.reshape(3, -1), order, out=quats[sl].reshape(-1, 4), overwrite=True)
+                        _cparse.quats_from_tangents(t, order, quats[sl].reshape(-1, 4))
                     else:
                         q = np.empty((n * Jg, 4))
-                        euler_components(ang.reshape(3, -1), order, out=q, overwrite=True)
+                        _cparse.quats_from_tangents(t, order, q)
                         quats[sl, joints] = q.reshape(n, Jg, 4)
                 else:
                     quats[sl, joints] = euler_deg_to_quat(np.moveaxis(ang, 0, -1), order)
