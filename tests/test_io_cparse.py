@@ -347,3 +347,30 @@ def test_c_quaternions_from_tangents_are_euler_components_bit_for_bit(axes):
     for bad in (("XXY", np.empty((2, 4))), ("XYZ", np.empty((3, 4))), ("XY", np.empty((2, 4))), ("xyz", np.empty((2, 4)))):
         with pytest.raises(ValueError, match="quats_from_tangents"):
             cparse.quats_from_tangents(np.zeros(6), *bad)
+
+
+@needs_c
+def test_a_continuity_summing_in_another_order_is_not_used(monkeypatch):
+    """Where numpy's einsum summed dot products in another order than the C pass, _c_continuity says no
+    (simulated by a C stand-in that sums sequentially) and read_bvh keeps numpy's pass: same bits."""
+    import types
+
+    def sequential(q, joints):  # quat_continuous with ((x x' + y y') + z z') + w w'
+        q4 = q.reshape(-1, joints, 4)
+        p = q4[1:] * q4[:-1]
+        neg = (((p[..., 0] + p[..., 1]) + p[..., 2]) + p[..., 3]) < 0
+        q4[1:][np.logical_xor.accumulate(neg, axis=0)] *= -1.0
+
+    fake = types.SimpleNamespace(parse_rows=cparse.parse_rows, quats_from_tangents=cparse.quats_from_tangents,
+                                 make_continuous=sequential)
+    monkeypatch.setattr(bvh, "_cparse", fake)
+    monkeypatch.setattr(bvh, "_C_CONTINUITY", [])
+    assert not bvh._c_continuity()
+    rng = np.random.default_rng(9)
+    vals = rng.uniform(-2000, 2000, (30, 12)).round(6)
+    text = _tiny(("\n".join(" ".join(f"{v:.6f}" for v in r) for r in vals) + "\n").encode(), 30)
+    a, b = _both(lambda: bvh.parse_bvh(text, "order.bvh"), monkeypatch)
+    assert _same_motion(a, b)
+    monkeypatch.setattr(bvh, "_C_CONTINUITY", [])
+    monkeypatch.setattr(bvh, "_cparse", cparse)
+    assert bvh._c_continuity()
