@@ -28,6 +28,8 @@ from typing import Any, Callable
 
 import traitlets as T
 
+from .runners import MAX_WARP_RATIO
+
 __all__ = ["StaggerModel", "WandModel", "WarpModel", "ModelBinding", "merge_ops",
            "stagger_params_to_ops", "stagger_ops_to_params", "wand_params_to_ops", "wand_ops_to_params",
            "warp_params_to_ops", "warp_ops_to_params", "STAGGER_OPS", "WAND_OPS", "WARP_OPS"]
@@ -479,12 +481,16 @@ class WandModel(_Model):
     rotations, propagated with the Green's-function falloff of width σ."""
 
     sigma = T.Float(1.0, help="falloff width σ of the pose-space kernel (§3.3; > 0)").tag(op=True)
+    default_sigma = T.Float(0.0, help="the σ a propagate op without one uses (the clip's default σ, set by the "
+                                      "editor; 0 = unknown): undoing back to such an op shows it")
     edits = T.Dict(help="{edited frame: {joint: [rx, ry, rz] degrees}}").tag(op=True)
     propagate = T.Bool(True, help="propagate the edits (off: edit only the edited frames)").tag(op=True)
     frame_range = T.List(T.Int(), help="[start, stop) frames the propagation may change ([] = all)").tag(op=True)
     repetitions = T.Enum(["keep", "discard"], "keep",
                          help="propagate to repetitions of the edited pose (keep) or not (discard), §3.3").tag(op=True)
 
+    num_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by the "
+                               "binding; 0 = unknown)")
     edit_frame = T.Int(0, help="the selected edited frame; changing it moves that frame's edit there (an edit "
                                "already at the new frame is selected instead)")
     joint = T.Unicode("", help="joint the rotation controls act on")
@@ -507,8 +513,9 @@ class WandModel(_Model):
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
-        if p["value"] < 0:
-            raise T.TraitError(f"edit_frame: expected a frame index >= 0, got {p['value']}")
+        if p["value"] < 0 or 0 < self.num_frames <= p["value"]:
+            top = f" and < {self.num_frames}" if self.num_frames else ""
+            raise T.TraitError(f"edit_frame: expected a frame index >= 0{top}, got {p['value']}")
         return p["value"]
 
     @T.validate("edits")
@@ -602,8 +609,10 @@ def _wand_edits(op: dict):
     return [(op["frame"], op["deltas"])]
 
 
-def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, list]:
-    """Inverse of :func:`wand_params_to_ops` on the session ``ops`` (see :func:`stagger_ops_to_params`)."""
+def wand_ops_to_params(ops: list, base: dict, joint_names=(), default_sigma: float | None = None
+                       ) -> tuple[dict, list]:
+    """Inverse of :func:`wand_params_to_ops` on the session ``ops`` (see :func:`stagger_ops_to_params`).
+    A ``propagate`` op without ``sigma`` (the clip's default) reads as ``default_sigma`` when given."""
     p = copy.deepcopy(base)
     notes = []
     known = set(joint_names)
@@ -622,6 +631,8 @@ def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, lis
         if last["op"] == "propagate":
             if last.get("sigma") is not None:
                 p["sigma"] = float(last["sigma"])
+            elif default_sigma:
+                p["sigma"] = float(default_sigma)
             p["frame_range"] = list(last.get("frame_range") or [])
             p["repetitions"] = last.get("repetitions", "keep")
     return p, notes
@@ -651,6 +662,9 @@ class WarpModel(_Model):
         v = _finite("duration", p["value"])
         if v <= 0:
             raise T.TraitError(f"duration: expected seconds > 0, got {v}")
+        if self.source_duration > 0 and v > MAX_WARP_RATIO * self.source_duration:   # the runner's limit,
+            raise T.TraitError(f"duration: expected at most {MAX_WARP_RATIO} times the source's "   # said before
+                               f"{self.source_duration:g} s, got {v:g}")                         # an op is written
         return v
 
     @T.validate("skip")
@@ -844,6 +858,14 @@ def _wand_home(ops):
     return len(ops)
 
 
+def _wand_input_frames(session) -> int:
+    """Frames of the motion the WandEditor's ops see: the source's, unless an op that changes the length
+    comes before them (then 0, unknown: the replay checks the frame)."""
+    ops = session.ops
+    first = next((i for i, o in enumerate(ops) if o["op"] in WAND_OPS), _wand_home(ops))
+    return session.source.num_frames if _wand_home(ops[:first]) == first else 0
+
+
 # --------------------------------------------------------------------------------------------------
 # the binding: model <-> session
 # --------------------------------------------------------------------------------------------------
@@ -901,7 +923,7 @@ class ModelBinding:
         if isinstance(self.model, StaggerModel):
             return stagger_ops_to_params(ops, base, names, self.model.edit_bases)
         if isinstance(self.model, WandModel):
-            return wand_ops_to_params(ops, base, names)
+            return wand_ops_to_params(ops, base, names, self.model.default_sigma or None)
         p, notes, new_refs = warp_ops_to_params(ops, base, self.references, self.model.source_duration)
         if new_refs:
             self.references.update(new_refs)
@@ -957,6 +979,9 @@ class ModelBinding:
                 self._clear_bases()
             self._record_bases((int(o["pose"]), j) for o in self.session.ops if o["op"] == "edit_pose"
                                for j in o.get("targets") or {})
+        if isinstance(self.model, WandModel):
+            with self.model.loading():
+                self.model.num_frames = _wand_input_frames(self.session)
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:

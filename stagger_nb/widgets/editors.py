@@ -713,7 +713,7 @@ class WandEditor(_Editor):
         self._sigma_grid = s0 * 10.0 ** (self._SIGMA_STEP * np.arange(-self._SIGMA_STEPS, self._SIGMA_STEPS + 1))
         f0 = F // 2 if frame is None else int(frame)
         joint = joint or _default_joint(names, "LeftUpLeg", "LeftHip", "LeftFemur", "lThigh")
-        model = WandModel(sigma=s0, joint=joint, frame=f0)
+        model = WandModel(sigma=s0, default_sigma=s0, joint=joint, frame=f0)
         with model.loading():
             model.edit_frame = f0
         c = {}
