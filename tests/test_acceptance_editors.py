@@ -432,3 +432,53 @@ def test_ik_unreachable_is_said_in_the_editor():
         assert sm.num_poses > 3
     finally:
         ed.close()
+
+
+def _rich_ops(m, sm):
+    names = m.skeleton.names
+    hand = next(n for n in ("LeftHand", "LeftWrist", "Hand_L") if n in names)
+    arm = next(n for n in ("LeftArm", "LeftShoulder", "UpperArm_L") if n in names)
+    k = sm.num_poses // 2
+    tk = float(sm.pose_times[k])
+    pos = sn.forward_kinematics(staggered.evaluate(sm, [tk]))[0][0, names.index(hand)]
+    return [{"op": "cull", "count": max(4, sm.num_poses - 2)},
+            {"op": "ik_pose", "pose": 2, "joint": hand, "target": (pos * 1.0 + [0.0, 0.05 * abs(pos[1]), 0.0]).tolist()},
+            {"op": "succession", "root": _root(m), "s": 0.02, "l": 1.0},
+            {"op": "random_timing", "tau": 0.02, "seed": 4},
+            {"op": "keep_contacts"},
+            {"op": "propagate", "frame": m.num_frames // 3, "deltas": {arm: [12.0, 0.0, 0.0]}},
+            {"op": "guided_warp", "duration": round(0.9 * m.duration, 3)}]
+
+
+@pytest.mark.parametrize("clip", ["walk", "bandai_walk.bvh"])
+def test_every_editor_keeps_every_op_it_does_not_change_in_place(clip):
+    """Session with cull by count, ik_pose, succession, τ, keep_contacts, propagate, guided_warp: after each
+    parameter change of each editor, every op that parameter does not map to is still there, unchanged, in
+    the same order (a cull by count stays a cull by count until the user moves the cull control)."""
+    from stagger_nb.widgets import WandEditor, WarpEditor
+    m = _load(clip)
+    sm = staggered.extract(m)
+    s = Session(m, ops=_rich_ops(m, sm))
+    stored = s.ops
+    kinds = [o["op"] for o in stored]
+    moves = [(_stagger, [("s", "succession", 0.03), ("tau", "random_timing", 0.04), ("seed", "random_timing", 9),
+                         ("l", "succession", 2.0), ("w_r", "exaggerate", 0.3)]),
+             (lambda x: WandEditor(x, precompute=False), [("sigma", "propagate", None),
+                                                          ("edit_frame", "propagate", m.num_frames // 2)]),
+             (WarpEditor, [("duration", "guided_warp", round(0.7 * m.duration, 3)), ("skip", "guided_warp", 4)])]
+    for make, steps in moves:
+        s.set_ops(stored)
+        ed = make(s)
+        try:
+            assert _same(s.ops, stored), "opening the editor changed the ops"
+            for trait, op, value in steps:
+                before = s.ops
+                setattr(ed.model, trait, 0.7 * ed.model.sigma if value is None else value)
+                after = s.ops
+                untouched = [o for o in before if o["op"] != op]
+                assert _same([o for o in after if o["op"] != op], untouched), (trait, before, after)
+                assert [o["op"] for o in after if o["op"] in kinds] == [k for k in kinds if
+                                                                        k in [o["op"] for o in after]], after
+                s.edited()
+        finally:
+            ed.close()
