@@ -203,6 +203,24 @@ def test_wand_warp_undo_and_reload_restore_parameters(tmp_path):
         ed.close()
 
 
+def test_playhead_follows_a_shorter_warp_and_pose_choice_past_its_end():
+    """A guided warp after the staggered ops shortens the edit: the playhead moves inside it, and choosing a pose
+    whose (unwarped) time lies past the warped end moves the playhead to the last frame instead of failing."""
+    m = sn.data.load("walk")
+    s = Session(m, ops=[{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}])
+    ed = _stagger(s)
+    try:
+        ed.model.frame = m.num_frames - 1
+        s.add({"op": "guided_warp", "duration": round(0.5 * m.duration, 3)})
+        n = s.edited().num_frames
+        assert n < m.num_frames and ed.model.frame == ed.view.frame <= n - 1
+        ed.model.pose = len(ed.model.pose_times) - 1
+        assert ed.model.frame == ed.view.frame == n - 1
+        assert not ed.error
+    finally:
+        ed.close()
+
+
 def test_model_frame_moves_the_view_in_every_editor():
     from stagger_nb.widgets import WandEditor, WarpEditor
     m = sn.data.load("walk")
@@ -212,6 +230,13 @@ def test_model_frame_moves_the_view_in_every_editor():
             for k in (0, 17, m.num_frames // 2, 5):
                 ed.model.frame = k
                 assert ed.view.frame == k, type(ed).__name__
+            n = ed.session.edited().num_frames
+            ed.model.frame = n - 1
+            assert ed.view.frame == n - 1
+            for bad in (n, 10 ** 6):                 # past the edited motion: refused, the view stays in step
+                with pytest.raises(traitlets.TraitError, match="frame"):
+                    ed.model.frame = bad
+                assert ed.model.frame == ed.view.frame == n - 1
     finally:
         for ed in eds:
             ed.close()

@@ -90,11 +90,25 @@ class _Model(T.HasTraits):
     message = T.Unicode("", help="plain-text note about the parameters ('' when none): a refused value, an "
                                  "op naming a joint this skeleton does not have")
 
+    num_frames = T.Int(0, help="frames of the edited motion the playhead moves over (set by the editor when "
+                               "it shows a new edit; 0 = unknown)")
+
     @T.validate("frame")
     def _v_frame(self, proposal):
-        if proposal["value"] < 0:
-            raise T.TraitError(f"frame: expected an index >= 0, got {proposal['value']}")
+        if proposal["value"] < 0 or 0 < self.num_frames <= proposal["value"]:
+            top = f" and < {self.num_frames} (the edited motion's frames)" if self.num_frames else ""
+            raise T.TraitError(f"frame: expected an index >= 0{top}, got {proposal['value']}")
         return proposal["value"]
+
+    def _seek(self, frame: int) -> None:
+        """Move the playhead to ``frame`` as the model itself does (a pose's or an edited frame's time, which may
+        lie past a shorter warped edit): clamped to the edited motion, never refused."""
+        self.frame = min(int(frame), self.num_frames - 1) if self.num_frames else int(frame)
+
+    @T.observe("num_frames")
+    def _keep_frame_inside(self, change):
+        if 0 < change["new"] <= self.frame:   # a shorter edit (a warp): the playhead moves to its last frame
+            self.frame = change["new"] - 1
 
     _loading = False
 
@@ -216,7 +230,7 @@ class StaggerModel(_Model):
     def _pose_moves_playhead(self, change):
         """Choosing a pose moves the playhead to it (not while the playhead itself selects the pose)."""
         if not getattr(self, "_seeking", False) and 0 <= self.pose < len(self.pose_times):
-            self.frame = self.pose_frame(self.pose)
+            self._seek(self.pose_frame(self.pose))
 
     @T.observe("frame")
     def _playhead_selects_pose(self, change):
@@ -489,8 +503,8 @@ class WandModel(_Model):
     repetitions = T.Enum(["keep", "discard"], "keep",
                          help="propagate to repetitions of the edited pose (keep) or not (discard), §3.3").tag(op=True)
 
-    num_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by the "
-                               "binding; 0 = unknown)")
+    input_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by "
+                                 "the binding; 0 = unknown)")
     edit_frame = T.Int(0, help="the selected edited frame; changing it moves that frame's edit there (an edit "
                                "already at the new frame is selected instead)")
     joint = T.Unicode("", help="joint the rotation controls act on")
@@ -513,8 +527,8 @@ class WandModel(_Model):
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
-        if p["value"] < 0 or 0 < self.num_frames <= p["value"]:
-            top = f" and < {self.num_frames}" if self.num_frames else ""
+        if p["value"] < 0 or 0 < self.input_frames <= p["value"]:
+            top = f" and < {self.input_frames}" if self.input_frames else ""
             raise T.TraitError(f"edit_frame: expected a frame index >= 0{top}, got {p['value']}")
         return p["value"]
 
@@ -540,7 +554,7 @@ class WandModel(_Model):
     def _move_edit(self, change):
         """Changing the edited frame moves its edit there (onto a frame without one) and moves the playhead."""
         old, new = change["old"], change["new"]
-        self.frame = new
+        self._seek(new)
         if not self._loading and old in self.edits and new not in self.edits:
             edits = copy.deepcopy(self.edits)
             edits[new] = edits.pop(old)
@@ -981,7 +995,7 @@ class ModelBinding:
                                for j in o.get("targets") or {})
         if isinstance(self.model, WandModel):
             with self.model.loading():
-                self.model.num_frames = _wand_input_frames(self.session)
+                self.model.input_frames = _wand_input_frames(self.session)
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:

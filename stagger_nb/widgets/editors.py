@@ -228,6 +228,7 @@ class _Editor(widgets.VBox):
         last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
         pf_new = pf if pf is not None and pf != last[0] else None
         ct_new = ct if ct is not None and ct != last[1] else None
+        self.model.num_frames = edited.num_frames   # the playhead's range (a longer frame is refused)
         if self.view.motion is edited and pf_new is None and ct_new is None:
             return
         self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
