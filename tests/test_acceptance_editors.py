@@ -507,3 +507,27 @@ def test_every_editor_keeps_every_op_it_does_not_change_in_place(clip):
                 s.edited()
         finally:
             ed.close()
+
+
+def test_untouched_pose_edits_keep_their_form_and_place():
+    """A pose edit written as deltas in code (before the succession, and before a cull added later) stays
+    exactly as written while the user moves other controls: it is not rewritten as targets nor moved after the
+    cull (where its pose index would name a removed pose); the motion is the same as the op list says."""
+    m = sn.data.load("walk")
+    k = staggered.extract(m).num_poses - 2
+    ops = [{"op": "edit_pose", "pose": k, "deltas": {"LeftArm": [0.0, 0.0, 20.0]}},
+           {"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}, {"op": "cull", "percent": 10.0}]
+    s = Session(m, ops=ops)
+    stored = s.ops
+    ed = _stagger(s)
+    try:
+        for trait, value in (("s", 0.03), ("tau", 0.03), ("w_r", 0.2)):
+            setattr(ed.model, trait, value)
+            assert _same(s.ops[0], stored[0]), s.ops
+        assert [o["op"] for o in s.ops][:3] == ["edit_pose", "succession", "cull"]
+        s.edited()
+        assert not ed.error
+        ed.model.rx = 5.0            # the user nudges the selected pose: that edit is the user's, written now
+        assert not _same(s.ops, stored)
+    finally:
+        ed.close()

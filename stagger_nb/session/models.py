@@ -969,7 +969,11 @@ class ModelBinding:
             if _edit_prefix(nxt) != self._bases_prefix:
                 self._clear_bases()
             if _edit_prefix(nxt) == _edit_prefix(cur):
-                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d)
+                # bases for the nudges this change makes (every nudge when edit_mode changes: the toggle acts
+                # on them all), only: an untouched edit keeps its form (deltas stay deltas, in place)
+                old_edits, toggle = self._last["pose_edits"], new["edit_mode"] != self._last["edit_mode"]
+                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d
+                                   if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
         ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
             changed = self.session.set_ops(ops)
