@@ -20,6 +20,7 @@ from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees, warp_table_key
 from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
+from ..staggered import end_effectors
 from ..timewarp.guided import AUTO_APPROX_PAIRS
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 from .plots import PlotView
@@ -357,7 +358,7 @@ class _Editor(widgets.VBox):
         super().close()
 
 
-_EFFECTOR = re.compile(r"(hand|foot|wrist|ankle)$", re.IGNORECASE)
+_TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
 
 
 class StaggerEditor(_Editor):
@@ -381,7 +382,7 @@ class StaggerEditor(_Editor):
         model = StaggerModel(root=_default_joint(names, "Hips", "LeftShoulder", "LeftArm", "lShldr"),
                              joint=_default_joint(names, "LeftForeArm", "LeftElbow", "lForeArm"),
                              frame_time=m.frame_time)
-        effectors = [n for n in names if _EFFECTOR.search(n)]
+        effectors = [names[j] for j in end_effectors(m.skeleton) if not _TOE.search(names[j])]   # Hand_L too
         c = {}
         c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"),
                                                       ("picked", "keep")], description="cull poses",
