@@ -531,3 +531,91 @@ def test_untouched_pose_edits_keep_their_form_and_place():
         assert not _same(s.ops, stored)
     finally:
         ed.close()
+
+
+def test_every_op_parameter_survives_undo_redo_and_reload(tmp_path):
+    """Every op trait of the StaggerModel (cull by count / pick, succession joints, τ joints, the exaggeration
+    reference, pose edits in both modes, a retime, an IK target from the x/y/z controls): undo to the start and
+    redo to the end give back each intermediate ``model.params()``; a saved and reloaded session opens with the
+    same params and ops."""
+    m = _load("bandai_walk.bvh")
+    s = Session(m)
+    ed = _stagger(s)
+    model = ed.model
+    try:
+        steps = [("cull_by", "count"), ("count", 12), ("s", 0.02), ("joints", ["UpperArm_L", "LowerArm_L"]),
+                 ("tau", 0.03), ("tau_joints", ["UpperLeg_R"]), ("seed", 5), ("w_r", 0.4), ("w_r_reference", "mean"),
+                 ("pose", 4), ("joint", "UpperArm_L"), ("rz", 15.0), ("edit_mode", "unstaggered"),
+                 ("pose_time", None), ("ik_joint", "Hand_R"), ("ik_x", None), ("cull_by", "keep"),
+                 ("keep", [0, 2, 3, 4, 5, 6, 8, 10, 11, 13])]
+        states, op_lists = [model.params()], [s.ops]
+        for name, value in steps:
+            if name == "pose_time":
+                value = model.pose_times[4] + 0.5 * (model.pose_times[5] - model.pose_times[4])
+            if name == "ik_x":
+                value = model.ik_x + 2.0         # 2 cm along x: reachable for a hand
+            setattr(model, name, value)
+            if _same(s.ops, op_lists[-1]):
+                continue                          # view state (pose, joint, ik_joint, cull_by): no op change
+            states.append(model.params())
+            op_lists.append(s.ops)
+        assert len(states) >= 14
+
+        def same(got, want, ops):   # cull_by without a cull op is a choice of control, not in any op
+            return _same({k: v for k, v in got.items() if k != "cull_by" or any(o["op"] == "cull" for o in ops)},
+                         {k: v for k, v in want.items() if k != "cull_by" or any(o["op"] == "cull" for o in ops)})
+        assert [o["op"] for o in s.ops if o["op"] == "ik_pose"] == ["ik_pose"]
+        final = s.ops
+        for i, want in reversed(list(enumerate(states[:-1]))):
+            assert s.undo()
+            got = model.params()
+            assert same(got, want, s.ops), (i, {k: (got[k], want[k]) for k in want if not _same(got[k], want[k])})
+            assert _same(s.ops, op_lists[i])
+        assert s.ops == [] and not s.can_undo()
+        for i, want in enumerate(states[1:], 1):
+            assert s.redo()
+            assert same(model.params(), want, s.ops) and _same(s.ops, op_lists[i])
+        s.save(tmp_path / "all.json")
+        s.edited()
+        assert not ed.error, ed.error
+    finally:
+        ed.close()
+    s2 = Session.load(tmp_path / "all.json")
+    ed2 = _stagger(s2)
+    try:
+        got = ed2.model.params()
+        for k, v in states[-1].items():
+            if k == "pose_edits":      # edited as targets (unstaggered mode): read back as the same nudge
+                assert got[k].keys() == v.keys()
+                for p in v:
+                    for j in v[p]:
+                        np.testing.assert_allclose(got[k][p][j], v[p][j], atol=1e-6)
+            else:
+                assert _same(got[k], v), (k, got[k], v)
+        assert _same(s2.ops, final)
+    finally:
+        ed2.close()
+
+
+@pytest.mark.parametrize("clip", ["bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh"])
+def test_editor_ik_controls_offer_hands_and_feet_and_meet_the_target(clip):
+    """The IK effector menu lists both hands and feet whatever the naming (Hand_L, LeftWrist...); moving the
+    target with the x/y/z controls writes an ik_pose op whose effector meets it within 1 mm at t_k."""
+    m = _load(clip)
+    ed = _stagger(Session(m.slice(0, min(m.num_frames, 300))))
+    try:
+        offered = [v for _, v in ed.controls["ik_joint"].options]
+        effs = _effectors(m.skeleton.names)
+        assert set(effs) <= set(offered), offered
+        model = ed.model
+        model.pose = 2
+        model.ik_joint = effs[1]
+        model.ik_y = model.ik_y + 5.0 / CM[clip]      # 5 cm up
+        op = [o for o in ed.session.ops if o["op"] == "ik_pose"]
+        assert len(op) == 1 and op[0]["joint"] == effs[1] and op[0]["pose"] == 2
+        sm = ed.session.staggered()
+        got = sn.forward_kinematics(staggered.evaluate(sm, [float(sm.pose_times[2])]))[0][0,
+                                                                                         m.skeleton.names.index(effs[1])]
+        assert np.linalg.norm(got - op[0]["target"]) * CM.get(clip, 1.0) <= 0.1
+    finally:
+        ed.close()

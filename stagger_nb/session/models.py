@@ -952,6 +952,16 @@ class ModelBinding:
         new = dict(self.model.params(), **changes)
         return merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
 
+    @contextlib.contextmanager
+    def paused(self):
+        """Model changes made inside are not written to the session (e.g. a control resetting its value while
+        its options are replaced: the caller puts the model's value back before leaving)."""
+        old, self._loading = self._loading, True
+        try:
+            yield self
+        finally:
+            self._loading = old
+
     # -- directions -----------------------------------------------------------------------------------
     def _on_model(self, change) -> None:
         if not self._loading:

@@ -621,15 +621,22 @@ class StaggerEditor(_Editor):
         c = self.controls
         c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
         opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(full.pose_times)]
+        # new options reset a selection control's value (ipywidgets selects the first option), which the link
+        # would write to the model and the session as a user's choice: put the model's value back, unrecorded
         if [o[1] for o in c["keep"].options] != [o[1] for o in opts]:
-            c["keep"].options = opts
-            c["keep"].value = tuple(k for k in self.model.keep if k < len(opts))
+            keep = list(self.model.keep)
+            with self.binding.paused():
+                c["keep"].options = opts
+                c["keep"].value = tuple(k for k in keep if k < len(opts))
+                self.model.keep = keep
+        ref = self.model.w_r_reference
         refs = [("previous", "previous"), ("next", "next"), ("mean", "mean")] + [(f"pose {k}", k) for k in range(K)]
-        if isinstance(self.model.w_r_reference, int) and self.model.w_r_reference >= K:
-            refs.append((f"pose {self.model.w_r_reference}", self.model.w_r_reference))
+        if isinstance(ref, int) and ref >= K:
+            refs.append((f"pose {ref}", ref))
         if c["w_r_reference"].options != tuple(refs):
-            c["w_r_reference"].options = refs
-            c["w_r_reference"].value = self.model.w_r_reference
+            with self.binding.paused():
+                c["w_r_reference"].options = refs
+                c["w_r_reference"].value = ref
         ft = m.frame_time
         kept = np.asarray(sm.pose_times)
         self._draw_probability(full, sm, kept, _x_span(edited))
