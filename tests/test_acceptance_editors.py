@@ -619,3 +619,39 @@ def test_editor_ik_controls_offer_hands_and_feet_and_meet_the_target(clip):
         assert np.linalg.norm(got - op[0]["target"]) * CM.get(clip, 1.0) <= 0.1
     finally:
         ed.close()
+
+
+def test_bad_names_indices_and_times_are_refused_before_any_op_is_written():
+    """Values every validator of a plain number accepts but the clip does not: unknown joints, poses or frames
+    past the clip, keytimes out of order or past the source, a reference segment past the source. Each raises
+    a TraitError naming the trait; the op list, the undo stack and the trait stay as they were."""
+    from stagger_nb.widgets import WandEditor, WarpEditor
+    m = sn.data.load("walk")
+    cases = [
+        (_stagger(Session(m, ops=[{"op": "succession", "root": "Hips", "s": 0.02, "l": 1.0}])),
+         [("root", "Nope"), ("joints", ["Nope"]), ("tau_joints", ["Hips", "Nope"]), ("w_r_reference", 99),
+          ("pose_edits", {99: {"LeftArm": [0.0, 0.0, 5.0]}}), ("pose_edits", {1: {"Nope": [0.0, 0.0, 5.0]}}),
+          ("retimes", {99: 1.0}), ("retimes", {2: -5.0}), ("pose", 99), ("joint", "Nope"), ("ik_joint", "Nope"),
+          ("ik_targets", [{"pose": 99, "joint": "LeftHand", "target": [0.0, 0.0, 0.0]}]),
+          ("ik_targets", [{"pose": 1, "joint": "Nope", "target": [0.0, 0.0, 0.0]}])]),
+        (WarpEditor(Session(m, ops=[{"op": "guided_warp", "duration": 4.0}])),
+         [("keytimes", [[1.0, 1.0], [0.5, 2.0]]), ("keytimes", [[100.0, 1.0]]), ("segment", [0.0, 100.0]),
+          ("segment", [5.0, 1.0]), ("duration", 1e9)]),
+        (WandEditor(Session(m, ops=[{"op": "propagate", "frame": 100, "deltas": {"LeftArm": [15.0, 0.0, 0.0]}}]),
+                    precompute=False),
+         [("frame_range", [0, 10 ** 6]), ("frame_range", [50, 40]), ("edits", {5: {"Nope": [1.0, 0.0, 0.0]}}),
+          ("edits", {10 ** 6: {"LeftArm": [1.0, 0.0, 0.0]}}), ("joint", "Nope"), ("edit_frame", m.num_frames)]),
+    ]
+    for ed, bad in cases:
+        try:
+            s = ed.session
+            for name, value in bad:
+                ops0, before, undo0 = s.ops, getattr(ed.model, name), s.can_undo()
+                with pytest.raises(traitlets.TraitError, match=name.split("_")[0]):
+                    setattr(ed.model, name, value)
+                assert _same(s.ops, ops0) and s.can_undo() == undo0, (name, value, s.ops)
+                assert _same(getattr(ed.model, name), before), (name, value)
+            s.edited()
+            assert not ed.error, ed.error
+        finally:
+            ed.close()

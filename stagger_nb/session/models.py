@@ -100,6 +100,22 @@ class _Model(T.HasTraits):
             raise T.TraitError(f"frame: expected an index >= 0{top}, got {proposal['value']}")
         return proposal["value"]
 
+    def _known_joint(self, field: str, name) -> str:
+        """``name`` if this skeleton has it (or the names are not known yet), else a TraitError naming ``field``."""
+        if not isinstance(name, str):
+            raise T.TraitError(f"{field}: expected a joint name, got {name!r}")
+        if self.joint_names and name not in self.joint_names:
+            raise T.TraitError(f"{field}: no joint named {name!r} in this skeleton")
+        return name
+
+    def _index_below(self, field: str, k, n: int, what: str) -> int:
+        """``k`` as an int if ``0 <= k < n`` (``n`` = 0: not known yet), else a TraitError naming ``field``."""
+        k = int(k)
+        if k < 0 or 0 < n <= k:
+            raise T.TraitError(f"{field}: {k} is outside the {n} {what}" if k >= 0 else
+                               f"{field}: expected an index >= 0, got {k}")
+        return k
+
     def _seek(self, frame: int) -> None:
         """Move the playhead to ``frame`` as the model itself does (a pose's or an edited frame's time, which may
         lie past a shorter warped edit): clamped to the edited motion, never refused."""
@@ -182,7 +198,7 @@ class StaggerModel(_Model):
             raise T.TraitError(f"percent: expected a percentage in (0, 100], got {v}")
         return v
 
-    @T.validate("count", "seed", "pose")
+    @T.validate("count", "seed")
     def _v_nonneg_int(self, p):
         if p["value"] < 0:
             raise T.TraitError(f"{p['trait'].name}: expected an integer >= 0, got {p['value']}")
@@ -211,15 +227,56 @@ class StaggerModel(_Model):
         v = p["value"]
         if isinstance(v, int) and v < 0:
             raise T.TraitError(f"w_r_reference: expected 'previous', 'next', 'mean' or a pose index >= 0, got {v}")
+        if isinstance(v, int):
+            self._index_below("w_r_reference", v, len(self.pose_times), "poses")
         return v
+
+    # joint names and pose indices are checked against the skeleton and the current poses (when known), so a
+    # bad value is refused here, before any op is written (issue 11: nothing committed). A pose index the
+    # model already holds (read from the session, where a later cull may leave fewer poses than the edits
+    # saw) is not checked again.
+    @T.validate("root", "joint", "ik_joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint(p["trait"].name, p["value"])
+
+    @T.validate("joints", "tau_joints")
+    def _v_joint_names(self, p):
+        return [self._known_joint(p["trait"].name, j) for j in p["value"]]
 
     @T.validate("pose_edits")
     def _v_pose_edits(self, p):
-        return {int(k): _deltas3(f"pose_edits[{k}]", v) for k, v in p["value"].items()}
+        out = {}
+        for k, v in p["value"].items():
+            k = int(k) if int(k) in self.pose_edits else self._index_below("pose_edits", k, len(self.pose_times),
+                                                                            "poses")
+            out[k] = _deltas3(f"pose_edits[{k}]", v)
+            for j in out[k]:
+                self._known_joint(f"pose_edits[{k}]", j)
+        return out
 
     @T.validate("retimes")
     def _v_retimes(self, p):
-        return {int(k): _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
+        out = {(int(k) if int(k) in self.retimes else self._index_below("retimes", k, len(self.pose_times), "poses")):
+               _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
+        bad = {k: v for k, v in out.items() if v < 0}
+        if bad:
+            raise T.TraitError(f"retimes: expected times >= 0 (seconds), got {bad}")
+        return out
+
+    @T.validate("pose")
+    def _v_pose(self, p):
+        return self._index_below("pose", p["value"], len(self.pose_times), "poses")
+
+    @T.validate("ik_targets")
+    def _v_ik_targets(self, p):
+        for i, e in enumerate(p["value"]):
+            if not isinstance(e, dict) or set(e) != {"pose", "joint", "target"} or len(e["target"]) != 3:
+                raise T.TraitError(f"ik_targets[{i}]: expected {{pose, joint, target: [x, y, z]}}, got {e!r}")
+            if e["pose"] not in [x["pose"] for x in self.ik_targets]:
+                self._index_below(f"ik_targets[{i}].pose", e["pose"], len(self.pose_times), "poses")
+            self._known_joint(f"ik_targets[{i}].joint", e["joint"])
+            [_finite(f"ik_targets[{i}].target", x) for x in e["target"]]
+        return p["value"]
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
     def pose_frame(self, k: int) -> int:
@@ -534,13 +591,24 @@ class WandModel(_Model):
 
     @T.validate("edits")
     def _v_edits(self, p):
-        return {int(k): _deltas3(f"edits[{k}]", v) for k, v in p["value"].items()}
+        out = {}
+        for k, v in p["value"].items():
+            k = self._index_below("edits", k, self.input_frames, "frames")
+            out[k] = _deltas3(f"edits[{k}]", v)
+            for j in out[k]:
+                self._known_joint(f"edits[{k}]", j)
+        return out
+
+    @T.validate("joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint("joint", p["value"])
 
     @T.validate("frame_range")
     def _v_range(self, p):
         v = p["value"]
-        if v and (len(v) != 2 or not 0 <= v[0] < v[1]):
-            raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop, got {v}")
+        if v and (len(v) != 2 or not 0 <= v[0] < v[1] or 0 < self.input_frames < v[1]):
+            top = f" <= {self.input_frames}" if self.input_frames else ""
+            raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop{top}, got {v}")
         return v
 
     @T.validate("rx", "ry", "rz")
@@ -690,8 +758,9 @@ class WarpModel(_Model):
     @T.validate("segment")
     def _v_segment(self, p):
         v = [_finite("segment", x) for x in p["value"]]
-        if len(v) != 2 or v[1] < v[0]:
-            raise T.TraitError(f"segment: expected [start, stop] seconds with start <= stop, got {v}")
+        if len(v) != 2 or v[1] < v[0] or v[0] < 0 or 0 < self.source_duration < v[1]:
+            top = f" <= {self.source_duration:g}" if self.source_duration > 0 else ""
+            raise T.TraitError(f"segment: expected [start, stop] seconds with 0 <= start <= stop{top}, got {v}")
         return v
 
     @T.validate("keytimes")
@@ -701,6 +770,12 @@ class WarpModel(_Model):
             if len(pair) != 2:
                 raise T.TraitError(f"keytimes[{i}]: expected [input_s, output_s], got {pair}")
             out.append([_finite(f"keytimes[{i}]", x) for x in pair])
+            if min(out[-1]) < 0 or 0 < self.source_duration < out[-1][0]:
+                raise T.TraitError(f"keytimes[{i}]: expected input time in [0, {self.source_duration:g}] s and "
+                                   f"output time >= 0, got {pair}")
+            if i and not (out[-1][0] > out[-2][0] and out[-1][1] > out[-2][1]):
+                raise T.TraitError(f"keytimes[{i}]: input and output times must both increase, got {out[-2]} "
+                                   f"then {out[-1]}")
         return out
 
     @T.validate("reference")
