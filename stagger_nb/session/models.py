@@ -116,6 +116,17 @@ class _Model(T.HasTraits):
                                f"{field}: expected an index >= 0, got {k}")
         return k
 
+    def _edits_at(self, field: str, value: dict, n: int, what: str, held=()) -> dict:
+        """``{index: {joint: [rx, ry, rz]}}`` validated: each index below ``n`` (indices in ``held`` are not
+        re-checked), each joint known, each rotation three finite degrees."""
+        out = {}
+        for k, v in value.items():
+            k = int(k) if int(k) in held else self._index_below(field, k, n, what)
+            out[k] = _deltas3(f"{field}[{k}]", v)
+            for j in out[k]:
+                self._known_joint(f"{field}[{k}]", j)
+        return out
+
     def _seek(self, frame: int) -> None:
         """Move the playhead to ``frame`` as the model itself does (a pose's or an edited frame's time, which may
         lie past a shorter warped edit): clamped to the edited motion, never refused."""
@@ -245,14 +256,7 @@ class StaggerModel(_Model):
 
     @T.validate("pose_edits")
     def _v_pose_edits(self, p):
-        out = {}
-        for k, v in p["value"].items():
-            k = int(k) if int(k) in self.pose_edits else self._index_below("pose_edits", k, len(self.pose_times),
-                                                                            "poses")
-            out[k] = _deltas3(f"pose_edits[{k}]", v)
-            for j in out[k]:
-                self._known_joint(f"pose_edits[{k}]", j)
-        return out
+        return self._edits_at("pose_edits", p["value"], len(self.pose_times), "poses", self.pose_edits)
 
     @T.validate("retimes")
     def _v_retimes(self, p):
@@ -591,13 +595,7 @@ class WandModel(_Model):
 
     @T.validate("edits")
     def _v_edits(self, p):
-        out = {}
-        for k, v in p["value"].items():
-            k = self._index_below("edits", k, self.input_frames, "frames")
-            out[k] = _deltas3(f"edits[{k}]", v)
-            for j in out[k]:
-                self._known_joint(f"edits[{k}]", j)
-        return out
+        return self._edits_at("edits", p["value"], self.input_frames, "frames")
 
     @T.validate("joint")
     def _v_joint_name(self, p):
