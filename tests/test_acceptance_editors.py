@@ -655,3 +655,34 @@ def test_bad_names_indices_and_times_are_refused_before_any_op_is_written():
             assert not ed.error, ed.error
         finally:
             ed.close()
+
+
+def test_inert_controls_on_fresh_editors_say_why():
+    """On a fresh editor the traits that write no op (l while s = 0, the seed while τ = 0, keep_contacts with no
+    timing edit, skip while the warp is the identity) sit on disabled controls with a tooltip saying why; once
+    the cause is gone they act (write ops, change the motion)."""
+    from stagger_nb.widgets import WarpEditor
+    m = sn.data.load("walk")
+    ed = _stagger(m)
+    try:
+        c = ed.controls
+        assert c["l"].disabled and "s = 0" in c["l"].tooltip
+        assert c["seed"].disabled and "τ = 0" in c["seed"].tooltip
+        ed.model.s, ed.model.tau = 0.02, 0.02
+        assert not c["l"].disabled and not c["seed"].disabled
+        for name, value in (("l", 2.0), ("seed", 4), ("keep_contacts", not ed.model.keep_contacts)):
+            ops0 = ed.session.ops
+            setattr(ed.model, name, value)
+            assert not _same(ops0, ed.session.ops), name
+    finally:
+        ed.close()
+    w = WarpEditor(m)
+    try:
+        assert w.session.ops == [] and w.controls["skip"].disabled and "identity" in w.controls["skip"].tooltip
+        w.model.duration = round(0.7 * m.duration, 3)
+        assert not w.controls["skip"].disabled
+        ops0 = w.session.ops
+        w.model.skip = 3
+        assert not _same(ops0, w.session.ops)
+    finally:
+        w.close()

@@ -900,7 +900,7 @@ class WarpEditor(_Editor):
         self._links.append(traitlets.link((model, "segment"), (c["segment"], "value"), transform=(tuple, list)))
         self._links.append(traitlets.link((model, "keytimes"), (self.keytimes, "value"),
                                           transform=(self._format_keytimes, self._parse_keytimes)))
-        model.observe(self._on_inert, names=["mode", "reference", "free_length"])
+        model.observe(self._on_inert, names=["mode", "reference", "free_length", "duration", "keytimes", "backward"])
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
@@ -968,6 +968,9 @@ class WarpEditor(_Editor):
         linear = m.mode == "linear"
         for k in ("skip", "reference", "backward", "free_length"):
             _inert(c[k], linear, f"{k} applies to guided warps only")
+        if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
+            _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
+                                    "change the duration, the reference or a keytime first")
         _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
         _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
 
