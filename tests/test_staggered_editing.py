@@ -595,3 +595,27 @@ def test_edit_keeps_displacements_past_half_a_turn_unwrapped(shared_motion):
     # the edit is 0.01 rad at most (faded by the weights); between grid points the rotation vectors, not
     # the rotations, are interpolated linearly, which adds ~4e-6 rad here (1 % margin)
     assert change.max() <= 0.0101
+
+
+def test_timing_warnings_in_metadata_are_computed_when_read(fixture, monkeypatch):
+    """``metadata["warnings"]`` of an edit is computed on its first read (a slider's replay never reads it),
+    then kept; every way of reading the dict (item, get, in, iteration, copy, pickling) sees the entry, equal
+    to timing_warnings of the edited motion."""
+    import copy
+    import pickle
+    _, sm = fixture
+    calls = []
+    real = E._timing_warnings
+    monkeypatch.setattr(E, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
+    out = staggered.random_timing(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0), tau=0.1, seed=3)
+    assert calls == []                                  # two edits, nothing read yet
+    want = E.timing_warnings(out)
+    assert want and len(calls) == 1                     # these edits do cross poses (else the check is empty)
+    assert "warnings" in out.metadata and len(calls) == 1
+    assert out.metadata["warnings"] == want and len(calls) == 2
+    assert out.metadata.get("warnings") == want and len(calls) == 2    # kept after the first read
+    for other in (staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0),):
+        assert dict(other.metadata)["warnings"] == E.timing_warnings(other)
+        assert pickle.loads(pickle.dumps(other.metadata))["warnings"] == E.timing_warnings(other)
+        assert copy.deepcopy(other.metadata)["warnings"] == E.timing_warnings(other)
+        assert "warnings" in list(other.metadata) and set(other.metadata) == set(dict(other.metadata))

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_mul, rotvec_to_quat
 from ..core.skeleton import Skeleton
@@ -93,6 +94,15 @@ class Heads:
         if make is None:
             return None
         return self.cache.get("offset_basis", self.key(sm), None, lambda: make(sm))
+
+    def positions(self, motion: Motion):
+        """World joint positions ``(F, J, 3)`` of ``motion`` (``forward_kinematics(motion)[0]``, read-only),
+        once per motion: ``keep_contacts`` reads the source's on every replay."""
+        def make():
+            p = forward_kinematics(motion)[0]
+            p.setflags(write=False)
+            return p
+        return self.cache.get("positions", self.key(motion), None, make)
 
     def wand_graph(self, motion: Motion):
         """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
@@ -319,7 +329,8 @@ def _delete_pose(sm, op: O.DeletePose, run):
 
 
 def _keep_contacts(state, op: O.KeepContacts, run):
-    return _needs("keep_contacts")(state, run.origin)
+    origin = run.origin
+    return _needs("keep_contacts")(state, origin, source_positions=run.heads.positions(origin))
 
 
 def _ik_pose(sm, op: O.IKPose, run):

@@ -684,7 +684,8 @@ def _plants(carried, effs) -> list[list[int]]:
 
 
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
-                  lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip") -> Motion:
+                  lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip",
+                  source_positions: np.ndarray | None = None) -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
     :func:`apply_contact_constraints` at the source's contact positions moved with the hip (``plant``), the
@@ -728,6 +729,10 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         walk, where its own delayed swing puts it, so the leg reaches it without lowering the pelvis.
         ``"source"``: the source's contact point itself (the leg must then reach back by ``v δ``: on real
         walks the root drops 5-12 cm).
+    source_positions : ndarray, shape (F_source, J, 3), optional
+        ``forward_kinematics(source)[0]`` (world joint positions, file units) when the caller has it (an edit
+        session keeps it per source: it does not change with the edit); the same numbers as computing it
+        here, one forward kinematics fewer per call.
 
     Returns
     -------
@@ -759,7 +764,13 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     chains = {j: _chain(sk, j) for j in {c[1] for c in carried}}
     effs = {j: ch[2] for j, ch in chains.items()}
     ups = {j: max(ch[0], 0) for j, ch in chains.items()}
-    src_pos = _fk_joints(source, set(effs) | set(effs.values()) | set(ups.values()))[0]   # the contact chains
+    if source_positions is None:
+        src_pos = _fk_joints(source, set(effs) | set(effs.values()) | set(ups.values()))[0]   # the contact chains
+    else:
+        src_pos = np.asarray(source_positions)
+        if src_pos.shape != (source.num_frames, source.num_joints, 3):
+            raise ValueError(f"source_positions: expected shape ({source.num_frames}, {source.num_joints}, 3) "
+                             f"(forward_kinematics(source)[0]), got {src_pos.shape}")
     # source positions at the source time of every carried frame (inverse of each contact's joint warp),
     # all contacts at once: one interpolation per clock joint, one gather for every frame
     n = np.array([c[3] - c[2] for c in carried])
