@@ -11,7 +11,7 @@ from stagger_nb import Motion, Skeleton, staggered
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
 from stagger_nb.staggered import editing as E
 from stagger_nb.staggered.fitting import fit_staggered
-from stagger_nb.staggered.representation import evaluate, knot_times
+from stagger_nb.staggered.representation import default_times, evaluate, evaluate_arrays, knot_times
 
 FT = 1 / 30
 NAMES = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder", "RightArm",
@@ -619,3 +619,28 @@ def test_timing_warnings_in_metadata_are_computed_when_read(fixture, monkeypatch
         assert pickle.loads(pickle.dumps(other.metadata))["warnings"] == E.timing_warnings(other)
         assert copy.deepcopy(other.metadata)["warnings"] == E.timing_warnings(other)
         assert "warnings" in list(other.metadata) and set(other.metadata) == set(dict(other.metadata))
+
+
+def test_edits_and_evaluate_equal_the_validating_constructors(fixture):
+    """The editing tools build their result without re-validating the arrays they did not change
+    (shared, read-only), and evaluate / keep_contacts build their Motion without re-validating: the same
+    values bit for bit as ``dataclasses.replace`` and ``Motion(...)``."""
+    import dataclasses
+    m, sm = fixture
+    out = staggered.exaggerate(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0),
+                               list(range(sm.num_poses)), 0.4)
+    for edited in (out, staggered.succession(out, root="Hips", s=-0.03, l=1.0)):
+        again = dataclasses.replace(edited)                  # validated copies of every field
+        for f in dataclasses.fields(edited):
+            a, b = getattr(edited, f.name), getattr(again, f.name)
+            if isinstance(a, np.ndarray):
+                assert np.array_equal(a, b) and a.dtype == b.dtype and not a.flags.writeable, f.name
+    ev = evaluate(out)
+    q_, p_ = evaluate_arrays(out, default_times(out))
+    want = Motion(ev.skeleton, ev.frame_time, p_, q_)
+    assert np.array_equal(ev.local_quats, want.local_quats) and np.array_equal(ev.root_positions, want.root_positions)
+    assert not ev.local_quats.flags.writeable and not ev.root_positions.flags.writeable
+    q = np.array(want.local_quats)
+    q[5:, 2] *= -1.0                                         # a sign flip: the Motion makes it continuous again
+    assert np.array_equal(Motion._trusted(ev.skeleton, ev.frame_time, want.root_positions, q).local_quats,
+                          want.local_quats)

@@ -113,11 +113,13 @@ def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None, 
     ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lbc ** 2) / (-2.0 * lab * lbc), -1.0, 1.0))
 
     axis0, n0 = _unit(np.cross(c - a, b - a))
-    if fallback_axis is None:
-        fallback_axis = quat_rotate(b_world, np.array([1.0, 0.0, 0.0]))
     straight = n0 < 1e-9
-    if np.any(straight):
-        axis0 = np.where(straight[:, None], _unit(np.asarray(fallback_axis, dtype=float))[0], axis0)
+    if np.any(straight):   # the fallback axis only where it is used (the same values there)
+        s_ = np.flatnonzero(straight)
+        fb = (quat_rotate(np.asarray(b_world, dtype=float)[s_], np.array([1.0, 0.0, 0.0])) if fallback_axis is None
+              else np.broadcast_to(np.asarray(fallback_axis, dtype=float), axis0.shape)[s_])
+        axis0 = np.array(axis0)
+        axis0[s_] = _unit(fb)[0]
     axis1, n1 = _unit(np.cross(c - a, t - a))
     axis1 = np.where((n1 < 1e-12)[:, None], axis0, axis1)  # c-a already points at t: no swing needed
 
@@ -517,9 +519,9 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             disp = quat_mul(quat_conj(wq2[fr, eff]), quat_mul(turn, wq2[fr, eff]))              # ankle's local
             disp = slerp(np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape), disp, weight[fr])
             out[fr, eff] = quat_mul(out[fr, eff], disp)
-    if rp is motion.root_positions:
-        return motion.replace(local_quats=out)
-    return motion.replace(local_quats=out, root_positions=rp)
+    # out: this call's own copy of a valid motion's rotations, displaced by unit quaternions; rp: the root
+    # positions, lowered (finite): the trusted constructor, the same values as motion.replace(...)
+    return Motion._trusted(motion.skeleton, motion.frame_time, rp, out, motion.local_translations)
 
 
 def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:

@@ -471,7 +471,7 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     ``metadata["source_knots"]`` (``source_knots`` overrides them when the poses change)."""
     if source_knots is None:
         source_knots = source_knot_times(sm)
-    new = dataclasses.replace(sm, **fields)
+    new = sm._with_fields(**fields)          # (arrays the edit did not change are shared, not copied)
     K, J = new.num_poses, new.num_joints
     # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
     # for whole clips; alternating tiny calls with full evaluations would make it re-allocate them)
