@@ -644,3 +644,20 @@ def test_edits_and_evaluate_equal_the_validating_constructors(fixture):
     q[5:, 2] *= -1.0                                         # a sign flip: the Motion makes it continuous again
     assert np.array_equal(Motion._trusted(ev.skeleton, ev.frame_time, want.root_positions, q).local_quats,
                           want.local_quats)
+
+
+def test_exaggerate_with_a_basis_keeps_the_maps_it_does_not_move(fixture):
+    """With a basis, only the (segment, joint) pairs an offset touches are re-measured (a static joint is not
+    even in the basis): the other joints keep their displacement maps exactly, as without a basis."""
+    _, sm = fixture
+    moved = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand"]   # over half the pairs
+    ks = list(range(sm.num_poses))
+    a = E.exaggerate(sm, ks, 0.7, joints=moved)
+    b = E.exaggerate(sm, ks, 0.7, joints=moved, basis=E.pose_offset_basis(sm))
+    rest = [NAMES.index(n) for n in NAMES if n not in moved]
+    M = sm.displacements.shape[2]
+    assert np.array_equal(b.displacements[:, rest, :M], sm.displacements[:, rest])
+    assert np.array_equal(a.displacements[:, rest, :M], sm.displacements[:, rest])
+    assert np.allclose(a.displacements, b.displacements, atol=1e-12)                      # rounding only
+    mv = [NAMES.index(n) for n in moved]
+    assert np.abs(b.displacements[:, mv, :M] - sm.displacements[:, mv]).max() > 1e-6   # they did move

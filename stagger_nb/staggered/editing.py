@@ -34,7 +34,7 @@ from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, qua
 from .fitting import displacement_rotvecs
 from . import _kernels as kern
 from .representation import (StaggeredMotion, _rotations_at, bezier_cubic, knot_times, rotation_spline,
-                             translation_source_times)
+                             static_rotations, translation_source_times)
 
 __all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession",
            "OffsetBasis", "pose_offset_basis",
@@ -597,7 +597,9 @@ class OffsetBasis:
     does not depend on the offsets: the re-measuring grid of every (segment, joint) pair, the motion's
     rotations on it and the plateau weights of both ends. Built by :func:`pose_offset_basis`; pass it to
     :func:`exaggerate` (``basis=``) to skip that half of the work when the same motion is exaggerated again
-    with another ``w_r`` (a slider). Arrays: ``seg, joint, counts (P,)`` with P = (K - 1) J pairs; ``pair,
+    with another ``w_r`` (a slider). Arrays: ``seg, joint, counts (P,)``, the P pairs it covers: every
+    (segment, joint) pair of the joints that move (P <= (K - 1) J; a static joint's rotation, one quaternion
+    throughout, e.g. 6 of CMU's 31, is not exaggerated by a relative offset and keeps its map); ``pair,
     m, tn, t (N,)`` the grid (pair index, index in the pair, normalised and absolute time, seconds);
     ``old (4, N)`` the rotations (x, y, z, w rows); ``wl, wr (N,)`` the weights of the segment's first and
     second pose; ``knots (K, J)`` and ``pose_times (K,)`` of the motion it was built for (checked on use)."""
@@ -616,18 +618,32 @@ class OffsetBasis:
         """True when this basis was built for a motion with ``sm``'s knots and displacement grids."""
         return (self.knots.shape == (sm.num_poses, sm.num_joints) and np.array_equal(self.knots, knot_times(sm))
                 and np.array_equal(self.pose_times, sm.pose_times)
-                and np.array_equal(self.counts, sm.displacement_counts.reshape(-1)))
+                and np.array_equal(self.counts, sm.displacement_counts[self.seg, self.joint]))
+
+    def restrict(self, pairs: np.ndarray) -> "OffsetBasis":
+        """This basis on the subset ``pairs (P,) bool`` of its pairs (the grid gathered, pairs renumbered)."""
+        if pairs.all():
+            return self
+        pair, m, tn, t = self.grid
+        keep = pairs[pair]
+        new_id = np.cumsum(pairs) - 1
+        return OffsetBasis(self.knots, self.pose_times, self.seg[pairs], self.joint[pairs], self.counts[pairs],
+                           (new_id[pair[keep]], m[keep], tn[keep], t[keep]), self.old[:, keep], self.wl[keep],
+                           self.wr[keep])
 
 
 def pose_offset_basis(sm: StaggeredMotion) -> OffsetBasis:
     """The offset-independent half of re-measuring every displacement map of ``sm`` (see
     :class:`OffsetBasis`): ``exaggerate(sm, ..., basis=pose_offset_basis(sm))`` equals ``exaggerate(sm, ...)``
     to rounding (~1e-16 rad). Cost: about one :func:`evaluate`; memory ~100 bytes
-    per grid sample (``(F + K) J`` samples at extraction)."""
+    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.representation.
+    static_rotations`) are left out: an edit that moves one re-measures without the basis."""
     _check(sm)
     K, J = sm.num_poses, sm.num_joints
-    seg, joint = np.divmod(np.arange((K - 1) * J), J)
-    counts = sm.displacement_counts.reshape(-1)
+    moving = np.flatnonzero(~static_rotations(sm)[0])
+    seg, joint = np.divmod(np.arange((K - 1) * moving.size), moving.size)
+    joint = moving[joint]
+    counts = sm.displacement_counts[seg, joint]
     knots = knot_times(sm)
     T = np.maximum.accumulate(knots, axis=0)
     grid = _grid(T[seg, joint], T[seg + 1, joint], counts)
@@ -657,9 +673,15 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
         tangents[:, :, 0] = quat_mul(tangents[:, :, 0], deltas[:-1])   # handle next to v_k (segment k)
         tangents[:, :, 1] = quat_mul(tangents[:, :, 1], deltas[1:])    # handle next to v_{k+1}
         touched = moved[:-1] | moved[1:]                                # (K-1, J) segments to re-measure
-        if basis is not None and touched.sum() < 0.5 * touched.size:
-            basis = None                  # few pairs moved: re-measuring only those is cheaper
-        if basis is not None:             # every pair (an unmoved one gets its own map back, to rounding)
+        if basis is not None:
+            covered = np.zeros_like(touched)
+            covered[basis.seg, basis.joint] = True
+            inside = touched[basis.seg, basis.joint]
+            if (touched & ~covered).any() or inside.sum() < 0.5 * inside.size:
+                basis = None              # a static joint moved, or few pairs: re-measure those without it
+            else:
+                basis = basis.restrict(inside)   # the touched pairs (the others keep their maps exactly)
+        if basis is not None:
             seg, joint, counts, grid = basis.seg, basis.joint, basis.counts, basis.grid
         else:
             seg, joint = np.nonzero(touched)
