@@ -661,3 +661,20 @@ def test_exaggerate_with_a_basis_keeps_the_maps_it_does_not_move(fixture):
     assert np.allclose(a.displacements, b.displacements, atol=1e-12)                      # rounding only
     mv = [NAMES.index(n) for n in moved]
     assert np.abs(b.displacements[:, mv, :M] - sm.displacements[:, mv]).max() > 1e-6   # they did move
+
+
+def test_offset_basis_reads_the_reproduced_motion_on_frames(fixture):
+    """pose_offset_basis(sm, reproduced=m): while sm's knots sit on frames and sm reproduces m there, the
+    rotations on the grid are read from m (checked on a subset): the exaggeration equals the plain basis' to
+    rounding (< 1e-12 rad: the extraction reproduces m to ~1e-15 here); after a timing edit (grid off the
+    frames) or a geometric edit (sm no longer reproduces m) the basis is the plain one, bit for bit."""
+    m, sm = fixture
+    ks = list(range(sm.num_poses))
+    plain, read = E.pose_offset_basis(sm), E.pose_offset_basis(sm, reproduced=m)
+    assert not np.array_equal(plain.old, read.old)                      # it did read m (else nothing is tested)
+    assert quat_angle(plain.old.T, read.old.T).max() < 1e-12
+    a = evaluate(E.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
+    b = evaluate(E.exaggerate(sm, ks, 0.8, basis=read)).local_quats
+    assert quat_angle(a, b).max() < 1e-12
+    for other in (E.succession(sm, root="Hips", s=0.02, l=1.0), E.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
+        assert np.array_equal(E.pose_offset_basis(other, reproduced=m).old, E.pose_offset_basis(other).old)
