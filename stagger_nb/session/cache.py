@@ -215,7 +215,7 @@ def nbytes(value, _depth: int = 0) -> int:
     if _depth > 2 or value is None or isinstance(value, (str, bytes, int, float, bool)):
         return 0
     if isinstance(value, dict):
-        items = value.values()
+        items = dict.values(value)   # (a dict subclass's lazy entries, e.g. timing warnings, stay unread)
     elif isinstance(value, (list, tuple)):
         items = value
     elif dataclasses.is_dataclass(value):
