@@ -175,11 +175,20 @@ class Motion:
         return Motion(**fields)
 
     def slice(self, start: int | None = None, stop: int | None = None, step: int | None = None) -> "Motion":
-        """Frames ``[start, stop)`` (every ``step``-th) as a new Motion."""
+        """Frames ``[start, stop)`` (every ``step``-th, ``step >= 1``) as a new Motion; ``start``/``stop``
+        are integers (or None) with Python's meaning of negative indices. ``ValueError`` names the argument."""
+        for name, v in (("start", start), ("stop", stop), ("step", step)):
+            if v is not None and (isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer))):
+                raise ValueError(f"Motion.slice: {name} must be an integer frame index or None, got {v!r}")
+        if step is not None and step < 1:
+            raise ValueError(f"Motion.slice: step must be a positive integer, got {step}")
+        if step is not None and step > 1:
+            check_frame_time(self.frame_time * int(step), f"Motion.slice: step={step} (frame time x step)")
         sl = slice(start, stop, step)
         idx = np.arange(self.num_frames)[sl]
         if idx.size == 0:
-            raise ValueError(f"Motion.slice: frames [{start}, {stop}) of a {self.num_frames}-frame motion are empty")
+            raise ValueError(f"Motion.slice: start, stop: frames [{start}, {stop}) of a {self.num_frames}-frame "
+                             "motion are empty")
         lt = None if self.local_translations is None else self.local_translations[sl]
         return Motion(self.skeleton, self.frame_time * (step or 1), self.root_positions[sl],
                       self.local_quats[sl], lt)

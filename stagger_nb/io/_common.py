@@ -18,6 +18,18 @@ __all__ = ["atomic_write_bytes", "WriteError", "FormatError", "read_text", "read
 MAX_INPUT_BYTES = 1 << 30
 
 
+def file_path(path, what: str = "path") -> str | bytes:
+    """``os.fspath(path)``, or ``ValueError`` naming ``what`` when ``path`` is not a path (None, a number) or
+    holds a NUL character (which no file name can)."""
+    try:
+        name = os.fspath(path)
+    except TypeError:
+        raise ValueError(f"{what}: expected a file path (str or os.PathLike), got {path!r}") from None
+    if ("\0" if isinstance(name, str) else b"\0") in name:
+        raise ValueError(f"{what}: a file path cannot hold a NUL character, got {path!r}")
+    return name
+
+
 def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None) -> bytes:
     """The bytes of ``path``, read only if it is a regular file no larger than ``max_bytes``.
 
@@ -27,7 +39,7 @@ def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None)
     and the path; the readers wrap it in their own format error.
     """
     limit = MAX_INPUT_BYTES if max_bytes is None else int(max_bytes)
-    name = os.fspath(path)
+    name = file_path(path, what)
     try:
         fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:
@@ -88,12 +100,18 @@ UTF8_BOM = b"\xef\xbb\xbf"
 
 
 def decode(raw: bytes | memoryview) -> str:
-    """UTF-8 text without a leading byte-order mark, or Latin-1 where the bytes are not UTF-8 (old
-    exporters). A ``memoryview`` is decoded in place (no copy of a large slice)."""
+    """UTF-8 text without a leading byte-order mark, or else Windows-1252 (old Windows exporters: ``“ü”``),
+    or else Latin-1 (cp1252 leaves five bytes undefined). cp1252 comes before Latin-1 because Latin-1 reads
+    bytes 0x80-0x9f as invisible control characters, which no name or number holds. A ``memoryview`` is
+    decoded in place (no copy of a large slice)."""
     if raw[:3] == UTF8_BOM:
         raw = raw[3:]
     try:
         return str(raw, "utf-8")
+    except UnicodeDecodeError:
+        pass
+    try:
+        return str(raw, "cp1252")
     except UnicodeDecodeError:
         return str(raw, "latin-1")
 
@@ -302,7 +320,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
     it replaces). Raises :class:`WriteError` (an ``OSError`` and a ``ValueError``) naming the path when it
     cannot be written (missing folder, full disk) or is not a regular file (a folder, ``/dev/null``, a FIFO:
     never replaced)."""
-    path = os.fsdecode(os.fspath(path))
+    path = os.fsdecode(file_path(path, "path"))
     if not path or "\0" in path:
         raise WriteError(f"{path!r}: not a usable file path")
     _check_write_target(path)
