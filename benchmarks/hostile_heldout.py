@@ -397,6 +397,21 @@ def bvh_odd_valid():
     return c
 
 
+def _ops_for_rig(joint: str) -> list[dict]:
+    """Every op with valid parameters, aimed at ``joint`` of an odd rig."""
+    return [{"op": "extract"}, {"op": "cull", "percent": 50}, {"op": "cull", "count": 2},
+            {"op": "succession", "root": joint, "s": 0.02, "l": 2.0},
+            {"op": "random_timing", "tau": 0.02, "seed": 3}, {"op": "exaggerate", "w_r": 1.5},
+            {"op": "edit_pose", "pose": 0, "deltas": {joint: [10, 20, 30]}},
+            {"op": "retime", "pose": 1, "time": 0.05}, {"op": "insert_pose", "time": 0.05},
+            {"op": "delete_pose", "pose": 1}, {"op": "keep_contacts"},
+            {"op": "ik_pose", "pose": 0, "joint": joint, "target": [1, 5, 1]},
+            {"op": "edit_frame", "frame": 0, "deltas": {joint: [10, 20, 30]}},
+            {"op": "propagate", "frame": 0, "deltas": {joint: [10, 20, 30]}},
+            {"op": "guided_warp", "duration": 0.1}, {"op": "linear_warp", "duration": 0.1},
+            {"op": "resample", "frame_time": 0.01}]
+
+
 def _gimbal():
     return (b"HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation "
             b"Zrotation\nJOINT A\n{\nOFFSET 0 10 0\nCHANNELS 3 Xrotation Yrotation Zrotation\nEnd Site\n{\nOFFSET 0 5 "
@@ -1101,7 +1116,7 @@ class Ctx:
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", choices=["bvh", "odd", "amc", "session", "api"])
+    ap.add_argument("--only", choices=["bvh", "odd", "oddops", "amc", "session", "api"])
     ap.add_argument("--match", default=None)
     ap.add_argument("--seconds", type=float, default=MAX_SECONDS)
     ap.add_argument("--verbose", action="store_true")
@@ -1173,7 +1188,10 @@ def main(argv=None):
             from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
             names, scale, pos = gltf_positions(glb)
             p1, _ = forward_kinematics(edited)
-            h = max(skeleton_height(edited), 1e-9)
+            # glTF holds float32: a rig of zero-length bones (height 0) moving 60 units is exact to ~4e-6
+            # units, so the tolerance is 1e-5 of the height or, for such a rig, float32's share of its reach
+            reach = float(np.max(np.abs(p1), initial=0.0))
+            h = max(skeleton_height(edited), 1e-9, 8 * reach * 2.0 ** -24 / 1e-5)  # 8 float32 ulps
             err = float(np.max(np.abs(pos - p1 * scale))) / (h * scale)
             if not err <= 1e-5:
                 raise AssertionError(f"glTF re-reads {err:.3g} x height away")
@@ -1187,6 +1205,31 @@ def main(argv=None):
         res = run_forked(case, args.seconds)
         ok = bounded(res) and res["result"] == "no error" and p.read_bytes() == raw
         record("odd", name, "odd", res, ok)
+    # ---------------- every op on every odd rig: a clean, exportable result or a ValueError naming the field
+    for k, (name, raw, joint) in enumerate(bvh_odd_valid()):
+        if args.only not in (None, "oddops"):
+            break
+        p = tmp / f"oddops{k}.bvh"
+        p.write_bytes(raw)
+        for op in _ops_for_rig(joint):
+            label = f"{name} + {op['op']}"
+            if args.match is not None and args.match.lower() not in label.lower():
+                continue
+
+            def case(p=p, op=op, k=k):
+                m = sn.read_bvh(p)
+                s = Session(m, ops=[op], source_path=str(p))
+                e = s.edited()
+                _check_motion(e)
+                out = tmp / f"oddops{k}_out.bvh"
+                s.export_bvh(out)
+                _same_motion(e, sn.read_bvh(out), "export")
+            res = run_forked(case, args.seconds)
+            msg = res.get("message", "")
+            named = res["result"] == "ValueError" and bool(re.match(r"^ops\[0\] \(\w+\): [\w.\[\]]+", msg))
+            ok = bounded(res) and p.read_bytes() == raw and (named or res["result"] == "no error")
+            record("oddops", label, "either", res, ok, "" if named or res["result"] != "ValueError"
+                   else "(not naming field)")
     # ---------------- ASF / AMC
     for k, (name, asf, amc, mode) in enumerate(amc_cases()):
         if not wanted("amc", name):

@@ -233,3 +233,39 @@ def test_session_source_with_both_path_and_motion_is_refused(tmp_path, walk):
             "source": {"path": str(p), "motion": motion_to_json(walk.slice(0, 3))}}
     with pytest.raises(ValueError, match=r"^source: give either path or motion"):
         Session.from_json(data)
+
+
+def test_a_small_file_cannot_ask_for_more_joint_samples_than_fit_in_500_mb(tmp_path):
+    """20 MB of '1\\n' lines, 10^7 one-channel frames: before, read at 674 MB above the interpreter
+    (10^7 joint samples were allowed); now refused at the Frames line before anything is allocated."""
+    from stagger_nb.core.motion import MAX_FRAME_JOINTS
+    p = tmp_path / "tall.bvh"
+    n = MAX_FRAME_JOINTS + 1
+    p.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Zrotation\n}\nMOTION\n"
+                 f"Frames: {n}\nFrame Time: 0.01\n0\n")
+    with pytest.raises(sn.BVHError, match=r"tall\.bvh, line 8: declared .* joint samples supported"):
+        sn.read_bvh(p)
+    assert MAX_FRAME_JOINTS * 32 <= 128 * 2 ** 20 * 1.01 and MAX_FRAME_JOINTS >= 100_000 * 31  # long takes fit
+
+
+def test_resampling_a_long_clip_to_the_shortest_frame_time_is_refused_before_allocating(monkeypatch):
+    """A 40 s clip at 1e-4 s asks for 400,001 frames x J joints, over the limit: a ValueError naming
+    frame_time before anything is allocated (before: CMU 01_01 at 1e-4 s, 7.1e6 joint samples, was allowed
+    and the session op peaked at 1.28 GB). Resampling works in blocks of frames, the same as all at once."""
+    from stagger_nb.core import motion as core_motion
+    walk = sn.data.load("walk")
+    reps = int(np.ceil(40.0 / walk.duration))
+    long = sn.Motion(walk.skeleton, walk.frame_time, np.tile(walk.root_positions, (reps, 1)),
+                     np.tile(walk.local_quats, (reps, 1, 1)))
+    assert long.duration >= 40.0 and 400_000 * long.num_joints > core_motion.MAX_FRAME_JOINTS
+    tracemalloc.start()
+    with pytest.raises(ValueError, match=r"^Motion\.resample: frame_time=0\.0001 asks for .* joint samples"):
+        long.resample(1e-4)
+    assert tracemalloc.get_traced_memory()[1] < 1_000_000
+    tracemalloc.stop()
+    small = walk.slice(0, 20)
+    whole = small.resample(small.frame_time / 7)
+    monkeypatch.setattr(core_motion, "_SAMPLE_BLOCK", 3 * small.num_joints)  # blocks of 3 frames
+    blocks = small.resample(small.frame_time / 7)
+    assert np.array_equal(blocks.local_quats, whole.local_quats)
+    assert np.array_equal(blocks.root_positions, whole.root_positions)
