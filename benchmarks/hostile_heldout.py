@@ -177,7 +177,8 @@ def bvh_cases():
         "\t\t\tEnd Site\n\t\t\t{\n\t\t\t\tOFFSET 0 4 0\n\t\t\t}\n\t\t}\n\t\tOFFSET 0 12 0\n")), "either")
     add("CHANNELS after the child joint", bvh(HEAD.replace("\t\tCHANNELS 3 Zrotation Xrotation Yrotation\n\t\tJOINT",
                                                            "\t\tJOINT").replace(
-        "\t\t\t}\n\t\t}\n\t}\n\tJOINT Leg", "\t\t\t}\n\t\t}\n\t\tCHANNELS 3 Zrotation Xrotation Yrotation\n\t}\n\tJOINT Leg")),
+        "\t\t\t}\n\t\t}\n\t}\n\tJOINT Leg",
+        "\t\t\t}\n\t\t}\n\t\tCHANNELS 3 Zrotation Xrotation Yrotation\n\t}\n\tJOINT Leg")),
         "either")
     add("OFFSET on the ROOT line", bvh(HEAD.replace("ROOT Hips\n{\n\tOFFSET 0 0 0", "ROOT Hips OFFSET 0 0 0\n{")))
     add("brace on the JOINT line", bvh(HEAD.replace("JOINT Chest\n\t{", "JOINT Chest {")), "either")
@@ -261,7 +262,8 @@ def bvh_cases():
     add("unbalanced: one missing } in the middle", bvh(HEAD.replace("\t\t}\n\t}\n\tJOINT Leg", "\t\t}\n\tJOINT Leg")))
     add("unbalanced: extra } in the middle", bvh(HEAD.replace("\t}\n\tJOINT Leg", "\t}\n}\n\tJOINT Leg")))
     add("unbalanced: no braces at all", bvh(HEAD.replace("{", "").replace("}", "")))
-    add("braces only", "HIERARCHY\nROOT a\n" + "{" * 200_000 + "}" * 200_000 + "\nMOTION\nFrames: 1\nFrame Time: 0.1\n0\n")
+    add("braces only", "HIERARCHY\nROOT a\n" + "{" * 200_000 + "}" * 200_000
+        + "\nMOTION\nFrames: 1\nFrame Time: 0.1\n0\n")
     add("100,000 nested '{'", "HIERARCHY\nROOT a\n" + "{\n" * 100_000 + "MOTION\nFrames: 1\nFrame Time: 0.1\n0\n")
     add("100,000 '}'", bvh(HEAD + "}\n" * 100_000))
     deep = ("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 0\n" + "JOINT j\n{\nOFFSET 0 1 0\nCHANNELS 0\n" * 100_000
@@ -1020,6 +1022,15 @@ def _same_motion(a, b, what):
         raise AssertionError(f"{what}: frame time {a.frame_time} became {b.frame_time}")
 
 
+def _replay_and_export(session, out):
+    """Replay ``session``, check its edited motion, export it to ``out`` and re-read it to the same motion."""
+    import stagger_nb as sn
+    e = session.edited()
+    _check_motion(e)
+    session.export_bvh(out)
+    _same_motion(e, sn.read_bvh(out), "export")
+
+
 def _check_motion(m, what="result"):
     """A clean result must be a finite, well-formed Motion."""
     import stagger_nb as sn
@@ -1090,7 +1101,7 @@ def run_forked(fn, seconds):
             _, status, rusage = os.wait4(pid, 0)
             os.close(r)
             return {"result": "timeout", "message": f"> {seconds:.0f} s", "seconds": time.perf_counter() - t0,
-                    "peak": max(0, rusage.ru_maxrss - base) * 1024}
+                    "cpu": rusage.ru_utime + rusage.ru_stime, "peak": max(0, rusage.ru_maxrss - base) * 1024}
         ready, _, _ = select.select([r], [], [], min(left, 0.5))
         if ready:
             data = os.read(r, 65536)
@@ -1106,7 +1117,7 @@ def run_forked(fn, seconds):
     except ValueError:
         sig = os.WTERMSIG(status) if os.WIFSIGNALED(status) else None
         out = {"result": "crash", "message": f"status {status} signal {sig}"}
-    out["seconds"], out["peak"] = secs, peak
+    out["seconds"], out["peak"], out["cpu"] = secs, peak, rusage.ru_utime + rusage.ru_stime
     return out
 
 
@@ -1135,11 +1146,19 @@ def main(argv=None):
         results.append(res)
         if not ok or args.verbose:
             print(f"{'FAIL' if not ok else 'ok  '} [{kind}] {name!r}: {res['result']} {why} "
-                  f"{res.get('message', '')[:300]!r} ({res['seconds']:.2f} s, {res['peak'] / 2 ** 20:.0f} MB)",
+                  f"{res.get('message', '')[:300]!r} ({res['seconds']:.2f} s wall, {res['cpu']:.2f} s CPU, "
+                  f"{res['peak'] / 2 ** 20:.0f} MB)",
                   flush=True)
 
     def bounded(res):
-        return res["seconds"] <= args.seconds and res["peak"] <= MAX_BYTES
+        """Within the time bound (wall; on a machine loaded beyond its CPUs, the child's CPU time, and a
+        timeout is a failure unless its CPU time stayed under half the bound) and the memory bound."""
+        busy = os.getloadavg()[0] > (os.cpu_count() or 1)
+        if res["result"] == "timeout":
+            fast = busy and res["cpu"] <= args.seconds / 2
+        else:
+            fast = res["seconds"] <= args.seconds or (busy and res["cpu"] <= args.seconds)
+        return fast and res["peak"] <= MAX_BYTES
 
     def wanted(kind, name):
         return (args.only in (None, kind)) and (args.match is None or args.match.lower() in name.lower())
@@ -1217,13 +1236,8 @@ def main(argv=None):
                 continue
 
             def case(p=p, op=op, k=k):
-                m = sn.read_bvh(p)
-                s = Session(m, ops=[op], source_path=str(p))
-                e = s.edited()
-                _check_motion(e)
-                out = tmp / f"oddops{k}_out.bvh"
-                s.export_bvh(out)
-                _same_motion(e, sn.read_bvh(out), "export")
+                s = Session(sn.read_bvh(p), ops=[op], source_path=str(p))
+                _replay_and_export(s, tmp / f"oddops{k}_out.bvh")
             res = run_forked(case, args.seconds)
             msg = res.get("message", "")
             named = res["result"] == "ValueError" and bool(re.match(r"^ops\[0\] \(\w+\): [\w.\[\]]+", msg))
@@ -1312,12 +1326,7 @@ def main(argv=None):
             before = None
 
         def case(p=p, k=k):
-            s = Session.load(p)
-            e = s.edited()
-            _check_motion(e)
-            out = tmp / f"s{k}_export.bvh"
-            s.export_bvh(out)
-            _same_motion(e, sn.read_bvh(out), "export")
+            _replay_and_export(Session.load(p), tmp / f"s{k}_export.bvh")
         res = run_forked(case, args.seconds)
         msg = res.get("message", "")
         named = res["result"] == "ValueError" and bool(re.match(r"^[A-Za-z_][\w.\[\]]*( \(\w+\))?( key)?: ", msg))
@@ -1368,7 +1377,7 @@ def main(argv=None):
         print(f"  {kind:8s} {n:5d} cases {f:4d} failing")
     slow = sorted(results, key=lambda r: -r["seconds"])[:3]
     big = sorted(results, key=lambda r: -r["peak"])[:3]
-    print("  slowest:", "; ".join(f"{r['name'][:50]} {r['seconds']:.2f} s" for r in slow))
+    print("  slowest:", "; ".join(f"{r['name'][:50]} {r['seconds']:.2f} s ({r['cpu']:.2f} s CPU)" for r in slow))
     print("  largest:", "; ".join(f"{r['name'][:50]} {r['peak'] / 2 ** 20:.0f} MB" for r in big))
     sock.close()
     return 1 if any(not r["ok"] for r in results) else 0

@@ -269,3 +269,39 @@ def test_resampling_a_long_clip_to_the_shortest_frame_time_is_refused_before_all
     blocks = small.resample(small.frame_time / 7)
     assert np.array_equal(blocks.local_quats, whole.local_quats)
     assert np.array_equal(blocks.root_positions, whole.root_positions)
+
+
+def test_a_file_that_does_not_start_with_hierarchy_is_refused_on_its_first_line(tmp_path):
+    """A sparse 64 MB file of NULs: refused at line 1 before any scan of the body (before: searched all of
+    it for a MOTION line, 33 s for 900 MB, to report 'no MOTION section'); the only copy is the file's bytes."""
+    p = tmp_path / "sparse.bvh"
+    with open(p, "wb") as f:
+        f.truncate(64 << 20)
+    tracemalloc.start()
+    with pytest.raises(sn.BVHError, match=r"sparse\.bvh, line 1: expected 'HIERARCHY', found '\\x00"):
+        sn.read_bvh(p)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < (64 << 20) + (20 << 20)  # the file's bytes + the 16 MB buffer of read_regular_file's EOF read
+    p.write_text("\n\n  \t\nMOTION\n")
+    with pytest.raises(sn.BVHError, match=r"line 4: expected 'HIERARCHY', found 'MOTION'"):
+        sn.read_bvh(p)
+
+
+def test_the_one_input_size_limit_holds_a_long_take_and_stays_under_the_memory_bound():
+    from stagger_nb.io._common import MAX_INPUT_BYTES
+    assert 120 << 20 <= MAX_INPUT_BYTES <= 256 << 20  # 100,000 x 96 channels at ~11 characters < 120 MB
+
+
+@pytest.mark.parametrize("scan", [16, 61, 64, 1 << 20])
+def test_the_motion_line_is_found_across_scan_pieces_and_past_words_that_are_not_it(monkeypatch, scan):
+    """The MOTION line is looked for with bytes.find in lower-cased pieces; a piece boundary anywhere
+    (tiny pieces here) and the word inside names ('motion_capture', 'XMOTION') must not change the result."""
+    from stagger_nb.io import bvh as bvh_mod
+    monkeypatch.setattr(bvh_mod, "_SCAN", scan)
+    text = HEAD.replace("JOINT Chest", "JOINT motion_capture MOTION").replace("ROOT Hips", "ROOT XMOTION")
+    text = text.replace("MOTION\nFrames", "  Motion \t\r\nFrames")
+    m = bvh_mod.parse_bvh(text.encode(), "t.bvh")
+    assert list(m.skeleton.names) == ["XMOTION", "motion_capture MOTION"] and m.num_frames == 2
+    with pytest.raises(sn.BVHError, match=r"no 'MOTION' section"):
+        bvh_mod.parse_bvh(text.replace("  Motion \t\r\n", "  Motions\n").encode(), "t.bvh")

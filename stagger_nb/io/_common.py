@@ -13,9 +13,11 @@ from ..core.rotations import quat_mul
 __all__ = ["atomic_write_bytes", "WriteError", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
            "MAX_INPUT_BYTES", "read_regular_file"]
 
-#: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips).
-#: 1 GiB holds a 100,000-frame, 100-joint BVH take several times over; override per call with ``max_bytes``.
-MAX_INPUT_BYTES = 1 << 30
+#: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips):
+#: 256 MiB. The joint-sample limit (core.motion.MAX_FRAME_JOINTS, 4x10^6) caps a valid BVH near 4x10^6 x 6
+#: channels x 11 characters; a 100,000-frame, 31-joint take is ~100 MB. (It was 1 GiB: a sparse 900 MB
+#: file was read whole, 928 MB RSS, 33 s, to report its line 1.) Override per call with ``max_bytes``.
+MAX_INPUT_BYTES = 256 << 20
 
 
 def file_path(path, what: str = "path") -> str | bytes:
