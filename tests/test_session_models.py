@@ -232,12 +232,12 @@ def test_binding_refused_op_list_is_a_message_and_clears(walk):
     w = M.WandModel(joint="LeftUpLeg", sigma=0.1)
     with w.loading():
         w.edit_frame = 5000                    # beyond the clip: the session's replay refuses it later
-    M.ModelBinding(w, s)
-    w.rx = 10.0
-    assert s.ops and s.ops[0]["frame"] == 5000
-    with pytest.raises(ValueError, match="5000"):
-        s.edited()
-    w.edit_frame = 30                          # moves the edit: the cause is gone
+    M.ModelBinding(w, s)                       # the binding knows the clip's frames: an edit there is refused
+    with pytest.raises(traitlets.TraitError, match="5000"):
+        w.rx = 10.0
+    assert s.ops == [] and not s.can_undo()    # nothing committed
+    w.edit_frame = 30                          # the cause is gone
+    w.rx = 12.0
     assert s.ops[0]["frame"] == 30 and s.edited().num_frames == walk.num_frames
 
 

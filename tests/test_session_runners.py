@@ -277,3 +277,20 @@ def test_warm_largest_skip_serves_smaller_skips_with_the_same_results(walk):
             fresh = Session(m, ops=ops)
             np.testing.assert_array_equal(warmed.edited().local_quats, fresh.edited().local_quats)
             np.testing.assert_array_equal(warmed.warp_curve(), fresh.warp_curve())
+
+
+def test_replay_computes_no_timing_warnings_until_asked(walk_session, monkeypatch):
+    """The staggered edits leave their timing warnings unread (computed on first read); the replay, its cache
+    (whose byte estimate walks each state's metadata) included, never reads them: only
+    Session.timing_warnings / messages compute those of the last staggered state, once."""
+    from stagger_nb.staggered import editing
+    calls = []
+    real = editing._timing_warnings
+    monkeypatch.setattr(editing, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
+    s = _fresh(walk_session, [{"op": "cull", "percent": 60.0}, {"op": "exaggerate", "w_r": 0.3},
+                              {"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0},
+                              {"op": "random_timing", "tau": 0.05, "seed": 1}])
+    s.edited()
+    assert calls == []
+    summary, found = s.timing_warnings()
+    assert found and len(calls) == 1          # this succession does cross poses (else the check is empty)

@@ -11,7 +11,7 @@ from stagger_nb import Motion, Skeleton, staggered
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
 from stagger_nb.staggered import editing as E
 from stagger_nb.staggered.fitting import fit_staggered
-from stagger_nb.staggered.representation import evaluate, knot_times
+from stagger_nb.staggered.representation import default_times, evaluate, evaluate_arrays, knot_times
 
 FT = 1 / 30
 NAMES = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder", "RightArm",
@@ -595,3 +595,86 @@ def test_edit_keeps_displacements_past_half_a_turn_unwrapped(shared_motion):
     # the edit is 0.01 rad at most (faded by the weights); between grid points the rotation vectors, not
     # the rotations, are interpolated linearly, which adds ~4e-6 rad here (1 % margin)
     assert change.max() <= 0.0101
+
+
+def test_timing_warnings_in_metadata_are_computed_when_read(fixture, monkeypatch):
+    """``metadata["warnings"]`` of an edit is computed on its first read (a slider's replay never reads it),
+    then kept; every way of reading the dict (item, get, in, iteration, copy, pickling) sees the entry, equal
+    to timing_warnings of the edited motion."""
+    import copy
+    import pickle
+    _, sm = fixture
+    calls = []
+    real = E._timing_warnings
+    monkeypatch.setattr(E, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
+    out = staggered.random_timing(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0), tau=0.1, seed=3)
+    assert calls == []                                  # two edits, nothing read yet
+    want = E.timing_warnings(out)
+    assert want and len(calls) == 1                     # these edits do cross poses (else the check is empty)
+    assert "warnings" in out.metadata and len(calls) == 1
+    assert out.metadata["warnings"] == want and len(calls) == 2
+    assert out.metadata.get("warnings") == want and len(calls) == 2    # kept after the first read
+    for other in (staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0),):
+        assert dict(other.metadata)["warnings"] == E.timing_warnings(other)
+        assert pickle.loads(pickle.dumps(other.metadata))["warnings"] == E.timing_warnings(other)
+        assert copy.deepcopy(other.metadata)["warnings"] == E.timing_warnings(other)
+        assert "warnings" in list(other.metadata) and set(other.metadata) == set(dict(other.metadata))
+
+
+def test_edits_and_evaluate_equal_the_validating_constructors(fixture):
+    """The editing tools build their result without re-validating the arrays they did not change
+    (shared, read-only), and evaluate / keep_contacts build their Motion without re-validating: the same
+    values bit for bit as ``dataclasses.replace`` and ``Motion(...)``."""
+    import dataclasses
+    m, sm = fixture
+    out = staggered.exaggerate(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0),
+                               list(range(sm.num_poses)), 0.4)
+    for edited in (out, staggered.succession(out, root="Hips", s=-0.03, l=1.0)):
+        again = dataclasses.replace(edited)                  # validated copies of every field
+        for f in dataclasses.fields(edited):
+            a, b = getattr(edited, f.name), getattr(again, f.name)
+            if isinstance(a, np.ndarray):
+                assert np.array_equal(a, b) and a.dtype == b.dtype and not a.flags.writeable, f.name
+    ev = evaluate(out)
+    q_, p_ = evaluate_arrays(out, default_times(out))
+    want = Motion(ev.skeleton, ev.frame_time, p_, q_)
+    assert np.array_equal(ev.local_quats, want.local_quats) and np.array_equal(ev.root_positions, want.root_positions)
+    assert not ev.local_quats.flags.writeable and not ev.root_positions.flags.writeable
+    q = np.array(want.local_quats)
+    q[5:, 2] *= -1.0                                         # a sign flip: the Motion makes it continuous again
+    assert np.array_equal(Motion._trusted(ev.skeleton, ev.frame_time, want.root_positions, q).local_quats,
+                          want.local_quats)
+
+
+def test_exaggerate_with_a_basis_keeps_the_maps_it_does_not_move(fixture):
+    """With a basis, only the (segment, joint) pairs an offset touches are re-measured (a static joint is not
+    even in the basis): the other joints keep their displacement maps exactly, as without a basis."""
+    _, sm = fixture
+    moved = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand"]   # over half the pairs
+    ks = list(range(sm.num_poses))
+    a = E.exaggerate(sm, ks, 0.7, joints=moved)
+    b = E.exaggerate(sm, ks, 0.7, joints=moved, basis=E.pose_offset_basis(sm))
+    rest = [NAMES.index(n) for n in NAMES if n not in moved]
+    M = sm.displacements.shape[2]
+    assert np.array_equal(b.displacements[:, rest, :M], sm.displacements[:, rest])
+    assert np.array_equal(a.displacements[:, rest, :M], sm.displacements[:, rest])
+    assert np.allclose(a.displacements, b.displacements, atol=1e-12)                      # rounding only
+    mv = [NAMES.index(n) for n in moved]
+    assert np.abs(b.displacements[:, mv, :M] - sm.displacements[:, mv]).max() > 1e-6   # they did move
+
+
+def test_offset_basis_reads_the_reproduced_motion_on_frames(fixture):
+    """pose_offset_basis(sm, reproduced=m): while sm's knots sit on frames and sm reproduces m there, the
+    rotations on the grid are read from m (checked on a subset): the exaggeration equals the plain basis' to
+    rounding (< 1e-12 rad: the extraction reproduces m to ~1e-15 here); after a timing edit (grid off the
+    frames) or a geometric edit (sm no longer reproduces m) the basis is the plain one, bit for bit."""
+    m, sm = fixture
+    ks = list(range(sm.num_poses))
+    plain, read = E.pose_offset_basis(sm), E.pose_offset_basis(sm, reproduced=m)
+    assert not np.array_equal(plain.old, read.old)                      # it did read m (else nothing is tested)
+    assert quat_angle(plain.old.T, read.old.T).max() < 1e-12
+    a = evaluate(E.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
+    b = evaluate(E.exaggerate(sm, ks, 0.8, basis=read)).local_quats
+    assert quat_angle(a, b).max() < 1e-12
+    for other in (E.succession(sm, root="Hips", s=0.02, l=1.0), E.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
+        assert np.array_equal(E.pose_offset_basis(other, reproduced=m).old, E.pose_offset_basis(other).old)

@@ -255,3 +255,18 @@ def test_lower_root_share_splits_the_missing_reach(walk):
         assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
     assert np.array_equal(staggered.keep_contacts(edited, m, lower_root=False).root_positions, plain.root_positions)
     assert drops[0] == 0.0 and drops[0] <= drops[1] <= drops[2] and drops[2] > 0
+
+
+def test_source_positions_given_give_the_same_result(walk):
+    """``source_positions`` (what an edit session caches per source) replaces keep_contacts' own forward
+    kinematics of the source: the same numbers bit for bit (the same products in the same order); a wrong
+    shape is a ValueError naming it."""
+    m, sm = walk
+    edited = stagger(sm)
+    plain = staggered.keep_contacts(edited, m)
+    given = staggered.keep_contacts(edited, m, source_positions=forward_kinematics(m)[0])
+    assert np.array_equal(plain.local_quats, given.local_quats)
+    assert np.array_equal(plain.root_positions, given.root_positions)
+    assert np.abs(plain.local_quats - staggered.evaluate(edited).local_quats).max() > 1e-3   # it did hold feet
+    with pytest.raises(ValueError, match="source_positions"):
+        staggered.keep_contacts(edited, m, source_positions=forward_kinematics(m)[0][:-1])

@@ -33,7 +33,8 @@ def pelvis_joint(skeleton: Skeleton) -> int:
 
     The shallowest joint with at least three child *chains* (children that have children of their own, so
     an End Site or a one-joint prop does not count): ``Hips`` on CMU-style, Bandai and PyMO rigs (below
-    Bandai's static ``joint_Root``), the CMU ASF root.  A rig without such a joint but with several leaves
+    Bandai's static ``joint_Root``), the CMU ASF root; or, where that joint is the chest because the legs
+    hang off a joint of their own, the ancestor where the legs' and the spine's chains meet.  A rig without such a joint but with several leaves
     (a two-legged toy) gets the deepest common ancestor of its leaves; a single chain gets joint 0.
     """
     parents = skeleton.parents
@@ -47,7 +48,7 @@ def pelvis_joint(skeleton: Skeleton) -> int:
     depth = skeleton.depth()
     branching = np.flatnonzero(chains >= 3)
     if branching.size:
-        return int(branching[np.argmin(depth[branching])])
+        return _legs_above(skeleton, int(branching[np.argmin(depth[branching])]), has_child)
     # deepest common ancestor of the leaves
     leaves = np.flatnonzero(~has_child)
     if leaves.size < 2:
@@ -61,6 +62,20 @@ def pelvis_joint(skeleton: Skeleton) -> int:
         ancestors = path if ancestors is None else ancestors & path
     common = sorted(ancestors or {0}, key=lambda a: depth[a])
     return int(common[-1])
+
+
+def _legs_above(skeleton: Skeleton, c: int, has_child: np.ndarray) -> int:
+    """``c`` (the shallowest joint with three child chains: the pelvis on most rigs, the chest where the legs
+    hang off a separate joint), or the nearest ancestor of ``c`` that also holds another chain with two or more
+    leaves (the legs: ``Root -> {Pelvis -> legs, Spine -> Chest -> arms, neck}``), where spine and legs meet."""
+    parents = skeleton.parents
+    child, a = c, int(parents[c])
+    while a >= 0:
+        for other in skeleton.children(a):
+            if other != child and has_child[other] and int(np.count_nonzero(~has_child[subtree(skeleton, other)])) >= 2:
+                return a
+        child, a = a, int(parents[a])
+    return c
 
 
 def up_axis(motion: Motion, positions: np.ndarray | None = None) -> np.ndarray:

@@ -137,6 +137,32 @@ class Motion:
         object.__setattr__(obj, "frame_time", ft)
         return obj
 
+    @classmethod
+    def _trusted(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray, local_quats: np.ndarray,
+                 local_translations: np.ndarray | None = None) -> "Motion":
+        """Package-internal constructor for a result the library has just computed from valid motions
+        (``staggered.evaluate``, the constraint layer): ``local_quats`` (F, J, 4) float64 is owned by the new
+        Motion (not aliased by anyone: it is modified in place), the other arrays are finite float64 of the
+        right shapes and not written afterwards. Skips the checks of :meth:`__post_init__` (shapes,
+        finiteness) and its copies, and does the rest the same way (renormalising what is off unit by
+        more than 1e-12, hemisphere continuity), so the values equal ``Motion(...)``'s bit for bit."""
+        q = local_quats
+        off = np.abs(np.sqrt(np.einsum("fji,fji->fj", q, q)) - 1.0) > _UNIT_TOL
+        if off.any():
+            q[off] = quat_normalize(q[off])
+        _continuous_inplace(q)
+        q.setflags(write=False)
+        obj = object.__new__(cls)
+        for name, a in (("root_positions", root_positions), ("local_translations", local_translations)):
+            if a is not None and a.flags.writeable:
+                a = a.view()
+                a.setflags(write=False)
+            object.__setattr__(obj, name, a)
+        object.__setattr__(obj, "local_quats", q)
+        object.__setattr__(obj, "skeleton", skeleton)
+        object.__setattr__(obj, "frame_time", float(frame_time))
+        return obj
+
     # -- basic properties -------------------------------------------------------------------------
     @property
     def num_frames(self) -> int:
@@ -252,7 +278,7 @@ def _continuous_inplace(q: np.ndarray, block: int = 4096) -> None:
         neg = np.einsum("fji,fji->fj", seg[1:], seg[:-1]) < 0  # against the (already fixed) previous frame
         if lo == f0:  # first block: frame 0 is never flipped
             neg = np.concatenate([np.zeros((1,) + neg.shape[1:], dtype=bool), neg])
-        flips = np.cumsum(neg, axis=0) % 2 == 1
+        flips = np.logical_xor.accumulate(neg, axis=0)  # odd number of sign changes so far
         if flips.any():
             q[f0:f1][flips] *= -1.0
 

@@ -153,16 +153,17 @@ def split_values(text, n: int, truncated: bool, what: str, source: str, line: in
 _EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temporary)
 
 
-def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # overwrites its argument
+def _half_sin_cos(angles_deg: np.ndarray, tmp: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``sin`` and ``cos`` of half of each angle (degrees), through one tangent: with ``t = tan(a/4)``,
     ``sin(a/2) = 2t / (1 + t^2)`` and ``cos(a/2) = (1 - t^2) / (1 + t^2)``. numpy vectorises ``tan`` but
     evaluates float64 ``sin``/``cos`` one value at a time (~15x slower here). Angles are first wrapped
     to [-180, 180] so ``|t| <= 1``; wrapping by 360 degrees negates the half-angle pair, i.e. the
-    quaternion, which is the same rotation."""
-    # in place (``angles_deg`` is overwritten) on two buffers: every fresh large temporary costs page
-    # faults, which are expensive in VMs
+    quaternion, which is the same rotation. Works in place: ``angles_deg`` is overwritten (it returns the
+    sines) and ``tmp``, a float64 array of its shape (allocated when not given), receives the cosines."""
+    # in place on two buffers: every fresh large temporary costs page faults, which are expensive in VMs
     a = angles_deg
-    tmp = np.empty_like(a)
+    if tmp is None:
+        tmp = np.empty_like(a)
     if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
         np.divide(a, 360.0, out=tmp)
         np.rint(tmp, out=tmp)
@@ -179,29 +180,53 @@ def _half_sin_cos(angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # o
     return t, den
 
 
-def euler_components(angles: np.ndarray, axes: str) -> np.ndarray:
+def euler_components(angles: np.ndarray, axes: str, out: np.ndarray | None = None,
+                     overwrite: bool = False) -> np.ndarray:
     """Component-major form of :func:`euler_deg_to_quat` for three distinct axes: ``angles (3, ...)``
     degrees (first index: the angle about ``axes[k]``) -> ``(4, ...)`` quaternion components x, y, z, w.
     Every step is one contiguous numpy operation on a block of ``_EULER_BLOCK`` rotations (the
-    temporaries stay in cache and are reused: fresh pages are expensive in VMs)."""
+    temporaries stay in cache and are reused: fresh pages are expensive in VMs). With ``out``, an
+    ``(N, 4)`` float64 array (N rotations: ``angles`` holds ``(3, N)`` values), the components are written
+    into its rows block by block (no transpose of the whole table afterwards) and ``out.T`` is returned.
+    ``overwrite=True`` lets it use ``angles`` (a float64 array) as scratch, sparing a copy."""
     i, j, k = ("XYZ".index(ax) for ax in axes.upper())
     eps = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 when e_i x e_j = e_k
     flat = np.asarray(angles, dtype=float).reshape(3, -1)
-    q = np.empty((4, flat.shape[1]))
+    N = flat.shape[1]
+    # with ``out``, each block is computed contiguously (ufuncs writing strided columns are ~4x slower)
+    # and copied into the block's rows of ``out`` with one 2-D transpose
+    q = np.empty((4, N)) if out is None else None
     plus, minus = (np.add, np.subtract) if eps > 0 else (np.subtract, np.add)
-    for r0 in range(0, flat.shape[1], _EULER_BLOCK):
-        r1 = r0 + _EULER_BLOCK
-        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(np.array(flat[:, r0:r1]))
-        c1c2, s1s2, s1c2, c1s2 = c1 * c2, s1 * s2, s1 * c2, c1 * s2
+    # one workspace for every temporary of every block: the cosines (3 rows), the four products, a copy of
+    # the angles unless they may be overwritten, the block of components when written to ``out``. Many
+    # separate 128 KB temporaries cost ~30 % more here (each a fresh allocation and its page faults)
+    B = min(N, _EULER_BLOCK)
+    work = np.empty((7 + (0 if overwrite else 3) + (0 if out is None else 4), B))
+    for r0 in range(0, N, _EULER_BLOCK):
+        r1 = min(N, r0 + _EULER_BLOCK)
+        n = r1 - r0
+        if overwrite:
+            ang = flat[:, r0:r1]
+        else:
+            ang = work[7:10, :n]
+            np.copyto(ang, flat[:, r0:r1])
+        qb = q[:, r0:r1] if out is None else work[-4:, :n]
+        (s1, s2, s3), (c1, c2, c3) = _half_sin_cos(ang, work[0:3, :n])
+        c1c2 = np.multiply(c1, c2, out=work[3, :n])
+        s1s2 = np.multiply(s1, s2, out=work[4, :n])
+        s1c2 = np.multiply(s1, c2, out=work[5, :n])
+        c1s2 = np.multiply(c1, s2, out=work[6, :n])
         tmp = np.multiply(c1s2, s3, out=s1)  # s1 is no longer needed: its buffer holds each second term
-        plus(np.multiply(s1c2, c3, out=q[i, r0:r1]), tmp, out=q[i, r0:r1])  # s1 c2 c3 + eps c1 s2 s3
+        plus(np.multiply(s1c2, c3, out=qb[i]), tmp, out=qb[i])  # s1 c2 c3 + eps c1 s2 s3
         np.multiply(s1c2, s3, out=tmp)
-        minus(np.multiply(c1s2, c3, out=q[j, r0:r1]), tmp, out=q[j, r0:r1])  # c1 s2 c3 - eps s1 c2 s3
+        minus(np.multiply(c1s2, c3, out=qb[j]), tmp, out=qb[j])  # c1 s2 c3 - eps s1 c2 s3
         np.multiply(s1s2, c3, out=tmp)
-        plus(np.multiply(c1c2, s3, out=q[k, r0:r1]), tmp, out=q[k, r0:r1])  # c1 c2 s3 + eps s1 s2 c3
+        plus(np.multiply(c1c2, s3, out=qb[k]), tmp, out=qb[k])  # c1 c2 s3 + eps s1 s2 c3
         np.multiply(s1s2, s3, out=tmp)
-        minus(np.multiply(c1c2, c3, out=q[3, r0:r1]), tmp, out=q[3, r0:r1])  # c1 c2 c3 - eps s1 s2 s3
-    return q.reshape((4,) + np.shape(angles)[1:])
+        minus(np.multiply(c1c2, c3, out=qb[3]), tmp, out=qb[3])  # c1 c2 c3 - eps s1 s2 s3
+        if out is not None:
+            out[r0:r1] = qb.T
+    return q.reshape((4,) + np.shape(angles)[1:]) if out is None else out.T
 
 
 def euler_deg_to_quat(angles_deg: np.ndarray, axes: str) -> np.ndarray:

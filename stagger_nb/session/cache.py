@@ -36,6 +36,7 @@ BOUNDS = {
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
     "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
+    "positions": 4,   # forward kinematics of a source motion (keep_contacts' targets)
     "step": 512,      # (state content name, op) -> the op-prefix digest of the state it gave (strings)
     "state": 64,      # replay steps by op-prefix digest (a slider sweep touches a handful; the editor's
                       # warm-up replays every cull position: 2-3 steps each)
@@ -45,7 +46,7 @@ BOUNDS = {
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
 BUDGETS = {"state": 384 * 2**20}
 
-QUIET = {"state", "step", "offset_basis"}  # not reported to ``busy`` (replay steps and a head about one
+QUIET = {"state", "step", "offset_basis", "positions"}  # not reported to ``busy`` (replay steps and a head about one
 # evaluate long: the replay reports its own progress)
 
 
@@ -214,7 +215,7 @@ def nbytes(value, _depth: int = 0) -> int:
     if _depth > 2 or value is None or isinstance(value, (str, bytes, int, float, bool)):
         return 0
     if isinstance(value, dict):
-        items = value.values()
+        items = dict.values(value)   # (a dict subclass's lazy entries, e.g. timing warnings, stay unread)
     elif isinstance(value, (list, tuple)):
         items = value
     elif dataclasses.is_dataclass(value):

@@ -28,6 +28,8 @@ from typing import Any, Callable
 
 import traitlets as T
 
+from .runners import MAX_WARP_RATIO
+
 __all__ = ["StaggerModel", "WandModel", "WarpModel", "ModelBinding", "merge_ops",
            "stagger_params_to_ops", "stagger_ops_to_params", "wand_params_to_ops", "wand_ops_to_params",
            "warp_params_to_ops", "warp_ops_to_params", "STAGGER_OPS", "WAND_OPS", "WARP_OPS"]
@@ -88,11 +90,52 @@ class _Model(T.HasTraits):
     message = T.Unicode("", help="plain-text note about the parameters ('' when none): a refused value, an "
                                  "op naming a joint this skeleton does not have")
 
+    num_frames = T.Int(0, help="frames of the edited motion the playhead moves over (set by the editor when "
+                               "it shows a new edit; 0 = unknown)")
+
     @T.validate("frame")
     def _v_frame(self, proposal):
-        if proposal["value"] < 0:
-            raise T.TraitError(f"frame: expected an index >= 0, got {proposal['value']}")
+        if proposal["value"] < 0 or 0 < self.num_frames <= proposal["value"]:
+            top = f" and < {self.num_frames} (the edited motion's frames)" if self.num_frames else ""
+            raise T.TraitError(f"frame: expected an index >= 0{top}, got {proposal['value']}")
         return proposal["value"]
+
+    def _known_joint(self, field: str, name) -> str:
+        """``name`` if this skeleton has it (or the names are not known yet), else a TraitError naming ``field``."""
+        if not isinstance(name, str):
+            raise T.TraitError(f"{field}: expected a joint name, got {name!r}")
+        if self.joint_names and name not in self.joint_names:
+            raise T.TraitError(f"{field}: no joint named {name!r} in this skeleton")
+        return name
+
+    def _index_below(self, field: str, k, n: int, what: str) -> int:
+        """``k`` as an int if ``0 <= k < n`` (``n`` = 0: not known yet), else a TraitError naming ``field``."""
+        k = int(k)
+        if k < 0 or 0 < n <= k:
+            raise T.TraitError(f"{field}: {k} is outside the {n} {what}" if k >= 0 else
+                               f"{field}: expected an index >= 0, got {k}")
+        return k
+
+    def _edits_at(self, field: str, value: dict, n: int, what: str, held=()) -> dict:
+        """``{index: {joint: [rx, ry, rz]}}`` validated: each index below ``n`` (indices in ``held`` are not
+        re-checked), each joint known, each rotation three finite degrees."""
+        out = {}
+        for k, v in value.items():
+            k = int(k) if int(k) in held else self._index_below(field, k, n, what)
+            out[k] = _deltas3(f"{field}[{k}]", v)
+            for j in out[k]:
+                self._known_joint(f"{field}[{k}]", j)
+        return out
+
+    def _seek(self, frame: int) -> None:
+        """Move the playhead to ``frame`` as the model itself does (a pose's or an edited frame's time, which may
+        lie past a shorter warped edit): clamped to the edited motion, never refused."""
+        self.frame = min(int(frame), self.num_frames - 1) if self.num_frames else int(frame)
+
+    @T.observe("num_frames")
+    def _keep_frame_inside(self, change):
+        if 0 < change["new"] <= self.frame:   # a shorter edit (a warp): the playhead moves to its last frame
+            self.frame = change["new"] - 1
 
     _loading = False
 
@@ -166,7 +209,7 @@ class StaggerModel(_Model):
             raise T.TraitError(f"percent: expected a percentage in (0, 100], got {v}")
         return v
 
-    @T.validate("count", "seed", "pose")
+    @T.validate("count", "seed")
     def _v_nonneg_int(self, p):
         if p["value"] < 0:
             raise T.TraitError(f"{p['trait'].name}: expected an integer >= 0, got {p['value']}")
@@ -195,15 +238,49 @@ class StaggerModel(_Model):
         v = p["value"]
         if isinstance(v, int) and v < 0:
             raise T.TraitError(f"w_r_reference: expected 'previous', 'next', 'mean' or a pose index >= 0, got {v}")
+        if isinstance(v, int):
+            self._index_below("w_r_reference", v, len(self.pose_times), "poses")
         return v
+
+    # joint names and pose indices are checked against the skeleton and the current poses (when known), so a
+    # bad value is refused here, before any op is written (issue 11: nothing committed). A pose index the
+    # model already holds (read from the session, where a later cull may leave fewer poses than the edits
+    # saw) is not checked again.
+    @T.validate("root", "joint", "ik_joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint(p["trait"].name, p["value"])
+
+    @T.validate("joints", "tau_joints")
+    def _v_joint_names(self, p):
+        return [self._known_joint(p["trait"].name, j) for j in p["value"]]
 
     @T.validate("pose_edits")
     def _v_pose_edits(self, p):
-        return {int(k): _deltas3(f"pose_edits[{k}]", v) for k, v in p["value"].items()}
+        return self._edits_at("pose_edits", p["value"], len(self.pose_times), "poses", self.pose_edits)
 
     @T.validate("retimes")
     def _v_retimes(self, p):
-        return {int(k): _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
+        out = {(int(k) if int(k) in self.retimes else self._index_below("retimes", k, len(self.pose_times), "poses")):
+               _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
+        bad = {k: v for k, v in out.items() if v < 0}
+        if bad:
+            raise T.TraitError(f"retimes: expected times >= 0 (seconds), got {bad}")
+        return out
+
+    @T.validate("pose")
+    def _v_pose(self, p):
+        return self._index_below("pose", p["value"], len(self.pose_times), "poses")
+
+    @T.validate("ik_targets")
+    def _v_ik_targets(self, p):
+        for i, e in enumerate(p["value"]):
+            if not isinstance(e, dict) or set(e) != {"pose", "joint", "target"} or len(e["target"]) != 3:
+                raise T.TraitError(f"ik_targets[{i}]: expected {{pose, joint, target: [x, y, z]}}, got {e!r}")
+            if e["pose"] not in [x["pose"] for x in self.ik_targets]:
+                self._index_below(f"ik_targets[{i}].pose", e["pose"], len(self.pose_times), "poses")
+            self._known_joint(f"ik_targets[{i}].joint", e["joint"])
+            [_finite(f"ik_targets[{i}].target", x) for x in e["target"]]
+        return p["value"]
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
     def pose_frame(self, k: int) -> int:
@@ -214,7 +291,7 @@ class StaggerModel(_Model):
     def _pose_moves_playhead(self, change):
         """Choosing a pose moves the playhead to it (not while the playhead itself selects the pose)."""
         if not getattr(self, "_seeking", False) and 0 <= self.pose < len(self.pose_times):
-            self.frame = self.pose_frame(self.pose)
+            self._seek(self.pose_frame(self.pose))
 
     @T.observe("frame")
     def _playhead_selects_pose(self, change):
@@ -479,12 +556,16 @@ class WandModel(_Model):
     rotations, propagated with the Green's-function falloff of width σ."""
 
     sigma = T.Float(1.0, help="falloff width σ of the pose-space kernel (§3.3; > 0)").tag(op=True)
+    default_sigma = T.Float(0.0, help="the σ a propagate op without one uses (the clip's default σ, set by the "
+                                      "editor; 0 = unknown): undoing back to such an op shows it")
     edits = T.Dict(help="{edited frame: {joint: [rx, ry, rz] degrees}}").tag(op=True)
     propagate = T.Bool(True, help="propagate the edits (off: edit only the edited frames)").tag(op=True)
     frame_range = T.List(T.Int(), help="[start, stop) frames the propagation may change ([] = all)").tag(op=True)
     repetitions = T.Enum(["keep", "discard"], "keep",
                          help="propagate to repetitions of the edited pose (keep) or not (discard), §3.3").tag(op=True)
 
+    input_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by "
+                                 "the binding; 0 = unknown)")
     edit_frame = T.Int(0, help="the selected edited frame; changing it moves that frame's edit there (an edit "
                                "already at the new frame is selected instead)")
     joint = T.Unicode("", help="joint the rotation controls act on")
@@ -507,19 +588,25 @@ class WandModel(_Model):
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
-        if p["value"] < 0:
-            raise T.TraitError(f"edit_frame: expected a frame index >= 0, got {p['value']}")
+        if p["value"] < 0 or 0 < self.input_frames <= p["value"]:
+            top = f" and < {self.input_frames}" if self.input_frames else ""
+            raise T.TraitError(f"edit_frame: expected a frame index >= 0{top}, got {p['value']}")
         return p["value"]
 
     @T.validate("edits")
     def _v_edits(self, p):
-        return {int(k): _deltas3(f"edits[{k}]", v) for k, v in p["value"].items()}
+        return self._edits_at("edits", p["value"], self.input_frames, "frames")
+
+    @T.validate("joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint("joint", p["value"])
 
     @T.validate("frame_range")
     def _v_range(self, p):
         v = p["value"]
-        if v and (len(v) != 2 or not 0 <= v[0] < v[1]):
-            raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop, got {v}")
+        if v and (len(v) != 2 or not 0 <= v[0] < v[1] or 0 < self.input_frames < v[1]):
+            top = f" <= {self.input_frames}" if self.input_frames else ""
+            raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop{top}, got {v}")
         return v
 
     @T.validate("rx", "ry", "rz")
@@ -533,7 +620,7 @@ class WandModel(_Model):
     def _move_edit(self, change):
         """Changing the edited frame moves its edit there (onto a frame without one) and moves the playhead."""
         old, new = change["old"], change["new"]
-        self.frame = new
+        self._seek(new)
         if not self._loading and old in self.edits and new not in self.edits:
             edits = copy.deepcopy(self.edits)
             edits[new] = edits.pop(old)
@@ -602,8 +689,10 @@ def _wand_edits(op: dict):
     return [(op["frame"], op["deltas"])]
 
 
-def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, list]:
-    """Inverse of :func:`wand_params_to_ops` on the session ``ops`` (see :func:`stagger_ops_to_params`)."""
+def wand_ops_to_params(ops: list, base: dict, joint_names=(), default_sigma: float | None = None
+                       ) -> tuple[dict, list]:
+    """Inverse of :func:`wand_params_to_ops` on the session ``ops`` (see :func:`stagger_ops_to_params`).
+    A ``propagate`` op without ``sigma`` (the clip's default) reads as ``default_sigma`` when given."""
     p = copy.deepcopy(base)
     notes = []
     known = set(joint_names)
@@ -622,6 +711,8 @@ def wand_ops_to_params(ops: list, base: dict, joint_names=()) -> tuple[dict, lis
         if last["op"] == "propagate":
             if last.get("sigma") is not None:
                 p["sigma"] = float(last["sigma"])
+            elif default_sigma:
+                p["sigma"] = float(default_sigma)
             p["frame_range"] = list(last.get("frame_range") or [])
             p["repetitions"] = last.get("repetitions", "keep")
     return p, notes
@@ -651,6 +742,9 @@ class WarpModel(_Model):
         v = _finite("duration", p["value"])
         if v <= 0:
             raise T.TraitError(f"duration: expected seconds > 0, got {v}")
+        if self.source_duration > 0 and v > MAX_WARP_RATIO * self.source_duration:   # the runner's limit,
+            raise T.TraitError(f"duration: expected at most {MAX_WARP_RATIO} times the source's "   # said before
+                               f"{self.source_duration:g} s, got {v:g}")                         # an op is written
         return v
 
     @T.validate("skip")
@@ -662,8 +756,9 @@ class WarpModel(_Model):
     @T.validate("segment")
     def _v_segment(self, p):
         v = [_finite("segment", x) for x in p["value"]]
-        if len(v) != 2 or v[1] < v[0]:
-            raise T.TraitError(f"segment: expected [start, stop] seconds with start <= stop, got {v}")
+        if len(v) != 2 or v[1] < v[0] or v[0] < 0 or 0 < self.source_duration < v[1]:
+            top = f" <= {self.source_duration:g}" if self.source_duration > 0 else ""
+            raise T.TraitError(f"segment: expected [start, stop] seconds with 0 <= start <= stop{top}, got {v}")
         return v
 
     @T.validate("keytimes")
@@ -673,6 +768,12 @@ class WarpModel(_Model):
             if len(pair) != 2:
                 raise T.TraitError(f"keytimes[{i}]: expected [input_s, output_s], got {pair}")
             out.append([_finite(f"keytimes[{i}]", x) for x in pair])
+            if min(out[-1]) < 0 or 0 < self.source_duration < out[-1][0]:
+                raise T.TraitError(f"keytimes[{i}]: expected input time in [0, {self.source_duration:g}] s and "
+                                   f"output time >= 0, got {pair}")
+            if i and not (out[-1][0] > out[-2][0] and out[-1][1] > out[-2][1]):
+                raise T.TraitError(f"keytimes[{i}]: input and output times must both increase, got {out[-2]} "
+                                   f"then {out[-1]}")
         return out
 
     @T.validate("reference")
@@ -844,6 +945,14 @@ def _wand_home(ops):
     return len(ops)
 
 
+def _wand_input_frames(session) -> int:
+    """Frames of the motion the WandEditor's ops see: the source's, unless an op that changes the length
+    comes before them (then 0, unknown: the replay checks the frame)."""
+    ops = session.ops
+    first = next((i for i, o in enumerate(ops) if o["op"] in WAND_OPS), _wand_home(ops))
+    return session.source.num_frames if _wand_home(ops[:first]) == first else 0
+
+
 # --------------------------------------------------------------------------------------------------
 # the binding: model <-> session
 # --------------------------------------------------------------------------------------------------
@@ -901,7 +1010,7 @@ class ModelBinding:
         if isinstance(self.model, StaggerModel):
             return stagger_ops_to_params(ops, base, names, self.model.edit_bases)
         if isinstance(self.model, WandModel):
-            return wand_ops_to_params(ops, base, names)
+            return wand_ops_to_params(ops, base, names, self.model.default_sigma or None)
         p, notes, new_refs = warp_ops_to_params(ops, base, self.references, self.model.source_duration)
         if new_refs:
             self.references.update(new_refs)
@@ -915,6 +1024,16 @@ class ModelBinding:
         changes (e.g. to warm a slider's next positions with ``Session.warm(("replay", lists))``)."""
         new = dict(self.model.params(), **changes)
         return merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
+
+    @contextlib.contextmanager
+    def paused(self):
+        """Model changes made inside are not written to the session (e.g. a control resetting its value while
+        its options are replaced: the caller puts the model's value back before leaving)."""
+        old, self._loading = self._loading, True
+        try:
+            yield self
+        finally:
+            self._loading = old
 
     # -- directions -----------------------------------------------------------------------------------
     def _on_model(self, change) -> None:
@@ -933,7 +1052,11 @@ class ModelBinding:
             if _edit_prefix(nxt) != self._bases_prefix:
                 self._clear_bases()
             if _edit_prefix(nxt) == _edit_prefix(cur):
-                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d)
+                # bases for the nudges this change makes (every nudge when edit_mode changes: the toggle acts
+                # on them all), only: an untouched edit keeps its form (deltas stay deltas, in place)
+                old_edits, toggle = self._last["pose_edits"], new["edit_mode"] != self._last["edit_mode"]
+                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d
+                                   if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
         ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
             changed = self.session.set_ops(ops)
@@ -957,6 +1080,9 @@ class ModelBinding:
                 self._clear_bases()
             self._record_bases((int(o["pose"]), j) for o in self.session.ops if o["op"] == "edit_pose"
                                for j in o.get("targets") or {})
+        if isinstance(self.model, WandModel):
+            with self.model.loading():
+                self.model.input_frames = _wand_input_frames(self.session)
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:

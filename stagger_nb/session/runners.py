@@ -9,10 +9,12 @@ them in the session's one :class:`~.cache.Cache`. A runner may leave plain notes
 """
 from __future__ import annotations
 
+import inspect
 from typing import Callable
 
 import numpy as np
 
+from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_mul, rotvec_to_quat
 from ..core.skeleton import Skeleton
@@ -85,14 +87,30 @@ class Heads:
         return self.cache.get("cull", self.key(sm), ("keep", keep),
                               lambda: st.cull(sm, percent, count=count, progress=progress))
 
-    def offset_basis(self, sm):
-        """``staggered.pose_offset_basis(sm)``: the offset-independent half of an exaggeration of ``sm`` (§5.1),
-        once per pre-exaggerate state (keyed by its content name): a ``w_r`` slider move reuses it. None when
-        this version of staggered has no such function."""
+    def offset_basis(self, sm, origin: Motion | None = None):
+        """``staggered.pose_offset_basis(sm, origin)``: the offset-independent half of an exaggeration of ``sm``
+        (§5.1), once per pre-exaggerate state (keyed by its content name): a ``w_r`` slider move reuses it.
+        ``origin``: the Motion ``sm`` was extracted from (it reads the rotations on frames from it while
+        ``sm`` reproduces it; a ``pose_offset_basis`` without that parameter, an older one or a wrapper, is
+        called with ``sm`` alone). None when this version of staggered has no such function."""
         make = getattr(_staggered(), "pose_offset_basis", None)
         if make is None:
             return None
-        return self.cache.get("offset_basis", self.key(sm), None, lambda: make(sm))
+        try:
+            takes = origin is not None and "reproduced" in inspect.signature(make).parameters
+        except (TypeError, ValueError):
+            takes = False
+        return self.cache.get("offset_basis", self.key(sm), None,
+                              lambda: make(sm, reproduced=origin) if takes else make(sm))
+
+    def positions(self, motion: Motion):
+        """World joint positions ``(F, J, 3)`` of ``motion`` (``forward_kinematics(motion)[0]``, read-only),
+        once per motion: ``keep_contacts`` reads the source's on every replay."""
+        def make():
+            p = forward_kinematics(motion)[0]
+            p.setflags(write=False)
+            return p
+        return self.cache.get("positions", self.key(motion), None, make)
 
     def wand_graph(self, motion: Motion):
         """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
@@ -287,7 +305,7 @@ def _exaggerate(sm, op: O.Exaggerate, run):
     poses = list(range(sm.num_poses)) if op.poses is None else [_pose(sm, k, "poses") for k in op.poses]
     if isinstance(op.reference, int):
         _pose(sm, op.reference, "reference")
-    basis = run.heads.offset_basis(sm)
+    basis = run.heads.offset_basis(sm, run.origin)
     return _staggered().exaggerate(sm, poses, op.w_r, reference=op.reference, mode=op.mode,
                                    joints=_list(op.joints), **({} if basis is None else {"basis": basis}))
 
@@ -319,7 +337,8 @@ def _delete_pose(sm, op: O.DeletePose, run):
 
 
 def _keep_contacts(state, op: O.KeepContacts, run):
-    return _needs("keep_contacts")(state, run.origin)
+    origin = run.origin
+    return _needs("keep_contacts")(state, origin, source_positions=run.heads.positions(origin))
 
 
 def _ik_pose(sm, op: O.IKPose, run):

@@ -113,11 +113,13 @@ def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None, 
     ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lbc ** 2) / (-2.0 * lab * lbc), -1.0, 1.0))
 
     axis0, n0 = _unit(np.cross(c - a, b - a))
-    if fallback_axis is None:
-        fallback_axis = quat_rotate(b_world, np.array([1.0, 0.0, 0.0]))
     straight = n0 < 1e-9
-    if np.any(straight):
-        axis0 = np.where(straight[:, None], _unit(np.asarray(fallback_axis, dtype=float))[0], axis0)
+    if np.any(straight):   # the fallback axis only where it is used (the same values there)
+        s_ = np.flatnonzero(straight)
+        fb = (quat_rotate(np.asarray(b_world, dtype=float)[s_], np.array([1.0, 0.0, 0.0])) if fallback_axis is None
+              else np.broadcast_to(np.asarray(fallback_axis, dtype=float), axis0.shape)[s_])
+        axis0 = np.array(axis0)
+        axis0[s_] = _unit(fb)[0]
     axis1, n1 = _unit(np.cross(c - a, t - a))
     axis1 = np.where((n1 < 1e-12)[:, None], axis0, axis1)  # c-a already points at t: no swing needed
 
@@ -517,9 +519,9 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
             disp = quat_mul(quat_conj(wq2[fr, eff]), quat_mul(turn, wq2[fr, eff]))              # ankle's local
             disp = slerp(np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), disp.shape), disp, weight[fr])
             out[fr, eff] = quat_mul(out[fr, eff], disp)
-    if rp is motion.root_positions:
-        return motion.replace(local_quats=out)
-    return motion.replace(local_quats=out, root_positions=rp)
+    # out: this call's own copy of a valid motion's rotations, displaced by unit quaternions; rp: the root
+    # positions, lowered (finite): the trusted constructor, the same values as motion.replace(...)
+    return Motion._trusted(motion.skeleton, motion.frame_time, rp, out, motion.local_translations)
 
 
 def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:
@@ -684,7 +686,8 @@ def _plants(carried, effs) -> list[list[int]]:
 
 
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
-                  lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip") -> Motion:
+                  lower_root: bool | float = 0.5, carry_by: str = "joint", plant: str = "hip",
+                  source_positions: np.ndarray | None = None) -> Motion:
     """The constraint layer after staggered timing edits (§3, §5.2): contacts of ``source`` carried with each
     foot's own timing (:func:`carry_contacts`), then held by the IK displacement of
     :func:`apply_contact_constraints` at the source's contact positions moved with the hip (``plant``), the
@@ -728,6 +731,10 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
         walk, where its own delayed swing puts it, so the leg reaches it without lowering the pelvis.
         ``"source"``: the source's contact point itself (the leg must then reach back by ``v δ``: on real
         walks the root drops 5-12 cm).
+    source_positions : ndarray, shape (F_source, J, 3), optional
+        ``forward_kinematics(source)[0]`` (world joint positions, file units) when the caller has it (an edit
+        session keeps it per source: it does not change with the edit); the same numbers as computing it
+        here, one forward kinematics fewer per call.
 
     Returns
     -------
@@ -759,7 +766,13 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     chains = {j: _chain(sk, j) for j in {c[1] for c in carried}}
     effs = {j: ch[2] for j, ch in chains.items()}
     ups = {j: max(ch[0], 0) for j, ch in chains.items()}
-    src_pos = _fk_joints(source, set(effs) | set(effs.values()) | set(ups.values()))[0]   # the contact chains
+    if source_positions is None:
+        src_pos = _fk_joints(source, set(effs) | set(effs.values()) | set(ups.values()))[0]   # the contact chains
+    else:
+        src_pos = np.asarray(source_positions)
+        if src_pos.shape != (source.num_frames, source.num_joints, 3):
+            raise ValueError(f"source_positions: expected shape ({source.num_frames}, {source.num_joints}, 3) "
+                             f"(forward_kinematics(source)[0]), got {src_pos.shape}")
     # source positions at the source time of every carried frame (inverse of each contact's joint warp),
     # all contacts at once: one interpolation per clock joint, one gather for every frame
     n = np.array([c[3] - c[2] for c in carried])

@@ -34,7 +34,7 @@ from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, qua
 from .fitting import displacement_rotvecs
 from . import _kernels as kern
 from .representation import (StaggeredMotion, _rotations_at, bezier_cubic, knot_times, rotation_spline,
-                             translation_source_times)
+                             static_rotations, translation_source_times)
 
 __all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession",
            "OffsetBasis", "pose_offset_basis",
@@ -102,10 +102,17 @@ def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -
     min_angle = _finite(min_angle, "min_angle")
     if min_angle < 0:
         raise ValueError(f"min_angle must be >= 0 degrees, got {min_angle}")
-    t = sm.pose_times
-    K, J = sm.num_poses, sm.num_joints
-    names = list(sm.skeleton.names) + ["<root translation>"]
-    r = np.concatenate([sm.refinements, sm.root_refinements[:, None]], axis=1)    # (K, J + 1)
+    return _timing_warnings(sm.pose_times, sm.refinements, sm.root_refinements, sm.values, sm.editing_knots,
+                            sm.root_values, sm.frame_time, sm.skeleton.names, min_angle)
+
+
+def _timing_warnings(t, refinements, root_refinements, values, editing_knots, root_values, frame_time, names,
+                     min_angle: float = _MIN_ANGLE_DEG) -> tuple[TimingWarning, ...]:
+    """:func:`timing_warnings` of the StaggeredMotion fields given (``min_angle`` already checked): what
+    :func:`_refresh` keeps for a lazy ``metadata["warnings"]`` without keeping the StaggeredMotion itself."""
+    K, J = refinements.shape
+    names = list(names) + ["<root translation>"]
+    r = np.concatenate([refinements, root_refinements[:, None]], axis=1)    # (K, J + 1)
     T = t[:, None] + r
     bad = np.zeros((K, J + 1), bool)
     nearer = np.full((K, J + 1), -1)
@@ -113,7 +120,7 @@ def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -
         n = np.arange(K) + side
         ok = ((n >= 0) & (n < K))[:, None]
         Tn = T[np.clip(n, 0, K - 1)]
-        close = np.abs(T - Tn) + sm.frame_time < np.abs(r)
+        close = np.abs(T - Tn) + frame_time < np.abs(r)
         crossed = (Tn <= T) if side > 0 else (Tn >= T)
         hit = ok & (close | crossed) & ~bad
         nearer[hit] = np.broadcast_to(np.clip(n, 0, K - 1)[:, None], hit.shape)[hit]
@@ -127,11 +134,11 @@ def timing_warnings(sm: StaggeredMotion, *, min_angle: float = _MIN_ANGLE_DEG) -
     rot = cols < J
     if rot.any():
         c = cols[rot][:, None]
-        v = np.concatenate([sm.values[idx[rot], c], sm.editing_knots[idx[rot], c]], axis=1)   # (n, 6, 4)
+        v = np.concatenate([values[idx[rot], c], editing_knots[idx[rot], c]], axis=1)   # (n, 6, 4)
         dots = np.abs(np.einsum("nac,nbc->nab", v, v)).min(axis=(1, 2))
         keep[rot] = 2.0 * np.degrees(np.arccos(np.clip(dots, -1.0, 1.0))) >= min_angle
     if (~rot).any():
-        p = sm.root_values[idx[~rot]]                                                  # (n, 3, 3)
+        p = root_values[idx[~rot]]                                                  # (n, 3, 3)
         keep[~rot] = np.ptp(p, axis=1).max(axis=1) > 1e-9 * (1.0 + np.abs(p).max(axis=(1, 2)))
     out = []
     for k, i in zip(ks[keep], cols[keep]):
@@ -464,15 +471,14 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     ``metadata["source_knots"]`` (``source_knots`` overrides them when the poses change)."""
     if source_knots is None:
         source_knots = source_knot_times(sm)
-    new = dataclasses.replace(sm, **fields)
+    new = sm._with_fields(**fields)          # (arrays the edit did not change are shared, not copied)
     K, J = new.num_poses, new.num_joints
     # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
     # for whole clips; alternating tiny calls with full evaluations would make it re-allocate them)
     q = _eval_rotations(new, np.repeat(new.pose_times, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
     editing = np.where((new.refinements != 0)[..., None], q, new.values)
     editing.setflags(write=False)
-    meta = dict(new.metadata)
-    meta["warnings"] = timing_warnings(new)
+    meta = {k: v for k, v in dict.items(new.metadata) if k != "warnings"}   # (a lazy entry is not computed)
     sk = np.array(source_knots, dtype=float)
     sk.setflags(write=False)
     meta["source_knots"] = sk
@@ -480,8 +486,65 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     # the object was created above and is not shared yet: set the two derived fields in place (as
     # __post_init__ does) instead of validating and copying every array a second time
     object.__setattr__(new, "editing_knots", editing)
-    object.__setattr__(new, "metadata", meta)
+    fields = (new.pose_times, new.refinements, new.root_refinements, new.values, editing, new.root_values,
+              new.frame_time, tuple(new.skeleton.names))
+    object.__setattr__(new, "metadata", _LazyWarnings(meta, lambda: _timing_warnings(*fields)))
     return new
+
+
+class _LazyWarnings(dict):
+    """The metadata dict of an edited StaggeredMotion whose ``"warnings"`` entry (:func:`timing_warnings`,
+    ~0.3-3.5 ms on a 900-frame clip) is computed on its first read, not by every edit: a slider's replay
+    (exaggerate, succession, τ on every move) never reads it; the session computes the warnings of the
+    last staggered state once, when asked (``Session.timing_warnings``). Any read of the entry or of the
+    whole dict (iteration, ``items()``, ``len``, ``==``, a copy, pickling) sees it as a plain dict would
+    have: the entry filled. ``make`` holds the fields it needs, not the StaggeredMotion (no reference
+    cycle)."""
+
+    __slots__ = ("_make",)
+
+    def __init__(self, data: dict, make):
+        super().__init__(data)
+        self._make = make
+
+    def _fill(self) -> "_LazyWarnings":
+        make = self._make
+        if make is not None:
+            dict.__setitem__(self, "warnings", make())
+            self._make = None
+        return self
+
+    def __getitem__(self, key):
+        if key == "warnings":
+            self._fill()
+        return dict.__getitem__(self, key)
+
+    def get(self, key, default=None):
+        if key == "warnings":
+            self._fill()
+        return dict.get(self, key, default)
+
+    def __contains__(self, key):
+        return (key == "warnings" and self._make is not None) or dict.__contains__(self, key)
+
+    def __reduce__(self):
+        return dict, (dict(self._fill()),)
+
+    def __repr__(self):
+        return dict.__repr__(self._fill())
+
+
+def _whole(name):
+    def method(self, *args, **kwargs):
+        return getattr(dict, name)(self._fill(), *args, **kwargs)
+    method.__name__ = name
+    return method
+
+
+for _name in ("__iter__", "__len__", "__eq__", "__ne__", "keys", "items", "values", "copy", "pop", "popitem",
+              "setdefault", "update", "__setitem__", "__delitem__", "__or__", "__ior__", "__reversed__", "clear"):
+    setattr(_LazyWarnings, _name, _whole(_name))
+del _name
 
 
 # -- geometric editing (§5.1) ---------------------------------------------------------------------------
@@ -534,7 +597,9 @@ class OffsetBasis:
     does not depend on the offsets: the re-measuring grid of every (segment, joint) pair, the motion's
     rotations on it and the plateau weights of both ends. Built by :func:`pose_offset_basis`; pass it to
     :func:`exaggerate` (``basis=``) to skip that half of the work when the same motion is exaggerated again
-    with another ``w_r`` (a slider). Arrays: ``seg, joint, counts (P,)`` with P = (K - 1) J pairs; ``pair,
+    with another ``w_r`` (a slider). Arrays: ``seg, joint, counts (P,)``, the P pairs it covers: every
+    (segment, joint) pair of the joints that move (P <= (K - 1) J; a static joint's rotation, one quaternion
+    throughout, e.g. 6 of CMU's 31, is not exaggerated by a relative offset and keeps its map); ``pair,
     m, tn, t (N,)`` the grid (pair index, index in the pair, normalised and absolute time, seconds);
     ``old (4, N)`` the rotations (x, y, z, w rows); ``wl, wr (N,)`` the weights of the segment's first and
     second pose; ``knots (K, J)`` and ``pose_times (K,)`` of the motion it was built for (checked on use)."""
@@ -553,23 +618,73 @@ class OffsetBasis:
         """True when this basis was built for a motion with ``sm``'s knots and displacement grids."""
         return (self.knots.shape == (sm.num_poses, sm.num_joints) and np.array_equal(self.knots, knot_times(sm))
                 and np.array_equal(self.pose_times, sm.pose_times)
-                and np.array_equal(self.counts, sm.displacement_counts.reshape(-1)))
+                and np.array_equal(self.counts, sm.displacement_counts[self.seg, self.joint]))
+
+    def restrict(self, pairs: np.ndarray) -> "OffsetBasis":
+        """This basis on the subset ``pairs (P,) bool`` of its pairs (the grid gathered, pairs renumbered)."""
+        if pairs.all():
+            return self
+        pair, m, tn, t = self.grid
+        keep = pairs[pair]
+        new_id = np.cumsum(pairs) - 1
+        return OffsetBasis(self.knots, self.pose_times, self.seg[pairs], self.joint[pairs], self.counts[pairs],
+                           (new_id[pair[keep]], m[keep], tn[keep], t[keep]), self.old[:, keep], self.wl[keep],
+                           self.wr[keep])
 
 
-def pose_offset_basis(sm: StaggeredMotion) -> OffsetBasis:
+_READ_TOL = 1e-9   # rad: a motion read at the grid's frames stands for sm's own rotations there within this
+
+
+def _old_from_frames(sm: StaggeredMotion, reproduced, seg, joint, pair, tn, t) -> np.ndarray | None:
+    """``sm``'s rotations ``(4, N)`` at the grid samples ``(pair, t)`` read from ``reproduced`` (a Motion that
+    ``sm`` reproduces at its frames, frame f at ``f * frame_time`` seconds; ``tn`` the samples' normalised
+    times in their pairs), or None when a sample is off its
+    frames (after timing edits) or a check finds ``sm`` away from it: the middle sample of every pair and
+    every 16th sample are evaluated and must agree within ``_READ_TOL`` (a geometric edit since, …)."""
+    ft = reproduced.frame_time
+    if abs(ft - sm.frame_time) > 1e-12 * ft or reproduced.num_joints != sm.num_joints:
+        return None
+    f = t / ft
+    r = np.rint(f)
+    if not (np.all(np.abs(f - r) < 1e-9) and r.min() >= 0 and r.max() <= reproduced.num_frames - 1):
+        return None
+    jp = joint[pair]
+    old = np.ascontiguousarray(reproduced.local_quats[r.astype(np.int64), jp].T)
+    starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+    mid = (starts + np.r_[starts[1:], pair.size]) // 2
+    check = np.union1d(mid, np.arange(0, pair.size, 16))
+    true = np.array(_rotations_at(sm, seg[pair[check]] * sm.num_joints + jp[check], tn[check]))
+    r = quat_mul(quat_conj(true.T), old[:, check].T)          # angle by atan2 (a dot product's arccos cannot
+    angle = 2.0 * np.arctan2(np.linalg.norm(r[:, :3], axis=1), np.abs(r[:, 3]))   # resolve 1e-9 rad)
+    return old if angle.max() <= _READ_TOL else None
+
+
+def pose_offset_basis(sm: StaggeredMotion, reproduced=None) -> OffsetBasis:
     """The offset-independent half of re-measuring every displacement map of ``sm`` (see
     :class:`OffsetBasis`): ``exaggerate(sm, ..., basis=pose_offset_basis(sm))`` equals ``exaggerate(sm, ...)``
     to rounding (~1e-16 rad). Cost: about one :func:`evaluate`; memory ~100 bytes
-    per grid sample (``(F + K) J`` samples at extraction)."""
+    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.representation.
+    static_rotations`) are left out: an edit that moves one re-measures without the basis.
+
+    ``reproduced``: a Motion ``sm`` reproduces at its frames (frame f at ``f * frame_time`` seconds), e.g. the
+    source of an extraction or of its cull (both exact at the frames by construction, §4.1.1: ~1e-14 rad);
+    while ``sm``'s knots sit on frames (no timing edit yet) the rotations on the grid are read from it instead
+    of evaluated (most of the cost), after a check that evaluates every pair's middle sample and every 16th
+    sample (they must agree within 1e-9 rad, else ``sm`` is evaluated as without it). The result then equals
+    the basis without it to ~1e-14 rad."""
     _check(sm)
     K, J = sm.num_poses, sm.num_joints
-    seg, joint = np.divmod(np.arange((K - 1) * J), J)
-    counts = sm.displacement_counts.reshape(-1)
+    moving = np.flatnonzero(~static_rotations(sm)[0])
+    seg, joint = np.divmod(np.arange((K - 1) * moving.size), moving.size)
+    joint = moving[joint]
+    counts = sm.displacement_counts[seg, joint]
     knots = knot_times(sm)
     T = np.maximum.accumulate(knots, axis=0)
     grid = _grid(T[seg, joint], T[seg + 1, joint], counts)
     pair, _, tn, t = grid
-    old = np.array(_rotations_at(sm, seg[pair] * J + joint[pair], tn))
+    old = None if reproduced is None else _old_from_frames(sm, reproduced, seg, joint, pair, tn, t)
+    if old is None:
+        old = np.array(_rotations_at(sm, seg[pair] * J + joint[pair], tn))
     wl = _pair_plateau_weights(knots, sm.pose_times, seg, joint, 1, t, pair)
     wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, joint, -1, t, pair)
     for a in (knots, old, wl, wr) + tuple(grid):
@@ -594,9 +709,15 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
         tangents[:, :, 0] = quat_mul(tangents[:, :, 0], deltas[:-1])   # handle next to v_k (segment k)
         tangents[:, :, 1] = quat_mul(tangents[:, :, 1], deltas[1:])    # handle next to v_{k+1}
         touched = moved[:-1] | moved[1:]                                # (K-1, J) segments to re-measure
-        if basis is not None and touched.sum() < 0.5 * touched.size:
-            basis = None                  # few pairs moved: re-measuring only those is cheaper
-        if basis is not None:             # every pair (an unmoved one gets its own map back, to rounding)
+        if basis is not None:
+            covered = np.zeros_like(touched)
+            covered[basis.seg, basis.joint] = True
+            inside = touched[basis.seg, basis.joint]
+            if (touched & ~covered).any() or inside.sum() < 0.5 * inside.size:
+                basis = None              # a static joint moved, or few pairs: re-measure those without it
+            else:
+                basis = basis.restrict(inside)   # the touched pairs (the others keep their maps exactly)
+        if basis is not None:
             seg, joint, counts, grid = basis.seg, basis.joint, basis.counts, basis.grid
         else:
             seg, joint = np.nonzero(touched)

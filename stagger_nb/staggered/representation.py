@@ -174,6 +174,35 @@ class StaggeredMotion:
             object.__setattr__(self, "translation_times", tt)
         object.__setattr__(self, "contacts", tuple((str(n), int(a), int(b)) for n, a, b in self.contacts))
 
+    def _with_fields(self, **fields) -> "StaggeredMotion":
+        """``dataclasses.replace(self, **fields)`` for the package's editing tools (``editing._refresh``),
+        without validating and copying every array again: a given array field is copied read-only (as
+        :meth:`__post_init__` does) after a shape check against this motion's (the sample axis of the
+        displacement tables may differ), the others are this motion's own arrays, already checked and
+        read-only (e.g. a succession changes the refinements only: the displacement tables, most of the
+        bytes, are shared, not copied). Fields that change the pose count (or non-array fields) go
+        through ``dataclasses.replace``. The same values as ``dataclasses.replace``."""
+        import dataclasses
+        for name, v in fields.items():
+            old = getattr(self, name, None)
+            if not isinstance(old, np.ndarray) or np.ndim(v) != old.ndim:
+                return dataclasses.replace(self, **fields)
+            shape = np.shape(v)
+            if name in ("displacements", "root_displacements"):
+                shape, want = shape[:-2] + shape[-1:], old.shape[:-2] + old.shape[-1:]
+            else:
+                want = old.shape
+            if shape != want:
+                return dataclasses.replace(self, **fields)
+        new = object.__new__(type(self))
+        for f in dataclasses.fields(self):
+            if f.name in fields:
+                v = readonly(fields[f.name], int if f.name.endswith("counts") else float)
+            else:
+                v = getattr(self, f.name)
+            object.__setattr__(new, f.name, v)
+        return new
+
     # -- derived, cheap -----------------------------------------------------------------------------
     @property
     def num_poses(self) -> int:
@@ -529,8 +558,10 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
             raise ValueError("evaluate: times must be a non-empty array of finite seconds")
         dt = np.diff(times)
         ft = float(dt[0]) if dt.size and dt[0] > 0 and np.allclose(dt, dt[0]) else sm.frame_time
-    q, p = _evaluate_arrays(sm, times)        # Motion() normalises q into a new array: no copy needed
+    q, p = _evaluate_arrays(sm, times)
     lt = None
     if sm.local_translations is not None:
         lt = _sample_translations(sm.local_translations, sm.frame_time, translation_source_times(sm, times))
-    return Motion(sm.skeleton, ft, p, q, lt)
+    # arrays computed here from a valid representation: the trusted constructor (no re-validation); q may
+    # be workspace memory, so the Motion gets its own copy
+    return Motion._trusted(sm.skeleton, ft, p, np.array(q), lt)

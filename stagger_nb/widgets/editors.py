@@ -20,6 +20,7 @@ from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees, warp_table_key
 from ..session.models import ModelBinding, StaggerModel, WandModel, WarpModel
+from ..staggered import end_effectors
 from ..timewarp.guided import AUTO_APPROX_PAIRS
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 from .plots import PlotView
@@ -228,6 +229,7 @@ class _Editor(widgets.VBox):
         last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
         pf_new = pf if pf is not None and pf != last[0] else None
         ct_new = ct if ct is not None and ct != last[1] else None
+        self.model.num_frames = edited.num_frames   # the playhead's range (a longer frame is refused)
         if self.view.motion is edited and pf_new is None and ct_new is None:
             return
         self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
@@ -356,7 +358,7 @@ class _Editor(widgets.VBox):
         super().close()
 
 
-_EFFECTOR = re.compile(r"(hand|foot|wrist|ankle)$", re.IGNORECASE)
+_TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
 
 
 class StaggerEditor(_Editor):
@@ -380,7 +382,7 @@ class StaggerEditor(_Editor):
         model = StaggerModel(root=_default_joint(names, "Hips", "LeftShoulder", "LeftArm", "lShldr"),
                              joint=_default_joint(names, "LeftForeArm", "LeftElbow", "lForeArm"),
                              frame_time=m.frame_time)
-        effectors = [n for n in names if _EFFECTOR.search(n)]
+        effectors = [names[j] for j in end_effectors(m.skeleton) if not _TOE.search(names[j])]   # Hand_L too
         c = {}
         c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"),
                                                       ("picked", "keep")], description="cull poses",
@@ -619,15 +621,22 @@ class StaggerEditor(_Editor):
         c = self.controls
         c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
         opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(full.pose_times)]
+        # new options reset a selection control's value (ipywidgets selects the first option), which the link
+        # would write to the model and the session as a user's choice: put the model's value back, unrecorded
         if [o[1] for o in c["keep"].options] != [o[1] for o in opts]:
-            c["keep"].options = opts
-            c["keep"].value = tuple(k for k in self.model.keep if k < len(opts))
+            keep = list(self.model.keep)
+            with self.binding.paused():
+                c["keep"].options = opts
+                c["keep"].value = tuple(k for k in keep if k < len(opts))
+                self.model.keep = keep
+        ref = self.model.w_r_reference
         refs = [("previous", "previous"), ("next", "next"), ("mean", "mean")] + [(f"pose {k}", k) for k in range(K)]
-        if isinstance(self.model.w_r_reference, int) and self.model.w_r_reference >= K:
-            refs.append((f"pose {self.model.w_r_reference}", self.model.w_r_reference))
+        if isinstance(ref, int) and ref >= K:
+            refs.append((f"pose {ref}", ref))
         if c["w_r_reference"].options != tuple(refs):
-            c["w_r_reference"].options = refs
-            c["w_r_reference"].value = self.model.w_r_reference
+            with self.binding.paused():
+                c["w_r_reference"].options = refs
+                c["w_r_reference"].value = ref
         ft = m.frame_time
         kept = np.asarray(sm.pose_times)
         self._draw_probability(full, sm, kept, _x_span(edited))
@@ -713,7 +722,7 @@ class WandEditor(_Editor):
         self._sigma_grid = s0 * 10.0 ** (self._SIGMA_STEP * np.arange(-self._SIGMA_STEPS, self._SIGMA_STEPS + 1))
         f0 = F // 2 if frame is None else int(frame)
         joint = joint or _default_joint(names, "LeftUpLeg", "LeftHip", "LeftFemur", "lThigh")
-        model = WandModel(sigma=s0, joint=joint, frame=f0)
+        model = WandModel(sigma=s0, default_sigma=s0, joint=joint, frame=f0)
         with model.loading():
             model.edit_frame = f0
         c = {}
@@ -891,7 +900,7 @@ class WarpEditor(_Editor):
         self._links.append(traitlets.link((model, "segment"), (c["segment"], "value"), transform=(tuple, list)))
         self._links.append(traitlets.link((model, "keytimes"), (self.keytimes, "value"),
                                           transform=(self._format_keytimes, self._parse_keytimes)))
-        model.observe(self._on_inert, names=["mode", "reference", "free_length"])
+        model.observe(self._on_inert, names=["mode", "reference", "free_length", "duration", "keytimes", "backward"])
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
@@ -959,6 +968,9 @@ class WarpEditor(_Editor):
         linear = m.mode == "linear"
         for k in ("skip", "reference", "backward", "free_length"):
             _inert(c[k], linear, f"{k} applies to guided warps only")
+        if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
+            _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
+                                    "change the duration, the reference or a keytime first")
         _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
         _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
 
