@@ -23,10 +23,14 @@ _UNIT_TOL = 1e-12  # |norm - 1| above which a quaternion is renormalised on cons
 MIN_FRAME_TIME = 1e-4
 #: Longest frame time accepted (seconds): one frame an hour. Longer ones overflow durations and rates.
 MAX_FRAME_TIME = 3600.0
-#: Most frames x joints a core function allocates from a user-given number (resampling): 10^7 joint
-#: samples (320 MB of quaternions, ~1.5 GB with the temporaries of slerp); a 100,000-frame, 31-joint
-#: take holds 3.1 x 10^6.
-MAX_FRAME_JOINTS = 10_000_000
+#: Most frames x joints a reader or a core function allocates from a file or a user-given number
+#: (resampling): 4 x 10^6 joint samples, 128 MB of quaternions (a 1-joint rig: + 96 MB of root positions),
+#: so reading or resampling to the limit stays within ~500 MB. A 100,000-frame, 31-joint take holds
+#: 3.1 x 10^6. (It was 10^7: a 20 MB file of 10^7 one-channel frames read at 674 MB, and resampling
+#: CMU 01_01 to 1e-4 s peaked at 1.28 GB.)
+MAX_FRAME_JOINTS = 4_000_000
+#: Frames slerped at once by :meth:`Motion.sample`, times joints (temporaries of ~10 MB).
+_SAMPLE_BLOCK = 1 << 16
 
 
 def check_frame_time(frame_time, name: str = "frame_time") -> float:
@@ -205,11 +209,20 @@ class Motion:
         return Motion(**fields)
 
     def slice(self, start: int | None = None, stop: int | None = None, step: int | None = None) -> "Motion":
-        """Frames ``[start, stop)`` (every ``step``-th) as a new Motion."""
+        """Frames ``[start, stop)`` (every ``step``-th, ``step >= 1``) as a new Motion; ``start``/``stop``
+        are integers (or None) with Python's meaning of negative indices. ``ValueError`` names the argument."""
+        for name, v in (("start", start), ("stop", stop), ("step", step)):
+            if v is not None and (isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer))):
+                raise ValueError(f"Motion.slice: {name} must be an integer frame index or None, got {v!r}")
+        if step is not None and step < 1:
+            raise ValueError(f"Motion.slice: step must be a positive integer, got {step}")
+        if step is not None and step > 1:
+            check_frame_time(self.frame_time * int(step), f"Motion.slice: step={step} (frame time x step)")
         sl = slice(start, stop, step)
         idx = np.arange(self.num_frames)[sl]
         if idx.size == 0:
-            raise ValueError(f"Motion.slice: frames [{start}, {stop}) of a {self.num_frames}-frame motion are empty")
+            raise ValueError(f"Motion.slice: start, stop: frames [{start}, {stop}) of a {self.num_frames}-frame "
+                             "motion are empty")
         lt = None if self.local_translations is None else self.local_translations[sl]
         return Motion(self.skeleton, self.frame_time * (step or 1), self.root_positions[sl],
                       self.local_quats[sl], lt)
@@ -218,15 +231,21 @@ class Motion:
         """Evaluate at fractional frame indices ``frames (N,)`` (clamped to the clip): rotations by slerp,
         translations linearly. The result is sampled every ``frame_time`` (default: this one)."""
         f = np.clip(np.asarray(frames, dtype=float).reshape(-1), 0.0, self.num_frames - 1)
-        i0 = np.floor(f).astype(int)
-        i0 = np.minimum(i0, self.num_frames - 1)
-        i1 = np.minimum(i0 + 1, self.num_frames - 1)
-        a = f - i0
-        q = slerp(self.local_quats[i0], self.local_quats[i1], a[:, None])
-        rp = self.root_positions[i0] * (1 - a)[:, None] + self.root_positions[i1] * a[:, None]
-        lt = None
-        if self.local_translations is not None:
-            lt = self.local_translations[i0] * (1 - a)[:, None, None] + self.local_translations[i1] * a[:, None, None]
+        n, J = f.size, self.num_joints
+        q = np.empty((n, J, 4))
+        rp = np.empty((n, 3))
+        lt = None if self.local_translations is None else np.empty((n, J, 3))
+        step = max(1, _SAMPLE_BLOCK // max(J, 1))  # blocks of frames: slerp's temporaries stay ~10 MB
+        for b0 in range(0, n, step):
+            fb = f[b0:b0 + step]
+            i0 = np.minimum(np.floor(fb).astype(int), self.num_frames - 1)
+            i1 = np.minimum(i0 + 1, self.num_frames - 1)
+            a = fb - i0
+            q[b0:b0 + step] = slerp(self.local_quats[i0], self.local_quats[i1], a[:, None])
+            rp[b0:b0 + step] = self.root_positions[i0] * (1 - a)[:, None] + self.root_positions[i1] * a[:, None]
+            if lt is not None:
+                lt[b0:b0 + step] = (self.local_translations[i0] * (1 - a)[:, None, None]
+                                    + self.local_translations[i1] * a[:, None, None])
         return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time, rp, q, lt)
 
     def sample_times(self, times: np.ndarray, frame_time: float | None = None) -> "Motion":

@@ -13,9 +13,23 @@ from ..core.rotations import quat_mul
 __all__ = ["atomic_write_bytes", "WriteError", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",
            "MAX_INPUT_BYTES", "read_regular_file"]
 
-#: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips).
-#: 1 GiB holds a 100,000-frame, 100-joint BVH take several times over; override per call with ``max_bytes``.
-MAX_INPUT_BYTES = 1 << 30
+#: The one size limit for every file the package reads (BVH, ASF/AMC, session JSON, referenced clips):
+#: 256 MiB. The joint-sample limit (core.motion.MAX_FRAME_JOINTS, 4x10^6) caps a valid BVH near 4x10^6 x 6
+#: channels x 11 characters; a 100,000-frame, 31-joint take is ~100 MB. (It was 1 GiB: a sparse 900 MB
+#: file was read whole, 928 MB RSS, 33 s, to report its line 1.) Override per call with ``max_bytes``.
+MAX_INPUT_BYTES = 256 << 20
+
+
+def file_path(path, what: str = "path") -> str | bytes:
+    """``os.fspath(path)``, or ``ValueError`` naming ``what`` when ``path`` is not a path (None, a number) or
+    holds a NUL character (which no file name can)."""
+    try:
+        name = os.fspath(path)
+    except TypeError:
+        raise ValueError(f"{what}: expected a file path (str or os.PathLike), got {path!r}") from None
+    if ("\0" if isinstance(name, str) else b"\0") in name:
+        raise ValueError(f"{what}: a file path cannot hold a NUL character, got {path!r}")
+    return name
 
 
 def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None) -> bytes:
@@ -27,7 +41,7 @@ def read_regular_file(path, *, what: str = "file", max_bytes: int | None = None)
     and the path; the readers wrap it in their own format error.
     """
     limit = MAX_INPUT_BYTES if max_bytes is None else int(max_bytes)
-    name = os.fspath(path)
+    name = file_path(path, what)
     try:
         fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:
@@ -88,12 +102,18 @@ UTF8_BOM = b"\xef\xbb\xbf"
 
 
 def decode(raw: bytes | memoryview) -> str:
-    """UTF-8 text without a leading byte-order mark, or Latin-1 where the bytes are not UTF-8 (old
-    exporters). A ``memoryview`` is decoded in place (no copy of a large slice)."""
+    """UTF-8 text without a leading byte-order mark, or else Windows-1252 (old Windows exporters: ``“ü”``),
+    or else Latin-1 (cp1252 leaves five bytes undefined). cp1252 comes before Latin-1 because Latin-1 reads
+    bytes 0x80-0x9f as invisible control characters, which no name or number holds. A ``memoryview`` is
+    decoded in place (no copy of a large slice)."""
     if raw[:3] == UTF8_BOM:
         raw = raw[3:]
     try:
         return str(raw, "utf-8")
+    except UnicodeDecodeError:
+        pass
+    try:
+        return str(raw, "cp1252")
     except UnicodeDecodeError:
         return str(raw, "latin-1")
 
@@ -334,7 +354,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
     it replaces). Raises :class:`WriteError` (an ``OSError`` and a ``ValueError``) naming the path when it
     cannot be written (missing folder, full disk) or is not a regular file (a folder, ``/dev/null``, a FIFO:
     never replaced)."""
-    path = os.fsdecode(os.fspath(path))
+    path = os.fsdecode(file_path(path, "path"))
     if not path or "\0" in path:
         raise WriteError(f"{path!r}: not a usable file path")
     _check_write_target(path)

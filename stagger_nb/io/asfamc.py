@@ -28,16 +28,20 @@ for the motion file).
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 from ..core.motion import MAX_FRAME_JOINTS, Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton
-from ._common import MAX_TOKEN, FormatError, euler_deg_to_quat, finite_number, read_text, split_values
+from ._common import MAX_TOKEN, FormatError, euler_deg_to_quat, file_path, finite_number, read_text, split_values
 
 __all__ = ["AMCError", "read_asf_amc", "parse_asf", "parse_amc", "AsfSkeleton"]
 
 _MAX_BONES = 10_000
+#: A comment: '#' at the start of a line or of a token, to the end of the line. Inside a token it is part of
+#: the token, so MSVC's ``1.#INF`` is a bad number (not ``1.`` and a comment).
+_COMMENT = re.compile(r"(?:^|(?<=\s))#.*", re.DOTALL)
 _MAX_FRAMES = 10_000_000
 _ROT_DOFS = ("rx", "ry", "rz")
 _TRANS_DOFS = ("tx", "ty", "tz")
@@ -136,14 +140,19 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
     bone = None
     in_hier = False
     seen_root = seen_bonedata = seen_hierarchy = False
+    seen_sections: dict[str, int] = {}
     ln = 0
     for ln, raw in _iter_lines(text):
-        line = raw.split("#", 1)[0].strip()
+        line = _COMMENT.sub("", raw).strip()
         if not line:
             continue
         toks = line.split()
         key = toks[0].lower()
         if key.startswith(":"):
+            if key in (":units", ":root", ":bonedata", ":hierarchy") and key in seen_sections:
+                raise AMCError(source, ln, f"a second {toks[0]!r} section (the first is on line "
+                                           f"{seen_sections[key]})")
+            seen_sections.setdefault(key, ln)
             if bone is not None:
                 raise AMCError(source, ln, f"expected 'end' closing bone {bone.name or '?'} before {toks[0]!r}")
             if section == "hierarchy" and in_hier:
@@ -469,7 +478,7 @@ def read_asf_amc(asf_path, amc_path, frame_time: float = 1 / 120, units: str = "
     ft = check_frame_time(frame_time)
     if units not in _UNIT_SCALE:
         raise ValueError(f"units must be one of {', '.join(_UNIT_SCALE)}, got {units!r}")
-    asf_path, amc_path = os.fspath(asf_path), os.fspath(amc_path)
+    asf_path, amc_path = file_path(asf_path, "asf_path"), file_path(amc_path, "amc_path")
     asf = parse_asf(read_text(asf_path, AMCError), asf_path)
     root, dofs = parse_amc(read_text(amc_path, AMCError), asf, amc_path)
     return asf_amc_to_motion(asf, root, dofs, ft, units)

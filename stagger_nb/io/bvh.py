@@ -34,7 +34,7 @@ from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Moti
 from ..core.rotations import quat_angle, quat_continuous, quat_to_euler
 from ..core.skeleton import Skeleton
 from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, atomic_write_bytes, decode, euler_components,
-                      euler_deg_to_quat, finite_number, quarter_tan, read_bytes, split_values)
+                      euler_deg_to_quat, file_path, finite_number, quarter_tan, read_bytes, split_values)
 from ._numformat import format_table
 from ._numparse import NUMBER_RE, content_end, parse_lines
 
@@ -175,6 +175,9 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
             raise BVHError(src, ln, f"more than {_MAX_JOINTS} joints")
         j = len(names)
         name = " ".join(parts)
+        if not name_fits_bvh(name):
+            raise BVHError(src, ln, f"joint name {name!r} has characters BVH names cannot hold (control "
+                                    "characters, lone braces)")
         if name in name_line:
             raise BVHError(src, ln, f"joint name {name!r} is used twice (first on line {name_line[name]})")
         name_line[name] = ln
@@ -226,7 +229,26 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
                 raise BVHError(src, ln, f"expected 'JOINT', 'End Site' or '}}', found {t!r}")
 
 
+_FIRST_TOKEN = re.compile(rb"\s*(\S{0,16})")
 _MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.MULTILINE | re.IGNORECASE)
+
+
+_SCAN = 1 << 20  # bytes lower-cased at once while looking for the MOTION line (2 MB of copies)
+
+
+def _find_motion_line(raw: bytes) -> int | None:
+    """Offset of the start of the first ``MOTION`` line (any case, blanks around), or None. The word is
+    found with ``bytes.find`` in 1 MB lower-cased pieces and each hit's line checked: 200 MB of blank lines
+    or NULs take ~0.3 s (``_MOTION_LINE.search`` tries its MULTILINE ``^`` at every byte: 4-19 s)."""
+    for c0 in range(0, len(raw), _SCAN):
+        low = raw[c0:c0 + _SCAN + 8].lower()  # 8 bytes of overlap: a word across the cut
+        i = low.find(b"motion")
+        while 0 <= i < _SCAN:
+            at = raw.rfind(b"\n", 0, c0 + i) + 1
+            if _MOTION_LINE.match(raw, at):  # the whole line, on the file's bytes
+                return at
+            i = low.find(b"motion", i + 1)
+    return None
 
 
 def _normalise_breaks(raw: bytes) -> bytes:
@@ -296,16 +318,21 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     raw = text.encode("utf-8") if isinstance(text, str) else bytes(text)
     if raw[:3] == UTF8_BOM:  # a byte-order mark some Windows tools write
         raw = raw[3:]
+    first = _FIRST_TOKEN.match(raw)  # a file that does not start with HIERARCHY is refused before any scan
+    if first.group(1).upper() != b"HIERARCHY":  # (a 255 MB file of NULs: 9 s of searching for 'MOTION')
+        ln = _normalise_breaks(raw[:first.start(1)]).count(b"\n") + 1
+        raise BVHError(source, ln, f"expected 'HIERARCHY', found {decode(first.group(1))!r}"
+                       + ("" if first.group(1) else " (an empty or blank file)"))
     raw = _normalise_breaks(raw)
-    m = _MOTION_LINE.search(raw)
-    if m is None:
+    motion_at = _find_motion_line(raw)
+    if motion_at is None:
         last = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
         raise BVHError(source, max(last, 1), "no 'MOTION' section found")
-    head = decode(memoryview(raw)[:m.start()])
+    head = decode(memoryview(raw)[:motion_at])
     ln = head.count("\n") + 1  # the MOTION line
     skel = _parse_hierarchy(_Tokens(head, source, ln))
     del head
-    line, pos = _next_line(raw, m.start())
+    line, pos = _next_line(raw, motion_at)
     while True:  # blank lines may precede 'Frames:'
         if pos >= len(raw):
             raise BVHError(source, ln, "file ends early: expected 'Frames: <count>'")
@@ -616,7 +643,7 @@ def read_bvh(path) -> Motion:
     numbers, NaN/inf, wrong value counts, unknown channels, unbalanced braces, ``Frames:`` disagreeing
     with the data, a frame time <= 0, absurd declared sizes (nothing is allocated from them).
     """
-    path = os.fspath(path)
+    path = file_path(path, "path")
     return parse_bvh(read_bytes(path, BVHError), path)
 
 
@@ -632,15 +659,22 @@ def _position_decimals(motion: Motion) -> int:
     return int(np.clip(8 - np.floor(np.log10(scale)), 6, 12))
 
 
+_FORMAT_BLOCK = 1 << 17  # values formatted at once by write_bvh (~15 MB of temporaries)
 _MAX_INDENT = 16  # tabs: deeper joints are not indented further, so the text grows linearly with depth
 
 
+def name_fits_bvh(name: str) -> bool:
+    """Can a BVH file hold joint name ``name``? Names are the tokens between ``JOINT`` and ``{`` on one
+    line, joined by single spaces on reading: printable characters, no lone braces, no runs of blanks.
+    The reader refuses what the writer could not write back (a name read from a file always re-writes)."""
+    toks = name.split()
+    return bool(toks) and " ".join(toks) == name and "{" not in toks and "}" not in toks and name.isprintable()
+
+
 def _check_names(skel: Skeleton) -> None:
-    """``ValueError`` naming the joint whose name the format cannot hold: BVH names are the tokens between
-    ``JOINT`` and ``{`` on one line, joined by single spaces on reading."""
+    """``ValueError`` naming the joint whose name the format cannot hold (see :func:`name_fits_bvh`)."""
     for j, name in enumerate(skel.names):
-        toks = name.split()
-        if not toks or " ".join(toks) != name or "{" in toks or "}" in toks or not name.isprintable():
+        if not name_fits_bvh(name):
             raise ValueError(f"write_bvh: joint {j} has the name {name!r}, which BVH cannot hold (names need "
                              "printable characters, single spaces between words, no line breaks or tabs, "
                              "no lone braces): rename the joint")
@@ -691,17 +725,34 @@ def _partial_euler(q: np.ndarray, order: str) -> np.ndarray:
     return e
 
 
+def _joint_translation(motion: Motion, j: int) -> np.ndarray:
+    """Translations ``(F, 3)`` of joint ``j`` (a view where possible: no (F, J, 3) copy of the whole rig)."""
+    if j == 0:
+        return motion.root_positions
+    if motion.local_translations is not None:
+        return motion.local_translations[:, j]
+    return np.broadcast_to(motion.skeleton.offsets[j], (motion.num_frames, 3))
+
+
+def _by_frames(fn, q: np.ndarray) -> np.ndarray:
+    """``fn(q)`` (angles ``(F, ..., 3)`` of quaternions ``q (F, ..., 4)``) computed in blocks of
+    ``_CHECK_BLOCK`` frames into one output: the conversion's temporaries stay a few MB on a long take."""
+    out = np.empty(q.shape[:-1] + (3,))
+    for f0 in range(0, q.shape[0], _CHECK_BLOCK):
+        out[f0:f0 + _CHECK_BLOCK] = fn(q[f0:f0 + _CHECK_BLOCK])
+    return out
+
+
 def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """The ``(F, C)`` channel values of the joints in ``joint_order`` (the file's order) and the decimals
     for each column."""
     skel = motion.skeleton
-    trans = motion.translations()
     pos_dec = _position_decimals(motion)
     orders = ["".join(c[0].upper() for c in chans if c.lower().endswith("rotation")) for chans in skel.channels]
     full: dict[int, np.ndarray] = {}  # joint -> (F, 3) angles: one conversion per three-axis order
     for order in {o for o in orders if len(o) == 3}:
         joints = [j for j, o in enumerate(orders) if o == order]
-        eul = quat_to_euler(motion.local_quats[:, joints], order)
+        eul = _by_frames(lambda q, o=order: quat_to_euler(q, o), motion.local_quats[:, joints])
         full.update((j, eul[:, k]) for k, j in enumerate(joints))
     cols, dec = [], []
     for j in joint_order:
@@ -709,11 +760,11 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
         order = orders[j]
         eul = full.get(j)
         if order and eul is None:  # fewer than three rotation channels: the listed angles of a completed sequence
-            eul = _partial_euler(motion.local_quats[:, j], order)
+            eul = _by_frames(lambda q, o=order: _partial_euler(q, o), motion.local_quats[:, j])
         r = 0
         for c in chans:
             if c.lower().endswith("position"):
-                cols.append(trans[:, j, "XYZ".index(c[0].upper())])
+                cols.append(_joint_translation(motion, j)[:, "XYZ".index(c[0].upper())])
                 dec.append(pos_dec)
             else:
                 cols.append(eul[:, r])
@@ -721,6 +772,21 @@ def _channel_table(motion: Motion, joint_order: list[int]) -> tuple[np.ndarray, 
                 r += 1
     table = np.stack(cols, axis=1) if cols else np.zeros((motion.num_frames, 0))
     return table, np.array(dec, dtype=np.int64)
+
+
+_CHECK_BLOCK = 1 << 16  # frames checked at once by _rotates_beyond (a few MB of temporaries)
+
+
+def _rotates_beyond(q: np.ndarray, order: str) -> bool:
+    """Does ``q (F, 4)`` rotate about axes other than the one or two of ``order`` (beyond ``_ROT_TOL``)?
+    Checked in blocks of frames, so a long take costs no more memory than a short one."""
+    for f0 in range(0, q.shape[0], _CHECK_BLOCK):
+        qb = q[f0:f0 + _CHECK_BLOCK]
+        back = (euler_deg_to_quat(_partial_euler(qb, order)[:, :len(order)], order) if order
+                else np.broadcast_to([0.0, 0.0, 0.0, 1.0], qb.shape))
+        if float(np.max(quat_angle(qb, back))) > _ROT_TOL:
+            return True
+    return False
 
 
 _ROT_TOL = 1e-8  # rad: a rotation further than this from what a joint's channels can express needs more
@@ -732,24 +798,22 @@ def _faithful(motion: Motion) -> Motion:
     about z on a ``CHANNELS 1 Xrotation`` joint, a translation of a joint without position channels),
     each said in a ``UserWarning`` naming the joint; unchanged when every joint's channels suffice."""
     skel = motion.skeleton
-    trans = None
-    scale = max(float(np.max(np.abs(motion.root_positions))), float(np.max(np.abs(skel.offsets))), 1e-12)
+    scale = max(float(np.max(np.abs(motion.root_positions), initial=0.0)), float(np.max(np.abs(skel.offsets))),
+                1e-12)
     new_channels = list(skel.channels)
     for j, chans in enumerate(skel.channels):
         order = "".join(c[0].upper() for c in chans if c.lower().endswith("rotation"))
         have_pos = {c[0].upper() for c in chans if c.lower().endswith("position")}
         add_rot = ""
-        if len(order) < 3:
-            q = motion.local_quats[:, j]
-            back = (euler_deg_to_quat(_partial_euler(q, order)[:, :len(order)], order) if order
-                    else np.broadcast_to([0.0, 0.0, 0.0, 1.0], q.shape))
-            if float(np.max(quat_angle(q, back))) > _ROT_TOL:
-                add_rot = "".join(a for a in "ZXY" if a not in order)
+        if len(order) < 3 and _rotates_beyond(motion.local_quats[:, j], order):
+            add_rot = "".join(a for a in "ZXY" if a not in order)
         add_pos = ""
         if len(have_pos) < 3 and (j == 0 or motion.local_translations is not None):
-            if trans is None:
-                trans = motion.translations()
-            moved = np.max(np.abs(trans[:, j] - skel.offsets[j]), axis=0) > _POS_TOL * scale
+            t = _joint_translation(motion, j)
+            off = skel.offsets[j]  # max |t - off| per axis from t's extremes: no (F, 3) temporaries
+            reach = np.maximum(np.abs(np.max(t, axis=0, initial=-np.inf) - off),
+                               np.abs(np.min(t, axis=0, initial=np.inf) - off)) if len(t) else np.zeros(3)
+            moved = reach > _POS_TOL * scale
             add_pos = "".join(a for k, a in enumerate("XYZ") if moved[k] and a not in have_pos)
             if add_pos:
                 add_pos = "".join(a for a in "XYZ" if a not in have_pos)
@@ -772,15 +836,24 @@ def _faithful(motion: Motion) -> Motion:
 
 
 def _format_bytes(motion: Motion) -> bytes:
+    if not isinstance(motion, Motion):
+        raise ValueError(f"write_bvh: motion must be a stagger_nb Motion, got {type(motion).__name__}")
     _check_names(motion.skeleton)
     motion = _faithful(motion)
     head, joint_order = _hierarchy_lines(motion.skeleton)
     head += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {motion.frame_time:.9g}"]
     table, dec = _channel_table(motion, joint_order)
-    body = format_table(table, dec)
-    if body is None:  # a value too large for fixed point: 9 significant digits instead
-        body = "".join(" ".join(f"{v:.9g}" for v in row) + "\n" for row in table).encode()
-    return ("\n".join(head) + "\n").encode("utf-8") + body
+    parts = [("\n".join(head) + "\n").encode("utf-8")]
+    # blocks of rows: the formatter holds ~15 int64 temporaries per value, so a whole long take (3M frames
+    # x 1 channel) would peak at ~0.5 GB; blocks keep that to a few MB beside the text itself
+    step = max(1, _FORMAT_BLOCK // max(table.shape[1], 1))
+    for r0 in range(0, table.shape[0], step):
+        block = table[r0:r0 + step]
+        body = format_table(block, dec)
+        if body is None:  # a value too large for fixed point: 9 significant digits instead
+            body = "".join(" ".join(f"{v:.9g}" for v in row) + "\n" for row in block).encode()
+        parts.append(body)
+    return b"".join(parts)
 
 
 def format_bvh(motion: Motion) -> str:

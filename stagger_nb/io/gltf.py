@@ -39,7 +39,7 @@ import numpy as np
 
 from ..core.kinematics import skeleton_height
 from ..core.motion import Motion
-from ._common import atomic_write_bytes
+from ._common import atomic_write_bytes, file_path
 
 __all__ = ["write_gltf", "motion_to_gltf", "metres_per_unit", "UNITS"]
 
@@ -209,7 +209,9 @@ def write_gltf(motion: Motion, path, units="auto") -> None:
     units : "auto", one of :data:`UNITS`, or float
         The motion's length unit (metres per unit as a number); "auto" uses the height rule.
     """
-    path = os.fspath(path)
+    if not isinstance(motion, Motion):
+        raise ValueError(f"motion must be a stagger_nb Motion, got {type(motion).__name__}")
+    path = os.fsdecode(file_path(path, "path"))
     ext = os.path.splitext(path)[1].lower()
     if ext not in (".glb", ".gltf"):
         raise ValueError(f"path: {path} must end in .glb or .gltf")

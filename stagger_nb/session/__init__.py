@@ -41,7 +41,7 @@ import numpy as np
 
 from ..core.motion import Motion
 from ..core.rotations import quat_to_rotvec
-from ..io._common import atomic_write_bytes, read_regular_file
+from ..io._common import atomic_write_bytes, file_path, read_regular_file
 from ..io.bvh import write_bvh
 from . import ops as _ops_module
 from .cache import Cache
@@ -158,7 +158,7 @@ class Session:
         if not isinstance(source, Motion):
             raise ValueError(f"source: expected a Motion, got {type(source).__name__}")
         self.source = source
-        self.source_path = None if source_path is None else os.path.abspath(os.fspath(source_path))
+        self.source_path = None if source_path is None else os.path.abspath(file_path(source_path, "source_path"))
         self.extract_options = check_extract_options(extract_options)
         self._busy_listeners: list[Callable] = []
         self._ctx = Heads(Cache(busy=self._busy), source, self.extract_options)
@@ -174,7 +174,7 @@ class Session:
     @classmethod
     def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
         """Read ``path`` as the source motion (remembering the path)."""
-        motion, _ = read_source(os.fspath(path), "path")
+        motion, _ = read_source(file_path(path, "path"), "path")
         return cls(motion, ops, source_path=path, **kwargs)
 
     # -- ops ---------------------------------------------------------------------------------------
@@ -664,7 +664,7 @@ class Session:
     def save(self, path, embed_source: bool | None = None) -> None:
         """Write the session as JSON, atomically (temporary file + rename). Refuses to replace the source
         clip or any existing file that is not a session file."""
-        path = os.fspath(path)
+        path = file_path(path, "path")
         check_save_target(path, self.source_path)
         atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
 
@@ -688,6 +688,8 @@ class Session:
         if source is None:
             if not isinstance(src, dict):
                 _fail("source", '{"path": ..., "sha256": ...} or {"motion": {...}}', src)
+            if "path" in src and "motion" in src:
+                raise ValueError("source: give either path or motion, not both")
             if "path" in src:
                 path = text(src["path"], "source.path")
                 source, digest = read_source(path, "source.path")
@@ -709,7 +711,7 @@ class Session:
 
     def export_bvh(self, path) -> None:
         """Write the edited motion as BVH, atomically; refuses to overwrite the source file."""
-        path = os.fspath(path)
+        path = file_path(path, "path")
         check_export_target(path, self.source_path)
         write_bvh(self.edited(), path)
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
-from ..io._common import read_regular_file
+from ..io._common import file_path, read_regular_file
 from ..io.bvh import parse_bvh
 from .ops import _fail, integer, number, text, tuple_of
 
@@ -109,7 +109,7 @@ def export_gltf(motion: Motion, path, source_path, units="auto") -> None:
     """Write ``motion`` as glTF 2.0 (``.glb``/``.gltf``, atomically, lengths in metres; see
     :func:`stagger_nb.io.gltf.write_gltf`), refusing to replace the source clip."""
     from ..io.gltf import write_gltf
-    path = os.fspath(path)
+    path = file_path(path, "path")
     check_export_target(path, source_path)
     write_gltf(motion, path, units=units)
 

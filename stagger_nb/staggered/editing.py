@@ -982,6 +982,8 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     s, l = _finite(s, "s"), _finite(l, "l")
     if l <= 0:
         raise ValueError(f"l must be > 0, got {l}")
+    if not isinstance(root, (str, int, np.integer)) or isinstance(root, (bool, np.bool_)):
+        raise ValueError(f"root must be a joint name or index, got {root!r}")
     try:
         r = sm.skeleton.index(root) if isinstance(root, str) else int(root)
     except KeyError as e:
@@ -997,6 +999,11 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     pm = _pose_mask(sm, poses, interior_default=True)
     dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
     return _with_timing(sm, dr, jm, bool(ease_ends))
+
+
+#: Largest random timing offset (seconds): an hour, far beyond any take's pose spacing; numpy's uniform
+#: overflows near 1e308.
+MAX_TAU = 3600.0
 
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
@@ -1019,10 +1026,10 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     """
     _check(sm)
     tau = _finite(tau, "tau")
-    if tau < 0:
-        raise ValueError(f"tau must be >= 0, got {tau}")
-    if not isinstance(seed, (int, np.integer)):
-        raise ValueError(f"seed must be an int, got {seed!r}")
+    if not 0 <= tau <= MAX_TAU:  # numpy's uniform(-1e308, 1e308) overflows
+        raise ValueError(f"tau must be in [0, {MAX_TAU:g}] seconds, got {tau}")
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, (bool, np.bool_)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
     jm = _joint_mask(sm, joints)
     pm = _pose_mask(sm, poses, interior_default=True)
     u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))

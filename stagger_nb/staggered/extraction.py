@@ -259,7 +259,7 @@ def extract(motion: Motion, *, iterations: int = 2, continuity: str = "C1", fit_
     if not isinstance(motion, Motion):
         raise ValueError(f"extract: motion must be a Motion, got {type(motion).__name__}")
     iterations = _checks.integer("extract", "iterations", iterations, 0, _MAX_ITERATIONS)
-    if continuity not in ("C0", "C1"):
+    if not isinstance(continuity, str) or continuity not in ("C0", "C1"):
         raise ValueError(f"extract: continuity must be 'C0' or 'C1', got {continuity!r}")
     known = inspect.signature(locate_poses).parameters
     for k in options:
@@ -350,7 +350,7 @@ def cull(sm: StaggeredMotion, percent: float | None = None, *, count: int | None
     errors of order 1e-3 rad at the frames (the retimed motion has velocity kinks at its old knots).
     """
     iterations = _checks.integer("cull", "iterations", iterations, 0, _MAX_ITERATIONS)
-    if continuity not in ("C0", "C1"):
+    if not isinstance(continuity, str) or continuity not in ("C0", "C1"):
         raise ValueError(f"cull: continuity must be 'C0' or 'C1', got {continuity!r}")
     fit_samples = _checks.integer("cull", "fit_samples", fit_samples, 4, 2 ** 31, none_ok=True)
     keep = cull_keep(sm, percent, count=count, interval=interval)

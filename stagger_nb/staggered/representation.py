@@ -294,6 +294,11 @@ def default_times(sm: StaggeredMotion) -> np.ndarray:
     return sm.pose_times[0] + np.arange(n) * sm.frame_time
 
 
+#: Knot intervals shorter than this (seconds) are treated as zero-length by :func:`segment_coordinates`:
+#: far below any frame time (>= 1e-4 s), far above where 1 / length overflows.
+_MIN_SEGMENT = 1e-12
+
+
 def segment_coordinates(knots: np.ndarray, times: np.ndarray):
     """Segment index and normalised time ``t'`` of each time for each column of knot times.
 
@@ -316,11 +321,12 @@ def segment_coordinates(knots: np.ndarray, times: np.ndarray):
     seg = np.ascontiguousarray(seg.T)
     # per segment (K - 1, C): 1 / length, and t' = 1 on zero-length segments; gathered by flat index
     length = knots[1:] - knots[:-1]
-    inv = np.divide(1.0, length, out=np.zeros_like(length), where=length > 0)
+    # segments shorter than _MIN_SEGMENT count as zero-length (1 / 1e-320 overflows to inf, then NaN)
+    inv = np.divide(1.0, length, out=np.zeros_like(length), where=length > _MIN_SEGMENT)
     flat = seg * C + np.arange(C)
     tn = times[:, None] - np.take(knots.reshape(-1), flat)
     tn *= np.take(inv.reshape(-1), flat)
-    tn += np.take((length <= 0).astype(float).reshape(-1), flat)
+    tn += np.take((length <= _MIN_SEGMENT).astype(float).reshape(-1), flat)
     return seg, np.clip(tn, 0.0, 1.0, out=tn)
 
 

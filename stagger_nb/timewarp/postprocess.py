@@ -21,6 +21,10 @@ __all__ = ["parse_keytimes", "smooth_warp", "warp_speed", "speed_at_input_times"
 JUMP_INTERVAL = 1.0 / 30.0   # seconds: speed changes are measured between output times this far apart
 
 
+#: Most keytimes a warp takes (each a constraint of the DP; an editor sets a handful).
+MAX_KEYTIMES = 10_000
+
+
 def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float = 1e-6) -> np.ndarray:
     """Validate keytimes and return all keys including the end points, shape (K, 2) ``(t_in, t_out)``.
 
@@ -30,10 +34,19 @@ def parse_keytimes(keytimes, in_duration: float, out_duration: float, tol: float
     pts = [(0.0, 0.0)]
     if keytimes is not None:
         try:
-            arr = np.asarray(keytimes, dtype=float).reshape(-1, 2) if len(keytimes) else np.zeros((0, 2))
+            n = len(keytimes)
+        except TypeError:
+            n = -1
+        if n > MAX_KEYTIMES:  # checked before converting: a million pairs take seconds and 100s of MB
+            raise ValueError(f"keytimes: {n:,} pairs is over the limit of {MAX_KEYTIMES:,}")
+        try:
+            arr = np.asarray(keytimes, dtype=float) if n else np.zeros((0, 2))
         except (TypeError, ValueError) as exc:
             raise ValueError("keytimes must be a list of (input_time_s, output_time_s) pairs, "
                              f"got {keytimes!r}") from exc
+        if arr.ndim != 2 or arr.shape[1] != 2:  # (3,) triples are not pairs, whatever their count
+            raise ValueError(f"keytimes must be a list of (input_time_s, output_time_s) pairs, got shape "
+                             f"{arr.shape}")
         if not np.all(np.isfinite(arr)):
             raise ValueError("keytimes must be finite numbers of seconds")
         for t_in, t_out in arr:

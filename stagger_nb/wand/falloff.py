@@ -42,7 +42,7 @@ def check_frame_range(frame_range, num_frames: int, frame: int | None = None) ->
     else:
         try:
             start, stop = (int(v) for v in frame_range)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: int(inf)
             raise ValueError(f"frame_range must be a (start, stop) pair of frame indices, got {frame_range!r}") from exc
         if not 0 <= start < stop <= num_frames:
             raise ValueError(f"frame_range must satisfy 0 <= start < stop <= {num_frames}, got {frame_range!r}")

@@ -149,7 +149,10 @@ class GreensBasis:
 
     def row(self, frame: int) -> np.ndarray:
         """Green's row ``G(p_frame, p_j)`` for all ``j``, shape (F,): one ``(F, N) @ (N,)`` product."""
-        i = int(self._frames(frame))
+        f = self._frames(frame)
+        if f.ndim:
+            raise ValueError(f"frame must be one integer frame index, got {frame!r}")
+        i = int(f)
         return self.eigenvectors @ (self.eigenvectors[i] * self._coef)
 
     def rows(self, frames) -> np.ndarray:

@@ -97,7 +97,11 @@ def propagate(m: Motion, frame, edited_local_quats, sigma: float | None = None, 
     if len(np.unique(frames)) != len(frames):
         raise ValueError(f"frame must not repeat a frame, got {frame!r}")
     E = len(frames)
-    q = np.asarray(edited_local_quats, dtype=float)
+    try:
+        q = np.asarray(edited_local_quats, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"edited_local_quats must be an array of numbers (x, y, z, w), got "
+                         f"{type(edited_local_quats).__name__}: {exc}") from None
     if q.shape == (J, 4) and E == 1:
         q = q[None]
     if q.shape != (E, J, 4):
