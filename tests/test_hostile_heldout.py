@@ -243,7 +243,7 @@ def test_a_small_file_cannot_ask_for_more_joint_samples_than_fit_in_500_mb(tmp_p
     n = MAX_FRAME_JOINTS + 1
     p.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Zrotation\n}\nMOTION\n"
                  f"Frames: {n}\nFrame Time: 0.01\n0\n")
-    with pytest.raises(sn.BVHError, match=r"tall\.bvh, line 8: declared .* joint samples supported"):
+    with pytest.raises(sn.BVHError, match=r"tall\.bvh, line 8: declared .* joint samples allowed by default: pass max_samples="):
         sn.read_bvh(p)
     assert MAX_FRAME_JOINTS * 32 <= 128 * 2 ** 20 * 1.01 and MAX_FRAME_JOINTS >= 100_000 * 31  # long takes fit
 
@@ -305,3 +305,25 @@ def test_the_motion_line_is_found_across_scan_pieces_and_past_words_that_are_not
     assert list(m.skeleton.names) == ["XMOTION", "motion_capture MOTION"] and m.num_frames == 2
     with pytest.raises(sn.BVHError, match=r"no 'MOTION' section"):
         bvh_mod.parse_bvh(text.replace("  Motion \t\r\n", "  Motions\n").encode(), "t.bvh")
+
+
+def test_a_take_over_the_default_sample_limit_reads_with_max_samples(tmp_path):
+    """The joint-sample limit guards against a small file asking for huge arrays; a user whose take is
+    known to be larger (say 100,000 frames of a 60-joint rig with fingers) raises it per call, and the
+    result equals the same data read under the limit. Checked on a small file with a small limit."""
+    walk = sn.data.load("walk").slice(0, 40)
+    p = tmp_path / "take.bvh"
+    sn.write_bvh(walk, p)
+    small = walk.num_frames * walk.num_joints - 1
+    with pytest.raises(sn.BVHError, match=r"take\.bvh, line \d+: declared 40 frames x 31 joints, more than the "
+                                          rf"{small:,} joint samples allowed$"):
+        sn.io.bvh.parse_bvh(p.read_bytes(), str(p), max_samples=small)
+    big = sn.read_bvh(p, max_samples=walk.num_frames * walk.num_joints)
+    assert np.array_equal(big.local_quats, sn.read_bvh(p).local_quats)
+    for bad in (0, -5, 1.5, True, "10"):
+        with pytest.raises(ValueError, match="max_samples must be a positive whole number"):
+            sn.read_bvh(p, max_samples=bad)
+    with pytest.raises(ValueError, match="max_bytes must be a positive whole number"):
+        sn.read_bvh(p, max_bytes=0)
+    with pytest.raises(sn.BVHError, match=r"take\.bvh"):
+        sn.read_bvh(p, max_bytes=100)      # the file is larger than 100 bytes: refused, naming the file

@@ -88,10 +88,11 @@ def read_text(path: str, error: type[FormatError]) -> str:
     return decode(read_bytes(path, error))
 
 
-def read_bytes(path: str, error: type[FormatError]) -> bytes:
-    """The file's bytes (a regular file within :data:`MAX_INPUT_BYTES`); ``error(path, None, ...)`` otherwise."""
+def read_bytes(path: str, error: type[FormatError], max_bytes: int | None = None) -> bytes:
+    """The file's bytes (a regular file within ``max_bytes``, default :data:`MAX_INPUT_BYTES`);
+    ``error(path, None, ...)`` otherwise."""
     try:
-        return read_regular_file(path)
+        return read_regular_file(path, max_bytes=max_bytes)
     except ValueError as e:
         msg = str(e)
         prefix = f"file {os.fspath(path)}: "

@@ -312,9 +312,11 @@ def _next_line(raw: bytes, pos: int) -> tuple[bytes, int]:
     return raw[pos:nl], nl + 1
 
 
-def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
+def parse_bvh(text: str | bytes, source: str = "<string>", *, max_samples: int | None = None) -> Motion:
     """Parse BVH text (``str`` or the file's ``bytes``) into a :class:`Motion`; ``source`` names the file
-    in error messages."""
+    in error messages. ``max_samples``: most frames x joints allocated (default
+    :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, 32 bytes of rotation each)."""
+    limit = MAX_FRAME_JOINTS if max_samples is None else _positive_int(max_samples, "max_samples")
     raw = text.encode("utf-8") if isinstance(text, str) else bytes(text)
     if raw[:3] == UTF8_BOM:  # a byte-order mark some Windows tools write
         raw = raw[3:]
@@ -346,9 +348,12 @@ def parse_bvh(text: str | bytes, source: str = "<string>") -> Motion:
     if nf > _MAX_FRAMES:
         raise BVHError(source, ln, f"declared {nf:g} frames, more than the {_MAX_FRAMES} supported")
     nf = int(nf)
-    if nf * skel.num_joints > MAX_FRAME_JOINTS:  # joints without channels cost memory but no text
+    if nf * skel.num_joints > limit:  # joints without channels cost memory but no text
         raise BVHError(source, ln, f"declared {nf} frames x {skel.num_joints} joints, more than the "
-                                   f"{MAX_FRAME_JOINTS:,} joint samples supported")
+                                   f"{limit:,} joint samples allowed"
+                                   + (" by default: pass max_samples= to read_bvh to read it anyway (32 bytes "
+                                      "of rotations per joint sample), or split the take" if max_samples is None
+                                      else ""))
     if pos >= len(raw):
         raise BVHError(source, ln, "file ends early: expected 'Frame Time: <seconds>'")
     line, pos = _next_line(raw, pos)
@@ -632,7 +637,13 @@ class _Layout:
                 quats[sl, joints] = dst
 
 
-def read_bvh(path) -> Motion:
+def _positive_int(value, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a positive whole number, got {value!r}")
+    return int(value)
+
+
+def read_bvh(path, *, max_bytes: int | None = None, max_samples: int | None = None) -> Motion:
     """Read a BVH file into a :class:`Motion` (see the module docstring for the semantics).
 
     Returns a Motion with ``root_positions (F, 3)`` (file units), ``local_quats (F, J, 4)`` (x, y, z, w),
@@ -642,9 +653,15 @@ def read_bvh(path) -> Motion:
     Raises :class:`BVHError` (a ``ValueError``) naming the file, the line and what was expected: bad
     numbers, NaN/inf, wrong value counts, unknown channels, unbalanced braces, ``Frames:`` disagreeing
     with the data, a frame time <= 0, absurd declared sizes (nothing is allocated from them).
+
+    The size limits protect a notebook from a file that would exhaust memory; raise them per call for a
+    take known to be larger: ``max_bytes`` (default :data:`~stagger_nb.io._common.MAX_INPUT_BYTES`, 256 MiB)
+    and ``max_samples`` (frames x joints, default :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`).
     """
     path = file_path(path, "path")
-    return parse_bvh(read_bytes(path, BVHError), path)
+    if max_bytes is not None:
+        max_bytes = _positive_int(max_bytes, "max_bytes")
+    return parse_bvh(read_bytes(path, BVHError, max_bytes), path, max_samples=max_samples)
 
 
 _ROT_DECIMALS = 6  # degrees: 5e-7 deg = 9e-9 rad worst-case rounding
