@@ -199,17 +199,23 @@ def test_cull_after_timing_edits_keeps_the_warp(walk):
     assert horizontal_travel_cm(out, carried, 1.0) <= GOAL_CM
 
 
-def test_carry_by_limb_uses_the_hip_timing(walk):
-    """carry_by="limb": a contact moves with its limb's upper joint (hip); shifting only the hips' knots
-    moves the feet's contacts, shifting only the toes' does not (and the other way round for "joint")."""
-    m, sm = walk
+def _delayed(sm, m, parent, joint):
+    """``sm`` with only ``joint``'s knots of poses 2-10 delayed by 3 frames (succession from ``parent``,
+    d = 1), and the source's LeftToeBase contacts inside those poses (away from the anchored knots)."""
     dt = 3 * m.frame_time
-    hips = staggered.succession(sm, root="LHipJoint", s=dt, l=1.0, joints=["LeftUpLeg"], poses=range(2, 11))
-    toes = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], poses=range(2, 11))
     T0 = sm.pose_times
     inner = [c for c in sm.contacts if c[0] == "LeftToeBase" and T0[2] + dt <= c[1] * m.frame_time
              and (c[2] - 1) * m.frame_time <= T0[10]]
     assert inner
+    return staggered.succession(sm, root=parent, s=dt, l=1.0, joints=[joint], poses=range(2, 11)), inner
+
+
+def test_carry_by_limb_uses_the_hip_timing(walk):
+    """carry_by="limb": a contact moves with its limb's upper joint (hip); shifting only the hips' knots
+    moves the feet's contacts, shifting only the toes' does not (and the other way round for "joint")."""
+    m, sm = walk
+    hips, inner = _delayed(sm, m, "LHipJoint", "LeftUpLeg")
+    toes, _ = _delayed(sm, m, "LeftFoot", "LeftToeBase")
     for edited, by, moves in ((hips, "limb", True), (toes, "limb", False), (hips, "joint", False), (toes, "joint", True)):
         got = staggered.carry_contacts(edited, inner, m.frame_time, carry_by=by)
         assert got == [(n, a + 3 * moves, b + 3 * moves) for n, a, b in inner], (by, moves)
@@ -270,3 +276,26 @@ def test_source_positions_given_give_the_same_result(walk):
     assert np.abs(plain.local_quats - staggered.evaluate(edited).local_quats).max() > 1e-3   # it did hold feet
     with pytest.raises(ValueError, match="source_positions"):
         staggered.keep_contacts(edited, m, source_positions=forward_kinematics(m)[0][:-1])
+
+
+def test_carry_by_span_is_the_union_of_the_joint_and_knee_timings(walk):
+    """carry_by="span" (keep_contacts' default): a contact holds from the earlier to the later of the
+    intervals carried by its own joint's warp and by its limb's knee's. Delaying only the knee (or only the
+    toe) by 3 frames delays a toe contact's stop by 3 frames and keeps its start; "joint" ignores the knee.
+    On the real-walk edit, a joint's carried contacts never overlap and each covers its "joint" interval up
+    to where the joint's next contact starts; without timing edits every mode is the identity."""
+    m, sm = walk
+    knee, inner = _delayed(sm, m, "LeftUpLeg", "LeftLeg")
+    toes, _ = _delayed(sm, m, "LeftFoot", "LeftToeBase")
+    for edited, by, later in ((knee, "span", 3), (toes, "span", 3), (knee, "joint", 0)):
+        got = staggered.carry_contacts(edited, inner, m.frame_time, carry_by=by)
+        assert got == [(n, a, b + later) for n, a, b in inner], (by, later)
+    assert staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="span") == list(sm.contacts)
+    edited = stagger(sm)
+    span = staggered.carry_contacts(edited, sm.contacts, m.frame_time, carry_by="span")
+    own = staggered.carry_contacts(edited, sm.contacts, m.frame_time)
+    assert len(span) == len(own) and [c[0] for c in span] == [c[0] for c in own]
+    for i, ((n, a, b), (_, a0, b0)) in enumerate(zip(span, own)):
+        nxt = [s_ for k, (n2, s_, _) in enumerate(span) if n2 == n and k != i and s_ >= a]
+        assert a <= a0 and (b >= b0 or (nxt and b == min(nxt))), (n, a, b, a0, b0)
+        assert all(b <= s_ for s_ in nxt)
