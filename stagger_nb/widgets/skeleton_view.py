@@ -377,10 +377,12 @@ class SkeletonView(widgets.VBox):
     def highlight_joints(self, names) -> None:
         """Draw these joints (names or indices) red and larger (the first becomes ``selected_joint``)."""
         sk = self._motion.skeleton
-        self._selected = [sk.index(n) if isinstance(n, str) else int(n) for n in (names or []) if n != ""]
-        self.conductor.selected = list(self._selected)
-        self._push_mesh()
-        self._update_legend()
+        selected = [sk.index(n) if isinstance(n, str) else int(n) for n in (names or []) if n != ""]
+        if selected != self._selected:   # the same selection (an editor redraw): nothing to rebuild or send
+            self._selected = selected
+            self.conductor.selected = list(selected)
+            self._push_mesh()
+            self._update_legend()
         first = sk.names[self._selected[0]] if self._selected else ""
         if first != self.selected_joint:
             self.selected_joint = first
@@ -529,12 +531,11 @@ class SkeletonView(widgets.VBox):
     def _update_grid(self) -> int:
         """The ground: cell-edge line segments over the clip's ground track (see scene3d.ground_segments), replaced
         only when it changes. Returns the bytes sent."""
-        cell = scene3d.grid_cell(self._size)
-        seg = scene3d.ground_segments(self._points[:, :self._motion.num_joints], cell, 2 * self._size,
-                                      self._camera.ground)
-        key = (seg.shape, float(seg[:, 0].min()), float(seg[:, 2].min()), float(self._camera.ground), cell)
+        lo, hi, cell = scene3d.ground_extent(self._points, scene3d.grid_cell(self._size), 2 * self._size)
+        key = (tuple(lo), tuple(hi), cell, float(self._camera.ground))
         if key == getattr(self, "_grid_key", None):
             return 0
+        seg = scene3d.ground_grid(lo, hi, cell, self._camera.ground)
         if self.grid is not None and self.grid.geometry.attributes["position"].array.shape == seg.shape:
             self.grid.geometry.attributes["position"].array = seg   # same size: the array only, in place
         else:
