@@ -457,3 +457,22 @@ def test_the_same_selection_again_sends_nothing(recording_comm):
     r3 = np.linalg.norm(pos[3 * sph:4 * sph] - p[0, 3], axis=1).max()
     r2 = np.linalg.norm(pos[2 * sph:3 * sph] - p[0, 2], axis=1).max()
     assert r3 == pytest.approx(1.6 * r2, rel=1e-4) and v.selected_joint == "j3" and recording_comm
+
+
+def test_the_ground_follows_an_edit_by_its_position_and_stays_under_the_feet(recording_comm):
+    # an edit that lowers the lowest point moves the grid (its position, a small JSON message); the segments
+    # (binary) are sent again only when the extent over the ground track changes
+    m = _chain_motion(J=6, F=60)
+    v = SkeletonView(m)
+    lower = m.replace(root_positions=m.root_positions - [0.0, 0.5, 0.0])
+    recording_comm.clear()
+    v.set_motion(lower)
+    p, _ = sn.forward_kinematics(lower)
+    seg = np.asarray(v.grid.geometry.attributes["position"].array)
+    assert np.all(seg[:, 1] == 0.0) and v.grid.position[1] == pytest.approx(p[..., 1].min(), abs=1e-6)
+    assert v.grid.position[1] == v.camera_framing.ground
+    assert sum(b for _, b in recording_comm) < len(v.conductor.points) + seg.nbytes   # the segments not resent
+    far = m.replace(root_positions=m.root_positions + [500.0, 0.0, 0.0])   # the track moves: a new grid under it
+    v.set_motion(far)
+    seg = np.asarray(v.grid.geometry.attributes["position"].array)
+    assert seg[:, 0].min() <= 500.0 and seg[:, 0].max() >= 500.0 + m.root_positions[:, 0].max()
