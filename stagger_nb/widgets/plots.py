@@ -68,8 +68,8 @@ def figure_to_json(value, widget=None):
     """The JSON the browser gets for a figure dict: numpy arrays as typed-array specs (float32 for floats:
     ~7 significant digits, enough to draw), numpy scalars as numbers, tuples as lists.
 
-    Plain leaves (str, int, float, bool, None) are kept without a call each: an editor's figure has ~1,000
-    of them (one layout shape per staggered pose), and one call per leaf was most of the ~1 ms per move."""
+    Plain leaves (str, int, float, bool, None) are kept without a call each (a StaggerEditor's joint-curve
+    figure: 0.19 -> 0.10 ms per move)."""
     if isinstance(value, dict):
         return {k if type(k) is str else str(k): v if type(v) in _PLAIN else figure_to_json(v)
                 for k, v in value.items()}
