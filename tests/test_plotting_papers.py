@@ -122,3 +122,10 @@ def test_table_rows_become_columns():
     assert [list(c) for c in g.data[0].cells.values] == [["1", "2"], ["x", "y"]]
     with pytest.raises(ValueError, match="rows"):
         plotting.table_figure(["a", "b"], [[1]])
+
+
+def test_table_is_as_tall_as_its_rows():
+    # the default height grows by one row height per row (no fixed 320 px with empty space under 3 rows)
+    h = [plotting.table_figure(["a"], [[i] for i in range(n)])["layout"]["height"] for n in (1, 3, 10)]
+    assert h[1] - h[0] == 2 * (h[2] - h[1]) / 7 > 0 and h[1] < 200
+    assert plotting.table_figure(["a"], [[1]], height=500)["layout"]["height"] == 500
