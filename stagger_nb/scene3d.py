@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from scipy.signal import fftconvolve
 
 from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
@@ -155,16 +155,31 @@ def ground_segments(positions: np.ndarray, cell: float, margin: float, ground: f
 
     Cell-sized segments, not lines across the whole ground: a GL line with an end behind the camera may be
     dropped entirely (seen with SwiftShader), which left the ground near a following camera blank. The cell
-    grows (×2) until the grid has at most ``max_segments`` segments."""
-    xz = np.asarray(positions, dtype=float)[:, 0][:, [0, 2]]
+    grows (×2) until the grid has at most ``max_segments`` segments (:func:`ground_extent`, then
+    :func:`ground_grid`)."""
+    lo, hi, cell = ground_extent(positions, cell, margin, max_segments)
+    return ground_grid(lo, hi, cell, ground)
+
+
+def ground_extent(positions: np.ndarray, cell: float, margin: float, max_segments: int = 40000):
+    """The ground grid's corners ``lo, hi`` (x, z), each (2,), multiples of the returned ``cell`` (``cell``
+    doubled until at most ``max_segments`` cell edges), around the root's track of ``positions (F, J, 3)``
+    plus ``margin``. Equal extents give equal grids: a view compares them before building one."""
+    xz = np.asarray(positions[:, 0, [0, 2]], dtype=float)
     lo = np.floor((xz.min(axis=0) - margin) / cell) * cell
     hi = np.ceil((xz.max(axis=0) + margin) / cell) * cell
     while True:
         nx, nz = np.round((hi - lo) / cell).astype(int)
         if 2 * nx * nz + nx + nz <= max_segments:
-            break
+            return lo, hi, float(cell)
         cell *= 2
         lo, hi = np.floor(lo / cell) * cell, np.ceil(hi / cell) * cell
+
+
+def ground_grid(lo, hi, cell: float, ground: float) -> np.ndarray:
+    """Cell-edge segments ``(2 N, 3)`` float32 of the grid from ``lo`` to ``hi`` (x, z; multiples of ``cell``)
+    at height ``ground``: every edge along x, then every edge along z."""
+    nx, nz = np.round((np.asarray(hi) - np.asarray(lo)) / cell).astype(int)
     xs = lo[0] + cell * np.arange(nx + 1)
     zs = lo[1] + cell * np.arange(nz + 1)
     X, Z = np.meshgrid(xs[:-1], zs, indexing="ij")          # edges along x
@@ -202,15 +217,27 @@ class Camera:
 
 
 def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian smoothing (σ in samples) with the signal continued by point reflection at both ends
-    (x[0] - (x[k] - x[0])), so a steady linear track comes out unchanged, ends included."""
+    """Gaussian smoothing (σ in samples) along axis 0 of ``x (n,)`` or ``(n, k)`` (each column alone), with the
+    signal continued by point reflection at both ends (x[0] - (x[k] - x[0])), so a steady linear track comes out
+    unchanged, ends included.
+
+    The kernel is scipy's ``gaussian_filter1d`` kernel (radius ``int(4 σ + 0.5)``, beyond the reflection the
+    nearest value), applied by FFT: σ is ~60 samples for a 0.5 s smoothing at 120 Hz, where the direct sum cost
+    ~0.25 ms per column and the FFT ~0.05 ms (same values to ~1e-12 relative)."""
+    x = np.asarray(x, dtype=float)
     n = len(x)
     pad = min(n - 1, int(np.ceil(4 * sigma)))
     if pad < 1:
-        return np.asarray(x, dtype=float).copy()
+        return x.copy()
     left = 2 * x[0] - x[pad:0:-1]
     right = 2 * x[-1] - x[-2:-pad - 2:-1]
-    y = gaussian_filter1d(np.concatenate([left, x, right]), sigma, mode="nearest")
+    radius = int(4.0 * sigma + 0.5)
+    ext = np.concatenate([left, x, right])
+    ext = np.pad(ext, [(radius, radius)] + [(0, 0)] * (x.ndim - 1), mode="edge")
+    k = np.arange(-radius, radius + 1, dtype=float)
+    w = np.exp(-0.5 * (k / sigma) ** 2)
+    w = (w / w.sum()).reshape((-1,) + (1,) * (x.ndim - 1))
+    y = fftconvolve(ext, w, mode="valid", axes=0)
     return y[pad:pad + n]
 
 
@@ -228,26 +255,29 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
     """
     if mode not in ("follow", "all"):
         raise ValueError(f"mode: expected 'follow' or 'all', got {mode!r}")
-    P = np.asarray(positions, dtype=float)
+    P = np.asarray(positions)
     F = P.shape[0]
-    h = body_size(P)
-    ground = float(P[..., 1].min())
+    # one pass over the points for each extent (float32 points: min / max are exact, then float64)
+    y = P[..., 1]
+    top, bottom = y.max(axis=1).astype(float), y.min(axis=1).astype(float)
+    h = float(max(np.median(top - bottom), 1e-9))                 # body_size(P), from the same extents
+    ground = float(bottom.min())
+    # per coordinate: a (N, 3).min(axis=0) reduces ~10x slower than three strided 1-D reductions
+    lo = np.array([float(P[..., 0].min()), ground, float(P[..., 2].min())])
+    hi = np.array([float(P[..., 0].max()), float(top.max()), float(P[..., 2].max())])
     half = np.radians(fov) / 2
     d = _VIEW_DIR / np.linalg.norm(_VIEW_DIR)
     if mode == "follow":
-        root = P[:, 0]
         sigma = max(smooth_s / frame_time, 1e-3)
         rig = np.zeros((F, 3))
-        rig[:, 0] = _smooth(root[:, 0], sigma)
-        rig[:, 2] = _smooth(root[:, 2], sigma)
+        rig[:, [0, 2]] = _smooth(P[:, 0, [0, 2]], sigma)
         rig[:, 1] = ground
         # the body's vertical centre above the ground, from all frames: steady, no bobbing camera
-        centre_y = float(np.median((P[..., 1].max(axis=1) + P[..., 1].min(axis=1)) / 2)) - ground
+        centre_y = float(np.median((top + bottom) / 2)) - ground
         dist = h / (2 * fill * np.tan(half))
         dist = max(dist, h * 0.5 / (fill * np.tan(half) * aspect))   # a tall narrow canvas: fit the width too
         target = np.array([0.0, centre_y, 0.0])
     else:
-        lo, hi = P.reshape(-1, 3).min(axis=0), P.reshape(-1, 3).max(axis=0)
         c = (lo + hi) / 2
         rig = np.tile([c[0], ground, c[2]], (F, 1))
         radius = float(np.linalg.norm(hi - lo)) / 2
@@ -261,7 +291,7 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
     target = np.zeros(3)
     return Camera(rig=rig.astype(np.float32), position=tuple(float(x) for x in pos),
                   target=tuple(float(x) for x in target), fov=float(fov), ground=ground,
-                  near=float(dist) * 0.01, far=float(dist) * 50 + float(np.ptp(P[..., 0]) + np.ptp(P[..., 2])))
+                  near=float(dist) * 0.01, far=float(dist) * 50 + float(hi[0] - lo[0] + hi[2] - lo[2]))
 
 
 def _camera_basis(eye, target, up):
@@ -344,8 +374,10 @@ def skeleton_points(motion: Motion) -> np.ndarray:
         return np.ascontiguousarray(p, dtype=np.float32)
     idx = np.array([j for j, _ in ends], dtype=int)
     off = np.array([e for _, e in ends], dtype=float)
-    tips = p[:, idx] + quat_rotate(wq[:, idx], np.broadcast_to(off, (p.shape[0],) + off.shape))
-    return np.ascontiguousarray(np.concatenate([p, tips], axis=1), dtype=np.float32)
+    out = np.empty((p.shape[0], p.shape[1] + len(ends), 3), dtype=np.float32)   # written once, as float32
+    out[:, :p.shape[1]] = p
+    out[:, p.shape[1]:] = p[:, idx] + quat_rotate(wq[:, idx], off)
+    return out
 
 
 def segments(motion: Motion) -> np.ndarray:
@@ -428,8 +460,10 @@ def skeleton_mesh(points: np.ndarray, segs: np.ndarray, num_joints: int, joint_r
     t = template.tube.astype(float)
     scale = np.stack([np.full_like(length, bone_radius), length, np.full_like(length, bone_radius)], 1)
     axes = np.stack([x, y, z], 1)                                  # (B, 3 axes, 3)
-    tp = a[:, None] + np.einsum("vk,bk,bkc->bvc", t[:, :3], scale, axes)
-    tn = np.einsum("vk,bkc->bvc", t[:, 3:], axes)
+    # vertex v of bone b: a_b + sum_k t_vk scale_bk axes_bkc, as (V, 3) @ (B, 3, 3) matrix products (a 3-operand
+    # einsum took ~15x longer here)
+    tp = a[:, None] + t[None, :, :3] @ (scale[:, :, None] * axes)
+    tn = t[None, :, 3:] @ axes
     return (np.concatenate([sp, tp.reshape(-1, 3)]).astype(np.float32),
             np.concatenate([sn, tn.reshape(-1, 3)]).astype(np.float32))
 

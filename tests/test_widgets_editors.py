@@ -240,6 +240,30 @@ def test_wand_several_edited_frames(run):
         e.close()
 
 
+def test_wand_rotation_redraws_the_curves_not_the_falloff_and_sigma_redraws_it(run):
+    """The falloff plot depends on the edited frames, σ, range and comparisons, not on the rotation: a rotation
+    move leaves it as it is (nothing rebuilt or sent), a σ move or its undo redraws it with the current data."""
+    from stagger_nb.widgets import WandEditor
+    run = run.slice(0, 120)
+    e = WandEditor(run, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        falloff, curves = e.falloff_plot.figure, e.curves.figure
+        e.model.rx = 30.0
+        assert e.falloff_plot.figure is falloff and e.curves.figure is not curves
+        j = run.skeleton.index("LeftUpLeg")
+        np.testing.assert_allclose(_y(e.curves, 0), joint_rotation_degrees(e.session.edited(), j)[:, 0], atol=1e-9)
+        sigma = e.model.sigma
+        e.model.sigma = sigma * 2
+        np.testing.assert_allclose(_y(e.falloff_plot, 0), wand.falloff(run, 40, sigma=e.model.sigma), atol=1e-5)
+        e.session.undo()
+        assert e.model.sigma == sigma
+        np.testing.assert_allclose(_y(e.falloff_plot, 0), wand.falloff(run, 40, sigma=sigma), atol=1e-5)
+        e.model.add_edit(90)                    # a second edited frame is marked on the falloff plot
+        assert e.falloff_plot.figure is not falloff
+    finally:
+        e.close()
+
+
 def test_warp_editor_guided_linear_and_reference_undo(walk, run):
     from stagger_nb.widgets import WarpEditor
     e = WarpEditor(walk, reference={"run": run})

@@ -391,3 +391,88 @@ def test_the_ghost_checkbox_says_why_it_is_greyed_out():
         assert not v.ghost_toggle.disabled and "no original" not in v.ghost_toggle.tooltip
     finally:
         v.close()
+
+
+def test_follow_smoothing_matches_the_direct_gaussian_filter():
+    # the FFT smoothing is scipy's gaussian_filter1d (mode "nearest") of the point-reflected signal, column by
+    # column, for sigmas with the reflection shorter than the kernel (a short clip) and longer
+    from scipy.ndimage import gaussian_filter1d
+    rng = np.random.default_rng(4)
+    for n, sigma in [(900, 60.0), (40, 60.0), (25, 3.2), (2, 5.0)]:
+        x = np.cumsum(rng.standard_normal((n, 2)), axis=0)
+        pad = min(n - 1, int(np.ceil(4 * sigma)))
+        got = scene3d._smooth(x, sigma)
+        for c in range(2):
+            ext = np.concatenate([2 * x[0, c] - x[pad:0:-1, c], x[:, c], 2 * x[-1, c] - x[-2:-pad - 2:-1, c]])
+            want = gaussian_filter1d(ext, sigma, mode="nearest")[pad:pad + n]
+            np.testing.assert_allclose(got[:, c], want, rtol=0, atol=1e-9 * np.abs(x).max())   # FFT rounding
+            np.testing.assert_allclose(scene3d._smooth(x[:, c], sigma), got[:, c], rtol=0, atol=1e-12)
+    line = np.linspace(0.0, 5.0, 300)   # a steady track comes out unchanged, ends included
+    np.testing.assert_allclose(scene3d._smooth(line, 20.0), line, atol=1e-9)
+
+
+def test_follow_camera_extents_match_a_naive_reference():
+    m = sn.data.load("walk")
+    P = scene3d.skeleton_points(m)[:, :m.num_joints]       # float32, as the view passes them
+    P64 = P.astype(float)
+    h = scene3d.body_size(P64)
+    ground = P64[..., 1].min()
+    cam = scene3d.follow_camera(P, m.frame_time, "follow")
+    assert cam.ground == ground
+    dist = np.linalg.norm(cam.position)
+    assert dist == pytest.approx(max(h / (2 * 0.62 * np.tan(np.radians(20))),
+                                     h * 0.5 / (0.62 * np.tan(np.radians(20)) * 480 / 380)), rel=1e-12)
+    assert cam.far == pytest.approx(dist * 50 + np.ptp(P64[..., 0]) + np.ptp(P64[..., 2]), rel=1e-12)
+    centre = np.median((P64[..., 1].max(axis=1) + P64[..., 1].min(axis=1)) / 2)
+    np.testing.assert_allclose(cam.rig[:, 1], centre, rtol=1e-6)   # float32 rig
+    whole = scene3d.follow_camera(P, m.frame_time, "all")
+    lo, hi = P64.reshape(-1, 3).min(axis=0), P64.reshape(-1, 3).max(axis=0)
+    np.testing.assert_allclose(whole.rig[0], [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2],
+                               rtol=1e-6)
+
+
+def test_ground_extent_then_grid_is_the_ground_segments():
+    m = sn.data.load("walk")
+    P = scene3d.world_positions(m)
+    for cell, cap in [(10.0, 40000), (1.0, 500)]:   # the second doubles the cell until it fits
+        lo, hi, c = scene3d.ground_extent(P, cell, 30.0, cap)
+        seg = scene3d.ground_grid(lo, hi, c, -1.5)
+        np.testing.assert_array_equal(seg, scene3d.ground_segments(P, cell, 30.0, -1.5, cap))
+        assert len(seg) // 2 <= cap and (c == cell) == (cap == 40000)
+        assert seg[:, 0].min() == pytest.approx(lo[0]) and seg[:, 2].max() == pytest.approx(hi[1])
+        assert np.all(seg[:, 1] == -1.5)
+
+
+def test_the_same_selection_again_sends_nothing(recording_comm):
+    m = _chain_motion(J=6, F=40)
+    v = SkeletonView(m)
+    v.highlight_joints(["j2"])
+    recording_comm.clear()
+    v.highlight_joints(["j2"])           # an editor redraw with the joint unchanged
+    assert recording_comm == [] and v.selected_joint == "j2"
+    v.highlight_joints(["j3"])           # a new one is drawn: red and larger
+    sph = len(scene3d.mesh_template().sphere)
+    pos = np.asarray(v.skeleton_mesh.geometry.attributes["position"].array)
+    p, _ = sn.forward_kinematics(m)
+    r3 = np.linalg.norm(pos[3 * sph:4 * sph] - p[0, 3], axis=1).max()
+    r2 = np.linalg.norm(pos[2 * sph:3 * sph] - p[0, 2], axis=1).max()
+    assert r3 == pytest.approx(1.6 * r2, rel=1e-4) and v.selected_joint == "j3" and recording_comm
+
+
+def test_the_ground_follows_an_edit_by_its_position_and_stays_under_the_feet(recording_comm):
+    # an edit that lowers the lowest point moves the grid (its position, a small JSON message); the segments
+    # (binary) are sent again only when the extent over the ground track changes
+    m = _chain_motion(J=6, F=60)
+    v = SkeletonView(m)
+    lower = m.replace(root_positions=m.root_positions - [0.0, 0.5, 0.0])
+    recording_comm.clear()
+    v.set_motion(lower)
+    p, _ = sn.forward_kinematics(lower)
+    seg = np.asarray(v.grid.geometry.attributes["position"].array)
+    assert np.all(seg[:, 1] == 0.0) and v.grid.position[1] == pytest.approx(p[..., 1].min(), abs=1e-6)
+    assert v.grid.position[1] == v.camera_framing.ground
+    assert sum(b for _, b in recording_comm) < len(v.conductor.points) + seg.nbytes   # the segments not resent
+    far = m.replace(root_positions=m.root_positions + [500.0, 0.0, 0.0])   # the track moves: a new grid under it
+    v.set_motion(far)
+    seg = np.asarray(v.grid.geometry.attributes["position"].array)
+    assert seg[:, 0].min() <= 500.0 and seg[:, 0].max() >= 500.0 + m.root_positions[:, 0].max()

@@ -239,6 +239,16 @@ class _Editor(widgets.VBox):
             return
         self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
 
+    def _source_degrees(self, j: int) -> np.ndarray:
+        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""
+        src, cache = self.__dict__.get("_source_deg", (None, None))
+        if src is not self.session.source:
+            cache = {}
+            self._source_deg = (self.session.source, cache)
+        if j not in cache:
+            cache[j] = joint_rotation_degrees(self.session.source, j)
+        return cache[j]
+
     def seek(self, frame: int) -> None:
         """Move the playhead (what a click on a plot does)."""
         self.model.frame = max(0, int(frame))
@@ -590,9 +600,14 @@ class StaggerEditor(_Editor):
         summary, warnings = self._timing_summary()
         if not summary:
             return ""
+        last = getattr(self, "_warnings_shown", None)   # the session returns the same tuple for the same state
+        if last is not None and last[0] == summary and last[1] is warnings:
+            return last[2]
         details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
-        return (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
+        text = (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
                 f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
+        self._warnings_shown = (summary, warnings, text)
+        return text
 
     # -- views -----------------------------------------------------------------------------------------
     def _needs_staggered(self) -> bool:
@@ -658,13 +673,6 @@ class StaggerEditor(_Editor):
             times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
             np.interp(kept, times, prob) if prob is not None else sm.pose_probability, x_range=x_range)
         self._probability_key = key
-
-    def _source_degrees(self, j: int) -> np.ndarray:
-        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint."""
-        cache = self.__dict__.setdefault("_source_deg", {})
-        if j not in cache:
-            cache[j] = joint_rotation_degrees(self.session.source, j)
-        return cache[j]
 
     def _draw_curves(self, edited: Motion, sm=None) -> None:
         m = self.session.source
@@ -806,14 +814,18 @@ class WandEditor(_Editor):
         f = int(mod.edit_frame)
         fr = mod.frame_range or None
         compare = list(mod.compare)
-        if f < m.num_frames:
+        # the falloff depends on the source and these only (not on the rotation): rebuilt when they change
+        key = (f, float(mod.sigma), None if fr is None else tuple(fr), tuple(compare), tuple(mod.edited_frames),
+               _x_span(edited))
+        if f < m.num_frames and (key != getattr(self, "_falloff_key", None) or not self.falloff_plot.figure):
             curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
             self.falloff_plot.figure = falloff_figure(
                 m.times, curves, edited_times=[g * m.frame_time for g in (mod.edited_frames or [f])],
                 title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited))
+            self._falloff_key = key
         j = m.skeleton.index(mod.joint)
         self.curves.figure = joint_curves_figure(
-            edited.times, joint_rotation_degrees(edited, j), joint_rotation_degrees(m, j), m.times,
+            edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
             pose_times=[g * m.frame_time for g in mod.edited_frames], pose_label="edited frames",
             pose_colour=EDIT_COLOUR,
             title=f"{mod.joint}: rotation vector (°), edited vs original", x_range=_x_span(edited))

@@ -377,10 +377,12 @@ class SkeletonView(widgets.VBox):
     def highlight_joints(self, names) -> None:
         """Draw these joints (names or indices) red and larger (the first becomes ``selected_joint``)."""
         sk = self._motion.skeleton
-        self._selected = [sk.index(n) if isinstance(n, str) else int(n) for n in (names or []) if n != ""]
-        self.conductor.selected = list(self._selected)
-        self._push_mesh()
-        self._update_legend()
+        selected = [sk.index(n) if isinstance(n, str) else int(n) for n in (names or []) if n != ""]
+        if selected != self._selected:   # the same selection (an editor redraw): nothing to rebuild or send
+            self._selected = selected
+            self.conductor.selected = list(selected)
+            self._push_mesh()
+            self._update_legend()
         first = sk.names[self._selected[0]] if self._selected else ""
         if first != self.selected_joint:
             self.selected_joint = first
@@ -527,20 +529,25 @@ class SkeletonView(widgets.VBox):
         return nbytes
 
     def _update_grid(self) -> int:
-        """The ground: cell-edge line segments over the clip's ground track (see scene3d.ground_segments), replaced
-        only when it changes. Returns the bytes sent."""
-        cell = scene3d.grid_cell(self._size)
-        seg = scene3d.ground_segments(self._points[:, :self._motion.num_joints], cell, 2 * self._size,
-                                      self._camera.ground)
-        key = (seg.shape, float(seg[:, 0].min()), float(seg[:, 2].min()), float(self._camera.ground), cell)
+        """The ground: cell-edge line segments over the clip's ground track (see scene3d.ground_segments), built at
+        height 0 and lifted to the ground by the grid's position; the segments are replaced only when the extent
+        changes (an edit moving the lowest point moves the grid: one small message). Returns the bytes sent."""
+        lo, hi, cell = scene3d.ground_extent(self._points, scene3d.grid_cell(self._size), 2 * self._size)
+        ground = (0.0, float(self._camera.ground), 0.0)
+        key = (tuple(lo), tuple(hi), cell)
         if key == getattr(self, "_grid_key", None):
+            if tuple(self.grid.position) != ground:
+                self.grid.position = ground
             return 0
+        seg = scene3d.ground_grid(lo, hi, cell, 0.0)
         if self.grid is not None and self.grid.geometry.attributes["position"].array.shape == seg.shape:
-            self.grid.geometry.attributes["position"].array = seg   # same size: the array only, in place
+            with self.grid.hold_sync():
+                self.grid.geometry.attributes["position"].array = seg   # same size: the array only, in place
+                self.grid.position = ground
         else:
             old = self.grid
             self.grid = three.LineSegments(three.BufferGeometry(attributes={"position": three.BufferAttribute(seg)}),
-                                           three.LineBasicMaterial(color="#cbd5e0"), name="ground")
+                                           three.LineBasicMaterial(color="#cbd5e0"), name="ground", position=ground)
             self.rig.children = tuple(ch for ch in self.rig.children if ch is not old) + (self.grid,)
             if old is not None:   # its geometry, array and material too (not left behind)
                 for w in (old.geometry.attributes["position"], old.geometry, old.material, old):
