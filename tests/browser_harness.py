@@ -451,22 +451,19 @@ def save_failure(name: str, page=None, log: dict | None = None, runtime: Path | 
                    "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "report": report,
                    "dialogs_accepted": list(DIALOGS)}
 
+    def save():
+        (out / "failure.json").write_text(json.dumps(notes, indent=1, default=repr))
+
     def attempt(key, fn):
         try:
             notes[key] = fn()
         except Exception as exc:   # evidence is best effort: say what could not be saved, keep going
             notes[key] = f"could not be saved: {exc!r}"[:1000]
+        save()   # after every part: a part that hangs (seen: a full-page screenshot of a page whose WebGL
+        #          view kept playing, under load 19) leaves everything saved before it
 
-    if page is not None:
-        attempt("screenshot", lambda: page.screenshot(path=str(out / "page.png"), full_page=True, timeout=30000)
-                and "page.png")
-        attempt("url", lambda: page.url)
-        attempt("plots", lambda: plot_states(page))
-        attempt("conductors", lambda: page.evaluate(_CONDUCTOR_PROBE))
-        attempt("error_outputs", lambda: page.evaluate(_ERRORS_SHOWN))
-        attempt("kernel_status_shown", lambda: page.evaluate(
-            "() => { const s = document.querySelector('.jp-Notebook-ExecutionIndicator');"
-            " return s && s.getAttribute('data-status'); }"))
+    # cheapest and safest first, the page last (it is what hangs)
+    save()
     if log is not None:
         (out / "console.txt").write_text("\n".join(log.get("console", []) + ["--- page errors"] +
                                                    log.get("page_errors", []) + ["--- stacks"] +
@@ -480,7 +477,18 @@ def save_failure(name: str, page=None, log: dict | None = None, runtime: Path | 
             finally:
                 k.close()
         attempt("kernel", kernel_state)
-    (out / "failure.json").write_text(json.dumps(notes, indent=1, default=repr))
+    if page is not None:
+        attempt("url", lambda: page.url)
+        attempt("plots", lambda: plot_states(page))
+        attempt("conductors", lambda: page.evaluate(_CONDUCTOR_PROBE))
+        attempt("error_outputs", lambda: page.evaluate(_ERRORS_SHOWN))
+        attempt("kernel_status_shown", lambda: page.evaluate(
+            "() => { const s = document.querySelector('.jp-Notebook-ExecutionIndicator');"
+            " return s && s.getAttribute('data-status'); }"))
+        attempt("screenshot", lambda: page.screenshot(path=str(out / "page.png"), timeout=20000,
+                                                      animations="disabled") and "page.png")
+        attempt("screenshot_full", lambda: page.screenshot(path=str(out / "page_full.png"), full_page=True,
+                                                           timeout=20000, animations="disabled") and "page_full.png")
     print(f"browser failure evidence saved in {out}", file=sys.stderr)
     return out
 
