@@ -174,20 +174,27 @@ def test_view_plays_in_the_browser_and_picks(lab):
             kernel.run("v.frame = 0")
             page.wait_for_timeout(500)
             play.click()
+            # the slider is sampled in the page (every 100 ms for 3.6 s, browser clock): sampled from Python, a
+            # sample cost > 1 s under load 11-19 and 3.6 s gave fewer than 3 samples (IndexError, merged run 2)
+            page.evaluate("""(sel) => { const s = window.__snSamples = [], t0 = performance.now();
+                window.__snDone = false;
+                const read = () => +document.querySelector(sel + ' .sn-frame .widget-readout').textContent.trim();
+                const id = setInterval(() => { const t = performance.now() - t0; s.push([t / 1000, read()]);
+                    if (t > 3600) { clearInterval(id); window.__snDone = true; } }, 100); }""", run_sel)
             t_start = time.monotonic()
-            samples, busy_id = [], None
             frames_from, t_frames = len(frames), time.monotonic()
-            while time.monotonic() - t_start < 3.6:   # the run is 5 s long: stop measuring well before its end
-                samples.append((time.monotonic(), _slider_value(page, run_sel)))
-                if busy_id is None and time.monotonic() - t_start > 0.8:
-                    busy_id = kernel.send("time.sleep(1.8)")   # the kernel is busy for a while
-                page.wait_for_timeout(200)
+            while time.monotonic() - t_start < 0.8:
+                page.wait_for_timeout(100)
+            kernel.send("time.sleep(1.8)")   # the kernel is busy for a while
+            page.wait_for_function("() => window.__snDone === true", timeout=60000)   # the run is 5 s long
             t_frames_end = time.monotonic()
             play.click()   # pause
             window = [f for f in frames[frames_from:] if t_frames <= f[0] <= t_frames_end]
             comm = [f for f in window if f[2] == "comm_msg"]
             rate_msgs = len(comm) / (t_frames_end - t_frames)
-            samples = samples[2:]   # from ~0.4 s on: the first tick may still be on its way
+            samples = [(t, v) for t, v in page.evaluate("() => window.__snSamples") if t >= 0.4]   # from 0.4 s
+            t_start = 0.0   # sample times are seconds since the sampling started (browser clock)
+            assert len(samples) >= 2, f"the page took fewer than 2 samples of the playing slider: {samples}"
             (t0, v0), (t1, v1) = samples[0], samples[-1]
             rate = (v1 - v0) * ft / (t1 - t0)
             page.wait_for_timeout(1500)
