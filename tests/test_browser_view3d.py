@@ -16,10 +16,8 @@ from __future__ import annotations
 import io
 import json
 import os
-import subprocess
 import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -40,48 +38,14 @@ pytestmark = [pytest.mark.browser]
 
 @pytest.fixture
 def lab(tmp_path):
-    """A token-less JupyterLab on a free port, state under tmp_path; yields (url, folder, runtime_dir)."""
+    """The harness's token-less JupyterLab (tests/browser_harness.py: free port, state under tmp_path, the
+    preferred kernel started without a "Select Kernel" dialog); yields (url, folder, runtime_dir)."""
     reason = bh.skip_reason()
     if reason:
         print("SKIP:", reason)
         pytest.skip(reason)
-    port = bh.free_port()
-    state = tmp_path / "jupyter-state"
-    env = dict(os.environ, JUPYTER_CONFIG_DIR=str(state / "config"), JUPYTER_RUNTIME_DIR=str(state / "runtime"),
-               JUPYTER_DATA_DIR=str(state / "data"), IPYTHONDIR=str(state / "ipython"), JUPYTER_PLATFORM_DIRS="1",
-               JUPYTERLAB_SETTINGS_DIR=str(state / "lab-settings"))
-    for rel, value in [("@jupyterlab/notebook-extension/tracker.jupyterlab-settings", {"windowingMode": "none"}),
-                       ("@jupyterlab/apputils-extension/notification.jupyterlab-settings",
-                        {"fetchNews": "false", "checkForUpdates": False})]:
-        p = state / "lab-settings" / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(json.dumps(value))
-    log = open(tmp_path / "lab.log", "w")
-    proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
-                             "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
-                             f"--ServerApp.root_dir={tmp_path}", "--LabApp.news_url=None",
-                             "--ServerApp.disable_check_xsrf=True"],
-                            cwd=tmp_path, env=env, stdout=log, stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        for _ in range(360):   # up to 3 minutes: on a loaded machine (load 15 on 2 cores) 60 s was not enough
-            try:
-                urllib.request.urlopen(url + "/api/status", timeout=2)
-                break
-            except Exception:
-                if proc.poll() is not None:
-                    raise RuntimeError("jupyter lab exited: " + (tmp_path / "lab.log").read_text()[-2000:])
-                time.sleep(0.5)
-        else:
-            raise RuntimeError("jupyter lab did not answer within 3 minutes")
-        yield url, tmp_path, state / "runtime"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-        log.close()
+    with bh.jupyter_lab(tmp_path, timeout=180) as url:   # on a loaded machine (load 15 on 2 cores) 60 s was not enough
+        yield url, tmp_path, bh.runtime_dir(tmp_path)
 
 
 def _write_notebook(path: Path, cells) -> None:
@@ -126,37 +90,7 @@ def _ws_kind(payload):
         return None, None
 
 
-class Kernel:
-    """A second client of the notebook's kernel (its connection file), to set and read view state."""
-
-    def __init__(self, runtime: Path):
-        from jupyter_client import BlockingKernelClient
-        files = sorted(runtime.glob("kernel-*.json"), key=lambda p: p.stat().st_mtime)
-        self.kc = BlockingKernelClient(connection_file=str(files[-1]))
-        self.kc.load_connection_file()
-        self.kc.start_channels()
-
-    def run(self, code: str, timeout: float = 60):
-        msg_id = self.kc.execute(code)
-        reply = self.kc.get_shell_msg(timeout=timeout)
-        while reply["parent_header"].get("msg_id") != msg_id:
-            reply = self.kc.get_shell_msg(timeout=timeout)
-        assert reply["content"]["status"] == "ok", reply["content"]
-
-    def eval(self, expr: str, timeout: float = 60):
-        msg_id = self.kc.execute("", user_expressions={"x": f"__import__('json').dumps({expr})"})
-        reply = self.kc.get_shell_msg(timeout=timeout)
-        while reply["parent_header"].get("msg_id") != msg_id:
-            reply = self.kc.get_shell_msg(timeout=timeout)
-        x = reply["content"]["user_expressions"]["x"]
-        assert x["status"] == "ok", x
-        return json.loads(x["data"]["text/plain"].strip("'"))
-
-    def send(self, code: str) -> str:
-        return self.kc.execute(code)
-
-    def close(self):
-        self.kc.stop_channels()
+Kernel = bh.Kernel   # a second client of the notebook's kernel (moved to the harness)
 
 
 CELLS = [
@@ -178,26 +112,10 @@ c""",
 
 
 def _open_and_run(page, url, name):
-    page.goto(f"{url}/lab/tree/{name}?reset", wait_until="domcontentloaded", timeout=90000)
-    page.wait_for_selector(".jp-Notebook", timeout=90000)
-    page.wait_for_timeout(3000)
-    no_news = page.locator(".jp-toast-button", has_text="No")
-    if no_news.count():
-        no_news.first.click()
-    # On a loaded machine the kernel can start so late that JupyterLab asks which kernel to use (a modal
-    # "Select Kernel" dialog that swallowed Run All Cells): accept the notebook's kernel, then wait for it idle.
-    deadline = time.monotonic() + 180
-    while time.monotonic() < deadline:
-        select = page.locator(".jp-Dialog button.jp-mod-accept", has_text="Select")
-        if select.count():
-            select.first.click()
-        if page.locator(".jp-Notebook-ExecutionIndicator[data-status='idle']").count() or \
-                page.get_by_text("Python 3 (ipykernel) | Idle").count():
-            break
-        page.wait_for_timeout(500)
-    page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
-    page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
-    page.wait_for_selector(".jp-OutputArea-output >> text=ALL CELLS DONE", timeout=180000)
+    # the harness's steps: open with the kernel idle (a late "Select Kernel" dialog is accepted, never left to
+    # swallow Run All Cells: seen under two CPU hogs, the status bar said Idle behind the dialog), run all cells
+    bh.open_notebook(page, url, name, timeout=180)
+    bh.run_all_cells(page, timeout=180)
 
 
 def _slider_value(page, sel) -> int:
@@ -256,20 +174,27 @@ def test_view_plays_in_the_browser_and_picks(lab):
             kernel.run("v.frame = 0")
             page.wait_for_timeout(500)
             play.click()
+            # the slider is sampled in the page (every 100 ms for 3.6 s, browser clock): sampled from Python, a
+            # sample cost > 1 s under load 11-19 and 3.6 s gave fewer than 3 samples (IndexError, merged run 2)
+            page.evaluate("""(sel) => { const s = window.__snSamples = [], t0 = performance.now();
+                window.__snDone = false;
+                const read = () => +document.querySelector(sel + ' .sn-frame .widget-readout').textContent.trim();
+                const id = setInterval(() => { const t = performance.now() - t0; s.push([t / 1000, read()]);
+                    if (t > 3600) { clearInterval(id); window.__snDone = true; } }, 100); }""", run_sel)
             t_start = time.monotonic()
-            samples, busy_id = [], None
             frames_from, t_frames = len(frames), time.monotonic()
-            while time.monotonic() - t_start < 3.6:   # the run is 5 s long: stop measuring well before its end
-                samples.append((time.monotonic(), _slider_value(page, run_sel)))
-                if busy_id is None and time.monotonic() - t_start > 0.8:
-                    busy_id = kernel.send("time.sleep(1.8)")   # the kernel is busy for a while
-                page.wait_for_timeout(200)
+            while time.monotonic() - t_start < 0.8:
+                page.wait_for_timeout(100)
+            kernel.send("time.sleep(1.8)")   # the kernel is busy for a while
+            page.wait_for_function("() => window.__snDone === true", timeout=60000)   # the run is 5 s long
             t_frames_end = time.monotonic()
             play.click()   # pause
             window = [f for f in frames[frames_from:] if t_frames <= f[0] <= t_frames_end]
             comm = [f for f in window if f[2] == "comm_msg"]
             rate_msgs = len(comm) / (t_frames_end - t_frames)
-            samples = samples[2:]   # from ~0.4 s on: the first tick may still be on its way
+            samples = [(t, v) for t, v in page.evaluate("() => window.__snSamples") if t >= 0.4]   # from 0.4 s
+            t_start = 0.0   # sample times are seconds since the sampling started (browser clock)
+            assert len(samples) >= 2, f"the page took fewer than 2 samples of the playing slider: {samples}"
             (t0, v0), (t1, v1) = samples[0], samples[-1]
             rate = (v1 - v0) * ft / (t1 - t0)
             page.wait_for_timeout(1500)
@@ -348,30 +273,33 @@ def test_view_plays_in_the_browser_and_picks(lab):
             edit["canvas_changed"] = [round(_changed(eshots[k], eshots[k + 1]), 4) for k in range(len(eshots) - 1)]
             report["edit"] = edit
             kernel.close()
-        except Exception:
-            page.screenshot(path=str(ARTIFACTS / "view3d_failure.png"), full_page=True)
-            (ARTIFACTS / "view3d_failure_console.txt").write_text("\n".join(console + page_errors))
+            bad = [c for c in console if c.startswith("error") and not any(
+                k in c for k in ("t.on is not a function", "@lumino/coreutils", "Failed to load resource", "favicon"))]
+            report.update(console_errors=bad, page_errors=page_errors)
+            (ARTIFACTS / "view3d_console.txt").write_text("\n".join(console + page_errors))
+            (ARTIFACTS / "view3d_report.json").write_text(json.dumps(report, indent=1))
+            print(json.dumps(report, indent=1))
+            # checked while the page and the kernel are alive: a failure keeps their state (save_failure)
+            assert all(h >= 0.40 for h in heights.values()), heights
+            assert rate >= 0.90, report
+            assert rate_msgs <= 10, report
+            assert max(changes) > 0.0005 and min(changes) > 0.0, report     # the figure moves between screenshots
+            assert report["stopped"]["view.frame"] == stopped_at and not report["stopped"]["playing"], report
+            assert picked == "Head", report
+            e = report["edit"]
+            assert e["grown_widgets"] <= 0, report   # updated in place (the new ground replaces the old one)
+            assert ((e["new_xy"][0] - e["old_xy"][0]) ** 2 + (e["new_xy"][1] - e["old_xy"][1]) ** 2) ** 0.5 > 30, \
+                report
+            assert e["picked_at_old"] != "Head" and e["picked_at_new"] == "Head", report   # drawn where the new motion is
+            assert min(e["canvas_changed"]) > 0.0, report                              # the edited motion plays
+            assert not page_errors, page_errors
+        except BaseException as exc:
+            bh.save_failure("view3d_play", page, {"console": console, "page_errors": page_errors,
+                                                  "ws_received": [repr(f) for f in frames[-60:]]},
+                            runtime, report, exc)
             raise
         finally:
             browser.close()
-    bad = [c for c in console if c.startswith("error") and not any(
-        k in c for k in ("t.on is not a function", "@lumino/coreutils", "Failed to load resource", "favicon"))]
-    report.update(console_errors=bad, page_errors=page_errors)
-    (ARTIFACTS / "view3d_console.txt").write_text("\n".join(console + page_errors))
-    (ARTIFACTS / "view3d_report.json").write_text(json.dumps(report, indent=1))
-    print(json.dumps(report, indent=1))
-    assert all(h >= 0.40 for h in heights.values()), heights
-    assert rate >= 0.90, report
-    assert rate_msgs <= 10, report
-    assert max(changes) > 0.0005 and min(changes) > 0.0, report     # the figure moves between screenshots
-    assert report["stopped"]["view.frame"] == stopped_at and not report["stopped"]["playing"], report
-    assert picked == "Head", report
-    e = report["edit"]
-    assert e["grown_widgets"] <= 0, report   # updated in place (the new ground replaces the old one)
-    assert ((e["new_xy"][0] - e["old_xy"][0]) ** 2 + (e["new_xy"][1] - e["old_xy"][1]) ** 2) ** 0.5 > 30, report
-    assert e["picked_at_old"] != "Head" and e["picked_at_new"] == "Head", report   # drawn where the new motion is
-    assert min(e["canvas_changed"]) > 0.0, report                              # the edited motion plays
-    assert not page_errors, page_errors
 
 
 def test_exported_page_plays_offline(tmp_path):
@@ -394,8 +322,8 @@ def test_exported_page_plays_offline(tmp_path):
     requests, errors, report = [], [], {}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        page = browser.new_page(viewport={"width": 1300, "height": 800})
         try:
-            page = browser.new_page(viewport={"width": 1300, "height": 800})
             page.on("pageerror", lambda e: errors.append(str(e)[:300]))
             page.on("console", lambda m: errors.append(m.text[:300]) if m.type == "error" else None)
 
@@ -418,17 +346,22 @@ def test_exported_page_plays_offline(tmp_path):
             traces = page.locator(".sn-plot .scatterlayer .trace").count()
             page.screenshot(path=str(ARTIFACTS / "view3d_export_page.png"))
             a.save(ARTIFACTS / "view3d_export_canvas.png")
+            from PIL import ImageStat
+            report.update(size=page_path.stat().st_size, stddev=max(ImageStat.Stat(a).stddev), changed=_changed(a, b),
+                          plots=n_plots, traces=traces, requests=requests, errors=errors)
+            print(json.dumps(report, indent=1))
+            assert report["stddev"] > 5, report          # not blank (a blank canvas has ~0)
+            assert report["changed"] > 0.001, report     # it plays: the two screenshots 1 s apart differ
+            assert n_plots == len(editor.figures() if hasattr(editor, "figures") else editor.plots) > 0 and \
+                traces > 0, report
+            assert requests == [], report                # nothing but the file itself was asked for
+            assert errors == [], report
+        except BaseException as exc:
+            bh.save_failure("view3d_export", page,
+                            {"console": errors, "page_errors": [], "requests": requests}, None, report, exc)
+            raise
         finally:
             browser.close()
-    from PIL import ImageStat
-    report.update(size=page_path.stat().st_size, stddev=max(ImageStat.Stat(a).stddev), changed=_changed(a, b),
-                  plots=n_plots, traces=traces, requests=requests, errors=errors)
-    print(json.dumps(report, indent=1))
-    assert report["stddev"] > 5, report          # not blank (a blank canvas has ~0)
-    assert report["changed"] > 0.001, report     # it plays: the two screenshots 1 s apart differ
-    assert n_plots == len(editor.figures() if hasattr(editor, "figures") else editor.plots) > 0 and traces > 0, report
-    assert requests == [], report                # nothing but the file itself was asked for
-    assert errors == [], report
 
 
 EDITOR_SELECTORS = {"stagger": ".sn-stagger-editor", "wand": ".sn-wand-editor", "warp": ".sn-warp-editor"}
@@ -486,85 +419,81 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
     bh.write_notebook(tmp_path / "editors3d.ipynb", EDITOR_CELLS)
     report, t0 = {"load_average": os.getloadavg()}, time.time()
     ARTIFACTS.mkdir(exist_ok=True)
-    with bh.jupyter_lab(tmp_path) as url, bh.chromium_page(1280, 800) as (page, log):
-        try:
-            bh.open_notebook(page, url, "editors3d.ipynb")
-            bh.run_all_cells(page)
-            for sel in EDITOR_SELECTORS.values():
-                page.wait_for_selector(f"{sel} canvas", timeout=90000)
+    with bh.jupyter_lab(tmp_path) as url, bh.chromium_page(1280, 800) as (page, log), \
+            bh.evidence_on_failure("view3d_editors", page, log, bh.runtime_dir(tmp_path), report):
+        bh.open_notebook(page, url, "editors3d.ipynb")
+        bh.run_all_cells(page)
+        for sel in EDITOR_SELECTORS.values():
+            page.wait_for_selector(f"{sel} canvas", timeout=90000)
+        bh.wait_kernel_idle(page)
+        page.wait_for_timeout(2500)
+        first = _canvases(page)
+        report["blank"] = {k: round(max(ImageStat.Stat(v).stddev), 1) for k, v in first.items()}
+        readouts = {}
+        moves = [(name, ".sn-frame", "ArrowRight", 12) for name in EDITOR_SELECTORS] + \
+            [("stagger", ".sn-cull", "ArrowLeft", 8)]
+        for name, slider, key, presses in moves:
+            handle = page.locator(f"{EDITOR_SELECTORS[name]} {slider} .noUi-handle").first
+            handle.scroll_into_view_if_needed(timeout=30000)
+            handle.focus()
+            for _ in range(presses):
+                page.keyboard.press(key)
+                page.wait_for_timeout(80)
             bh.wait_kernel_idle(page)
-            page.wait_for_timeout(2500)
-            first = _canvases(page)
-            report["blank"] = {k: round(max(ImageStat.Stat(v).stddev), 1) for k, v in first.items()}
-            readouts = {}
-            moves = [(name, ".sn-frame", "ArrowRight", 12) for name in EDITOR_SELECTORS] + \
-                [("stagger", ".sn-cull", "ArrowLeft", 8)]
-            for name, slider, key, presses in moves:
-                handle = page.locator(f"{EDITOR_SELECTORS[name]} {slider} .noUi-handle").first
-                handle.scroll_into_view_if_needed(timeout=30000)
-                handle.focus()
-                for _ in range(presses):
-                    page.keyboard.press(key)
-                    page.wait_for_timeout(80)
-                bh.wait_kernel_idle(page)
-            page.wait_for_timeout(2500)
-            for name, sel in EDITOR_SELECTORS.items():
-                readouts[name] = page.locator(f"{sel} .sn-frame .widget-readout").first.inner_text().strip()
-            moved = _canvases(page)
-            report["readouts"] = dict(readouts)
-            report["moved_vs_first"] = {k: round(_changed(first[k], moved[k]), 4) for k in first}
-            t_reload = time.time()
-            # save, reload with the kernel alive; a reload that hits JupyterLab's restore race ("model not found":
-            # jupyterlab_widgets gives a model 2 s to appear, ipywidgets#4026) is counted and reloaded again, as a
-            # user would (the count is in the report: 1 = the first reload restored everything)
-            report["reloads"] = bh.save_and_reload(
-                page, "() => " + " && ".join(f"!!document.querySelector('{s} canvas')" for s in EDITOR_SELECTORS.values()),
-                timeout=120)
-            report["reload_seconds"] = round(time.time() - t_reload, 1)
-            page.wait_for_timeout(3000)
-            after = _canvases(page)
-            report["reload_readouts"] = {
-                name: page.locator(f"{sel} .sn-frame .widget-readout").first.inner_text().strip()
-                for name, sel in EDITOR_SELECTORS.items()}
-            # what each view draws (the conductor marks its element): the current frame and the current data, i.e.
-            # the root position the kernel's current motion has at that frame (camera-independent)
-            drawn = page.evaluate("(sels) => sels.map(s => { const e = document.querySelector(s + ' .sn-conductor');"
-                                  " return e ? [e.dataset.frame, e.dataset.frames, e.dataset.root] : null; })",
-                                  list(EDITOR_SELECTORS.values()))
-            report["drawn_after_reload"] = dict(zip(EDITOR_SELECTORS, drawn))
-            report["kernel"] = {}
-            for name, var in zip(EDITOR_SELECTORS, ("se", "we", "xe")):
-                report["kernel"][name] = kernel_state = bh_eval(
-                    page, tmp_path,
-                    f"[{var}.view.frame, {var}.view.motion.num_frames, "
-                    f"[round(float(x), 2) for x in {var}.view.shown_positions()[0]]]")
-            report["reload_vs_moved"] = {k: round(_changed(moved[k], after[k]), 4) for k in after}
-            report["reload_vs_first"] = {k: round(_changed(first[k], after[k]), 4) for k in after}
-            for k in after:
-                after[k].save(ARTIFACTS / f"view3d_editor_{k}_reloaded.png")
-                moved[k].save(ARTIFACTS / f"view3d_editor_{k}_moved.png")
-                first[k].save(ARTIFACTS / f"view3d_editor_{k}_first.png")
-        except Exception:
-            page.screenshot(path=str(ARTIFACTS / "view3d_editors_failure.png"), full_page=True, timeout=30000)
-            (ARTIFACTS / "view3d_editors_failure_console.txt").write_text(
-                "\n".join(log["console"] + log["page_errors"]) + "\n" + json.dumps(report))
-            raise
+        page.wait_for_timeout(2500)
+        for name, sel in EDITOR_SELECTORS.items():
+            readouts[name] = page.locator(f"{sel} .sn-frame .widget-readout").first.inner_text().strip()
+        moved = _canvases(page)
+        report["readouts"] = dict(readouts)
+        report["moved_vs_first"] = {k: round(_changed(first[k], moved[k]), 4) for k in first}
+        t_reload = time.time()
+        # save, reload with the kernel alive; a reload that hits JupyterLab's restore race ("model not found":
+        # jupyterlab_widgets gives a model 2 s to appear, ipywidgets#4026) is counted and reloaded again, as a
+        # user would (the count is in the report: 1 = the first reload restored everything)
+        report["reloads"] = bh.save_and_reload(
+            page, "() => " + " && ".join(f"!!document.querySelector('{s} canvas')" for s in EDITOR_SELECTORS.values()),
+            timeout=120, log=log)
+        report["reload_seconds"] = round(time.time() - t_reload, 1)
+        page.wait_for_timeout(3000)
+        after = _canvases(page)
+        report["reload_readouts"] = {
+            name: page.locator(f"{sel} .sn-frame .widget-readout").first.inner_text().strip()
+            for name, sel in EDITOR_SELECTORS.items()}
+        # what each view draws (the conductor marks its element): the current frame and the current data, i.e.
+        # the root position the kernel's current motion has at that frame (camera-independent)
+        drawn = page.evaluate("(sels) => sels.map(s => { const e = document.querySelector(s + ' .sn-conductor');"
+                              " return e ? [e.dataset.frame, e.dataset.frames, e.dataset.root] : null; })",
+                              list(EDITOR_SELECTORS.values()))
+        report["drawn_after_reload"] = dict(zip(EDITOR_SELECTORS, drawn))
+        report["kernel"] = {}
+        for name, var in zip(EDITOR_SELECTORS, ("se", "we", "xe")):
+            report["kernel"][name] = kernel_state = bh_eval(
+                page, tmp_path,
+                f"[{var}.view.frame, {var}.view.motion.num_frames, "
+                f"[round(float(x), 2) for x in {var}.view.shown_positions()[0]]]")
+        report["reload_vs_moved"] = {k: round(_changed(moved[k], after[k]), 4) for k in after}
+        report["reload_vs_first"] = {k: round(_changed(first[k], after[k]), 4) for k in after}
+        for k in after:
+            after[k].save(ARTIFACTS / f"view3d_editor_{k}_reloaded.png")
+            moved[k].save(ARTIFACTS / f"view3d_editor_{k}_moved.png")
+            first[k].save(ARTIFACTS / f"view3d_editor_{k}_first.png")
         bad = bh.console_errors(log)
-    report.update(seconds=round(time.time() - t0, 1), console_errors=bad, page_errors=log["page_errors"])
-    (ARTIFACTS / "view3d_editors_report.json").write_text(json.dumps(report, indent=1))
-    print(json.dumps(report, indent=1))
-    for k in EDITOR_SELECTORS:
-        assert report["blank"][k] > 5, report                                   # drawn (blank ~0)
-        assert max(ImageStat.Stat(after[k]).stddev) > 5, report                 # drawn after the reload
-        assert report["moved_vs_first"][k] > 0.0002, report                     # the slider moved the view
-        assert report["reload_readouts"][k] == report["readouts"][k], report    # the current frame came back
-        # the same picture as before the reload (same frame and data): the camera framing came back too (a restored
-        # OrbitControls aimed the camera at (0, 0, 0): 13-17 % of the pixels differed, the head cut off)
-        assert report["reload_vs_moved"][k] < 0.002, report
-        # the current data came back: the drawn frame, clip length and root position are the kernel's current ones
-        frame, frames, root = report["drawn_after_reload"][k]
-        kf, kn, kroot = report["kernel"][k]
-        assert (int(frame), int(frames)) == (kf, kn) and int(frame) == int(report["readouts"][k]), report
-        assert np.allclose([float(x) for x in root.split(",")], kroot, atol=0.02), report
-    assert not log["page_errors"], log["page_errors"]
-    assert not bad, bad
+        report.update(seconds=round(time.time() - t0, 1), console_errors=bad, page_errors=log["page_errors"],
+                      restore_race_errors=log.get("restore_race", []))
+        (ARTIFACTS / "view3d_editors_report.json").write_text(json.dumps(report, indent=1))
+        print(json.dumps(report, indent=1))
+        for k in EDITOR_SELECTORS:
+            assert report["blank"][k] > 5, report                                   # drawn (blank ~0)
+            assert max(ImageStat.Stat(after[k]).stddev) > 5, report                 # drawn after the reload
+            assert report["moved_vs_first"][k] > 0.0002, report                     # the slider moved the view
+            assert report["reload_readouts"][k] == report["readouts"][k], report    # the current frame came back
+            # the same picture as before the reload (same frame and data): the camera framing came back too (a restored
+            # OrbitControls aimed the camera at (0, 0, 0): 13-17 % of the pixels differed, the head cut off)
+            assert report["reload_vs_moved"][k] < 0.002, report
+            # the current data came back: the drawn frame, clip length and root position are the kernel's current ones
+            frame, frames, root = report["drawn_after_reload"][k]
+            kf, kn, kroot = report["kernel"][k]
+            assert (int(frame), int(frames)) == (kf, kn) and int(frame) == int(report["readouts"][k]), report
+            assert np.allclose([float(x) for x in root.split(",")], kroot, atol=0.02), report
+        assert not log["page_errors"], log["page_errors"]
+        assert not bad, bad

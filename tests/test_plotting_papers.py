@@ -41,6 +41,21 @@ def test_strobe_draws_every_bone_of_each_frame_once():
         plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [0], view="iso")
 
 
+def test_strobe_scene_is_as_tall_as_its_drawing_and_keeps_the_visible_coordinates():
+    # six 170-unit figures 120 apart (front view: x across, y up, z the depth seen end-on, 200 deep)
+    base = np.array([[0, 0, 0], [0, 170, 0], [30, 100, 200]], float)
+    pos = np.stack([base + [120 * f, 0, 0] for f in range(6)])
+    wide = plotting.skeleton_strobe_figure(pos, [-1, 0, 1], range(6), view="front")
+    one = plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [0], view="front", height=420)
+    assert wide["layout"]["height"] < 300 <= one["layout"]["height"] <= 420   # a wide strobe: a short scene
+    for f in (wide, one):
+        for tr in f["data"]:   # what is seen (x, y) is the data; only the end-on depth may be squeezed
+            got = np.asarray(tr["x"], float)
+            assert np.isnan(got).sum() == 2 and np.nanmax(got) - np.nanmin(got) == 30
+    z = np.asarray(wide["data"][0]["z"], float)
+    assert 0 < np.nanmax(z) - np.nanmin(z) < 200   # squeezed: the 200-deep chain would shrink the drawing
+
+
 def test_lines_stacking_offsets_and_highlights():
     f = plotting.lines_figure({"a": (T, np.zeros(31)), "b": (T[:5], np.ones(5))}, stacked=1.5, vlines=[0.2, 0.4],
                               highlight={"marks": ([0.1], [0.5])})
@@ -122,3 +137,10 @@ def test_table_rows_become_columns():
     assert [list(c) for c in g.data[0].cells.values] == [["1", "2"], ["x", "y"]]
     with pytest.raises(ValueError, match="rows"):
         plotting.table_figure(["a", "b"], [[1]])
+
+
+def test_table_is_as_tall_as_its_rows():
+    # the default height grows by one row height per row (no fixed 320 px with empty space under 3 rows)
+    h = [plotting.table_figure(["a"], [[i] for i in range(n)])["layout"]["height"] for n in (1, 3, 10)]
+    assert h[1] - h[0] == 2 * (h[2] - h[1]) / 7 > 0 and h[1] < 200
+    assert plotting.table_figure(["a"], [[1]], height=500)["layout"]["height"] == 500

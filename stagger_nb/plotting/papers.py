@@ -55,6 +55,7 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
     colors, names : S colours / legend names (default: palette, ``"frame f"``)
     shift : (S, 3) offset added to each drawn skeleton (to place poses side by side), or None
     view : ``"side"`` (camera on +x), ``"front"`` (on +z) or ``"top"`` (on +y)
+    height : the figure's largest height, px; a wide strobe gets less (as tall as its drawing needs)
 
     Traces: one ``scatter3d`` polyline per drawn frame, bones separated by gaps.
     """
@@ -87,14 +88,49 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
     # the axis along the line of sight is seen end-on: its tick labels pile up in one spot (unreadable), so it
     # is drawn without labels; the vertical axis gets few ticks (a wide strobe is a short scene)
     depth = {"side": "xaxis", "front": "zaxis", "top": "yaxis"}[view]
+    scene_px = _strobe_fit(data, view, int(height) - _STROBE_TITLE)
     scene = dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
                                                  projection=dict(type="orthographic")))
     scene[depth] = dict(showticklabels=False, title=dict(text=""), showspikes=False)
     if view != "top":
         scene["yaxis"] = dict(nticks=4)
-    layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)), height=int(height),
-                  margin=dict(l=0, r=0, t=40, b=0), template="plotly_white", showlegend=True, scene=scene)
+    layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)),
+                  height=scene_px + _STROBE_TITLE, margin=dict(l=0, r=0, t=_STROBE_TITLE, b=0),
+                  template="plotly_white", showlegend=True, scene=scene)
     return dict(data=data, layout=layout)
+
+
+# With aspectmode "data", plotly.js scales each axis by its range over the geometric mean G of the three ranges
+# and draws an orthographic scene at ~0.41 px per scaled unit per px of scene height (plotly 7.1, measured: a
+# 6-frame walk strobe, 700 x 160 x 40 cm, was drawn ~650 px wide in a 380 px high scene; 4 standing poses,
+# 280 x 155 x 40 cm, ~360 px).
+_STROBE_PX_PER_UNIT, _STROBE_TITLE = 0.41, 40
+_STROBE_WIDTH, _STROBE_FILL, _STROBE_MIN = 620, 0.7, 160   # px drawn at most across, share of the height, px
+
+
+def _strobe_fit(data, view: str, max_px: int) -> int:
+    """The scene height (px) of a strobe, and its depth coordinates squeezed in place (``data`` is changed):
+    the drawing fills the scene (<= 620 px across, ~70 % of its height: room for the tick labels) instead of a fixed 380 px scene with
+    ~250 px empty above and below a wide strobe, or a strobe deep along the line of sight drawn at a third of
+    the width. The depth axis is seen end-on (orthographic): squeezing it changes the picture's scale, not
+    its content (hover shows the squeezed depth; its tick labels are hidden)."""
+    h, v, d = {"side": "zyx", "front": "xyz", "top": "xzy"}[view]
+    span = {}
+    for k in "xyz":
+        a = np.concatenate([np.asarray(tr[k], dtype=float) for tr in data]) if data else np.zeros(1)
+        a = a[np.isfinite(a)]
+        span[k] = float(np.ptp(a)) if a.size else 0.0
+    r_h, r_v, r_d = max(span[h], 1e-6), max(span[v], 1e-6), span[d]
+    scene = int(np.clip(_STROBE_WIDTH * r_v / (_STROBE_FILL * r_h), _STROBE_MIN, max(max_px, _STROBE_MIN)))
+    # the geometric mean that draws the wider of (70 % of the height, 620 px across) exactly
+    g = max(_STROBE_PX_PER_UNIT * r_v / _STROBE_FILL, _STROBE_PX_PER_UNIT * scene * r_h / _STROBE_WIDTH)
+    want = g ** 3 / (r_h * r_v)          # the depth range that gives it
+    if r_d > want > 0:
+        for tr in data:
+            a = np.asarray(tr[d], dtype=float)
+            mid = np.nanmean(a) if np.isfinite(a).any() else 0.0
+            tr[d] = mid + (a - mid) * (want / r_d)
+    return scene
 
 
 def lines_figure(series: Mapping[str, tuple], *, stacked: float | None = None, vlines=(), vline_color=POSE_COLOUR,
@@ -325,13 +361,24 @@ def support_figure(rows: Mapping[str, tuple], *, title: str = "", height: int | 
     return dict(data=data, layout=layout)
 
 
-def table_figure(header: Sequence[str], rows: Sequence[Sequence], *, title: str = "", height: int = 320) -> dict:
-    """A table (Hsu et al. 2007, Table 1): ``header`` (C,) and ``rows`` (R, C) of already formatted cells."""
+_TABLE_TITLE, _TABLE_HEADER, _TABLE_ROW = 40, 48, 22   # px: title margin, header (two lines), one row
+
+
+def table_figure(header: Sequence[str], rows: Sequence[Sequence], *, title: str = "",
+                 height: int | None = None) -> dict:
+    """A table (Hsu et al. 2007, Table 1): ``header`` (C,) and ``rows`` (R, C) of already formatted cells.
+
+    height : px, or None: as tall as its rows (title + a header of up to two lines + R rows of 22 px), not a
+        fixed 320 px that left ~170 px empty under a 3-row table at 1280x800.
+    """
     rows = [list(r) for r in rows]
     if any(len(r) != len(header) for r in rows):
         raise ValueError(f"rows: every row needs {len(header)} cells")
+    if height is None:
+        height = _TABLE_TITLE + _TABLE_HEADER + _TABLE_ROW * len(rows) + 8
     columns = [[str(r[c]) for r in rows] for c in range(len(header))]
-    data = [dict(type="table", header=dict(values=list(header)), cells=dict(values=columns))]
+    data = [dict(type="table", header=dict(values=list(header)),
+                 cells=dict(values=columns, height=_TABLE_ROW))]
     layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)), height=int(height),
                   margin=dict(l=10, r=10, t=40, b=0), template="plotly_white")
     return dict(data=data, layout=layout)

@@ -158,7 +158,7 @@ body {{ font-family: system-ui, sans-serif; margin: 12px; color: #2d3748; }}
 #sn-view canvas {{ border: 1px solid #e2e8f0; display: block; cursor: grab; }}
 #sn-bar {{ display: flex; gap: 8px; align-items: center; margin-top: 6px; }}
 #sn-scrub {{ flex: 1; }}
-.sn-legend span {{ margin-right: 10px; font-size: 12px; }}
+.sn-legend span {{ margin-right: 10px; font-size: 12px; display: inline-block; white-space: nowrap; }}
 .sn-legend i {{ display: inline-block; width: 14px; height: 5px; margin-right: 4px; vertical-align: middle; }}
 .sn-plot {{ width: 560px; min-height: 260px; }}
 </style></head>

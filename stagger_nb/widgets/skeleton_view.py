@@ -559,7 +559,7 @@ class SkeletonView(widgets.VBox):
         def sw(colour, label, shape="bar"):
             style = ("width:14px;height:5px;border-radius:2px" if shape == "bar" else
                      "width:9px;height:9px;border-radius:50%")
-            return (f'<span style="display:inline-flex;align-items:center;margin-right:10px">'
+            return (f'<span style="display:inline-flex;align-items:center;margin-right:10px;white-space:nowrap">'
                     f'<span style="display:inline-block;{style};background:{colour};margin-right:4px"></span>'
                     f'{html.escape(label)}</span>')
         items = [sw(scene3d.SIDE_COLOURS["left"], "left"), sw(scene3d.SIDE_COLOURS["right"], "right"),
@@ -574,7 +574,9 @@ class SkeletonView(widgets.VBox):
             items.append(sw(_GHOST, "original (ghost)"))
         for i, n in enumerate(self.trail_joints):
             items.append(sw(_TRAILS[i % len(_TRAILS)], f"trail {n} (±{self.trail_seconds:g} s)"))
-        items.append(f'<span style="color:#718096">grid square: {getattr(self, "_grid_cell", 0):g} units</span>')
+        # one unit: an entry moves to the next line whole, never split ("grid" | "square: 5 units" was seen)
+        items.append(f'<span style="color:#718096;display:inline-block;white-space:nowrap">'
+                     f'grid square: {getattr(self, "_grid_cell", 0):g} units</span>')
         self.legend.value = '<div style="font-size:12px;line-height:18px">' + "".join(items) + "</div>"
 
     # -- events ------------------------------------------------------------------------------------------
