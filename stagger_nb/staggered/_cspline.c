@@ -190,6 +190,17 @@ static void block(int stage, const poly_t *P, const double *ctrl, const double *
     arc_post(P, n, sg, th, ct);
     double *S = A; /* the spline */
     slerp(P, D, n, E, n, t, sg, th, ct, n, S);
+    if (M == 0) { /* the spline alone, renormalised (bezier_into's normalize=True) */
+        for (Py_ssize_t i = 0; i < n; ++i) {
+            double q = S[i] * S[i];
+            q += S[n + i] * S[n + i];
+            q += S[2 * n + i] * S[2 * n + i];
+            q += S[3 * n + i] * S[3 * n + i];
+            q = sqrt(q);
+            for (int r = 0; r < 4; ++r) out[r * so + i] = S[r * n + i] / q;
+        }
+        return;
+    }
     /* displacement: linear interpolation of rotation vectors on each pair's uniform grid, halved */
     for (Py_ssize_t i = 0; i < n; ++i) {
         int64_t cnt = counts[idx[i]];
@@ -225,17 +236,18 @@ static PyObject *rotations_block(PyObject *Py_UNUSED(self), PyObject *args)
     if (!PyArg_ParseTuple(args, "iy*y*y*y*ny*y*w*nw*y*y*", &stage, &ctrl, &arcp, &table, &counts, &M, &idx, &t,
                           &out, &so, &work, &taylor, &limits))
         return NULL;
-    Py_ssize_t np_ = counts.len / 8, n = t.len / 8;
-    if (ctrl.len != 16 * 8 * np_ || arcp.len != 9 * 8 * np_ || table.len != 3 * 8 * np_ * M || idx.len != n * 8 ||
-        work.len < SCRATCH_ROWS * 8 * n || taylor.len != 80 || limits.len != 72 || M < 2 || so < n ||
-        (n && out.len < (3 * so + n) * 8)) {
+    Py_ssize_t np_ = ctrl.len / 128, n = t.len / 8;
+    if (ctrl.len != 16 * 8 * np_ || counts.len != 8 * np_ || arcp.len != 9 * 8 * np_ || table.len != 3 * 8 * np_ * M ||
+        idx.len != n * 8 || work.len < SCRATCH_ROWS * 8 * n || taylor.len != 80 || limits.len != 72 ||
+        (M < 2 && M != 0) || so < n || (n && out.len < (3 * so + n) * 8)) {
         PyErr_SetString(PyExc_ValueError, "rotations_block: buffer sizes do not match (16, P), (9, P), (3, P * M), "
-                                          "P counts, n idx / t, out rows of stride so, 56 n of scratch");
+                                          "P counts, n idx / t, out rows of stride so, 56 n of scratch (M = 0: "
+                                          "no displacement, the spline renormalised)");
         goto done;
     }
     const int64_t *ix = (const int64_t *)idx.buf, *cn = (const int64_t *)counts.buf;
     for (Py_ssize_t i = 0; i < n; ++i) {
-        if (ix[i] < 0 || ix[i] >= np_ || cn[ix[i]] < 2 || cn[ix[i]] > M) {
+        if (ix[i] < 0 || ix[i] >= np_ || (M && (cn[ix[i]] < 2 || cn[ix[i]] > M))) {
             PyErr_Format(PyExc_ValueError, "rotations_block: sample %zd: pair %lld outside [0, %zd) or its "
                                            "count outside [2, M]", i, (long long)ix[i], np_);
             goto done;

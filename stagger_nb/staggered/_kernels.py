@@ -77,7 +77,8 @@ def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, w
     """``representation._rotations_block`` in C (``_cspline.c``: the same operations in the same order, so
     the same bits, in one loop per level instead of one numpy pass per operation) into ``out[:, s0:s0 + n]``
     of a C-contiguous ``out (4, N)``. ``ctrl (16, P)``, ``arcp (9, P)``, ``table (3, P * M)`` float64 and
-    ``counts (P,)``, ``idx (n,)`` int64 contiguous, ``t (n,)``. The three per-sample arcs' angles are
+    ``counts (P,)``, ``idx (n,)`` int64 contiguous, ``t (n,)``; ``M = 0`` (``table`` empty, ``counts`` any
+    P int64): no displacement, the spline renormalised (``bezier_into``'s default). The three per-sample arcs' angles are
     numpy's ``arccos`` between the kernel's four stages. False when the kernel is not built or disabled
     (the caller then runs the numpy path)."""
     if not accelerated():
@@ -328,9 +329,24 @@ def _pair_arcs(c0, c1, c2, c3, work: Workspace, tag: str) -> np.ndarray:
 
 def _spline_blocks(c0, c1, c2, c3, pair, t, work: Workspace, tag: str):
     """Yield ``(start, stop, spline (4, n))`` blocks of ``CHUNK`` samples of per-pair Béziers: controls and
-    their first-level arcs computed once per pair and gathered per block (a pair's arcs do not depend on t)."""
+    their first-level arcs computed once per pair and gathered per block (a pair's arcs do not depend on t).
+    Through the C kernel where built (:func:`rotations_block_c` without displacement: the same bits)."""
     arcs = _pair_arcs(c0, c1, c2, c3, work, tag)
     N = t.shape[0]
+    if accelerated():
+        P = c0.shape[1]
+        ctrl = work.get(tag + "cctrl", (16, P))
+        for i, c in enumerate((c0, c1, c2, c3)):
+            ctrl[4 * i:4 * i + 4] = c
+        pair = np.ascontiguousarray(pair, dtype=np.int64)
+        t = np.ascontiguousarray(t, dtype=float)
+        none, zeros = np.empty(0), np.zeros(P, np.int64)
+        for s in range(0, N, CHUNK):
+            e = min(N, s + CHUNK)
+            out = work.get(tag + "cout", (4, e - s))
+            rotations_block_c(ctrl, arcs, none, zeros, 0, pair[s:e], t[s:e], out, 0, work)
+            yield s, e, out
+        return
     for s in range(0, N, CHUNK):
         e = min(N, s + CHUNK)
         idx = pair[s:e]
