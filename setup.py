@@ -1,7 +1,12 @@
-"""Builds the optional C accelerator of the BVH reader (stagger_nb/io/_cparse.c); every other piece of
-metadata lives in pyproject.toml. ``optional=True``: where no compiler is found the package installs
-without it and ``read_bvh`` parses with numpy and pyarrow, with identical results."""
+"""Builds the optional C accelerators: the BVH reader's (stagger_nb/io/_cparse.c) and evaluate()'s spline
+kernel (stagger_nb/staggered/_cspline.c); every other piece of metadata lives in pyproject.toml.
+``optional=True``: where no compiler is found the package installs without them and ``read_bvh`` /
+``staggered.evaluate`` run their numpy paths, with identical results."""
 from setuptools import Extension, setup
 
+_FLAGS = ["-O2", "-fno-fast-math", "-ffp-contract=off"]   # IEEE arithmetic as written: the numpy paths' bits
+
 setup(ext_modules=[Extension("stagger_nb.io._cparse", ["stagger_nb/io/_cparse.c"], optional=True,
-                             extra_compile_args=["-O2", "-fno-fast-math", "-ffp-contract=off"])])
+                             extra_compile_args=_FLAGS),
+                   Extension("stagger_nb.staggered._cspline", ["stagger_nb/staggered/_cspline.c"], optional=True,
+                             extra_compile_args=_FLAGS)])

@@ -13,9 +13,17 @@ from __future__ import annotations
 
 import bisect
 import math
+import os
 import threading
 
 import numpy as np
+
+try:
+    from . import _cspline  # the optional C kernel of evaluate's samples (setup.py builds it where a compiler is found)
+except ImportError:  # pragma: no cover - depends on the build
+    _cspline = None
+
+NO_ACCEL_ENV = "STAGGER_NB_NO_ACCEL"   # the same switch as read_bvh's C parser: "1" runs the numpy paths
 
 MIN_ARC = 1e-8  # arcs below this (radians on S^3) use this angle: slerp weights then equal lerp to ~1e-16
 
@@ -54,6 +62,35 @@ _TAYLOR = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(10)]   # x, x^
 
 # |x| below _TERM_LIMITS[n - 1]: n terms leave a first omitted term xmax^(2n+1) / (2n+1)! below 1e-16
 _TERM_LIMITS = [(1e-16 * math.factorial(2 * n + 1)) ** (1.0 / (2 * n + 1)) for n in range(1, 10)]
+
+
+_TAYLOR_ARR = np.array(_TAYLOR)
+_LIMITS_ARR = np.array(_TERM_LIMITS)
+
+
+def accelerated() -> bool:
+    """Whether :func:`rotations_block_c` runs (the C kernel is built and ``STAGGER_NB_NO_ACCEL`` is unset or 0)."""
+    return _cspline is not None and os.environ.get(NO_ACCEL_ENV, "") in ("", "0")
+
+
+def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, work: "Workspace") -> bool:
+    """``representation._rotations_block`` in C (``_cspline.c``: the same operations in the same order, so
+    the same bits, in one loop per level instead of one numpy pass per operation) into ``out[:, s0:s0 + n]``
+    of a C-contiguous ``out (4, N)``. ``ctrl (16, P)``, ``arcp (9, P)``, ``table (3, P * M)`` float64 and
+    ``counts (P,)``, ``idx (n,)`` int64 contiguous, ``t (n,)``; ``M = 0`` (``table`` empty, ``counts`` any
+    P int64): no displacement, the spline renormalised (``bezier_into``'s default). The three per-sample arcs' angles are
+    numpy's ``arccos`` between the kernel's four stages. False when the kernel is not built or disabled
+    (the caller then runs the numpy path)."""
+    if not accelerated():
+        return False
+    n = t.shape[0]
+    w = work.get("cs_work", (56, n))
+    args = (ctrl, arcp, table, counts, int(M), idx, t, out.reshape(-1)[s0:], out.shape[1], w, _TAYLOR_ARR, _LIMITS_ARR)
+    for stage in range(4):
+        if stage:
+            np.arccos(w[47], out=w[46])          # rows 45-47 of the scratch: the arc in progress (sg, th, ct)
+        _cspline.rotations_block(stage, *args)
+    return True
 
 
 def _terms_for(xmax: float) -> int:
@@ -292,9 +329,24 @@ def _pair_arcs(c0, c1, c2, c3, work: Workspace, tag: str) -> np.ndarray:
 
 def _spline_blocks(c0, c1, c2, c3, pair, t, work: Workspace, tag: str):
     """Yield ``(start, stop, spline (4, n))`` blocks of ``CHUNK`` samples of per-pair Béziers: controls and
-    their first-level arcs computed once per pair and gathered per block (a pair's arcs do not depend on t)."""
+    their first-level arcs computed once per pair and gathered per block (a pair's arcs do not depend on t).
+    Through the C kernel where built (:func:`rotations_block_c` without displacement: the same bits)."""
     arcs = _pair_arcs(c0, c1, c2, c3, work, tag)
     N = t.shape[0]
+    if accelerated():
+        P = c0.shape[1]
+        ctrl = work.get(tag + "cctrl", (16, P))
+        for i, c in enumerate((c0, c1, c2, c3)):
+            ctrl[4 * i:4 * i + 4] = c
+        pair = np.ascontiguousarray(pair, dtype=np.int64)
+        t = np.ascontiguousarray(t, dtype=float)
+        none, zeros = np.empty(0), np.zeros(P, np.int64)
+        for s in range(0, N, CHUNK):
+            e = min(N, s + CHUNK)
+            out = work.get(tag + "cout", (4, e - s))
+            rotations_block_c(ctrl, arcs, none, zeros, 0, pair[s:e], t[s:e], out, 0, work)
+            yield s, e, out
+        return
     for s in range(0, N, CHUNK):
         e = min(N, s + CHUNK)
         idx = pair[s:e]

@@ -382,12 +382,16 @@ def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.nda
     M = sm.displacements.shape[2]
     table = W.get("ev_table", (3, P * M))
     table[...] = sm.displacements.reshape(P * M, 3).T
-    counts = sm.displacement_counts.reshape(-1)
+    counts = np.ascontiguousarray(sm.displacement_counts.reshape(-1), dtype=np.int64)
     out = W.get("ev_q", (4, n))
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    t = np.ascontiguousarray(t, dtype=float)
     block = 4 * K.CHUNK                          # blocks bound the scratch; larger ones make fewer numpy calls
     for s0 in range(0, n, block):
         s1 = min(n, s0 + block)
-        _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
+        # the C kernel where built (same bits, ~?x faster), else (or for a wide-angle displacement) numpy
+        if not K.rotations_block_c(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out, s0, W):
+            _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
     return out
 
 
