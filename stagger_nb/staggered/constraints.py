@@ -701,6 +701,37 @@ def _plants(carried, effs) -> list[list[int]]:
     return [np.array(r) for runs in groups.values() for r in runs]
 
 
+# a toe plant held with its ankle's is consistent when their distance is the foot's length within this share
+_FOOT_TOL = 0.05
+
+
+def _release_heels(carried, effs, targets, rest) -> list[tuple[str, int, int]]:
+    """The carried contacts as ``(name, start, stop)``, an ankle contact stopped where a toe contact of the same
+    foot starts inside it (heel-off) when the two plants do not fit one foot: the toe plant's distance from the
+    ankle plant (at the toe's first frame) differs from the foot's length (rest pose ``rest (J, 3)``) by more
+    than ``_FOOT_TOL`` of it. Held together the toe, turned about the held ankle, would stop short of (or
+    beyond) its plant and step onto it when the ankle is released; the later contact (the toe's) holds the
+    foot from its start instead. ``targets`` (one per contact, ``(3,)`` or ``(stop - start, 3)``) are cut to
+    match, in place."""
+    held = [c[:1] + c[2:4] for c in carried]
+    for i, (_, j, s, e, *_r) in enumerate(carried):          # i: a toe contact (held through its ankle)
+        eff = effs[j]
+        if eff == j:
+            continue
+        foot = float(np.linalg.norm(rest[j] - rest[eff]))
+        for k, (_, jk, sk_, _e, *_r2) in enumerate(carried):
+            ek = held[k][2]
+            if jk != eff or not sk_ < s < ek <= e:
+                continue
+            tk, ti = np.asarray(targets[k]), np.asarray(targets[i])
+            gap = np.linalg.norm((ti if ti.ndim == 1 else ti[0]) - (tk if tk.ndim == 1 else tk[s - sk_]))
+            if abs(gap - foot) > _FOOT_TOL * foot:
+                held[k] = (held[k][0], sk_, s)
+                if tk.ndim == 2:
+                    targets[k] = tk[:s - sk_]
+    return held
+
+
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, mode: str = "mean",
                   lower_root: bool | float = 0.5, carry_by: str = "span", plant: str = "hip",
                   source_positions: np.ndarray | None = None) -> Motion:
@@ -714,8 +745,10 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     timing shrunk by 0.1 s (19-23 cm without), the pelvis height changes by <= 1.4 cm and a held foot sits
     <= 1.2 cm above its plant (the source plant with the root lowered alone: 5-12 cm of pelvis drop). Inside
     the SOURCE's contact intervals shrunk by 0.1 s (tests/test_acceptance_editors.py): xia 0.19 cm, bandai
-    0.00, cmu_131_01 1.15 (24-29 cm without; 1.69, 0.76, 2.81 with ``carry_by="joint"``, whose contacts
+    0.00, cmu_131_01 0.38 (24-29 cm without; 1.69, 0.76, 2.81 with ``carry_by="joint"``, whose contacts
     start up to 0.15 s after the source's: the foot still swings on the first frames of those intervals).
+    Where a toe contact starts inside its ankle's and the two plants do not fit one foot, the ankle contact
+    stops there (:func:`_release_heels`; cmu_131_01 RightToe 821-942: 1.15 -> 0.38 cm).
 
     Parameters
     ----------
@@ -845,6 +878,7 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     for (name, j, s_, e_, a, b, clock), piece, d, mu in zip(carried, np.split(at, starts[1:]), shift, means):
         targets.append((mu if mode == "mean" else piece[:, 0]) + d)
         toe_offsets.append(piece[:, 1] - piece[:, 0] if effs[j] != j else None)
-    return apply_contact_constraints(motion, [c[:1] + c[2:4] for c in carried], blend=blend, targets=targets,
+    held = _release_heels(carried, effs, targets, src_pos[0])
+    return apply_contact_constraints(motion, held, blend=blend, targets=targets,
                                      lower_root=share, raise_unreachable=share < 1,
                                      toe_offsets=toe_offsets, _fk=fk)
