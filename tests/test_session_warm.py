@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import itertools
 import threading
+import time
 from concurrent.futures import CancelledError
 
 import numpy as np
@@ -151,3 +152,33 @@ def test_interpreter_exit_does_not_wait_for_the_whole_warm_up(tmp_path):
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120, cwd=Path(__file__).resolve().parents[1])
     assert time.perf_counter() - t0 < 12  # import + extraction + one or two items; the 30 items would take 15 s
+
+
+def test_the_warm_up_gives_way_to_a_foreground_replay():
+    """While a foreground replay runs (``Worker.foreground``, entered by ``Session.edited``/``states``) and
+    for ``IDLE_S`` after it, no gated item starts; an item marked ``False`` (the extraction, which every
+    replay needs) starts at once; the worker's own thread never blocks itself."""
+    from stagger_nb.session.warm import IDLE_S, Worker
+    w = Worker()
+    started = []
+    w.submit([]).result()                                     # the worker thread exists
+    with w.foreground():
+        t0 = time.monotonic()
+        urgent = w.submit([("urgent", lambda r: started.append(("urgent", time.monotonic() - t0)), False)])
+        gated = w.submit([("gated", lambda r: started.append(("gated", time.monotonic() - t0)))])
+        urgent.result(timeout=5)
+        time.sleep(0.3)
+        assert [s[0] for s in started] == ["urgent"]          # held while the foreground runs
+        t1 = time.monotonic()
+    gated.result(timeout=5)
+    assert started[1][0] == "gated" and started[1][1] >= (t1 - t0) + IDLE_S * 0.9   # and IDLE_S after it
+    def nested(report):                                       # on the worker's own thread: a no-op
+        with w.foreground():
+            pass
+    assert w.submit([("nested", nested), ("after", lambda r: None)]).result(timeout=5) == 2
+    cancelled = None
+    with w.foreground():
+        cancelled = w.submit([("never", lambda r: started.append("never"))])
+        cancelled.cancel()
+    time.sleep(IDLE_S * 2)
+    assert cancelled.cancelled() and "never" not in started

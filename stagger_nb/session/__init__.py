@@ -391,7 +391,8 @@ class Session:
 
         ``progress(done, total, label)`` is called before each op that is actually computed.
         """
-        return self._walk(len(self._history.ops), keep_all=True, progress=progress)
+        with self._worker.foreground():   # the warm-up gives way (session/warm.py)
+            return self._walk(len(self._history.ops), keep_all=True, progress=progress)
 
     def edited(self, progress: Callable | None = None) -> Motion:
         """The source motion with every op applied (a Motion; staggered states are evaluated).
@@ -402,14 +403,16 @@ class Session:
         n = len(self._history.ops)
         if not n:
             return self.source
-        last = self._walk(n, progress=progress)
-        if isinstance(last, Motion):
-            return last
-        try:
-            cache = self._ctx.cache   # keyed by the state's content name: every prefix reaching it shares it
-            return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
-        except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
-            raise ValueError(f"ops[{n - 1}] ({self._history.ops[n - 1].name}): evaluating the result: {e}") from None
+        with self._worker.foreground():   # the warm-up gives way (session/warm.py)
+            last = self._walk(n, progress=progress)
+            if isinstance(last, Motion):
+                return last
+            try:
+                cache = self._ctx.cache   # keyed by the state's content name: every prefix reaching it shares it
+                return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
+            except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
+                raise ValueError(f"ops[{n - 1}] ({self._history.ops[n - 1].name}): evaluating the result: "
+                                 f"{e}") from None
 
     def _last_staggered_index(self) -> int | None:
         n = len(self._history.ops)
@@ -592,7 +595,8 @@ class Session:
             name, values = (job, None) if isinstance(job, str) else (
                 tuple(job) if isinstance(job, (list, tuple)) and len(job) == 2 else (None, None))
             if name == "extract" and values is None:
-                items.append(("extract", lambda p: self._ctx.extract(self.source, p)))
+                # not held back while the user moves a slider: every replay of theirs waits for it anyway
+                items.append(("extract", lambda p: self._ctx.extract(self.source, p), False))
             elif name == "cull" and isinstance(values, (list, tuple, range, np.ndarray)):
                 pcs = [_percent(v, f"{where}[1][{k}]") for k, v in enumerate(list(values))]
                 items += [(f"cull {p:g} %", lambda r, p=p: self._ctx.cull(self.extraction(), p, progress=r))
