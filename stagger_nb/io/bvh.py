@@ -30,6 +30,7 @@ import warnings
 
 import numpy as np
 
+from ..core.accel import NO_ACCEL_ENV, accel_allowed
 from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.rotations import quat_angle, quat_continuous, quat_to_euler
 from ..core.skeleton import Skeleton
@@ -45,15 +46,12 @@ except ImportError:  # pragma: no cover - installed without a compiler: numpy + 
 
 __all__ = ["BVHError", "read_bvh", "write_bvh", "parse_bvh", "accelerated", "NO_ACCEL_ENV"]
 
-NO_ACCEL_ENV = "STAGGER_NB_NO_ACCEL"
-
-
 def accelerated() -> bool:
     """Whether :func:`read_bvh` parses motion blocks with the C accelerator (``stagger_nb/io/_cparse.c``).
     True when it was built at install time (``pip install`` compiles it where a C compiler is found) and
     the environment variable ``STAGGER_NB_NO_ACCEL`` is unset, empty or ``0``; any other value forces the
     numpy + pyarrow path (read at every call), which gives bit-identical motions, only slower."""
-    return _cparse is not None and os.environ.get(NO_ACCEL_ENV, "") in ("", "0")
+    return _cparse is not None and accel_allowed()
 
 _VALID_CHANNELS = {"xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation"}
 _MAX_FRAMES = 10_000_000  # refuse absurd headers before allocating anything

@@ -13,17 +13,17 @@ from __future__ import annotations
 
 import bisect
 import math
-import os
 import threading
 
 import numpy as np
+
+from ..core.accel import NO_ACCEL_ENV, accel_allowed  # noqa: F401 (NO_ACCEL_ENV: the switch's name, here too)
 
 try:
     from . import _cspline  # the optional C kernel of evaluate's samples (setup.py builds it where a compiler is found)
 except ImportError:  # pragma: no cover - depends on the build
     _cspline = None
 
-NO_ACCEL_ENV = "STAGGER_NB_NO_ACCEL"   # the same switch as read_bvh's C parser: "1" runs the numpy paths
 
 MIN_ARC = 1e-8  # arcs below this (radians on S^3) use this angle: slerp weights then equal lerp to ~1e-16
 
@@ -70,7 +70,7 @@ _LIMITS_ARR = np.array(_TERM_LIMITS)
 
 def accelerated() -> bool:
     """Whether :func:`rotations_block_c` runs (the C kernel is built and ``STAGGER_NB_NO_ACCEL`` is unset or 0)."""
-    return _cspline is not None and os.environ.get(NO_ACCEL_ENV, "") in ("", "0")
+    return _cspline is not None and accel_allowed()
 
 
 def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, work: "Workspace") -> bool:
