@@ -11,7 +11,8 @@ from stagger_nb import Motion, Skeleton, staggered
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
 from stagger_nb.staggered import editing as E
 from stagger_nb.staggered.fitting import fit_staggered
-from stagger_nb.staggered.representation import default_times, evaluate, evaluate_arrays, knot_times
+from stagger_nb.staggered.evaluation import evaluate, evaluate_arrays
+from stagger_nb.staggered.representation import default_times, knot_times
 
 FT = 1 / 30
 NAMES = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder", "RightArm",

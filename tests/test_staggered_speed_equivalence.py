@@ -18,8 +18,8 @@ import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_exp, quat_mul
-from stagger_nb.staggered import constraints, editing
-from stagger_nb.staggered.representation import rotation_spline
+from stagger_nb.staggered import contact_layer, editing, limbs
+from stagger_nb.staggered.evaluation import rotation_spline
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_chain_fk_equals_full_fk_on_the_chains(edited):
     m, _ = edited
     sk = m.skeleton
     feet = [j for j, n in enumerate(sk.names) if "foot" in n.lower() or "toe" in n.lower()]
-    pos, wq = constraints._fk_joints(m, feet)
+    pos, wq = limbs._fk_joints(m, feet)
     P, W = forward_kinematics(m)
     done = ~np.isnan(pos[0, :, 0])
     assert done[feet].all() and done[0] and not done.all()      # the feet, their ancestors, not the arms
@@ -55,7 +55,7 @@ def test_chain_fk_equals_full_fk_on_the_chains(edited):
 def test_keep_contacts_equals_full_fk_version(edited, monkeypatch, opts):
     m, ed = edited
     new = st.keep_contacts(ed, m, **opts)
-    monkeypatch.setattr(constraints, "_fk_joints", _full_fk)
+    monkeypatch.setattr(contact_layer, "_fk_joints", _full_fk)
     old = st.keep_contacts(ed, m, **opts)
     np.testing.assert_array_equal(new.local_quats, old.local_quats)
     np.testing.assert_array_equal(new.root_positions, old.root_positions)

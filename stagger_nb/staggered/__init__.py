@@ -9,16 +9,17 @@ timing edits and held), IK posing of a staggered pose in ``ik.py`` (:func:`ik_po
 """
 from __future__ import annotations
 
-from .constraints import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
-                          contact_positions, foot_skate, keep_contacts, two_bone_ik)
+from .contact_layer import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
+                            contact_positions, foot_skate, keep_contacts)
 from .contacts import detect_contacts, end_effectors
 from .editing import (OffsetBasis, TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose,
                       pose_offset_basis, random_timing, retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
-from .ik import IKPoseResult, ik_pose, solve_limb
+from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
-from .representation import StaggeredMotion, evaluate, evaluate_arrays, knot_times
+from .evaluation import evaluate, evaluate_arrays
+from .representation import StaggeredMotion, knot_times
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
            "locate_poses",

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, slerp
-from .fitting import displacement_rotvecs
 from . import _kernels as kern
-from .representation import (StaggeredMotion, _rotations_at, bezier_cubic, knot_times, rotation_spline,
-                             static_rotations, translation_source_times)
+from .displacement import displacement_rotvecs
+from .evaluation import _rotations_at, bezier_cubic, rotation_spline, static_rotations, translation_source_times
+from .representation import StaggeredMotion, knot_times
 
 __all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "retime", "succession",
            "OffsetBasis", "pose_offset_basis",
@@ -290,7 +290,7 @@ _PAIR_KERNEL_MIN = 4096   # samples from which the per-pair kernel pays for its 
 
 
 def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.ndarray) -> np.ndarray:
-    """Same as :func:`~stagger_nb.staggered.representation.displacement_at` for the rows ``table[index]``,
+    """Same as :func:`~stagger_nb.staggered.evaluation.displacement_at` for the rows ``table[index]``,
     gathering only the two samples each point needs (not whole rows)."""
     n = counts[index]
     u = np.clip(tn, 0.0, 1.0) * (n - 1)
