@@ -18,7 +18,7 @@ import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_exp, quat_mul
-from stagger_nb.staggered import contact_layer, editing, limbs
+from stagger_nb.staggered import _kernels, contact_layer, evaluation, geometry, limbs
 from stagger_nb.staggered.evaluation import rotation_spline
 
 
@@ -81,20 +81,20 @@ def _per_sample_spline(c0, c1, c2, c3, pair, t, out):
 
 
 def _old_target_pieces(monkeypatch):
-    monkeypatch.setattr(editing, "_PAIR_KERNEL_MIN", 10 ** 12)                # per-sample evaluator
-    monkeypatch.setattr(editing.kern, "spline_into", _per_sample_spline)
+    monkeypatch.setattr(evaluation, "_PAIR_KERNEL_MIN", 10 ** 12)                # per-sample evaluator
+    monkeypatch.setattr(_kernels, "spline_into", _per_sample_spline)
 
     def pair_weights(knots, tk, k, col, side, t, pair):
-        return editing._plateau_weights(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
+        return geometry._plateau_weights(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
 
     def rotations_at(sm, idx, tn):
         J = sm.num_joints
-        return editing._eval_rotations(sm, None, idx % J, seg=idx // J, tn=tn).T
+        return evaluation._eval_rotations(sm, None, idx % J, seg=idx // J, tn=tn).T
 
-    monkeypatch.setattr(editing, "_pair_plateau_weights", pair_weights)
-    monkeypatch.setattr(editing, "_rotations_at", rotations_at)
-    monkeypatch.setattr(editing.kern, "qexp", lambda v: quat_exp(v.T).T)
-    monkeypatch.setattr(editing.kern, "qmul", lambda a, b: quat_mul(a.T, b.T).T)
+    monkeypatch.setattr(geometry, "_pair_plateau_weights", pair_weights)
+    monkeypatch.setattr(geometry, "_rotations_at", rotations_at)
+    monkeypatch.setattr(_kernels, "qexp", lambda v: quat_exp(v.T).T)
+    monkeypatch.setattr(_kernels, "qmul", lambda a, b: quat_mul(a.T, b.T).T)
 
 
 @pytest.mark.parametrize("w_r, reference", [(0.4, "previous"), (1.5, "mean"), (-0.5, "next")])

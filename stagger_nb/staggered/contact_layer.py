@@ -414,9 +414,9 @@ def _timeline(edited):
 
 def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint", tables=None):
     """``[(name, joint, start, stop, source_start, source_stop, clock)]`` of the contacts that keep a frame
-    (``clock``: the index of the joint whose time warp moved it); ``tables``: ``editing._warp_tables(edited)``
+    (``clock``: the index of the joint whose time warp moved it); ``tables``: ``timing._warp_tables(edited)``
     when the caller has them."""
-    from .editing import _warp_column, _warp_tables
+    from .timing import _warp_column, _warp_tables
     from .representation import StaggeredMotion
     ft_s = float(source_frame_time)
     if not np.isfinite(ft_s) or ft_s <= 0:
@@ -474,7 +474,7 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
 
     A contact ``(joint, start, stop)`` holds on source frames ``[start, stop)`` (times ``frame *
     source_frame_time``). Its first and last active times are mapped through the time warp of that joint's
-    rotation (:func:`~stagger_nb.staggered.editing.warp_times`: piecewise linear from the source knot times
+    rotation (:func:`~stagger_nb.staggered.timing.warp_times`: piecewise linear from the source knot times
     to the edited knot times, §3/§5.2), and become the frames of ``evaluate(edited)`` (times
     ``pose_times[0] + n * frame_time``) inside the mapped interval.
 
@@ -653,7 +653,7 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     Motion: ``evaluate(edited)`` (or ``edited``) with the contact chains' rotations displaced.
     """
     from .contacts import detect_contacts
-    from .editing import _warp_column, _warp_tables
+    from .timing import _warp_column, _warp_tables
     from .evaluation import evaluate
     from .representation import StaggeredMotion
     if not isinstance(source, Motion):

@@ -1,11 +1,13 @@
 """Displacement maps (Coleman et al. 2008, §3, §4.1.1): ``d = v ⊖ s``, what the spline leaves of the motion, as
-rotation vectors unwrapped along each (segment, joint) grid.
+rotation vectors unwrapped along each (segment, joint) grid; and their re-measuring after an edit (§5.1): the
+grid of each re-measured map, its sample count, and the rows measured against a target motion.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from . import _kernels as K
+from .evaluation import bezier_cubic
 
 __all__ = ["displacement_rotvecs"]
 
@@ -55,4 +57,66 @@ def displacement_rotvecs(s, targets, pair):
         # angle / |v| = 2 half / |v|; Taylor below _LOG_SMALL: 2 / w (as core.rotations.quat_log)
         sc_ = np.where(big, 2.0 * half / np.where(big, n, 1.0), 2.0 / np.where(x[3] != 0, x[3], 1.0))
         out[a:b] = (x[:3] * sc_).T
+    return out
+
+
+def _grid(a: np.ndarray, b: np.ndarray, counts: np.ndarray):
+    """Uniform t' grids of P segments ``[a, b]``: sample's pair index, index within pair, t', time."""
+    pair = np.repeat(np.arange(counts.size), counts)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    m = np.arange(pair.size) - starts[pair]
+    tn = m / (counts[pair] - 1.0)
+    return pair, m, tn, a[pair] + tn * (b - a)[pair]
+
+
+_OVERSAMPLE = 4  # grid refinement of re-measured maps whose ends are off the frame grid (interpolation error / 4)
+
+
+def _counts_for(a, b, frame_time):
+    """Samples of re-measured displacement maps on segments ``[a, b]``: one per source frame spanned (+1),
+    so knots on frames put every grid point on a frame (exact there); segments with an end off the frame
+    grid (after timing edits) get ``_OVERSAMPLE`` times more samples to keep the linear interpolation close."""
+    fa, fb = a / frame_time, b / frame_time
+    aligned = (np.abs(fa - np.rint(fa)) < 1e-6) & (np.abs(fb - np.rint(fb)) < 1e-6)
+    per = np.where(aligned, 1, _OVERSAMPLE)
+    return np.maximum(np.rint((b - a) / frame_time * per).astype(np.int64) + 1, 2)
+
+
+def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn, grid=None):
+    """Displacement rows ``(P, max(counts), 3)`` of the pairs ``(seg[p], joint[p])`` so that the spline of
+    ``values``/``tangents`` plus the displacement equals ``target_fn(times, joints, pair, tn)`` on the grid
+    (``grid``: :func:`_grid` of these pairs when the caller has it)."""
+    if grid is None:
+        knots = np.maximum.accumulate(knots, axis=0)
+        grid = _grid(knots[seg, joint], knots[seg + 1, joint], counts)
+    pair, m, tn, t = grid
+    sp, jp = seg[pair], joint[pair]
+    # the new spline on the grid, its control arcs computed once per pair (not per sample: same values)
+    ctrl = [np.ascontiguousarray(x.T) for x in (values[seg, joint], tangents[seg, joint, 0],
+                                                 tangents[seg, joint, 1], values[seg + 1, joint])]
+    s = K.spline_into(*ctrl, pair, tn, K.WORK.get("ms_s", (4, tn.size))).T   # read before the next call
+    v = target_fn(t, jp, pair, tn)
+    d = displacement_rotvecs(s, v, pair)          # unwrapped along each grid, as at extraction
+    rows = np.zeros((counts.size, int(counts.max()), 3))
+    rows[pair, m] = d
+    return rows
+
+
+def _measure_root(root_values, root_tangents, root_knots, seg, counts, target_fn):
+    pair, m, tn, t = _grid(root_knots[seg], root_knots[seg + 1], counts)
+    sp = seg[pair]
+    s = bezier_cubic(root_values[sp], root_tangents[sp, 0], root_tangents[sp, 1], root_values[sp + 1], tn)
+    rows = np.zeros((counts.size, int(counts.max()), 3))
+    rows[pair, m] = target_fn(t, pair, tn) - s
+    return rows
+
+
+def _put_rows(table: np.ndarray, index: tuple, rows: np.ndarray) -> np.ndarray:
+    """Copy of a displacement table (sample axis -2: ``(K-1, J, M, 3)`` or ``(K-1, M, 3)``) with the rows at
+    ``index`` replaced by ``rows (P, M', 3)``; the sample axis grows if ``M' > M``."""
+    M = max(table.shape[-2], rows.shape[1])
+    out = np.zeros(table.shape[:-2] + (M, 3))
+    out[..., :table.shape[-2], :] = table
+    out[index] = 0.0
+    out[index + (slice(0, rows.shape[1]),)] = rows
     return out

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion
+from ..core.rotations import quat_exp, quat_mul
 from . import _kernels as K
 from .representation import StaggeredMotion, default_times, knot_times
 
@@ -343,3 +344,58 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     # arrays computed here from a valid representation: the trusted constructor (no re-validation); q may
     # be workspace memory, so the Motion gets its own copy
     return Motion._trusted(sm.skeleton, ft, p, np.array(q), lt)
+
+
+def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
+    """Segment and normalised time of each ``(times[n], cols[n])`` in the knot columns ``knots (K, C)``."""
+    knots = np.maximum.accumulate(knots, axis=0)
+    K, C = knots.shape
+    # one searchsorted for all columns: shift column c by c * span so the flattened knots stay sorted
+    lo = min(knots.min(), times.min())
+    span = max(knots.max(), times.max()) - lo + 1.0
+    flat = ((knots - lo) + np.arange(C) * span).T.reshape(-1)
+    seg = np.searchsorted(flat, (times - lo) + cols * span, side="right") - 1 - cols * K
+    np.clip(seg, 0, K - 2, out=seg)
+    a, b = knots[seg, cols], knots[seg + 1, cols]
+    L = b - a
+    tn = np.where(L > 0, (times - a) / np.where(L > 0, L, 1.0), 1.0)
+    return seg, np.clip(tn, 0.0, 1.0)
+
+
+_PAIR_KERNEL_MIN = 4096   # samples from which the per-pair kernel pays for its per-pair set-up
+
+
+def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.ndarray) -> np.ndarray:
+    """Same as :func:`~stagger_nb.staggered.evaluation.displacement_at` for the rows ``table[index]``,
+    gathering only the two samples each point needs (not whole rows)."""
+    n = counts[index]
+    u = np.clip(tn, 0.0, 1.0) * (n - 1)
+    m0 = np.minimum(np.floor(u).astype(np.int64), n - 2)
+    a = (u - m0)[:, None]
+    return table[index + (m0,)] * (1.0 - a) + table[index + (m0 + 1,)] * a
+
+
+def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray, seg=None, tn=None) -> np.ndarray:
+    """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``);
+    pass ``seg``/``tn`` when the segment and normalised time are already known.
+
+    Many samples (a re-measured displacement grid) go through ``evaluate``'s own kernel, whose
+    control-polygon arcs are computed once per (segment, joint) pair instead of once per sample (the same
+    values to ~1e-16; 2-3x faster); a few (the K x J knots of :func:`_refresh`) through the small
+    evaluator below."""
+    if seg is None:
+        seg, tn = _segments(knot_times(sm), times, joints)
+    if seg.size > _PAIR_KERNEL_MIN:
+        return np.array(_rotations_at(sm, seg * sm.num_joints + joints, np.clip(tn, 0.0, 1.0)).T)
+    tg = sm.tangents[seg, joints]
+    s = rotation_spline(sm.values[seg, joints], tg[:, 0], tg[:, 1], sm.values[seg + 1, joints], tn)
+    d = _displacement(sm.displacements, sm.displacement_counts, (seg, joints), tn)
+    return quat_mul(s, quat_exp(0.5 * d))
+
+
+def _eval_root(sm: StaggeredMotion, times: np.ndarray) -> np.ndarray:
+    """Root translation ``(N, 3)`` at ``times (N,)``."""
+    seg, tn = _segments((sm.pose_times + sm.root_refinements)[:, None], times, np.zeros(times.size, np.int64))
+    rt = sm.root_tangents[seg]
+    p = bezier_cubic(sm.root_values[seg], rt[:, 0], rt[:, 1], sm.root_values[seg + 1], tn)
+    return p + _displacement(sm.root_displacements, sm.root_displacement_counts, (seg,), tn)

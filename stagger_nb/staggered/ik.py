@@ -5,7 +5,7 @@ pose edit (Coleman et al. 2008, §5.1; issue 11 item 7).
 The limb is solved on the pose the motion passes through at ``t_k`` (the editing knots ``v⁰_k``): a
 two-bone chain (upper joint, middle joint, effector: shoulder-elbow-wrist, hip-knee-ankle) analytically,
 keeping the bend plane so the elbow/knee keeps pointing where it pointed; a longer chain by damped least
-squares. The new local rotations become an :func:`~stagger_nb.staggered.editing.edit_pose` in staggered
+squares. The new local rotations become an :func:`~stagger_nb.staggered.geometry.edit_pose` in staggered
 mode (``v̂⁰ = target``, the extreme knots get the same change, §5.1 first approach), so the edit is part of
 the staggered pose: succession and random timing applied afterwards move it with the pose's timing.
 
@@ -19,8 +19,9 @@ import numpy as np
 
 from ..core.kinematics import forward_kinematics, skeleton_height
 from ..core.rotations import quat_conj, quat_exp, quat_mul, quat_rotate, rotvec_to_quat
-from .editing import _finite, _pose_index, edit_pose
+from ._checks import _finite, _pose_index
 from .evaluation import evaluate
+from .geometry import edit_pose
 from .limbs import _limb
 from .representation import StaggeredMotion
 
