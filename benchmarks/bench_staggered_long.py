@@ -93,8 +93,8 @@ def bounded_work():
     tiny = dataclasses.replace(sm, frame_time=1e-9)
     _, c_t, _, _ = measure(lambda: refused(lambda: staggered.evaluate(tiny)))
     _, c_ev, _, _ = measure(lambda: staggered.evaluate(sm))
-    print(f"evaluate refusing frame_time 1e-9      {1e3 * c_t:8.2f} ms cpu  ratio {c_t / max(c_ev, 1e-9):.3f} x evaluate "
-          f"({1e3 * c_ev:.2f} ms)")
+    print(f"evaluate refusing frame_time 1e-9      {1e3 * c_t:8.2f} ms cpu  ratio {c_t / max(c_ev, 1e-9):.3f} x "
+          f"evaluate ({1e3 * c_ev:.2f} ms)")
     hi = chain_motion([0.2, 0.25, 0.3], duration=0.4, fps=5000.0)
     _, c_hi, _, _ = measure(lambda: staggered.extract(hi))
     print(f"extract at 5000 fps (2001 frames)      {1e3 * c_hi:8.2f} ms cpu  ratio {c_hi / c_ok:.1f} x the 120 fps "

@@ -21,8 +21,8 @@ Modules, one job each (paper sections in brackets):
 * constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
   ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
 
-The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
-(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters
+are JSON-serialisable (joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
 "s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
 
 Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot

@@ -164,7 +164,8 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     if evaluated is not None and not from_sm:
         raise ValueError("fit_staggered: evaluated applies to a StaggeredMotion source only")
     if from_sm:
-        evaluated = check_evaluated("fit_staggered", source, evaluated)                     # resample the representation itself (exact after any edit), §5.1
+        # resample the representation itself (exact after any edit), §5.1
+        evaluated = check_evaluated("fit_staggered", source, evaluated)
         start_time = 0.0
 
         def rot_at(frames, joints):
@@ -300,7 +301,8 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     ``evaluated``: ``evaluate(sm)`` if the caller has it (see :func:`fit_staggered`; validated by the caller).
 
     Returns the new StaggeredMotion, or None when the local refit does not apply or does not pay (the
-    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the frame grid,
+    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the
+    frame grid,
     ``sm`` fitted with other options or other displacement sampling, a knot value of opposite sign to the
     samples beside it); the caller then refits fully.
     """

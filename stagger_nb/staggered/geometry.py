@@ -164,8 +164,8 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
     touched segments are re-measured so that ``v̂(t) = v(t) ⊕ w_k(t) δ_k ⊕ w_{k+1}(t) δ_{k+1}`` (the
     rotation channel with ``basis`` when given)."""
     fields = {}
-    for name, ch, d, b in (("rotations", sm.rotations, deltas, basis),
-                           ("translation", sm.translation, None if root_deltas is None else root_deltas[:, None], None)):
+    rd = None if root_deltas is None else root_deltas[:, None]                # (K, 1, 3): one column
+    for name, ch, d, b in (("rotations", sm.rotations, deltas, basis), ("translation", sm.translation, rd, None)):
         if d is not None:
             gen = ch.algebra.generator(d)                          # (K, C, 3)
             moved = ch.algebra.moves(gen)                          # (K, C)
@@ -311,7 +311,8 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
     basis : OffsetBasis, optional
         :func:`pose_offset_basis` of ``sm`` (cache it per ``sm``: it does not depend on ``k``, ``w_r``,
         ``reference``, ``mode`` or ``joints``); used when the edit moves at least half of the (segment, joint)
-        pairs (e.g. every pose), where it saves a quarter to a third of the work; the same result to rounding. A basis of another motion is a ValueError.
+        pairs (e.g. every pose), where it saves a quarter to a third of the work; the same result to rounding.
+        A basis of another motion is a ValueError.
     """
     _check(sm)
     w_r = _finite(w_r, "w_r")
@@ -336,7 +337,8 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
             elif reference == "mean":
                 ref = mean
             else:
-                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, got {reference!r}")
+                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
+                                 f"got {reference!r}")
         elif isinstance(reference, (int, np.integer)):
             ref = vals[_pose_index(sm, reference, "reference")]
         else:

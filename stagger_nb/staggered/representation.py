@@ -212,7 +212,8 @@ class StaggeredMotion:
         K = self.num_poses
         for name, v in fields.items():
             if isinstance(v, Channel):
-                if v.algebra is not getattr(self, name).algebra or v.values.shape[:2] != getattr(self, name).values.shape[:2]:
+                old = getattr(self, name)
+                if v.algebra is not old.algebra or v.values.shape[:2] != old.values.shape[:2]:
                     return dataclasses.replace(self, **fields)
             elif name in ("editing_knots", "pose_probability", "pose_times"):
                 if np.shape(v) != getattr(self, name).shape:
