@@ -148,3 +148,14 @@ def test_few_and_many_rotation_samples_agree(sm):
     assert quat_angle(many, few).max() < 1e-12
     root = staggered.evaluation.root_positions_at(sm, times)
     np.testing.assert_allclose(channel_at_times(sm.translation, sm.pose_times, times, 0), root, rtol=0, atol=1e-9)
+
+
+def test_pickled_and_copied_motions_keep_their_algebras(sm):
+    """The two algebras are module singletons (the evaluator dispatches on ``algebra is ROTATION``): a pickled
+    (a batch worker, a cache on disk) or deep-copied motion keeps them and evaluates to the same bits."""
+    import copy
+    import pickle
+    for other in (pickle.loads(pickle.dumps(sm)), copy.deepcopy(sm)):
+        assert other.rotations.algebra is ROTATION and other.translation.algebra is TRANSLATION
+        a, b = staggered.evaluate(sm), staggered.evaluate(other)
+        assert np.array_equal(a.local_quats, b.local_quats) and np.array_equal(a.root_positions, b.root_positions)

@@ -84,6 +84,9 @@ class Algebra:
     def __repr__(self) -> str:
         return f"<{self.name} algebra>"
 
+    def __reduce__(self):
+        return self.name.upper()      # pickled and copied as the module's instance: ``algebra is ROTATION`` holds
+
 
 class _Rotation(Algebra):
     name, dim = "rotation", 4
