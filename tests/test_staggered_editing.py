@@ -677,5 +677,7 @@ def test_offset_basis_reads_the_reproduced_motion_on_frames(fixture):
     a = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
     b = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=read)).local_quats
     assert quat_angle(a, b).max() < 1e-12
-    for other in (staggered.succession(sm, root="Hips", s=0.02, l=1.0), staggered.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
-        assert np.array_equal(staggered.pose_offset_basis(other, reproduced=m).old, staggered.pose_offset_basis(other).old)
+    for other in (staggered.succession(sm, root="Hips", s=0.02, l=1.0),
+                  staggered.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
+        assert np.array_equal(staggered.pose_offset_basis(other, reproduced=m).old,
+                              staggered.pose_offset_basis(other).old)

@@ -5,8 +5,11 @@ Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_con
 
 Modules, one job each (paper sections in brackets):
 
-* ``representation``: :class:`StaggeredMotion` and its knot times (§3); ``evaluation``: the one evaluator,
-  :func:`evaluate` (§3; the C kernel ``_cspline.c`` behind ``_kernels`` where built).
+* ``channel``: one kind of control variable (knots, tangents, refinements, displacement maps) and its algebra
+  (⊕/⊖ and the spline: quaternion product for rotations, + for the root translation), §3;
+  ``representation``: :class:`StaggeredMotion`, which holds a rotation channel and a translation channel;
+  ``evaluation``: the one evaluator of a channel, and :func:`evaluate` (§3; the C kernel ``_cspline.c`` behind
+  ``_kernels`` where built).
 * ``features`` (motion-trail curvature, §4.1), ``contacts`` (detection, Appendix B), ``extraction``
   (:func:`extract`, :func:`cull`, §4.1).
 * fitting (§4.1.1, Appendix A): ``sampling`` (grids), ``rotation_fit`` (C0) and ``rotation_fit_c1`` (C1),
@@ -18,8 +21,8 @@ Modules, one job each (paper sections in brackets):
 * constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
   ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
 
-The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
-(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters
+are JSON-serialisable (joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
 "s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
 
 Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot

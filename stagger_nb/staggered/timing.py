@@ -15,8 +15,8 @@ import numpy as np
 
 from ..core.limits import MAX_TAU
 from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask
-from .evaluation import _eval_rotations
-from .representation import StaggeredMotion, knot_times
+from .evaluation import evaluate_samples
+from .representation import StaggeredMotion
 from . import timing_report
 from .timing_report import _LazyWarnings
 
@@ -49,12 +49,12 @@ def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
             row = np.clip(row, 0, at.size - 1)
             if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
                 return rec[row]
-    return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+    return np.concatenate([ch.knots(sm.pose_times) for ch in sm.channels], axis=1)
 
 
 def _current_knots(sm: StaggeredMotion) -> np.ndarray:
     """Knot times (K, J + 1) in the column layout of :func:`source_knot_times`."""
-    return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+    return np.concatenate([ch.knots(sm.pose_times) for ch in sm.channels], axis=1)
 
 
 def warp_times(sm: StaggeredMotion, times, joint, *, inverse: bool = False) -> np.ndarray:
@@ -107,9 +107,7 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
         source_knots = source_knot_times(sm)
     new = sm._with_fields(**fields)          # (arrays the edit did not change are shared, not copied)
     K, J = new.num_poses, new.num_joints
-    # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
-    # for whole clips; alternating tiny calls with full evaluations would make it re-allocate them)
-    q = _eval_rotations(new, np.repeat(new.pose_times, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
+    q = evaluate_samples(new, np.repeat(new.pose_times, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
     editing = np.where((new.refinements != 0)[..., None], q, new.values)
     editing.setflags(write=False)
     meta = {k: v for k, v in dict.items(new.metadata) if k != "warnings"}   # (a lazy entry is not computed)
@@ -171,9 +169,10 @@ def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray, ea
     t = sm.pose_times
     moved = dr != 0
     ease = _eased if ease_ends else (lambda r, t, moved: r)
-    fields = dict(refinements=ease(sm.refinements + dr, t, moved))
+    fields = dict(rotations=sm.rotations.with_arrays(refinements=ease(sm.refinements + dr, t, moved)))
     if joint_mask[0] and np.any(dr[:, 0]):
-        fields["root_refinements"] = ease((sm.root_refinements + dr[:, 0])[:, None], t, moved[:, :1])[:, 0]
+        r = sm.translation.refinements
+        fields["translation"] = sm.translation.with_arrays(refinements=ease(r + dr[:, :1], t, moved[:, :1]))
     return _refresh(sm, **fields)
 
 
