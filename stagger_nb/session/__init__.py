@@ -117,14 +117,15 @@ def _share(progress: Callable | None, done: int, total: int, a: float, b: float,
     return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
 
 
-def _timing_summary(found) -> str:
-    """One plain sentence about the timing warnings ``found`` ('' when none), §5.2."""
+def _timing_summary(state, found) -> str:
+    """One plain sentence about the timing edits of the staggered ``state`` ('' when none needs saying):
+    ``staggered.timing_summary`` (a limited delay, or knots that cross), §5.2; ``found`` (the detailed
+    ``timing_warnings``) is shown beside it on demand."""
     from .. import staggered
-    summarize = getattr(staggered, "summarize_timing_warnings", None)
+    summarize = getattr(staggered, "timing_summary", None)
     if summarize is not None:
-        return summarize(found)
-    return (f"{len(found)} timing warning(s): refined times cross a neighbouring pose; lower s, l or tau"
-            if found else "")
+        return summarize(state)
+    return staggered.summarize_timing_warnings(found)
 
 
 def _chain(previous: str, op: Op) -> str:
@@ -440,7 +441,8 @@ class Session:
 
     def messages(self) -> list[str]:
         """Plain notes from the last replay, for the user: what a runner reported (an unreachable IK target,
-        …) and the summarised timing warnings of the last staggered state (``staggered.timing_warnings``).
+        …) and the one plain timing sentence of the last staggered state (``staggered.timing_summary``: a
+        timing edit limited to keep the poses in order, or knots that cross).
         Empty before the first replay."""
         if not self._replayed:
             return []
@@ -457,10 +459,10 @@ class Session:
 
     def timing_warnings(self) -> tuple[str, tuple]:
         """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
-        of :meth:`messages` ('' when none) and ``staggered.timing_warnings`` of that state (a tuple of
-        ``TimingWarning``). Both are computed once per state (keyed by the digest of the op prefix that made
-        it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
-        when no op is staggered."""
+        of :meth:`messages` (``staggered.timing_summary``; '' when none) and ``staggered.timing_warnings`` of
+        that state (a tuple of ``TimingWarning``). Both are computed once per state (keyed by the digest of
+        the op prefix that made it: a slider move that leaves that state alone, or returns to it, does not
+        recompute them); empty when no op is staggered."""
         n = len(self._history.ops)
         if n:
             self._walk(n)
@@ -475,8 +477,9 @@ class Session:
         inf = self._info[keys[j]]
         if inf.warnings is None:
             from .. import staggered
-            found = tuple(staggered.timing_warnings(self._walk(j + 1)))
-            inf.summary, inf.warnings = _timing_summary(found), found
+            state = self._walk(j + 1)
+            found = tuple(staggered.timing_warnings(state))
+            inf.summary, inf.warnings = _timing_summary(state, found), found
         return inf.summary, inf.warnings
 
     def warp_curve(self, index: int = -1):

@@ -2,8 +2,9 @@
 
 Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_contacts`,
 :class:`StaggeredMotion` (``sm.pose_times (K,)``, ``sm.refinements (K, J)`` in seconds).
-The editing tools (§5) are in ``editing.py`` (timing warnings: :func:`timing_warnings`, one plain sentence:
-:func:`summarize_timing_warnings`; the per-joint time warp of the timing edits: :func:`warp_times`), the IK
+The editing tools (§5) are in ``editing.py`` (timing warnings: :func:`timing_warnings`; the one plain sentence
+about a timing edit limited to keep the poses in order: :func:`timing_summary`; the saturation itself:
+:func:`saturate_offsets`; the per-joint time warp of the timing edits: :func:`warp_times`), the IK
 constraint layer in ``constraints.py`` (:func:`keep_contacts`: the source's contacts carried through the
 timing edits and held), IK posing of a staggered pose in ``ik.py`` (:func:`ik_pose`).
 """
@@ -12,8 +13,10 @@ from __future__ import annotations
 from .constraints import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
                           contact_positions, foot_skate, keep_contacts, two_bone_ik)
 from .contacts import detect_contacts, end_effectors
-from .editing import (OffsetBasis, TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose,
-                      pose_offset_basis, random_timing, retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
+from .editing import (TIMING_LIMIT, OffsetBasis, TimingWarning, body_part, delete_pose, edit_pose, exaggerate,
+                      insert_pose, mean_pose, pose_offset_basis, random_timing, retime, saturate_offsets,
+                      source_knot_times, succession, summarize_timing_warnings, timing_summary, timing_warnings,
+                      warp_times)
 from .ik import IKPoseResult, ik_pose, solve_limb
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
@@ -24,7 +27,9 @@ __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detec
            "locate_poses",
            "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
            "knot_times",
-           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
+           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "timing_summary", "saturate_offsets",
+           "TIMING_LIMIT", "body_part", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "OffsetBasis",
+           "pose_offset_basis", "retime", "succession", "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik", "contact_positions",
            "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts", "keep_contacts",
            "IKPoseResult", "ik_pose", "solve_limb"]
