@@ -49,6 +49,8 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
 
+from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
+
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
@@ -66,10 +68,6 @@ MAX_ITEMS = 100_000
 #: succession exponent above 10 (depth^l; depths are ~10), an exaggeration weight beyond +-100.
 MAX_SECONDS = 60.0
 MAX_EXPONENT = 10.0
-#: Default ``limit`` of succession / random_timing: no segment of a joint's curve plays more than this many
-#: times faster than in the source (the value of ``staggered.TIMING_LIMIT``; ``null``: the paper's raw offsets).
-TIMING_LIMIT = 1.5
-MAX_TIMING_LIMIT = 1000.0
 MAX_WEIGHT = 100.0
 
 
