@@ -212,8 +212,8 @@ class Session:
         """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
         of :meth:`messages` (``staggered.timing_summary``; '' when none) and ``staggered.timing_warnings`` of
         that state (a tuple of ``TimingWarning``, the details). Both are computed once per state (keyed by the
-        digest of the op prefix that made it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
-        when no op is staggered."""
+        digest of the op prefix that made it: a slider move that leaves that state alone, or returns to it, does
+        not recompute them); empty when no op is staggered."""
         return self._replay.timing_warnings(self._history.ops)
 
     def warp_curve(self, index: int = -1):
