@@ -128,6 +128,43 @@ def goals_line(name):
     return f"  goals for {name} ({EDITS[name][4]}): " + ", ".join(parts)
 
 
+def condensed(rows, edits):
+    """The two tables quoted in reports: layer on (travel / pelvis vs no layer / added pop; unedited: moved /
+    travel / pop) and the timing edit alone (added pop / knots out of order / detail); ``!`` = fails."""
+    idx = {(r["clip"], r.get("edit"), r.get("layer")): r for r in rows}
+    names = list(dict.fromkeys(r["clip"] for r in rows))
+
+    def on(r):
+        if r is None:
+            return "-"
+        if "error" in r:
+            return "EXC"
+        d = r["report"]
+        p = d["pelvis_vs_baseline"] if d["pelvis_vs_baseline"] is not None else d["pelvis"]
+        first = d["moved"] if r["edit"] == "unedited" else d["foot_travel"]
+        second = d["foot_travel"] if r["edit"] == "unedited" else p
+        return f"{first:.1f}/{second:.1f}/{d['added_pop']:.0f}" + ("" if d["ok"] else "!")
+
+    def off(r):
+        if r is None:
+            return "-"
+        if "error" in r:
+            return "EXC"
+        d = r["report"]
+        return f"{d['added_pop']:.1f}/{len(d['knots_out_of_order'] or ())}/{d['detail']:.2f}"
+
+    for title, layer, fn in (("layer on: travel/pelvis vs no layer/added pop (unedited: moved/travel/pop), "
+                              "! = fails its preset", "on", on),
+                             ("timing edit alone (layer off): added pop/knots out of order/detail", "off", off)):
+        if not any(k[2] == layer for k in idx):
+            continue
+        print()
+        print(title)
+        print(f"{'clip':26s}" + "".join(f"{e:>16s}" for e in edits))
+        for c in names:
+            print(f"{c[:26]:26s}" + "".join(f"{fn(idx.get((c, e, layer))):>16s}" for e in edits))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--clip", help="only clips whose name contains this")
@@ -196,6 +233,7 @@ def main():
     print("clips meeting the goals (ok / failing / exceptions):")
     for (ename, label), (ok, fail, err) in tally.items():
         print(f"  {ename:9s} layer {label:3s}: {ok:2d} ok, {fail:2d} failing, {err:2d} exceptions")
+    condensed(rows, edits)
     print(f"total CPU {time.process_time() - t_all:.1f} s; load average {os.getloadavg()[0]:.1f}")
     if a.json:
         tmp = Path(a.json).with_suffix(".tmp")
