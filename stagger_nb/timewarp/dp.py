@@ -20,8 +20,7 @@ import numpy as np
 KEEP_COSTS_BYTES = 256 << 20   # constrained_dp keeps every output frame's costs below this, else int8 backpointers
 
 __all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "input_time_dp", "step_weights",
-           "constrained_dp_loop", "path_cost",
-           "validate_keys"]
+           "path_cost", "validate_keys", "check_ends"]
 
 
 def validate_keys(n: int, m: int, skip: int, keys=None) -> list[tuple[int, int]]:
@@ -336,36 +335,3 @@ def path_cost(scores: np.ndarray, frames, ends=None) -> float:
     a = f[1:-1] - f[:-2]
     b = f[2:] - f[1:-1]
     return float(scores[f[1:-1], a - 1, b - 1].sum()) + extra
-
-
-def constrained_dp_loop(scores: np.ndarray, m: int, keys=None):
-    """Straightforward reference implementation of :func:`constrained_dp` (eqs. 3-4 as written: Python
-    loops over steps, vertices and predecessors; no banding beyond the keys). Same return value."""
-    scores = np.asarray(scores, dtype=float)
-    n, s, _ = scores.shape
-    pts = dict(validate_keys(n, m, s, keys))
-    INF = float("inf")
-    # cost[(i, j)] for paths with output frames 0..q ending with y_{q-1} = i, y_q = j
-    cost = {(0, j): 0.0 for j in range(1, min(s, n - 1) + 1) if pts.get(1, j) == j}
-    back = [None, None]
-    for q in range(1, m - 1):
-        new, bp = {}, {}
-        for (i, j), cij in cost.items():
-            for k in range(j + 1, min(j + s, n - 1) + 1):
-                if pts.get(q + 1, k) != k:
-                    continue
-                v = cij + scores[j, j - i - 1, k - j - 1]
-                if v < new.get((j, k), INF):
-                    new[(j, k)] = v
-                    bp[(j, k)] = i
-        cost = new
-        back.append(bp)
-    finals = [(v, key) for key, v in cost.items() if key[1] == n - 1]
-    if not finals:
-        return np.round(np.linspace(0, n - 1, m)).astype(np.int64), INF
-    v, (i, j) = min(finals)
-    frames = [j, i]
-    for q in range(m - 1, 1, -1):
-        i, j = back[q][(i, j)], i
-        frames.append(i)
-    return np.array(frames[::-1], dtype=np.int64), float(v)

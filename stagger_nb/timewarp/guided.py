@@ -496,7 +496,7 @@ def _weighted(tables: WarpTables, weighting: str):
 
 
 def _penalised(tables: WarpTables, speed_penalty: float, penalty_scale: str = "doubling",
-               weighting: str = "output") -> np.ndarray:
+               weighting: str = "output", free_ratio: float = None) -> np.ndarray:
     """``scores + lambda * u * (log b - log a)^2`` with ``u`` = :func:`penalty_unit` (of the unweighted
     scores): the DP's scores (:func:`_weighted`) with the speed-change penalty of :func:`solve_warp` (a new
     (n, s, s) array; the tables are not modified)."""
@@ -506,7 +506,8 @@ def _penalised(tables: WarpTables, speed_penalty: float, penalty_scale: str = "d
     scale = penalty_unit(tables.scores, penalty_scale)
     if not scale > 0:
         return S
-    return S + (speed_penalty * scale) * speed_change_penalty(tables.skip)[None]
+    ratio = PENALTY_FREE_RATIO if free_ratio is None else free_ratio
+    return S + (speed_penalty * scale) * speed_change_penalty(tables.skip, ratio)[None]
 
 
 PENALTY_FREE_RATIO = 1.5   # consecutive steps within this ratio are not penalised (see speed_change_penalty)
@@ -538,7 +539,8 @@ def _check_speed_penalty(speed_penalty) -> float:
 
 def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coarse: int | None = None,
                band: float | None = None, speed_penalty: float = SPEED_PENALTY, free_objective: str = FREE_OBJECTIVE,
-               penalty_scale: str = "doubling", weighting: str = "input_time", progress=None) -> WarpSolution:
+               penalty_scale: str = "doubling", weighting: str = "input_time", penalty_free_ratio: float | None = None,
+               progress=None) -> WarpSolution:
     """The optimal discrete warp for a target length and keytimes (§3.3), from precomputed tables.
 
     Parameters
@@ -564,6 +566,8 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
         speed 1 and bursts at ``skip`` x (many near-ties of the objective), which playback shows as pops.
         0 is the paper's objective. ``cost`` is always eq. (1) (with the end terms) without the penalty.
     penalty_scale : "doubling" (default) or "median", the unit ``u`` (:func:`penalty_unit`)
+    penalty_free_ratio : consecutive steps within this ratio are not penalised (None: :data:`PENALTY_FREE_RATIO`
+        = 1.5; 1: every change, issue 13's form), see :func:`speed_change_penalty`
     weighting : what the constrained search sums (an addition to the paper, issue 25). ``"output"`` is eq. (1):
         one local score per output frame. Then an output frame that a compression removes takes its whole
         score with it, also the part no speed could avoid: with k = 3 the score of a real-time frame is the
@@ -586,13 +590,16 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
     s = tables.skip
     to_seconds = tables.search_frame_time
     lam = _check_speed_penalty(speed_penalty)
+    ratio = PENALTY_FREE_RATIO if penalty_free_ratio is None else float(penalty_free_ratio)
+    if not np.isfinite(ratio) or ratio < 1:
+        raise ValueError(f"penalty_free_ratio must be a number >= 1, got {penalty_free_ratio!r}")
     if num_frames is None:
         if keytimes:
             raise ValueError("keytimes need num_frames: the unconstrained search chooses the output length itself")
         if free_objective == "input_time":
-            frames, _ = input_time_dp(_penalised(tables, lam, penalty_scale), ends=tables.ends)
+            frames, _ = input_time_dp(_penalised(tables, lam, penalty_scale, "output", ratio), ends=tables.ends)
         elif free_objective == "mean":
-            frames, _ = mean_cost_dp(_penalised(tables, lam, penalty_scale), ends=tables.ends)
+            frames, _ = mean_cost_dp(_penalised(tables, lam, penalty_scale, "output", ratio), ends=tables.ends)
         else:
             raise ValueError(f"free_objective must be 'input_time' or 'mean', got {free_objective!r}")
         cost = path_cost(tables.scores, frames, tables.ends)
@@ -615,7 +622,7 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
             b = _coarse_band(tables, m, keys, int(coarse), band, weighting)
             if b is not None:
                 lo, hi = b
-        S = _penalised(tables, lam, penalty_scale, weighting)
+        S = _penalised(tables, lam, penalty_scale, weighting, ratio)
         ends = _weighted(tables, weighting)[1]
         frames, cost = constrained_dp(S, m, keys=keys, lo=lo, hi=hi, progress=progress, ends=ends)
         if lo is not None and not np.isfinite(cost):
@@ -652,7 +659,7 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                 candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None,
                 free_objective: str = FREE_OBJECTIVE, frame: str = "pelvis_height", end_terms: bool = True,
                 penalty_scale: str = "doubling", reverse_reference: bool | None = None,
-                weighting: str = "input_time", progress=None):
+                weighting: str = "input_time", penalty_free_ratio: float | None = None, progress=None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
 
     What an editor can ask for (issue 11 item 5):
@@ -768,7 +775,7 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     tail = None if progress is None else (lambda f: progress(0.9 + 0.1 * f))
     sol = solve_warp(tables, num_frames, keytimes, coarse=coarse, band=band, speed_penalty=speed_penalty,
                      free_objective=free_objective, penalty_scale=penalty_scale, weighting=weighting,
-                     progress=tail)
+                     penalty_free_ratio=penalty_free_ratio, progress=tail)
     ft = m.frame_time
     times, pinned = sol.times, sol.pinned
     if sol.out_step > 1:     # a free-length search at a coarser output rate: every output frame, linearly

@@ -23,9 +23,9 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 
 import numpy as np
 
-from .features import feature_weights, reference_blocks, reference_features, triple_features
+from .features import feature_weights, reference_blocks
 
-__all__ = ["knn_scores", "knn_scores_loop", "validate_skip", "end_scores", "candidate_scores"]
+__all__ = ["knn_scores", "validate_skip", "end_scores", "candidate_scores"]
 
 _BLOCK_ELEMS = 1 << 15  # reference rows x middle frames per elementwise block (128 KiB of float32, in L2)
 _CHUNK_BYTES = 1 << 20  # one (r, L) slab of partial sums per chunk of middle frames ...
@@ -224,26 +224,6 @@ def _workers(workers, units: int) -> int:
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
     return int(max(1, min(workers, units)))
-
-
-def knn_scores_loop(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),
-                    ref_step: float = 1.0) -> np.ndarray:
-    """Straightforward reference implementation of :func:`knn_scores`: one exact float64 linear search
-    over the reference features per admissible triple (eq. 2 as written). Same return value."""
-    X, R, s, k = _check_inputs(X, R, skip, k, ref_step)
-    n = X.shape[0]
-    Z = reference_features(R, weights, ref_step)
-    scores = np.full((n, s, s), np.inf)
-    for j in range(n):
-        for a in range(1, s + 1):
-            for b in range(1, s + 1):
-                i, kk = j - a, j + b
-                if i < 0 or kk > n - 1:
-                    continue
-                phi = triple_features(X, i, j, kk, weights)
-                d = np.sqrt(np.sum((Z - phi) ** 2, axis=1))
-                scores[j, a - 1, b - 1] = np.sort(d)[:k].mean()
-    return scores
 
 
 def candidate_scores(X: np.ndarray, R: np.ndarray, skip: int = 8, k: int = 3, weights=(1.0, 1.0, 1.0),

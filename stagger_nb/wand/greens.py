@@ -369,7 +369,7 @@ def _sparse_eigs(K, N: int):
 
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
-               time_weight: float = 0.0, reference="mean", heading: str = "remove") -> PoseGraph:
+               time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True) -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -389,6 +389,10 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
     joint_weights, time_weight, reference, heading
         See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
+    distinct : bool
+        Poses a clip repeats exactly (a take concatenated with itself) form one node each on the sparse paths,
+        and the default sigma is taken over distinct poses (default; :func:`_quotient_graph`, measured there).
+        ``False``: one node per frame, as Eq. 1 is written (the graphs of such clips then depend on k).
     """
     if method not in ("auto", "dense", "sparse", "landmarks"):
         raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
@@ -399,7 +403,10 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         raise ValueError("the magic wand needs a motion with at least 2 frames")
     if method == "auto":
         method = "dense" if F <= DENSE_MAX_FRAMES else ("sparse" if F <= SPARSE_MAX_FRAMES else "landmarks")
-    first, inverse, counts = distinct_poses(X)
+    if distinct:
+        first, inverse, counts = distinct_poses(X)
+    else:
+        first, inverse, counts = np.arange(F), np.arange(F), np.ones(F, dtype=np.int64)
     if method == "dense":
         D2 = pairwise_sq_distances(X)
         # the default sigma from distinct poses: a take repeated 20 times gives every frame 19 equal poses, whose
@@ -495,7 +502,7 @@ def clear_graph_cache() -> None:
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean", heading: str = "remove") -> GreensBasis:
+                 reference="mean", heading: str = "remove", distinct: bool = True) -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
@@ -511,13 +518,13 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference, heading
+    method, knn, joint_weights, time_weight, reference, heading, distinct
         See :func:`pose_graph`.
     """
     if sigma is not None:
         _check_sigma(sigma)
     g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                          reference=reference, heading=heading)
+                          reference=reference, heading=heading, distinct=distinct)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 
