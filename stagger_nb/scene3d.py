@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import fftconvolve
 
+from .core.body import joint_sides  # noqa: F401 - re-exported (the bones' colour key)
 from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
 from .core.rotations import quat_rotate
@@ -107,27 +108,6 @@ def bones(motion: Motion) -> list[Bone]:
         if length < 1e-9:
             continue
         out.append(Bone(p, c, tuple(float(x) for x in v / 2), tuple(float(x) for x in _y_to(v)), length))
-    return out
-
-
-def joint_sides(names) -> list[str]:
-    """'left' / 'right' / 'centre' for each joint name (``Left…``, ``L…`` + capital, ``l…`` CMU ASF names
-    like ``lfemur``, ``…_l``); colour key of the bones."""
-    out = []
-    for n in names:
-        low = n.lower()
-        if low.startswith("left") or low.endswith(("_l", ".l", "left")) or "_left" in low or \
-                (len(n) > 1 and n[0] == "L" and n[1].isupper()) or \
-                low.startswith(("lhip", "lfemur", "ltibia", "lfoot", "ltoes", "lclavicle", "lhumerus", "lradius",
-                                "lwrist", "lhand", "lfingers", "lthumb", "lshoulder", "lelbow", "lknee", "lankle")):
-            out.append("left")
-        elif low.startswith("right") or low.endswith(("_r", ".r", "right")) or "_right" in low or \
-                (len(n) > 1 and n[0] == "R" and n[1].isupper()) or \
-                low.startswith(("rhip", "rfemur", "rtibia", "rfoot", "rtoes", "rclavicle", "rhumerus", "rradius",
-                                "rwrist", "rhand", "rfingers", "rthumb", "rshoulder", "relbow", "rknee", "rankle")):
-            out.append("right")
-        else:
-            out.append("centre")
     return out
 
 
