@@ -86,7 +86,8 @@ ARM = """([sel]) => {
   W.observer.observe(gd, { subtree: true, childList: true, attributes: true, characterData: true });
   W.poll = () => {   // the arrival marks the views leave on their elements
     if (plot.dataset.figureAt && plot.dataset.figureAt !== W.figure0) W.figure = +plot.dataset.figureAt;
-    if (conductor && conductor.dataset.dataAt && conductor.dataset.dataAt !== W.data0) W.data3d = +conductor.dataset.dataAt;
+    const at = conductor && conductor.dataset.dataAt;
+    if (at && at !== W.data0) W.data3d = +at;
     W.react = +(plot.dataset.reactMs || 0);
   };
   if (!W.timer) W.timer = setInterval(() => W.poll && W.poll(), 5);

@@ -1,4 +1,5 @@
-"""staggered.refine (staggered/timing.py): one joint's knot of one pose moved in time (the dope sheet's drag), and its op."""
+"""staggered.refine (staggered/timing.py): one joint's knot of one pose moved in time (the dope sheet's drag), and
+its session op."""
 from __future__ import annotations
 
 import numpy as np

@@ -191,8 +191,8 @@ def limb_groups(skeleton: Skeleton) -> list[tuple[str, tuple[int, ...]]]:
     whose subtree has the same shape as one of its siblings' (mirror-image legs and arms, found from the
     hierarchy alone; single end joints such as eyes stay with their parent). Each limb is a group, labelled by
     its side and kind from the joint names (``left leg``, ``right arm``), or by its side and first joint's
-    last word where the names do not say the kind (``left RibsTwist``), or that joint's name. Order: the trunk, then the arms, the legs and the rest,
-    left before right.
+    last word where the names do not say the kind (``left RibsTwist``), or that joint's name. Order: the trunk,
+    then the arms, the legs and the rest, left before right.
     """
     J = skeleton.num_joints
     sig = _shape(skeleton)

@@ -30,7 +30,8 @@ class KnotTable:
     Attributes
     ----------
     joints : tuple of str, the J joint names (rows)
-    groups : tuple of (label, tuple of joint indices), the rows grouped by limb (:func:`~stagger_nb.core.body.limb_groups`)
+    groups : tuple of (label, tuple of joint indices), the rows grouped by limb
+        (:func:`~stagger_nb.core.body.limb_groups`)
     pose_times : ndarray, shape (K,), seconds, the staggered pose times ``t_k`` (columns)
     knots : ndarray, shape (K, J), seconds, the refined times ``t_k + r[k, j]``
     frame_time : float, seconds per frame of the shown motion (the playhead's unit)

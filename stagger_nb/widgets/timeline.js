@@ -71,7 +71,10 @@ async function render({ model, el }) {
     if (life.disposed || !store) return;
     const tb = table();
     const width = wrap.clientWidth;
-    if (!width || !tb.joints) { el.dataset.status = tb.joints ? "waiting for a width" : "waiting for the knots"; return; }
+    if (!width || !tb.joints) {
+      el.dataset.status = tb.joints ? "waiting for a width" : "waiting for the knots";
+      return;
+    }
     const K = (tb.pose_times || []).length;
     const xr = store.get("x_range") || [];
     const lo = xr.length === 2 ? xr[0] : 0, hi = xr.length === 2 ? xr[1] : Math.max(tb.duration || 1, 1e-3);
@@ -92,10 +95,12 @@ async function render({ model, el }) {
         node("rect", { x: 0, y: r.y, width, height: ROW, fill: isSel ? "#fff5f5" : "#f7fafc",
                        "pointer-events": "none" }, s);
       }
-      const t = node("text", { x: r.kind === "group" ? 4 : 16, y: r.y + ROW - 4, fill: isSel ? COLOURS.sel : COLOURS.text,
+      const t = node("text", { x: r.kind === "group" ? 4 : 16, y: r.y + ROW - 4,
+                               fill: isSel ? COLOURS.sel : COLOURS.text,
                                "font-weight": r.kind === "group" ? "600" : "400",
                                class: r.kind === "group" ? "sn-group" : "sn-row-label", cursor: "pointer" }, s);
-      t.textContent = r.kind === "group" ? `${r.open ? "▾" : "▸"} ${r.label} (${r.joints.length})` : shortName(r.label);
+      t.textContent = r.kind === "group" ? `${r.open ? "▾" : "▸"} ${r.label} (${r.joints.length})`
+                                         : shortName(r.label);
       if (r.kind === "group") {
         t.dataset.group = r.label;
         t.addEventListener("click", () => toggle(r.label));
@@ -234,8 +239,8 @@ async function render({ model, el }) {
       drag.moved = true;
       const left = svg.getBoundingClientRect().left;
       drag.t = tOf(Math.min(Math.max(e.clientX - left, scale.x0), scale.x1));
-      target.setAttribute("transform", `translate(${xOf(drag.t) - xOf(what.t0)} 0)` +
-                          (what.kind === "knot" ? ` ${target.getAttribute("transform").replace(/translate\([^)]*\)\s*/, "")}` : ""));
+      const rest = what.kind === "knot" ? target.getAttribute("transform").replace(/translate\([^)]*\)\s*/, "") : "";
+      target.setAttribute("transform", `translate(${xOf(drag.t) - xOf(what.t0)} 0) ${rest}`);
       readout.style.display = "block";
       readout.setAttribute("x", xOf(drag.t) + 8);
       readout.textContent = `${drag.t.toFixed(2)} s`;
