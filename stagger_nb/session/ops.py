@@ -18,8 +18,8 @@ Ops (fields; ``?`` optional, ``=`` default):
 ======================  ================================================================================
 extract                 (none)
 cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2), ``keep`` (pose indices)
-succession              root, s, l=1.0, joints?                      (§5.2, succession)
-random_timing           tau >= 0, seed=0, joints?                    (§5.2, random timing)
+succession              root, s, l=1.0, joints?, limit=1.5 (null: raw)   (§5.2, succession)
+random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw) (§5.2, random timing)
 exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
                         mode="staggered"|"unstaggered"               (§5.1, Fig. 6a/6b)
@@ -49,10 +49,12 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
 
+from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
+
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -394,6 +396,7 @@ class Succession(Op):
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)
@@ -405,6 +408,7 @@ class RandomTiming(Op):
     tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)

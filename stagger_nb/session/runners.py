@@ -191,6 +191,11 @@ class Run:
     def origin(self, motion: Motion) -> None:
         self._origin = motion
 
+    def origin_or_lazy(self):
+        """The origin as held now: a Motion, or the callable that finds it (not called: the next op's run
+        takes it over and calls it only if its runner asks)."""
+        return self._origin
+
     def note(self, message: str) -> None:
         if message:
             self.notes.append(message)
@@ -290,11 +295,11 @@ def _cull(sm, op: O.Cull, run):
 
 
 def _succession(sm, op: O.Succession, run):
-    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints))
+    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints), limit=op.limit)
 
 
 def _random_timing(sm, op: O.RandomTiming, run):
-    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed)
+    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed, limit=op.limit)
 
 
 def _list(x):
