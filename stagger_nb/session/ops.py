@@ -55,7 +55,8 @@ from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "MAX_DEGREES",
+           "MAX_WORLD", "TIMING_LIMIT", "limits"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -70,6 +71,12 @@ MAX_ITEMS = 100_000
 MAX_SECONDS = 60.0
 MAX_EXPONENT = 10.0
 MAX_WEIGHT = 100.0
+#: Largest component of a joint rotation edit (rotation vector, degrees): one full turn about an axis; a
+#: larger value means the same rotations again, and 1e308 would overflow to NaN inside the technique.
+MAX_DEGREES = 360.0
+#: Largest coordinate of an IK target (world units of the clip: 10 km in centimetres): a target further away
+#: is no pose, and 1e308 would overflow inside the solver.
+MAX_WORLD = 1e6
 
 
 def canonical(value) -> str:
@@ -115,6 +122,7 @@ def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = 
                 hi is not None and v > hi):
             _fail(name, expected, value)
         return v
+    check.lo, check.hi, check.open_lo = lo, hi, open_lo   # read by limits()
     return check
 
 
@@ -134,6 +142,7 @@ def integer(lo: int | None = 0, hi: int | None = None) -> Callable:
                 hi is not None and value > hi):
             _fail(name, expected, value)
         return int(value)  # numpy integers become ints (JSON-serialisable)
+    check.lo, check.hi, check.open_lo = lo, hi, False
     return check
 
 
@@ -160,6 +169,7 @@ def choice(*options) -> Callable:
 def optional(inner: Callable) -> Callable:
     def check(value, name):
         return None if value is None else inner(value, name)
+    check.inner = inner
     return check
 
 
@@ -179,7 +189,6 @@ _positive = number(0.0, open_lo=True)
 _index = integer(0)
 _joints = optional(tuple_of(text, "a list of joint names"))
 _mode = choice("staggered", "unstaggered")
-_vec3 = tuple_of(_finite, "a list of 3 numbers", 3)
 
 
 def joint_map(inner: Callable, what: str) -> Callable:
@@ -202,8 +211,10 @@ def _quaternion(value, name) -> tuple:
     return q
 
 
-#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame.
-deltas = joint_map(tuple_of(_finite, "a list of 3 numbers (rotation vector, degrees)", 3), "[rx, ry, rz] degrees")
+#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame (each component
+#: within +-MAX_DEGREES).
+deltas = joint_map(tuple_of(number(-MAX_DEGREES, MAX_DEGREES), f"a list of 3 numbers (rotation vector, degrees, "
+                            f"each within +-{MAX_DEGREES:g})", 3), "[rx, ry, rz] degrees")
 #: ``{joint name: [x, y, z, w]}`` local rotations (non-zero quaternions).
 quaternions = joint_map(_quaternion, "[x, y, z, w]")
 
@@ -267,6 +278,19 @@ def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None
     ``omit_none`` leaves the field out of :meth:`Op.to_json` while it is None (alternatives such as cull's
     ``count``/``keep``; other optional fields are written as ``null``)."""
     return field(default=default, metadata={"check": check, "to_json": to_json, "omit_none": omit_none})
+
+
+def limits(op, field_name: str) -> tuple:
+    """``(lo, hi, open_lo)`` of the numeric field ``field_name`` of the op class ``op`` (or its name): the
+    bounds its check accepts, None where unbounded. The one definition editors and models read (e.g.
+    ``limits("random_timing", "tau")`` -> ``(0.0, 60.0, False)``)."""
+    cls = OPS[op] if isinstance(op, str) else op
+    f = {x.name: x for x in dataclasses.fields(cls)}.get(field_name)
+    check = None if f is None else f.metadata.get("check")
+    check = getattr(check, "inner", check)
+    if check is None or not hasattr(check, "lo"):
+        raise ValueError(f"field_name: {cls.name}.{field_name} is not a numeric field")
+    return check.lo, check.hi, check.open_lo
 
 
 # --------------------------------------------------------------------------------------------------
@@ -507,7 +531,8 @@ class IKPose(Op):
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
     joint: str = _spec(text)
-    target: tuple = _spec(_vec3)
+    target: tuple = _spec(tuple_of(number(-MAX_WORLD, MAX_WORLD), f"a list of 3 numbers (world units, each "
+                                                                 f"within +-{MAX_WORLD:g})", 3))
 
 
 # --------------------------------------------------------------------------------------------------

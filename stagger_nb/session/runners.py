@@ -15,15 +15,15 @@ from typing import Callable
 import numpy as np
 
 from ..core.kinematics import forward_kinematics
-from ..core.motion import Motion
-from ..core.rotations import quat_mul, rotvec_to_quat
+from ..core.motion import _UNIT_TOL, Motion
+from ..core.rotations import quat_mul, quat_normalize, rotvec_to_quat
 from ..core.skeleton import Skeleton
 from ..io.bvh import read_bvh
 from . import ops as O
 from .cache import Cache
 
-__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k", "warp_table_key",
-           "MAX_WARP_RATIO"]
+__all__ = ["RUNNERS", "BATCHED", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k",
+           "warp_table_key", "MAX_WARP_RATIO"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -364,6 +364,45 @@ def _edit_frame(m, op: O.EditFrame, run):
     return m.replace(local_quats=q)
 
 
+def _edit_frames(m: Motion, ops) -> Motion:
+    """A run of ``edit_frame`` ops in one pass, O(F J + n) instead of O(n F J): the deltas of every op are
+    turned into quaternions at once, then applied in layers (the t-th rotation of each (frame, joint) in
+    layer t, so each joint's rotations compose in op order), each product renormalised as a Motion
+    renormalises (only what is off unit); one Motion at the end. A failing op raises ValueError with
+    ``offset``, its place in ``ops``."""
+    sk, F = m.skeleton, m.num_frames
+    rows_f, rows_j, rows_r = [], [], []
+    for k, op in enumerate(ops):
+        try:
+            f = _frame(m, op.frame)
+            for name, rv in op.deltas:
+                rows_j.append(_joint(sk, name, f"deltas.{name}"))
+                rows_f.append(f)
+                rows_r.append(rv)
+        except ValueError as e:
+            e.offset = k
+            raise
+    q = np.array(m.local_quats)
+    if not rows_f:
+        return m
+    fj = np.asarray(rows_f) * sk.num_joints + np.asarray(rows_j)
+    e = rotvec_to_quat(np.radians(np.asarray(rows_r, dtype=float)))
+    order = np.argsort(fj, kind="stable")                 # each (frame, joint)'s rows, in op order
+    sorted_fj = fj[order]
+    start = np.r_[0, np.flatnonzero(np.diff(sorted_fj)) + 1]
+    rank = np.empty(len(fj), dtype=int)
+    rank[order] = np.arange(len(fj)) - np.repeat(start, np.diff(np.r_[start, len(fj)]))
+    flat = q.reshape(F * sk.num_joints, 4)
+    for t in range(int(rank.max()) + 1):
+        idx = np.flatnonzero(rank == t)
+        row = quat_mul(flat[fj[idx]], e[idx])
+        off = np.abs(np.sqrt(np.einsum("ji,ji->j", row, row)) - 1.0) > _UNIT_TOL
+        if off.any():
+            row[off] = quat_normalize(row[off])
+        flat[fj[idx]] = row
+    return m.replace(local_quats=q)
+
+
 def _propagate(m, op: O.Propagate, run):
     edits = op.edits
     frames = [_frame(m, f, "frame" if op.frames is None else f"frames[{i}]") for i, (f, _) in enumerate(edits)]
@@ -440,3 +479,7 @@ RUNNERS: dict[type, Callable] = {
     O.EditFrame: _edit_frame, O.Propagate: _propagate, O.GuidedWarp: _guided_warp,
     O.LinearWarp: _linear_warp, O.Resample: _resample,
 }
+
+#: Runners over a run of consecutive ops of one kind on a Motion, ``(motion, ops) -> motion``: the replay uses
+#: them for runs of two or more (a session of 10^5 ``edit_frame`` ops replays in seconds, not a minute).
+BATCHED: dict[type, Callable] = {O.EditFrame: _edit_frames}

@@ -12,11 +12,14 @@ from __future__ import annotations
 import contextlib
 import copy
 import json
+import weakref
 from typing import Callable
 
 import traitlets as T
 
+from ..replay import ReplayError
 from ._base import _canon, _Model
+from .messages import plain_message
 from .stagger import STAGGER_OPS, StaggerModel, stagger_ops_to_params, stagger_params_to_ops
 from .wand import WAND_OPS, WandModel, wand_ops_to_params, wand_params_to_ops
 from .warp import WARP_OPS, WarpModel, warp_ops_to_params, warp_params_to_ops
@@ -136,8 +139,11 @@ class ModelBinding:
     """Keeps ``model`` and ``session`` in step, both ways.
 
     - A change of an op trait (``op=True``) writes the session's op list (:func:`merge_ops`, one undo step via
-      ``session.set_ops``); a refused op list (ValueError) leaves the session as it was and puts the reason in
-      ``model.message``.
+      ``session.set_ops``) once its replay has succeeded (``session.check_ops``: the states it computes are
+      the ones the views then read). A list that would not replay, or that the session refuses, is not
+      written: the model's op traits go back to what they were, ``model.message`` holds the plain sentence
+      (:func:`~.messages.plain_message`) and the trait assignment raises ``traitlets.TraitError`` with it. An
+      op list that fails already, at the same op, before the change is not this change's doing: it is written.
     - A change of the session's op list (undo/redo, load, code) sets the model's op traits from it; the model
       then equals what the ops say (undo restores every parameter).
 
@@ -155,11 +161,16 @@ class ModelBinding:
         self.references = dict(references or {})
         if isinstance(model, StaggerModel):
             self.owned, self._home = STAGGER_OPS, _stagger_home
+            from .views import ik_effectors
+            model.source_duration = float(session.source.duration)
+            model.ik_effectors = ik_effectors(session.source.skeleton)
         elif isinstance(model, WandModel):
             self.owned, self._home = WAND_OPS, _wand_home
+            model.frame_time = float(session.source.frame_time)
         elif isinstance(model, WarpModel):
             self.owned, self._home = WARP_OPS, None
             model.source_duration = float(session.source.duration)
+            model.frame_time = float(session.source.frame_time)
             model.reference_options = ["self", "segment"] + [n for n in self.references if n not in ("self", "segment")]
         else:
             raise ValueError(f"model: expected a StaggerModel, WandModel or WarpModel, got {type(model).__name__}")
@@ -171,7 +182,16 @@ class ModelBinding:
         self._last = model.params()
         self.pull()
         model.observe(self._on_model, names=model.trait_names(op=True))
-        session.observe(self._on_session)
+        self._listener = _weak_listener(self._on_session, session)   # the session does not keep us alive
+        session.observe(self._listener)
+
+    def close(self) -> None:
+        """Stop following: the model and the session no longer write to each other (again: nothing)."""
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
+        self.model.unobserve(self._on_model, names=self.model.trait_names(op=True))
+        self.session.unobserve(self._listener)
 
     # -- pure parts, per model ------------------------------------------------------------------------
     def to_ops(self, params: dict) -> list:
@@ -213,11 +233,69 @@ class ModelBinding:
 
     # -- directions -----------------------------------------------------------------------------------
     def _on_model(self, change) -> None:
-        if not self._loading:
-            self.push()
+        if self._loading:
+            return
+        if change["name"] == "cull_by" and isinstance(self.model, StaggerModel):
+            self._same_poses(change["new"])
+        if not self.push() and self._error:   # refused: the model goes back to what the session holds
+            self._revert()
+            raise T.TraitError(self._error)
+
+    def _same_poses(self, cull_by: str) -> None:
+        """Switching the cull to "count" or "picked" starts from the poses the current cull keeps (its count,
+        or its indices), so the pose edits, retimes and IK targets keep meaning the poses they meant."""
+        m, cull = self.model, next((o for o in self.session.ops if o["op"] == "cull"), None)
+        if cull is None or (cull_by == "keep" and m.keep) or (cull_by == "count" and m.count) or cull_by == "percent":
+            return
+        from ... import staggered
+        try:
+            kept = ([int(k) for k in cull["keep"]] if cull.get("keep") is not None else
+                    [int(k) for k in staggered.cull_keep(self.session.extraction(), cull.get("percent"),
+                                                         count=cull.get("count"))])
+        except ValueError:
+            return
+        with self.paused():
+            if cull_by == "keep":
+                m.keep = kept
+            else:
+                m.count = len(kept)
+
+    def _revert(self) -> None:
+        m = self.model
+        self._loading = True
+        try:
+            with m.loading(), m.hold_trait_notifications():
+                for k, v in self._last.items():
+                    if _canon(getattr(m, k)) != _canon(v):
+                        setattr(m, k, copy.deepcopy(v))
+        finally:
+            self._loading = False
+
+    def commit(self, ops: list) -> bool:
+        """Write ``ops`` as the session's op list (one undo step) if it replays; returns whether the list
+        changed. Raises ValueError (:class:`~stagger_nb.session.ReplayError` for a replay failure) and leaves
+        the session as it was otherwise."""
+        if _canon(ops) == _canon(self.session.ops):
+            return False
+        try:
+            self.session.check_ops(ops)
+        except ReplayError as e:
+            if not self._fails_already(e):
+                raise
+        return self.session.set_ops(ops)
+
+    def _fails_already(self, error: ReplayError) -> bool:
+        """Whether the session's own op list fails at the same op as ``error`` (replayed states are cached:
+        only the failing op runs again)."""
+        try:
+            self.session.check_ops(self.session.ops)
+        except ReplayError as e:
+            return e.op.key == error.op.key
+        return False
 
     def push(self) -> bool:
-        """Model -> session. Returns True when the op list changed."""
+        """Model -> session. Returns True when the op list changed; False when nothing changed or the change
+        was refused (then ``model.message`` says why and the session is as it was)."""
         new = self.model.params()
         old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
         if isinstance(self.model, StaggerModel):
@@ -235,13 +313,15 @@ class ModelBinding:
                                    if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
         ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
-            changed = self.session.set_ops(ops)
+            changed = self.commit(ops)
         except ValueError as e:
-            self._error = str(e)
+            self._error = plain_message(e)
             self._show()
             return False
         self._error = ""
         self._last = new
+        if changed and self.model.notes:   # a change went through: the notes of earlier refusals are history
+            self.model.notes = {}
         if not changed:
             self._show()
         return changed
@@ -317,3 +397,17 @@ class ModelBinding:
 
     def _show(self) -> None:
         self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)
+
+
+def _weak_listener(method, session) -> Callable:
+    """A ``session.observe`` listener calling the bound ``method`` while its object lives (a dropped editor's
+    binding is not kept alive by the session it watched), then removing itself."""
+    ref = weakref.WeakMethod(method)
+
+    def listener(s):
+        m = ref()
+        if m is None:
+            s.unobserve(listener)
+        else:
+            m(s)
+    return listener
