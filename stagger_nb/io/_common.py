@@ -7,9 +7,11 @@ from __future__ import annotations
 import os
 import stat
 
-# the readers' value checks and euler conversion live in ._values; re-exported here, where readers import them
-from ._values import (_EULER_BLOCK, MAX_TOKEN, euler_components, euler_deg_to_quat, finite_number,  # noqa: F401
-                      quarter_tan, split_values)
+# the readers' value checks live in ._values, the euler conversion in core (one definition); re-exported here,
+# where readers import them
+from ..core.rotations import _EULER_BLOCK, euler_components, quarter_tan  # noqa: F401
+from ..core.rotations import euler_to_quat as euler_deg_to_quat
+from ._values import MAX_TOKEN, finite_number, split_values  # noqa: F401
 
 __all__ = ["atomic_write_bytes", "write_confined", "read_confined", "overwrite_in_place", "confined_parts",
            "WriteError", "FormatError", "read_text", "read_bytes", "decode", "finite_number", "euler_deg_to_quat",

@@ -1,4 +1,4 @@
-/* Optional C accelerator of evaluate()'s inner kernel (stagger_nb/staggered/representation.py,
+/* Optional C accelerator of evaluate()'s inner kernel (stagger_nb/staggered/evaluation.py,
  * _rotations_block): per (segment, joint) sample, the quaternion Bezier of its pair's controls by recursive
  * slerp (Appendix A of Coleman 2008) times exp of the linearly interpolated displacement rotation vector.
  *
@@ -301,7 +301,7 @@ done:
 static PyMethodDef methods[] = {
     {"rotations_block", rotations_block, METH_VARARGS,
      "rotations_block(stage, ctrl, arcp, table, counts, M, idx, t, out, so, work, taylor, limits)\n\n"
-     "Stage 0..3 of representation._rotations_block into out (4 rows of stride so); between stages the\n"
+     "Stage 0..3 of evaluation._rotations_block into out (4 rows of stride so); between stages the\n"
      "caller writes work row 46 (theta) = numpy.arccos(work row 47) (see _kernels.rotations_block_c)."},
     {NULL, NULL, 0, NULL}};
 
