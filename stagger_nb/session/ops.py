@@ -18,12 +18,13 @@ Ops (fields; ``?`` optional, ``=`` default):
 ======================  ================================================================================
 extract                 (none)
 cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2), ``keep`` (pose indices)
-succession              root, s, l=1.0, joints?                      (§5.2, succession)
-random_timing           tau >= 0, seed=0, joints?                    (§5.2, random timing)
+succession              root, s, l=1.0, joints?, limit=1.5 (null: raw)   (§5.2, succession)
+random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw) (§5.2, random timing)
 exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
                         mode="staggered"|"unstaggered"               (§5.1, Fig. 6a/6b)
 retime                  pose, time (s)                               (§5.2, Fig. 6c)
+refine                  pose, joint, time (s): one joint's knot at the refined time t_k + r[k, j]   (§3, §5.2)
 insert_pose             time (s)                                     (§5.1)
 delete_pose             pose                                         (§5.1)
 keep_contacts           (none): constraint layer with the source's contacts carried through the timing edits
@@ -49,10 +50,13 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
 
+from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
+
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
-           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
+           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "MAX_DEGREES",
+           "MAX_WORLD", "TIMING_LIMIT", "limits"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -67,6 +71,12 @@ MAX_ITEMS = 100_000
 MAX_SECONDS = 60.0
 MAX_EXPONENT = 10.0
 MAX_WEIGHT = 100.0
+#: Largest component of a joint rotation edit (rotation vector, degrees): one full turn about an axis; a
+#: larger value means the same rotations again, and 1e308 would overflow to NaN inside the technique.
+MAX_DEGREES = 360.0
+#: Largest coordinate of an IK target (world units of the clip: 10 km in centimetres): a target further away
+#: is no pose, and 1e308 would overflow inside the solver.
+MAX_WORLD = 1e6
 
 
 def canonical(value) -> str:
@@ -112,6 +122,7 @@ def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = 
                 hi is not None and v > hi):
             _fail(name, expected, value)
         return v
+    check.lo, check.hi, check.open_lo = lo, hi, open_lo   # read by limits()
     return check
 
 
@@ -131,6 +142,7 @@ def integer(lo: int | None = 0, hi: int | None = None) -> Callable:
                 hi is not None and value > hi):
             _fail(name, expected, value)
         return int(value)  # numpy integers become ints (JSON-serialisable)
+    check.lo, check.hi, check.open_lo = lo, hi, False
     return check
 
 
@@ -157,6 +169,7 @@ def choice(*options) -> Callable:
 def optional(inner: Callable) -> Callable:
     def check(value, name):
         return None if value is None else inner(value, name)
+    check.inner = inner
     return check
 
 
@@ -176,7 +189,6 @@ _positive = number(0.0, open_lo=True)
 _index = integer(0)
 _joints = optional(tuple_of(text, "a list of joint names"))
 _mode = choice("staggered", "unstaggered")
-_vec3 = tuple_of(_finite, "a list of 3 numbers", 3)
 
 
 def joint_map(inner: Callable, what: str) -> Callable:
@@ -199,8 +211,10 @@ def _quaternion(value, name) -> tuple:
     return q
 
 
-#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame.
-deltas = joint_map(tuple_of(_finite, "a list of 3 numbers (rotation vector, degrees)", 3), "[rx, ry, rz] degrees")
+#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame (each component
+#: within +-MAX_DEGREES).
+deltas = joint_map(tuple_of(number(-MAX_DEGREES, MAX_DEGREES), f"a list of 3 numbers (rotation vector, degrees, "
+                            f"each within +-{MAX_DEGREES:g})", 3), "[rx, ry, rz] degrees")
 #: ``{joint name: [x, y, z, w]}`` local rotations (non-zero quaternions).
 quaternions = joint_map(_quaternion, "[x, y, z, w]")
 
@@ -264,6 +278,19 @@ def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None
     ``omit_none`` leaves the field out of :meth:`Op.to_json` while it is None (alternatives such as cull's
     ``count``/``keep``; other optional fields are written as ``null``)."""
     return field(default=default, metadata={"check": check, "to_json": to_json, "omit_none": omit_none})
+
+
+def limits(op, field_name: str) -> tuple:
+    """``(lo, hi, open_lo)`` of the numeric field ``field_name`` of the op class ``op`` (or its name): the
+    bounds its check accepts, None where unbounded. The one definition editors and models read (e.g.
+    ``limits("random_timing", "tau")`` -> ``(0.0, 60.0, False)``)."""
+    cls = OPS[op] if isinstance(op, str) else op
+    f = {x.name: x for x in dataclasses.fields(cls)}.get(field_name)
+    check = None if f is None else f.metadata.get("check")
+    check = getattr(check, "inner", check)
+    if check is None or not hasattr(check, "lo"):
+        raise ValueError(f"field_name: {cls.name}.{field_name} is not a numeric field")
+    return check.lo, check.hi, check.open_lo
 
 
 # --------------------------------------------------------------------------------------------------
@@ -394,6 +421,7 @@ class Succession(Op):
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)
@@ -405,6 +433,7 @@ class RandomTiming(Op):
     tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)
@@ -455,6 +484,18 @@ class Retime(Op):
 
 
 @dataclass(frozen=True)
+class Refine(Op):
+    """Put joint ``joint``'s knot of pose ``pose`` at the refined time ``time`` = t_k + r[k, j] seconds (§3, §5.2;
+    ``staggered.refine``: refused where it would leave that joint's knots out of order)."""
+
+    name: ClassVar[str] = "refine"
+    needs: ClassVar[str] = "staggered"
+    pose: int = _spec(_index)
+    joint: str = _spec(text)
+    time: float = _spec(_nonneg)
+
+
+@dataclass(frozen=True)
 class InsertPose(Op):
     """Insert a pose at ``time`` seconds without changing the motion (§5.1)."""
 
@@ -490,7 +531,8 @@ class IKPose(Op):
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
     joint: str = _spec(text)
-    target: tuple = _spec(_vec3)
+    target: tuple = _spec(tuple_of(number(-MAX_WORLD, MAX_WORLD), f"a list of 3 numbers (world units, each "
+                                                                 f"within +-{MAX_WORLD:g})", 3))
 
 
 # --------------------------------------------------------------------------------------------------

@@ -1,0 +1,317 @@
+"""The staggered-pose editor (Coleman et al. 2008): cull, succession, random timing, exaggeration, pose edits,
+retime, insert/delete, foot contacts and IK posing over a :class:`~stagger_nb.session.models.StaggerModel`."""
+from __future__ import annotations
+
+import html
+
+import ipywidgets as widgets
+
+from ..core.motion import Motion
+from ..session import Session
+from ..session.models import STAGGER_OPS, StaggerModel, plain_message
+from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
+from ..plotting import joint_curves_figure, pose_probability_figure
+from ._editor import _STYLE, _Editor, _default_joint, _inert, _link, _session_for, _slider, _x_span
+from .plots import PlotView
+from .skeleton_view import SkeletonView
+
+__all__ = ["StaggerEditor"]
+
+
+def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
+    """The StaggerEditor's controls by model trait name (each is linked to that trait; steps from the model)."""
+    wide = {"style": _STYLE}
+    st = model.step
+    c = {}
+    c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"), ("picked", "keep")],
+                                         description="cull poses", style={**_STYLE, "button_width": "90px"},
+                                         tooltips=["keep a percentage of the poses, by priority",
+                                                   "keep a number of poses, by priority",
+                                                   "keep the poses you pick (click the probability plot)"])
+    c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=st("percent"),
+                           readout_format=".0f")
+    c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep (0 = all)", **wide,
+                                        layout=widgets.Layout(width="230px"))
+    c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", **wide,
+                                       layout=widgets.Layout(width="260px"))
+    c["root"] = widgets.Dropdown(options=names, description="succession root", **wide)
+    c["joints"] = widgets.SelectMultiple(options=names, rows=4, description="delayed joints", **wide,
+                                         layout=widgets.Layout(width="280px"))
+    c["s"] = _slider(widgets.FloatSlider, "s (s/bone)", min=-0.1, max=0.1, step=st("s"), readout_format=".3f")
+    c["l"] = _slider(widgets.FloatSlider, "exponent l", min=0.25, max=4.0, step=st("l"))
+    c["tau"] = _slider(widgets.FloatSlider, "random τ (s)", min=0.0, max=0.15, step=st("tau"), readout_format=".3f")
+    c["seed"] = widgets.BoundedIntText(min=0, max=2**31 - 1, description="seed", **wide,
+                                       layout=widgets.Layout(width="200px"))
+    c["tau_joints"] = widgets.SelectMultiple(options=names, rows=4, description="τ joints", **wide,
+                                             layout=widgets.Layout(width="280px"))
+    c["w_r"] = _slider(widgets.FloatSlider, "exaggerate w_r", min=-1.0, max=2.0, step=st("w_r"))
+    c["w_r_reference"] = widgets.Dropdown(options=[("previous", "previous"), ("next", "next"), ("mean", "mean")],
+                                          description="against", **wide)
+    c["pose"] = _slider(widgets.IntSlider, "pose k", min=0, max=1)
+    c["joint"] = widgets.Dropdown(options=names, description="joint", **wide)
+    c["edit_mode"] = widgets.ToggleButtons(options=["staggered", "unstaggered"], description="edit mode",
+                                           style={**_STYLE, "button_width": "100px"},
+                                           tooltips=["the edit follows each joint's own timing (Fig. 6a)",
+                                                     "the edit lands at the pose time for every joint (Fig. 6b)"])
+    for a in "xyz":
+        c["r" + a] = _slider(widgets.FloatSlider, f"nudge {a} (°)", min=-90.0, max=90.0, step=st("r" + a))
+    # a plain FloatText: a typed value outside the neighbours' times is refused by the model with a sentence
+    # saying where it may lie (a bounded text box would clamp it silently)
+    c["pose_time"] = widgets.FloatText(step=st("pose_time"), description="pose time (s)", **wide,
+                                       layout=widgets.Layout(width="230px"))
+    c["keep_contacts"] = widgets.Checkbox(description="keep foot contacts", indent=False)
+    c["ik_joint"] = widgets.Dropdown(options=[("(none)", "")] + [(n, n) for n in model.ik_effectors],
+                                     description="IK effector", **wide)
+    for a in "xyz":
+        c["ik_" + a] = _slider(widgets.FloatSlider, f"target {a}", min=-1.0, max=1.0, step=st("ik_" + a),
+                               readout_format=".3f")
+    for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
+        c[k].add_class(f"sn-{k.replace('_', '-')}")
+    c["percent"].add_class("sn-cull")   # its former name (browser checks)
+    return c
+
+
+def _rows(c: dict, insert: widgets.Button, delete: widgets.Button) -> list:
+    """The control rows, one tool per row."""
+    return [widgets.HBox([c["cull_by"], c["keep_contacts"]]),
+            widgets.HBox([c["percent"], c["count"], c["keep"]]),
+            widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
+            widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
+            widgets.HBox([c["w_r"], c["w_r_reference"]]),
+            widgets.HBox([c["pose"], c["joint"]]),
+            widgets.HBox([c["edit_mode"]]),
+            widgets.HBox([c["rx"], c["ry"], c["rz"]]),
+            widgets.HBox([c["pose_time"], insert, delete]),
+            widgets.HBox([c["ik_joint"], c["ik_x"], c["ik_y"], c["ik_z"]])]
+
+
+class StaggerEditor(_Editor):
+    """Staggered-pose editor (Coleman et al. 2008): cull by %, count or picked poses (§4.3); succession root,
+    joint subset, ``s``, ``l`` and random ``τ`` with joints and seed (§5.2); exaggeration ``w_r`` against the
+    previous / next / mean / a chosen pose (§5.3); geometric pose edits in staggered or non-staggered mode, retime,
+    insert and delete a pose (§5.1, Fig. 6); keep contacts (on by default); IK posing of a hand or foot.
+
+    ``editor.model`` is a :class:`~stagger_nb.session.models.StaggerModel`; ``editor.session`` the Session.
+    With ``precompute`` the extraction, every cull position and the replay of the current edit at each position
+    are warmed after first paint (``Session.warm``).
+    """
+
+    _css = "sn-stagger-editor"
+    _ALIASES = {"cull": "percent", "joint_set": "tau_joints", "nudge": ("rx", "ry", "rz")}
+
+    def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
+                 show_ghost: bool = False, **kwargs):
+        super().__init__(**kwargs)
+        session = _session_for(self, motion, session, source_path)
+        m = session.source
+        names = list(m.skeleton.names)
+        model = StaggerModel(root=_default_joint(names, "Hips", "LeftShoulder", "LeftArm", "lShldr"),
+                             joint=_default_joint(names, "LeftForeArm", "LeftElbow", "lForeArm"),
+                             frame_time=m.frame_time)
+        self.insert_button = widgets.Button(description="insert pose at playhead", layout=widgets.Layout(width="200px"))
+        self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
+        self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
+        self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        self.curves = PlotView(frame_time=m.frame_time)
+        self.probability = PlotView(frame_time=m.frame_time)
+        self.probability.on_click(self._on_probability_click)
+        self._defer = precompute   # first paint without the staggered plots; the warm-up's extraction draws them
+        self.controls = {}
+        self._setup(model, session, view, [self.curves, self.probability], self._make_controls)
+        c = self.controls
+        # the model first (the binding set it from the session's ops), then the controls attached to it
+        for k, w in c.items():
+            if k not in ("keep", "w_r_reference"):
+                self._links.append(_link(model, k, w, transform=(tuple, list) if isinstance(
+                    w, widgets.SelectMultiple) else (None, None)))
+        self._links.append(_link(model, "keep", c["keep"], transform=(tuple, list)))
+        self._links.append(_link(model, "w_r_reference", c["w_r_reference"]))
+        for a in "xyz":   # the IK target sliders reach where the model says (around the effector)
+            model.observe(lambda ch, a=a: self._ik_reach(a), names="ik_range")
+        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint"])
+        model.observe(self._on_selection, names=["joint"])
+        model.observe(self._on_pose, names=["pose", "ik_joint"])
+        self._on_inert()
+        self._on_pose()
+        if precompute:
+            self._warm_positions()
+
+    def _make_controls(self, model: StaggerModel) -> list:
+        """The controls (``self.controls``) and their rows, once the binding has set the model up."""
+        self.controls = _controls(self.session.source, list(self.session.source.skeleton.names), model)
+        return _rows(self.controls, self.insert_button, self.delete_button)
+
+    def _ik_reach(self, axis: str) -> None:
+        lo, hi = self.model.ik_range["xyz".index(axis)]
+        w = self.controls["ik_" + axis]
+        w.min, w.max = min(w.min, lo), max(w.max, hi)
+
+    def _warm_positions(self) -> None:
+        """After first paint: the extraction (then the plots that need it), then every cull position's refit and
+        the whole replay of the current edit at that position (a first visit of a position is then a hit)."""
+        self._first_future = self._warm("extract", then=self._refresh)
+        pcs = [float(p) for p in range(95, 4, -5)]
+        self._warm(("cull", pcs), ("replay", [self._own_prefix(self.binding.ops_for(cull_by="percent", percent=p))
+                                              for p in pcs]))
+
+    def _own_prefix(self, ops: list) -> list:
+        """``ops`` up to this editor's last op: what the warm-up replays (ops of other techniques after it, e.g.
+        a guided warp of the edited motion with its own kNN tables, are left to the visit)."""
+        last = max((i for i, o in enumerate(ops) if o["op"] in self.binding.owned), default=-1)
+        return ops[:last + 1]
+
+    # -- actions ---------------------------------------------------------------------------------------
+    def _insert_action(self, op: dict) -> None:
+        """Add an action op (insert/delete pose) after the staggered edits of the list, before the timing ops."""
+        ops = self.session.ops
+        pos = 0
+        for i, o in enumerate(ops):
+            if o["op"] in ("extract", "cull", "edit_pose", "retime", "ik_pose", "insert_pose", "delete_pose"):
+                pos = i + 1
+        ops.insert(pos, op)
+        try:
+            self.binding.commit(ops)   # replayed first: an insert or delete that cannot apply is not recorded
+        except ValueError as e:
+            self.error = plain_message(e)
+            self._show_message()
+
+    def insert_pose(self, time: float) -> None:
+        """Insert a staggered pose at ``time`` seconds (op ``insert_pose``)."""
+        self._insert_action({"op": "insert_pose", "time": float(time)})
+
+    def delete_pose(self, k: int) -> None:
+        """Delete pose ``k`` (op ``delete_pose``)."""
+        self._insert_action({"op": "delete_pose", "pose": int(k)})
+
+    def _on_probability_click(self, x, y, frame) -> None:
+        """With cull = "picked", a click on the probability plot toggles the nearest candidate pose (§4.3)."""
+        k = self.model.candidate_near(x)
+        if self.model.cull_by == "keep" and k is not None:
+            self.model.set_control("keep", sorted(set(self.model.keep) ^ {k}))
+
+    # -- view state ------------------------------------------------------------------------------------
+    def _on_inert(self, change=None) -> None:
+        m, c = self.model, self.controls
+        _inert(c["l"], m.s == 0, "l shapes the succession delay: inert while s = 0")
+        _inert(c["joints"], m.s == 0, "the delayed joints apply to the succession: inert while s = 0")
+        _inert(c["root"], m.s == 0, "the root of the succession: inert while s = 0")
+        _inert(c["seed"], m.tau == 0, "the seed draws the random timing: inert while τ = 0")
+        _inert(c["tau_joints"], m.tau == 0, "joints of the random timing: inert while τ = 0")
+        _inert(c["w_r_reference"], m.w_r == 0, "the pose the exaggeration is measured against: inert while w_r = 0")
+        _inert(c["percent"], m.cull_by != "percent", "choose 'by %' to cull by percentage")
+        _inert(c["count"], m.cull_by != "count", "choose 'by count' to keep a number of poses")
+        _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
+        for a in "xyz":
+            _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+
+    def _on_selection(self, change=None) -> None:
+        self._redraw(self._draw_curves)
+
+    def _on_pose(self, change=None) -> None:
+        """The IK target sliders start at the effector's place at the selected pose (no edit recorded)."""
+        try:
+            place_ik_target(self.model, self.session)
+        except ValueError:   # a replay error: the message line already shows it
+            pass
+
+    def _timing_summary(self):
+        """(summary sentence, warnings) of the current staggered state: ``Session.timing_warnings`` (computed
+        once per state by the session, not per message redraw)."""
+        if getattr(self, "_last_staggered", None) is None:
+            return "", ()
+        try:
+            return self.session.timing_warnings()
+        except ValueError:   # a replay error: the message line shows it
+            return "", ()
+
+    def _notes(self) -> list:
+        summary, _ = self._timing_summary()
+        return [n for n in super()._notes() if n != summary]
+
+    def _warnings_html(self) -> str:
+        """The timing warnings: one sentence (cause and fix), the details on demand."""
+        summary, warnings = self._timing_summary()
+        if not summary:
+            return ""
+        last = getattr(self, "_warnings_shown", None)   # the session returns the same tuple for the same state
+        if last is not None and last[0] == summary and last[1] is warnings:
+            return last[2]
+        details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
+        text = (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
+                f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
+        self._warnings_shown = (summary, warnings, text)
+        return text
+
+    # -- views -----------------------------------------------------------------------------------------
+    def _needs_staggered(self) -> bool:
+        return any(o.name in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.typed_ops)
+
+    def _update_views(self, edited: Motion) -> None:
+        if not self._needs_staggered() and not self._extraction_ready():
+            self._last_staggered = None
+            self._draw_curves(edited)
+            if not self.probability.figure:
+                self.probability.figure = pose_probability_figure(None, None, [], [], [], [],
+                                                                  title="pose probability: extracting poses…",
+                                                                  x_range=_x_span(edited))
+            self._show_motion(edited)
+            return   # first paint: the extraction is computed after it (warm), then this draws the rest
+        sm, full = stagger_state(self.model, self.session)
+        self._last_staggered = sm
+        K = sm.num_poses
+        c = self.controls
+        c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
+        opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(self.model.candidate_times)]
+        # new options reset a selection control's value (ipywidgets selects the first option), which the link
+        # would write to the model and the session as a user's choice: put the model's value back, unrecorded
+        if [o[1] for o in c["keep"].options] != [o[1] for o in opts]:
+            keep = list(self.model.keep)
+            with self.binding.paused():
+                c["keep"].options = opts
+                c["keep"].value = tuple(k for k in keep if k < len(opts))
+                self.model.keep = keep
+        ref = self.model.w_r_reference
+        refs = [("previous", "previous"), ("next", "next"), ("mean", "mean")] + [(f"pose {k}", k) for k in range(K)]
+        if isinstance(ref, int) and ref >= K:
+            refs.append((f"pose {ref}", ref))
+        if c["w_r_reference"].options != tuple(refs):
+            with self.binding.paused():
+                c["w_r_reference"].options = refs
+                c["w_r_reference"].value = ref
+        self._draw_probability(full, sm, _x_span(edited))
+        self._draw_curves(edited, sm)
+        self._show_motion(edited, pose_frames=self.model.pose_frames(),
+                          contacts=list(getattr(sm, "contacts", ()) or ()))
+
+    def _extraction_ready(self) -> bool:
+        """Whether the staggered plots can be drawn now without waiting for the extraction: always without a
+        warm-up; with one, once its extraction is done (first paint shows the motion and curves before)."""
+        if not self._defer:
+            return True
+        fut = getattr(self, "_first_future", None)
+        return fut is not None and fut.done()
+
+    def _draw_probability(self, full, sm, x_range) -> None:
+        """The pose-probability plot: rebuilt only when the extraction or the kept poses changed (a timing or
+        exaggeration slider leaves it as it is: no figure rebuilt, nothing sent)."""
+        key = (full, tuple(self.model.pose_times), tuple(x_range))
+        last = getattr(self, "_probability_key", None)
+        if last is not None and last[0] is full and last[1:] == key[1:] and self.probability.figure:
+            return
+        v = probability_view(self.session, sm, full)
+        self.probability.figure = pose_probability_figure(
+            v["times"], v["probability"], v["candidate_times"], v["candidate_values"], v["kept_times"],
+            v["kept_values"], x_range=x_range)
+        self._probability_key = key
+
+    def _draw_curves(self, edited: Motion, sm=None) -> None:
+        name = self.model.joint
+        sm = sm if sm is not None else getattr(self, "_last_staggered", None)
+        v = joint_curves_view(self.session, edited, name, sm,
+                              self._source_degrees(self.session.source.skeleton.index(name)))
+        self.curves.figure = joint_curves_figure(
+            v["times"], v["degrees"], v["source_degrees"], v["source_times"], pose_times=v["pose_times"],
+            knot_times=v["knot_times"], title=f"{name}: rotation vector (°), edited vs original",
+            x_range=_x_span(edited))
+        self.view.highlight_joints([name])

@@ -1,0 +1,137 @@
+"""The guided time-warping editor (Hsu et al. 2007) over a :class:`~stagger_nb.session.models.WarpModel`."""
+from __future__ import annotations
+
+import ipywidgets as widgets
+import traitlets
+
+from ..core.motion import Motion
+from ..session import Session, warp_table_key
+from ..session.models import WarpModel
+from ..session.models.views import warp_tables_to_warm, warp_view
+from ..plotting import warp_figure
+from ._editor import _STYLE, _WIDE, _Editor, _inert, _link, _session_for, _slider
+from .plots import PlotView
+from .skeleton_view import SkeletonView
+
+__all__ = ["WarpEditor"]
+
+
+class WarpEditor(_Editor):
+    """Guided time-warping editor (Hsu et al. 2007): target duration or free length, skip limit, keytimes,
+    backward warps, a reference (the input itself, a segment of it, or other clips) and linear vs guided; the
+    warp curve and its log-scale derivative (Fig. 5).
+
+    Parameters
+    ----------
+    motion : Motion or Session
+    reference : Motion, path, dict {name: Motion or path}, or None
+        Extra reference clips offered besides "self" and "segment". A Motion is offered as "reference".
+        In-memory clips are registered with ``Session.use_reference`` (a saved session keeps the name only).
+    """
+
+    _css = "sn-warp-editor"
+
+    def __init__(self, motion, reference=None, session: Session | None = None, source_path=None,
+                 show_ghost: bool = False, **kwargs):
+        super().__init__(**kwargs)
+        session = _session_for(self, motion, session, source_path)
+        m = session.source
+        given = {}
+        if isinstance(reference, (Motion, str)):
+            given["reference"] = reference
+        elif isinstance(reference, dict):
+            given.update(reference)
+        elif reference is not None:
+            raise ValueError(f"reference: expected a Motion, a path, a dict of them or None, "
+                             f"got {type(reference).__name__}")
+        refs = {}
+        for name, r in given.items():
+            if isinstance(r, Motion):
+                refs[name] = session.use_reference(f"<memory:{name}>", r)
+            else:
+                refs[name] = {"path": str(r)}
+        D = m.duration
+        model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, round(D / 2, 6)])
+        c = {}
+        c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="warp", style=_STYLE)
+        c["duration"] = _slider(widgets.FloatSlider, "duration (s)", min=round(D / 8 + m.frame_time, 3),
+                                max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f")
+        c["free_length"] = widgets.Checkbox(description="free length", indent=False)
+        c["skip"] = _slider(widgets.IntSlider, "skip s", min=1, max=16)
+        c["backward"] = widgets.Checkbox(description="backward", indent=False)
+        c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
+        c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
+                               step=model.step("segment"), readout_format=".2f")
+        self.keytimes = widgets.Text(value="", placeholder="in:out, in:out  (seconds)", description="keytimes",
+                                     style=_STYLE, layout=_WIDE)
+        self.controls = c
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        self.warp_plot = PlotView(frame_time=m.frame_time)
+        layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]),
+                  widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
+                  widgets.HBox([c["reference"], c["segment"]])]
+        self.click_keytime = widgets.Checkbox(value=False, indent=False,
+                                              description="click the warp plot to add a keytime")
+        self.clear_keytimes = widgets.Button(description="clear keytimes", layout=widgets.Layout(width="130px"))
+        self.clear_keytimes.on_click(lambda _: setattr(self.model, "keytimes", []))
+        self.warp_plot.on_click(self._on_warp_click)
+        layout.append(widgets.HBox([self.click_keytime, self.clear_keytimes]))
+        c["duration"].add_class("sn-duration")
+        c["skip"].add_class("sn-skip")
+        self._setup(model, session, view, [self.warp_plot], layout, references=refs)
+        # a reference given to the constructor is the one used (when the session has no warp op yet)
+        traitlets.link((model, "reference_options"), (c["reference"], "options"))
+        for k in ("mode", "duration", "free_length", "skip", "backward", "reference"):
+            self._links.append(_link(model, k, c[k]))
+        self._links.append(_link(model, "segment", c["segment"], transform=(tuple, list)))
+        self._links.append(_link(model, "keytimes_text", self.keytimes))
+        model.observe(self._on_inert, names=["mode", "reference", "free_length", "duration", "keytimes", "backward"])
+        self._on_inert()
+        if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
+            model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
+        self._warmed_tables = None
+        model.observe(lambda _: self._warm_skip_tables(),
+                      names=["reference", "backward", "free_length", "duration", "segment", "mode"])
+        self._warm_skip_tables()
+
+    def _warm_skip_tables(self) -> None:
+        """Warm (``Session.warm``) the kNN tables of the skip slider's largest value for the current reference,
+        direction and upsampling: the session slices every smaller skip from them, so a skip move re-runs only
+        the DP. With no warp yet, the tables of a compression (the first duration move's). Submitted again only
+        when what chooses the tables changes; long clips (approximate kNN, not sliced) are not warmed."""
+        op = warp_tables_to_warm(self.binding, self.controls["skip"].max)
+        if op is None:
+            return
+        try:
+            key = warp_table_key(self.session.source, op) + (op["skip"],)
+            if key == self._warmed_tables:
+                return
+            self._warm(("warp_tables", [op]))
+            self._warmed_tables = key
+        except ValueError:
+            pass   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there
+
+    def _on_warp_click(self, x, y, frame) -> None:
+        """With "click to add a keytime" on, a click on the warp plot at (output time x, input time y) adds
+        the keytime [y, x] (Hsu et al. 2007, §4.2)."""
+        if self.click_keytime.value and y is not None and not self.model.free_length:
+            self.model.set_control("keytimes", self.model.with_keytime(y, x))
+
+    def _on_inert(self, change=None) -> None:
+        c, m = self.controls, self.model
+        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment")
+        linear = m.mode == "linear"
+        for k in ("skip", "reference", "backward", "free_length"):
+            _inert(c[k], linear, f"{k} applies to guided warps only")
+        if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
+            _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
+                                    "change the duration, the reference or a keytime first")
+        _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
+        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
+
+    def _update_views(self, edited: Motion) -> None:
+        v = warp_view(self.session)
+        self.warp_plot.figure = warp_figure(v["out_times"], v["warp"], v["speed"], keytimes=self.model.keytimes or None,
+                                            title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
+                                                  f"→ {v['out_times'][-1]:.2f} s")
+        self._show_motion(edited)
