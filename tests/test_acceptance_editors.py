@@ -119,7 +119,9 @@ def test_wand_and_warp_every_trait_changes_ops_and_motion_and_keeps_foreign_ops(
     try:
         assert not type(ed.model).__module__.startswith("stagger_nb.widgets")
         assert ed.model.duration == pytest.approx(round(0.8 * m.duration, 3))
-        for name, value in (("duration", round(0.6 * m.duration, 3)), ("skip", 3)):
+        # skip 2: the 0.6x warp plays 1.67x on average; its steps stay within 1..3 since issue 25's speed penalty,
+        # so skip 3 would not bind (eq. 1's bursts of 8 made it bind)
+        for name, value in (("duration", round(0.6 * m.duration, 3)), ("skip", 2)):
             ops0, (q0, n0) = s.ops, _edited_q(s)
             setattr(ed.model, name, value)
             ops1, (q1, n1) = s.ops, _edited_q(s)
