@@ -15,7 +15,7 @@ from ._checks import _check, _finite, _pose_index
 from .displacement import _counts_for, _measure_root, _measure_rotations, _put_rows
 from .evaluation import _eval_root, _eval_rotations, translation_source_times
 from .representation import StaggeredMotion, knot_times
-from .timing import _refresh, source_knot_times, warp_times
+from .timing import _refresh, source_knot_times, source_pose_times, warp_times
 
 __all__ = ["insert_pose", "delete_pose"]
 
@@ -102,7 +102,11 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
         tt = np.insert(tt, k + 1, translation_source_times(sm, [rk_new])[0])
     src = source_knot_times(sm)          # the new knots' source times: through each variable's warp
     new_src = [warp_times(sm, [x], c, inverse=True)[0] for c, x in enumerate(np.append(T_new, rk_new))]
-    return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), translation_times=tt, pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+    sp = source_pose_times(sm)           # the new pose's source time: linear between its neighbours'
+    sp = np.insert(sp, k + 1, np.interp(t, pt, sp))
+    return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), source_poses=sp,
+                    translation_times=tt, pose_times=pose_times, refinements=refinements, values=values,
+                    tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.insert(sm.editing_knots, k + 1, v0_t, axis=0),
@@ -149,7 +153,9 @@ def delete_pose(sm: StaggeredMotion, k: int) -> StaggeredMotion:
     rdc = np.delete(sm.root_displacement_counts, k)
     rdc[rseg] = rcounts
     tt = None if sm.translation_times is None else np.delete(sm.translation_times, k)
-    return _refresh(sm, source_knots=np.delete(source_knot_times(sm), k, axis=0), pose_times=pose_times, refinements=refinements, values=values, tangents=tangents,
+    return _refresh(sm, source_knots=np.delete(source_knot_times(sm), k, axis=0),
+                    source_poses=np.delete(source_pose_times(sm), k), pose_times=pose_times, refinements=refinements,
+                    values=values, tangents=tangents,
                     displacements=disp, displacement_counts=dcounts, root_values=root_values,
                     root_refinements=root_ref, root_tangents=root_tangents, root_displacements=rd,
                     root_displacement_counts=rdc, editing_knots=np.delete(sm.editing_knots, k, axis=0),

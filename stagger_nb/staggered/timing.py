@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask
+from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask, _pose_weights
 from .evaluation import _eval_rotations
 from .representation import StaggeredMotion, knot_times
 from . import timing_report
 from .timing_report import _LazyWarnings
 
-__all__ = ["succession", "random_timing", "retime", "source_knot_times", "warp_times", "inside_ends", "MAX_TAU"]
+__all__ = ["succession", "random_timing", "retime", "source_knot_times", "source_pose_times", "warp_times",
+           "inside_ends", "MAX_TAU"]
 
 
 def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
@@ -56,6 +57,37 @@ def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
             if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
                 return rec[row]
     return np.concatenate([knot_times(sm), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
+
+
+def _recorded_rows(sm: StaggeredMotion, rec: np.ndarray) -> np.ndarray | None:
+    """The rows of a per-pose record ``rec (K0, ...)`` that belong to ``sm``'s poses (the record's own poses
+    are ``metadata["source_knots_pose_times"]``; a cull since keeps a subset of them at their times), or None
+    when the record does not fit ``sm``'s poses."""
+    K = sm.num_poses
+    at = np.asarray(sm.metadata.get("source_knots_pose_times", ()), dtype=float)
+    if rec.shape[0] == K and (at.shape != (K,) or np.allclose(at, sm.pose_times, rtol=0, atol=1e-9)):
+        return rec
+    if at.shape == (rec.shape[0],) and at.size:
+        row = np.clip(np.searchsorted(at, sm.pose_times), 0, at.size - 1)
+        if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
+            return rec[row]
+    return None
+
+
+def source_pose_times(sm: StaggeredMotion) -> np.ndarray:
+    """Source time of every staggered pose, shape (K,), seconds: the time ``t_k`` had in the motion the
+    representation was extracted from, before the temporal edits (§5.2) that moved the poses (:func:`retime`,
+    a guided retiming of the poses). Recorded by the editing tools in ``sm.metadata["source_pose_times"]``
+    beside :func:`source_knot_times` and carried the same way (an inserted pose gets the source time its place
+    between its neighbours maps to, linearly); an ``sm`` without the record is taken as unedited: its own
+    ``pose_times``. E.g. a magic-wand falloff over the source's frames is read at these times."""
+    rec = sm.metadata.get("source_pose_times")
+    if rec is not None:
+        rec = np.asarray(rec, dtype=float).reshape(-1)
+        rows = _recorded_rows(sm, rec)
+        if rows is not None:
+            return rows
+    return np.array(sm.pose_times)
 
 
 def _current_knots(sm: StaggeredMotion) -> np.ndarray:
@@ -104,13 +136,16 @@ def _warp_column(S: np.ndarray, T: np.ndarray, c: int, times, inverse: bool = Fa
     return np.where(x > a[-1], b[-1] + (x - a[-1]), y)
 
 
-def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotion:
+def _refresh(sm: StaggeredMotion, source_knots=None, source_poses=None, **fields) -> StaggeredMotion:
     """New StaggeredMotion with ``fields`` replaced, editing knots re-created at ``t_k`` by evaluation
     (Figure 6c; kept equal to the extreme knots where the refinement is 0), timing warnings attached
-    as ``metadata["warnings"]`` and the source knot times (:func:`source_knot_times`) carried as
-    ``metadata["source_knots"]`` (``source_knots`` overrides them when the poses change)."""
+    as ``metadata["warnings"]`` and the source knot and pose times (:func:`source_knot_times`,
+    :func:`source_pose_times`) carried as ``metadata["source_knots"]`` and ``["source_pose_times"]``
+    (``source_knots`` / ``source_poses`` override them when the poses change)."""
     if source_knots is None:
         source_knots = source_knot_times(sm)
+    if source_poses is None:
+        source_poses = source_pose_times(sm)
     new = sm._with_fields(**fields)          # (arrays the edit did not change are shared, not copied)
     K, J = new.num_poses, new.num_joints
     # K x J samples through this module's small evaluator (evaluate_arrays keeps scratch buffers sized
@@ -122,6 +157,9 @@ def _refresh(sm: StaggeredMotion, source_knots=None, **fields) -> StaggeredMotio
     sk = np.array(source_knots, dtype=float)
     sk.setflags(write=False)
     meta["source_knots"] = sk
+    sp = np.array(source_poses, dtype=float)
+    sp.setflags(write=False)
+    meta["source_pose_times"] = sp
     meta["source_knots_pose_times"] = new.pose_times        # the rows' poses (a later cull keeps a subset)
     # the object was created above and is not shared yet: set the two derived fields in place (as
     # __post_init__ does) instead of validating and copying every array a second time
@@ -191,7 +229,7 @@ def _eased(r: np.ndarray, t: np.ndarray, moved: np.ndarray) -> np.ndarray:
 
 
 def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: float = 2.0, *, joints=None,
-               poses=None, ease_ends: bool = False) -> StaggeredMotion:
+               poses=None, ease_ends: bool = False, weights=None) -> StaggeredMotion:
     """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``.
 
     The formula is applied exactly (a large ``s`` can bring a knot of the second-to-last pose next to, or past,
@@ -213,6 +251,11 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
         Poses to stagger; default all interior poses (the first and last poses anchor the clip ends).
     ease_ends : bool
         Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact formula there.
+    weights : array_like (K,), optional
+        Scale of each pose's offsets, ``r̂[k, i] = r[k, i] + weights[k] s d(i)^l``: a region of the clip, e.g. a
+        magic-wand falloff (Dean et al. 2018, §3.3) read at the pose times, so that the poses it selects get
+        the succession and the others keep their timing (0). The scaled offsets are what the rest of the edit
+        (``ease_ends``) works on.
     """
     _check(sm)
     s, l = _finite(s, "s"), _finite(l, "l")
@@ -234,7 +277,13 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     jm = _joint_mask(sm, joints, default=sub)
     pm = _pose_mask(sm, poses, interior_default=True)
     dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
-    return _with_timing(sm, dr, jm, bool(ease_ends))
+    return _with_timing(sm, _scaled(sm, dr, weights), jm, bool(ease_ends))
+
+
+def _scaled(sm: StaggeredMotion, dr: np.ndarray, weights) -> np.ndarray:
+    """Refinement offsets ``dr (K, J)`` scaled per pose by ``weights (K,)`` (None: as they are)."""
+    w = _pose_weights(sm, weights)
+    return dr if w is None else dr * w[:, None]
 
 
 #: Largest random timing offset (seconds): an hour, far beyond any take's pose spacing; numpy's uniform
@@ -243,7 +292,7 @@ MAX_TAU = 3600.0
 
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
-                  poses=None, ease_ends: bool = False) -> StaggeredMotion:
+                  poses=None, ease_ends: bool = False, weights=None) -> StaggeredMotion:
     """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints (``ease_ends``:
     as in :func:`succession`).
 
@@ -259,6 +308,8 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     poses : list of int, optional; default all interior poses.
     ease_ends : bool
         Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact offsets there.
+    weights : array_like (K,), optional
+        Scale of each pose's offsets (``weights[k] U(-τ, τ)``), as in :func:`succession`.
     """
     _check(sm)
     tau = _finite(tau, "tau")
@@ -269,7 +320,7 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     jm = _joint_mask(sm, joints)
     pm = _pose_mask(sm, poses, interior_default=True)
     u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))
-    return _with_timing(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), jm, bool(ease_ends))
+    return _with_timing(sm, _scaled(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), weights), jm, bool(ease_ends))
 
 
 def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:
