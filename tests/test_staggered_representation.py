@@ -11,9 +11,10 @@ from conftest import SHARED_CLIPS
 from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
 from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
-from stagger_nb.staggered.evaluation import bezier_cubic, evaluate_arrays, evaluate_reference, rotation_spline
+from references import evaluate_reference, fit_rotation_tangents_nelder_mead
+from stagger_nb.staggered.evaluation import bezier_cubic, evaluate_arrays, rotation_spline
 from stagger_nb.staggered.fitting import fit_staggered
-from stagger_nb.staggered.rotation_fit import fit_rotation_tangents, fit_rotation_tangents_nelder_mead
+from stagger_nb.staggered.rotation_fit import fit_rotation_tangents
 from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps
 from stagger_nb.staggered.translation_fit import fit_translation_tangents
 

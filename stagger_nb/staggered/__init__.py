@@ -17,6 +17,15 @@ Modules, one job each (paper sections in brackets):
   (:func:`insert_pose`, :func:`delete_pose`).
 * constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
   ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
+
+The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
+(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+"s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
+
+Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
+times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
+``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in the joint's local frame) and
+``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale ``exp(w log q)`` (§5.1 footnote).
 """
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ from . import _kernels as K
 from .representation import StaggeredMotion, default_times, knot_times
 
 __all__ = ["evaluate", "segment_coordinates", "rotation_spline", "translation_spline", "displacement_at",
-           "bezier_cubic", "evaluate_reference", "evaluate_samples", "root_positions_at", "evaluate_arrays",
+           "bezier_cubic", "evaluate_samples", "root_positions_at", "evaluate_arrays",
            "translation_source_times", "static_rotations"]
 
 
@@ -273,29 +273,6 @@ def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
         idx = seg.reshape(-1) * J + np.tile(mov, N)
         q[:, mov] = _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(N, mov.size, 4)
     return q, root_positions_at(sm, times)
-
-
-def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
-    """:func:`evaluate_arrays`' rotations computed in the most straightforward manner (per joint: segment by
-    searchsorted, :func:`~stagger_nb.core.rotations.quat_bezier`, linear rotation-vector displacement,
-    ``quat_mul``). Slow; a reference for tests and benchmarks. Returns ``(N, J, 4)``."""
-    from ..core.rotations import quat_bezier, quat_mul, rotvec_to_quat
-    times = np.asarray(times, dtype=float).reshape(-1)
-    J = sm.num_joints
-    T = np.maximum.accumulate(knot_times(sm), axis=0)
-    out = np.empty((times.size, J, 4))
-    for i in range(J):
-        seg = np.clip(np.searchsorted(T[:, i], times, side="right") - 1, 0, sm.num_poses - 2)
-        a, b = T[seg, i], T[seg + 1, i]
-        tn = np.clip((times - a) / np.where(b > a, b - a, 1.0), 0, 1)
-        s = quat_bezier(sm.values[seg, i], sm.tangents[seg, i, 0], sm.tangents[seg, i, 1], sm.values[seg + 1, i], tn)
-        n = sm.displacement_counts[seg, i]
-        u = tn * (n - 1)
-        m0 = np.minimum(np.floor(u).astype(int), n - 2)
-        f = (u - m0)[:, None]
-        d = sm.displacements[seg, i, m0] * (1 - f) + sm.displacements[seg, i, m0 + 1] * f
-        out[:, i] = quat_mul(s, rotvec_to_quat(d))
-    return out
 
 
 _MAX_SAMPLES = 20_000_000    # (time, joint) samples evaluate() accepts (~155 B each while evaluating: ~3 GB)

@@ -1,14 +1,7 @@
 """Geometric editing of staggered poses (Coleman et al. 2008, §5.1): pose edits, relative exaggeration, and the
 offset basis that lets a slider re-measure faster.
 
-Every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
-(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
-"s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
-
-Notation (as in :mod:`.representation`): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
-times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
-``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in the joint's local frame) and
-``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale ``exp(w log q)`` (§5.1 footnote).
+The editing tools' conventions and notation: :mod:`stagger_nb.staggered`.
 
 Geometric edits change the knots by a per-joint offset ``δ``: ``v̂ = v ⊕ δ`` and ``v̂⁰ = v⁰ ⊕ δ`` (the mutual
 constraint of the two knots, both directions of Figure 6a/b). The displacement maps of the two segments around

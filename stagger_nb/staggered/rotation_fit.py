@@ -4,19 +4,19 @@ The paper minimises ``w_f f_f + w_c f_c`` with Nelder–Mead per joint and segme
 starts from a closed form (a Euclidean cubic Bézier fitted by linear least squares to the samples' logarithms
 relative to the first knot) and takes a few damped Gauss–Newton (Levenberg–Marquardt) steps on the rotation
 vectors of the residuals, with the controls parameterised on the manifold (``q̂ <- q̂ exp(δ)``) so they stay
-unit quaternions without a penalty term. :func:`fit_rotation_tangents_nelder_mead` is a straight port of
-Appendix A, kept as a reference. The C1 fit is in :mod:`.rotation_fit_c1`.
+unit quaternions without a penalty term. A straight port of Appendix A (Nelder–Mead) is the tests' reference
+(``tests/references.py``). The C1 fit is in :mod:`.rotation_fit_c1`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.rotations import quat_conj, quat_exp, quat_log, quat_mul, quat_normalize, quat_bezier, slerp
+from ..core.rotations import quat_conj, quat_exp, quat_log, quat_mul, quat_normalize
 from . import _kernels as K
 from .evaluation import rotation_spline
 from .translation_fit import _fit_inner_controls
 
-__all__ = ["fit_rotation_tangents", "rotation_residuals", "fit_rotation_tangents_nelder_mead"]
+__all__ = ["fit_rotation_tangents", "rotation_residuals"]
 
 
 _FD_STEP = 1e-6     # finite-difference step of the Gauss-Newton Jacobian (rotation-vector units, radians)
@@ -181,39 +181,3 @@ def _start_every_factor(T4, V0, V3, tn, pair, chord, inner, e3, P):
     return a1[best, ar].T, a2[best, ar].T, r, costs[best, ar]
 
 
-def fit_rotation_tangents_nelder_mead(tn, targets, v0, v3, w_f: float = 1000.0, w_c: float = 1.0,
-                                      maxiter: int | None = None):
-    """Straight port of Appendix A for one joint and one segment (reference for benchmarks/tests).
-
-    Minimises ``w_f f_f + w_c f_c`` over the raw 8 numbers of ``(q̂2, q̂3)`` with scipy's Nelder–Mead,
-    starting from the linear rotation spline, then renormalises. ``f_f`` is the mean over interior samples
-    of ``acos(q_k · s(t_k))²`` and ``f_c = | |q̂2|² + |q̂3|² - 2 |``.
-
-    Parameters
-    ----------
-    tn : (n,) normalised times (first 0, last 1); targets : (n, 4); v0, v3 : (4,) end knots
-
-    Returns
-    -------
-    tangents : (2, 4) unit quaternions
-    """
-    from scipy.optimize import minimize
-
-    inner = slice(1, len(tn) - 1)
-    ti, qi = np.asarray(tn)[inner], np.asarray(targets)[inner]
-    x0 = np.concatenate([slerp(v0, v3, 1.0 / 3.0), slerp(v0, v3, 2.0 / 3.0)])
-    if ti.size == 0:
-        return x0.reshape(2, 4)
-
-    def f(x):
-        a, b = x[:4], x[4:]
-        na, nb = np.linalg.norm(a), np.linalg.norm(b)
-        s = quat_bezier(v0, a / max(na, 1e-12), b / max(nb, 1e-12), v3, ti)
-        d = np.clip(np.abs(np.sum(qi * s, axis=-1)), -1.0, 1.0)
-        ff = np.mean(np.arccos(d) ** 2)
-        fc = abs(na * na + nb * nb - 2.0)
-        return w_f * ff + w_c * fc
-
-    # scipy's default Nelder-Mead settings (maxiter 200 * 8, xatol = fatol = 1e-4): a straight port
-    res = minimize(f, x0, method="Nelder-Mead", options={"maxiter": maxiter} if maxiter else None)
-    return quat_normalize(res.x.reshape(2, 4))

@@ -1,10 +1,7 @@
 """Structural editing of staggered poses (Coleman et al. 2008, §5.1, last paragraph): inserting and deleting a
 pose without changing the motion.
 
-Notation (as in :mod:`.representation`): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
-times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
-``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in the joint's local frame) and
-``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale ``exp(w log q)`` (§5.1 footnote).
+The editing tools' conventions and notation: :mod:`stagger_nb.staggered`.
 """
 from __future__ import annotations
 

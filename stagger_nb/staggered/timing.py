@@ -1,14 +1,7 @@
 """Temporal editing of staggered poses (Coleman et al. 2008, §5.2): succession, random timing, retiming poses
 as units, and the per-control-variable time warp these edits apply.
 
-Every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
-(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
-"s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
-
-Notation (as in :mod:`.representation`): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
-times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
-``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in the joint's local frame) and
-``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale ``exp(w log q)`` (§5.1 footnote).
+The editing tools' conventions and notation: :mod:`stagger_nb.staggered`.
 
 Temporal edits only change ``t_k`` / ``r[k, i]``: splines and displacement maps live on normalised segment time,
 so they follow; editing knots are re-created at ``t_k`` by evaluation (Figure 6c, :func:`_refresh`, the common
@@ -20,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.limits import MAX_TAU
 from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask, _pose_weights
 from .evaluation import _eval_rotations
 from .representation import StaggeredMotion, knot_times
@@ -286,10 +280,6 @@ def _scaled(sm: StaggeredMotion, dr: np.ndarray, weights) -> np.ndarray:
     return dr if w is None else dr * w[:, None]
 
 
-#: Largest random timing offset (seconds): an hour, far beyond any take's pose spacing; numpy's uniform
-#: overflows near 1e308.
-MAX_TAU = 3600.0
-
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
                   poses=None, ease_ends: bool = False, weights=None) -> StaggeredMotion:
@@ -303,7 +293,7 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     ----------
     joints : list of joint names, optional (default all joints)
     tau : float
-        Bound of the offsets, seconds (>= 0).
+        Bound of the offsets, seconds, in ``[0, MAX_TAU]`` (:data:`stagger_nb.core.limits.MAX_TAU`, 60 s).
     seed : int
     poses : list of int, optional; default all interior poses.
     ease_ends : bool
@@ -313,7 +303,7 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     """
     _check(sm)
     tau = _finite(tau, "tau")
-    if not 0 <= tau <= MAX_TAU:  # numpy's uniform(-1e308, 1e308) overflows
+    if not 0 <= tau <= MAX_TAU:  # core.limits: the one declaration of the bound
         raise ValueError(f"tau must be in [0, {MAX_TAU:g}] seconds, got {tau}")
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, (bool, np.bool_)) or seed < 0:
         raise ValueError(f"seed must be a non-negative int, got {seed!r}")
