@@ -23,7 +23,7 @@ from . import ops as O
 from .cache import Cache
 
 __all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k", "warp_table_key",
-           "pose_spread", "MAX_WARP_RATIO"]
+           "pose_spread", "falloff_at_poses", "even_upsample", "MAX_WARP_RATIO"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -316,7 +316,7 @@ def _pose_source_frames(sm, origin: Motion) -> np.ndarray:
     return np.asarray(times, dtype=float) / origin.frame_time
 
 
-def _falloff_at_poses(sm, run, frame: int, sigma, frame_range, field: str) -> np.ndarray:
+def falloff_at_poses(sm, run, frame: int, sigma, frame_range, field: str) -> np.ndarray:
     """The falloff of ``run.origin`` around source ``frame`` read at every pose's source time (linear between
     frames; 0 outside ``frame_range``), shape (K,)."""
     origin = run.origin
@@ -343,7 +343,7 @@ def pose_spread(sm, poses, run, sigma, frame_range) -> np.ndarray:
     frames = np.rint(_pose_source_frames(sm, run.origin)[poses]).astype(int)
     F = run.origin.num_frames
     frames = np.clip(frames, 0, F - 1)
-    W = np.stack([_falloff_at_poses(sm, run, int(f), sigma, frame_range, "") for f in frames])
+    W = np.stack([falloff_at_poses(sm, run, int(f), sigma, frame_range, "") for f in frames])
     W[np.arange(len(poses)), poses] = 1.0          # the edited pose itself (its own frame: 1, §3.3)
     if len(poses) > 1:
         M = W[:, poses].T                          # M[a, e] = w_e(pose a)
@@ -357,7 +357,7 @@ def _timing_weights(sm, op, run):
     if op.falloff is None:
         return None
     r = dict(op.falloff)
-    return _falloff_at_poses(sm, run, r["frame"], r["sigma"], r["frame_range"], "falloff.")
+    return falloff_at_poses(sm, run, r["frame"], r["sigma"], r["frame_range"], "falloff.")
 
 
 def _weights_kw(weights) -> dict:
@@ -486,6 +486,24 @@ def _guided_warp(m, op: O.GuidedWarp, run):
     return out
 
 
+def even_upsample(n: int, num_frames: int, u: int, most: int = 16) -> int:
+    """The upsampling factor of a guided warp of ``n`` input frames to ``num_frames`` near the default ``u``
+    (``u - 1 .. u + 1``, at least what the length needs) whose mean step ``(n - 1) u' / (num_frames - 1)``
+    upsampled frames per output frame is nearest a whole number: the search's speeds are multiples of ``1 / u'``,
+    so a reference timed uniformly (a take played 1.5x slower) is followed at one speed instead of alternating
+    two (measured on CMU 131_01, 994 frames to 1491: ``u = 4`` plays 0.75x for 18 s, then 0.25x; ``u = 3``
+    plays 0.667x throughout, pose spacings 1.49-1.56x). Ties go to the default."""
+    need = max(1, -(-(num_frames - 1) // (n - 1)))
+
+    def off(c):  # distance of the mean step from a whole number of upsampled frames
+        step = (n - 1) * c / (num_frames - 1)
+        return abs(step - round(step))
+    best = min(range(max(need, u - 1), min(most, u + 1) + 1), key=lambda c: (round(off(c), 9), c != u, c))
+    if num_frames == n:
+        best = max(best, 2)        # same duration: without upsampling the only warp is the identity (§3.1)
+    return best
+
+
 def _guide_poses(sm, op: O.GuidePoses, run):
     """The pose times ``t_k`` of ``sm`` mapped through the guided warp of ``run.origin`` (the motion the poses
     were extracted from) to the reference: ``t̂_k = W⁻¹(t_k)`` with ``W`` the warp (output time -> input time,
@@ -495,6 +513,8 @@ def _guide_poses(sm, op: O.GuidePoses, run):
     reference = run.heads.reference(op.reference)
     wop = op.warp_op(reference.duration)
     n, u = warp_size(origin, wop)
+    if n is not None and op.upsample is None:
+        u = even_upsample(origin.num_frames, n, u)
     k = warp_k(n)
     p = run.progress
     tables = run.heads.warp_tables(origin, wop.reference, wop.skip, u, False, k,

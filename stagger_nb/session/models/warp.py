@@ -12,8 +12,8 @@ from ._base import _canon, _finite, _Model
 
 __all__ = ["WarpModel", "WARP_OPS", "warp_params_to_ops", "warp_ops_to_params"]
 
-WARP_OPS = ("guided_warp", "linear_warp")
-"""Ops the WarpEditor writes."""
+WARP_OPS = ("guided_warp", "linear_warp", "guide_poses")
+"""Ops the WarpEditor writes (``guide_poses``: the guided warp applied to the staggered pose times, issue 24)."""
 
 
 class WarpModel(_Model):
@@ -28,6 +28,11 @@ class WarpModel(_Model):
                                                   "reference = 'segment'").tag(op=True)
     keytimes = T.List(T.List(T.Float()), help="[[input_s, output_s], ...] keytime constraints (§4.2)").tag(op=True)
     backward = T.Bool(False, help="allow the warp to run backward in time").tag(op=True)
+    target = T.Enum(["motion", "poses"], "motion",
+                    help="what the guided warp retimes: the edited motion (guided_warp) or the staggered pose times "
+                         "(guide_poses: refinements and the staggered edits kept and editable; needs a session "
+                         "with staggered edits, guided mode, forward)").tag(op=True)
+    has_staggered = T.Bool(False, help="the session holds staggered edits (set by the binding): 'poses' applies")
 
     source_duration = T.Float(0.0, help="duration of the source (seconds; set by the binding)")
     reference_options = T.List(T.Unicode(), ["self", "segment"], help="names the reference can take")
@@ -100,14 +105,15 @@ def warp_params_to_ops(p: dict, references: dict | None = None, source_duration:
         ref = {"segment": [float(x) for x in p["segment"]]}
     else:
         ref = copy.deepcopy((references or {}).get(r, {"path": r}))
-    op = {"op": "guided_warp", "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
+    name = "guide_poses" if p.get("target") == "poses" else "guided_warp"
+    op = {"op": name, "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
     if kt:
         op["keytimes"] = kt
     if p["free_length"]:   # the warp chooses its length: no duration, no keytimes (they need one)
         op["free_length"] = True
         del op["duration"]
         op.pop("keytimes", None)
-    if p["backward"]:
+    if p["backward"] and name == "guided_warp":   # (the pose times keep their order: no backward guide_poses)
         op["backward"] = True
     return [op]
 
@@ -127,10 +133,11 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
         return p, notes, new_refs
     o = mine[-1]
     p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
+    p["target"] = "poses" if o["op"] == "guide_poses" else "motion"
     if o.get("duration") is not None:
         p["duration"] = float(o["duration"])
     p["keytimes"] = [[float(a), float(b)] for a, b in (o.get("keytimes") or [])]
-    if o["op"] == "guided_warp":
+    if o["op"] in ("guided_warp", "guide_poses"):
         p["skip"] = int(o.get("skip", 8))
         p["free_length"] = bool(o.get("free_length", False))
         p["backward"] = bool(o.get("backward", False))
