@@ -18,8 +18,9 @@ Ops (fields; ``?`` optional, ``=`` default):
 ======================  ================================================================================
 extract                 (none)
 cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2), ``keep`` (pose indices)
-succession              root, s, l=1.0, joints?, falloff? {frame, sigma?, frame_range?}   (§5.2, succession)
-random_timing           tau >= 0, seed=0, joints?, falloff?          (§5.2, random timing)
+succession              root, s, l=1.0, joints?, limit=1.5 (null: raw), falloff? {frame, sigma?, frame_range?}
+                        (§5.2, succession)
+random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw), falloff?   (§5.2, random timing)
 exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?,
                         propagate=false, sigma?, frame_range?
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
@@ -58,10 +59,12 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
 
+from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
+
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "GuidePoses", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -449,6 +452,7 @@ class Succession(Op):
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
     falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
 
 
@@ -461,6 +465,7 @@ class RandomTiming(Op):
     tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
     falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
 
 

@@ -365,12 +365,12 @@ def _weights_kw(weights) -> dict:
 
 
 def _succession(sm, op: O.Succession, run):
-    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints),
+    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints), limit=op.limit,
                                    **_weights_kw(_timing_weights(sm, op, run)))
 
 
 def _random_timing(sm, op: O.RandomTiming, run):
-    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed,
+    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed, limit=op.limit,
                                       **_weights_kw(_timing_weights(sm, op, run)))
 
 
