@@ -103,18 +103,27 @@ def test_ik_pose_weights_keep_the_solve_and_spread_the_limb_change(sm):
 
 
 @pytest.mark.parametrize("tool", ["succession", "random_timing"])
-def test_timing_weights_scale_each_poses_offsets_exactly(sm, rng, tool):
+def test_timing_weights_scale_each_poses_offsets_before_the_saturation(sm, rng, tool):
     def run(**kw):
         if tool == "succession":
             return st.succession(sm, root="LeftShoulder", s=0.02, l=1.5, **kw)
         return st.random_timing(sm, tau=0.03, seed=4, **kw)
+    w = rng.uniform(0.0, 1.0, sm.num_poses)
+    w[[3, 7]] = 0.0
+    # the paper's formula (no saturation): exactly w[k] times the offsets
+    raw = run(limit=None)
+    scaled = run(limit=None, weights=w)
+    np.testing.assert_allclose(scaled.refinements - sm.refinements, w[:, None] * (raw.refinements - sm.refinements),
+                               rtol=0, atol=1e-15)
+    # saturated (the default): weights 1 are the plain edit, 0 leave the poses (all of them: the input itself)
     plain = run()
     assert np.array_equal(run(weights=np.ones(sm.num_poses)).refinements, plain.refinements)
     assert run(weights=np.zeros(sm.num_poses)) is sm
-    w = rng.uniform(0.0, 1.0, sm.num_poses)
-    scaled = run(weights=w)
-    np.testing.assert_allclose(scaled.refinements - sm.refinements, w[:, None] * (plain.refinements - sm.refinements),
-                               rtol=0, atol=1e-15)
+    sat = run(weights=w).refinements - sm.refinements
+    assert np.all(sat[[3, 7]] == 0.0)
+    # the saturation only takes away from the scaled offsets, never adds: |kept| <= w |asked|
+    asked = w[:, None] * (raw.refinements - sm.refinements)
+    assert np.all(np.abs(sat) <= np.abs(asked) + 1e-12) and np.all(sat * asked >= 0)
 
 
 def test_weights_are_checked(sm):
