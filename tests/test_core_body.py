@@ -105,3 +105,43 @@ def test_up_axis_and_heading(walk, shared_motion):
     q = quat_mul(yaw, tilt)
     assert quat_angle(heading_quats(q, up), yaw).max() < 1e-9
     assert quat_angle(remove_heading(q, up), tilt).max() < 1e-9
+
+
+def _groups_by_label(sk):
+    from stagger_nb.core.body import limb_groups
+    groups = limb_groups(sk)
+    members = sorted(j for _, js in groups for j in js)
+    assert members == list(range(sk.num_joints)), "every joint in exactly one group"
+    assert all(list(js) == sorted(js) for _, js in groups)
+    return {label: [sk.names[j] for j in js] for label, js in groups}
+
+
+@pytest.mark.parametrize("name", ["cmu_131_01_walk_startstop.bvh", "bandai_walk.bvh", "pymo_walk_turnaround.bvh",
+                                  "xia_neutral_walk.bvh", "iclone_cmu_07_01_walk.bvh"])
+def test_limb_groups_of_real_rigs(shared_motion, name):
+    """Trunk, two arms, two legs on every rig (found from the hierarchy's mirror-image subtrees; the names give
+    only the labels); each limb's joints are one subtree and the legs hold the feet, the arms the hands."""
+    sk = shared_motion(name).skeleton
+    g = _groups_by_label(sk)
+    assert list(g)[:5] == ["trunk", "left arm", "right arm", "left leg", "right leg"], list(g)
+    from stagger_nb.core.body import subtree
+    for label in ("left arm", "right arm", "left leg", "right leg"):
+        first = sk.index(g[label][0])
+        assert sorted(g[label]) == sorted(sk.names[j] for j in subtree(sk, first))
+    assert any(w in n.lower() for n in g["left leg"] for w in ("foot", "ankle")), g["left leg"]
+    assert any(w in n.lower() for n in g["right arm"] for w in ("hand", "wrist")), g["right arm"]
+    assert sk.names[0] in g["trunk"] and len(g["left arm"]) == len(g["right arm"])
+
+
+def test_limb_groups_of_small_rigs():
+    # no mirror-image subtrees: one group; single end joints (eyes) stay in the trunk
+    chain = Skeleton(("a", "b", "c"), np.array([-1, 0, 1]), np.ones((3, 3)))
+    assert _groups_by_label(chain) == {"trunk": ["a", "b", "c"]}
+    eyes = Skeleton(("root", "head", "LeftEye", "RightEye"), np.array([-1, 0, 1, 1]), np.ones((4, 3)))
+    assert _groups_by_label(eyes) == {"trunk": ["root", "head", "LeftEye", "RightEye"]}
+    # unnamed mirror limbs: labelled by their first joint; sides from any naming scheme
+    toy = Skeleton(("root", "a1", "a2", "b1", "b2"), np.array([-1, 0, 1, 0, 3]), np.ones((5, 3)))
+    assert _groups_by_label(toy) == {"trunk": ["root"], "a1": ["a1", "a2"], "b1": ["b1", "b2"]}
+    from stagger_nb.core.body import joint_sides
+    assert joint_sides(["mixamorig:LeftUpLeg", "CC_Base_R_Thigh", "Hand.L", "lhumerus", "LowerBack", "RThumb",
+                        "Head", "root"]) == ["left", "right", "left", "left", "centre", "right", "centre", "centre"]

@@ -27,6 +27,7 @@ EXAMPLES = [
     {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "unstaggered"},
     {"op": "edit_pose", "pose": 2, "mode": "staggered", "targets": {"LeftUpLeg": [0.0, 0.0, 0.6, 0.8]}},
     {"op": "retime", "pose": 3, "time": 1.25},
+    {"op": "refine", "pose": 2, "joint": "LeftFoot", "time": 1.23},
     {"op": "insert_pose", "time": 0.7},
     {"op": "delete_pose", "pose": 2},
     {"op": "keep_contacts"},

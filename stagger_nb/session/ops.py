@@ -26,6 +26,7 @@ exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose),
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
                         mode="staggered"|"unstaggered", propagate=false, sigma?, frame_range?   (§5.1, Fig. 6a/6b)
 retime                  pose, time (s)                               (§5.2, Fig. 6c)
+refine                  pose, joint, time (s): one joint's knot at the refined time t_k + r[k, j]   (§3, §5.2)
 insert_pose             time (s)                                     (§5.1)
 delete_pose             pose                                         (§5.1)
 keep_contacts           (none): constraint layer with the source's contacts carried through the timing edits
@@ -62,7 +63,7 @@ from typing import Any, Callable, ClassVar
 from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
 
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
-           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
+           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "GuidePoses", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
            "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
 
@@ -530,6 +531,18 @@ class Retime(Op):
     name: ClassVar[str] = "retime"
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
+    time: float = _spec(_nonneg)
+
+
+@dataclass(frozen=True)
+class Refine(Op):
+    """Put joint ``joint``'s knot of pose ``pose`` at the refined time ``time`` = t_k + r[k, j] seconds (§3, §5.2;
+    ``staggered.refine``: refused where it would leave that joint's knots out of order)."""
+
+    name: ClassVar[str] = "refine"
+    needs: ClassVar[str] = "staggered"
+    pose: int = _spec(_index)
+    joint: str = _spec(text)
     time: float = _spec(_nonneg)
 
 

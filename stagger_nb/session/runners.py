@@ -408,6 +408,11 @@ def _retime(sm, op: O.Retime, run):
     return _staggered().retime(sm, {_pose(sm, op.pose): op.time})
 
 
+def _refine(sm, op: O.Refine, run):
+    _joint(sm.skeleton, op.joint, "joint")
+    return _needs("refine")(sm, _pose(sm, op.pose), op.joint, op.time)
+
+
 def _insert_pose(sm, op: O.InsertPose, run):
     return _staggered().insert_pose(sm, op.time)
 
@@ -558,8 +563,9 @@ def _resample(m, op: O.Resample, run):
 #: Runner of each op type. A new op is an :class:`~.ops.Op` subclass plus an entry here.
 RUNNERS: dict[type, Callable] = {
     O.Extract: _extract, O.Cull: _cull, O.Succession: _succession, O.RandomTiming: _random_timing,
-    O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.InsertPose: _insert_pose,
-    O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose, O.GuidePoses: _guide_poses,
+    O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.Refine: _refine,
+    O.InsertPose: _insert_pose, O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose,
+    O.GuidePoses: _guide_poses,
     O.EditFrame: _edit_frame, O.Propagate: _propagate, O.GuidedWarp: _guided_warp,
     O.LinearWarp: _linear_warp, O.Resample: _resample,
 }

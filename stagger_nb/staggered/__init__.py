@@ -15,10 +15,9 @@ Modules, one job each (paper sections in brackets):
 * fitting (§4.1.1, Appendix A): ``sampling`` (grids), ``rotation_fit`` (C0) and ``rotation_fit_c1`` (C1),
   ``translation_fit``, ``displacement`` (maps and their re-measuring), ``fitting`` (:func:`fit_staggered`).
 * editing (§5): ``geometry`` (:func:`edit_pose`, :func:`exaggerate`, §5.1), ``timing`` (:func:`succession`,
-  :func:`random_timing`, :func:`retime`, their saturation :func:`saturate_offsets`, the per-joint time warp
-  :func:`warp_times`, §5.2), ``timing_report`` (:func:`timing_warnings`; the one plain sentence of a timing
-  edit: :func:`timing_summary`), ``structure``
-  (:func:`insert_pose`, :func:`delete_pose`).
+  :func:`random_timing`, :func:`retime`, one knot: :func:`refine`, their saturation :func:`saturate_offsets`,
+  the per-joint time warp :func:`warp_times`, §5.2), ``timing_report`` (:func:`timing_warnings`; the one plain
+  sentence of a timing edit: :func:`timing_summary`), ``structure`` (:func:`insert_pose`, :func:`delete_pose`).
 * constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
   ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
 
@@ -44,8 +43,8 @@ from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset
 from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
 from .representation import StaggeredMotion, knot_times
 from .structure import delete_pose, insert_pose
-from .timing import (TIMING_LIMIT, random_timing, retime, saturate_offsets, source_knot_times, source_pose_times,
-                     succession, warp_times)
+from .timing import (TIMING_LIMIT, random_timing, refine, retime, saturate_offsets, source_knot_times,
+                     source_pose_times, succession, warp_times)
 from .timing_report import TimingWarning, body_part, summarize_timing_warnings, timing_summary, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
@@ -53,7 +52,8 @@ __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detec
            "evaluate_arrays", "knot_times",
            "TimingWarning", "timing_warnings", "summarize_timing_warnings", "timing_summary", "body_part",
            "saturate_offsets", "TIMING_LIMIT", "source_knot_times", "source_pose_times", "warp_times", "spread_offsets",
-           "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
+           "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "refine", "succession",
+           "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik",
            "contact_positions", "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts",
            "keep_contacts", "IKPoseResult", "ik_pose", "solve_limb"]

@@ -1,5 +1,6 @@
 """Temporal editing of staggered poses (Coleman et al. 2008, §5.2): succession, random timing, retiming poses
-as units, and the per-control-variable time warp these edits apply.
+as units, one knot at a time (:func:`refine`, the dope sheet's drag), and the per-control-variable time warp
+these edits apply.
 
 The editing tools' conventions and notation: :mod:`stagger_nb.staggered`.
 
@@ -25,7 +26,7 @@ from .representation import StaggeredMotion
 from . import timing_report
 from .timing_report import _LazyWarnings
 
-__all__ = ["succession", "random_timing", "retime", "source_knot_times", "source_pose_times", "warp_times",
+__all__ = ["succession", "random_timing", "retime", "refine", "source_knot_times", "source_pose_times", "warp_times",
            "inside_ends", "MAX_TAU", "TIMING_LIMIT", "saturate_offsets"]
 
 
@@ -542,3 +543,55 @@ def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:
     if np.array_equal(t, sm.pose_times):
         return sm
     return _refresh(sm, pose_times=t)
+
+
+def refine(sm: StaggeredMotion, pose: int, joint, time: float) -> StaggeredMotion:
+    """Put joint ``joint``'s knot of pose ``pose`` at the refined time ``time`` seconds: ``r[k, j] = time - t_k``.
+
+    The knot must stay strictly between the same joint's knots of the neighbouring poses (``T[k - 1, j] < time
+    < T[k + 1, j]``): a knot past its neighbour would reverse that joint's motion between them. The first and
+    last poses are the clip's first and last frames (§4.1) and keep their knots. The root joint's knot moves
+    its translation's knot by the same amount (both are the root's timing, as in :func:`succession`), which
+    must then stay in order too.
+
+    Parameters
+    ----------
+    sm : StaggeredMotion
+    pose : int, an interior pose index (0 < pose < K - 1; negative indices count from the end)
+    joint : str or int, joint name or index
+    time : float, seconds, the knot's new refined time ``t_k + r[k, j]``
+
+    Returns
+    -------
+    StaggeredMotion (``sm`` itself when the knot is already there).
+
+    Raises
+    ------
+    ValueError naming the parameter: an unknown joint or pose, an end pose, a time that is not finite or
+    would leave the knots out of order (the message gives the open interval the knot may move in).
+    """
+    _check(sm)
+    k = _pose_index(sm, pose, "pose")
+    mask = _joint_mask(sm, [joint])
+    j = int(mask.argmax())
+    time = _finite(time, "time")
+    K = sm.num_poses
+    name = sm.skeleton.names[j]
+    if k in (0, K - 1):
+        raise ValueError(f"pose: pose {k} is the clip's {'first' if k == 0 else 'last'} frame; its knots stay at "
+                         f"{sm.pose_times[k]:.3f} s (retime an interior pose, or the pose as a whole)")
+    knots = sm.pose_times + sm.refinements[:, j]
+    lo, hi = float(knots[k - 1]), float(knots[k + 1])
+    if not lo < time < hi:
+        raise ValueError(f"time: {name}'s knot of pose {k} must stay between its knots of poses {k - 1} and {k + 1}, "
+                         f"{lo:.3f} s < time < {hi:.3f} s; got {time:.3f} s")
+    d = time - float(knots[k])
+    if j == 0:
+        rk = sm.pose_times + sm.root_refinements
+        lo_r, hi_r, at = float(rk[k - 1]), float(rk[k + 1]), float(rk[k]) + d
+        if not lo_r < at < hi_r:
+            raise ValueError(f"time: the root translation's knot of pose {k} would move to {at:.3f} s, outside "
+                             f"its neighbours' {lo_r:.3f} s .. {hi_r:.3f} s")
+    dr = np.zeros((K, sm.num_joints))
+    dr[k, j] = d
+    return _with_timing(sm, dr, mask)
