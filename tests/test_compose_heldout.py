@@ -10,7 +10,7 @@
   far apart as before and keeps every refinement within 1 ms;
 * the sessions replay bit-exactly after save and load.
 
-Where the wand's falloff or the guided warp does not meet a bound the test is an ``xfail(strict=True)`` with
+Where the wand's falloff or the timing saturation does not meet a bound the test is an ``xfail(strict=True)`` with
 the figures measured: it fails loudly the day it passes (then remove the mark).
 """
 from __future__ import annotations
@@ -37,10 +37,11 @@ PROPAGATE_FAILS = {
                                      "(0.72-0.96 at the opposite phase, 0.45-0.91 at the same phase, any sigma "
                                      "from 0.5x to 8x the default)",
 }
-GUIDE_FAILS = {
-    "cmu_01_01": "2 of 42 pose spacings (1.30x, 1.72x) around the stop and turn-around (8-10 s, 17.6-17.8 s), "
-                 "where the clip stands still and the guided warp's speed is free (0.75x and 0.5x for 0.25-0.33 s, "
-                 "made up next to it)",
+REGION_FAILS = {
+    "iclone_cmu_07_01_walk.bvh": "the timing saturation (limit 1.5) keeps 0.55 of the hand's 0.06 s delay at a pose "
+                                 "of falloff >= 0.9 whose neighbours' weights are lower (the region makes the delay "
+                                 "differ from pose to pose; unscaled, every pose moves alike and nothing is limited); "
+                                 "s = 0.005: 0.85",
 }
 
 
@@ -85,14 +86,16 @@ def test_a_propagated_arm_edit_moves_the_same_phase_of_every_step(sessions, name
     assert moved[opposite].max() <= 0.2, f"opposite phase: {np.round(moved[opposite], 2)}"
 
 
-@pytest.mark.parametrize("name", CLIPS)
+@pytest.mark.parametrize("name", [_xfail(n, REGION_FAILS) for n in CLIPS])
 def test_a_succession_in_a_region_changes_the_poses_the_falloff_selects(sessions, name):
     s = sessions(name)
     m = s.source
     root = next(n for n in ("LeftShoulder", "Shoulder_L", "CC_Base_L_Clavicle", "LeftArm") if n in m.skeleton.names)
     sm = s.extraction()
     frame = int(round(sm.pose_times[sm.num_poses // 2] / m.frame_time))   # a region around a pose mid-clip
-    plain = {"op": "succession", "root": root, "s": 0.02, "l": 1.5}
+    # a moderate delay (0.01 s per bone, linear: the hand 0.04-0.06 s late): larger ones are limited by the timing
+    # saturation where the region makes neighbouring poses' delays differ (walk: 0.72 of it at s = 0.02, l = 1.5)
+    plain = {"op": "succession", "root": root, "s": 0.01, "l": 1.0}
     s.set_ops([plain])
     unscaled = s.staggered().refinements - s.extraction().refinements
     s.set_ops([dict(plain, falloff={"frame": frame, "sigma": None})])
@@ -100,13 +103,13 @@ def test_a_succession_in_a_region_changes_the_poses_the_falloff_selects(sessions
     w = s.pose_falloff(frame)
     inside, outside = w >= 0.9, w <= 0.05
     # a region, not the whole clip (iclone's 7 poses have none at <= 0.05: that bound is then vacuous)
-    assert inside.sum() >= 1 and (w < 0.5).sum() >= 1 and np.abs(unscaled[inside]).max() > 0.01
+    assert inside.sum() >= 1 and (w < 0.5).sum() >= 1 and np.abs(unscaled[inside]).max() > 0.02
     moved = np.abs(unscaled) > 0
     assert np.all(np.abs(scaled[inside][moved[inside]]) >= 0.8 * np.abs(unscaled[inside][moved[inside]]))
     assert np.all(np.abs(scaled[outside]) <= 0.1 * np.abs(unscaled[outside]) + 1e-15)
 
 
-@pytest.mark.parametrize("name", [_xfail(n, GUIDE_FAILS) for n in CLIPS])
+@pytest.mark.parametrize("name", CLIPS)
 def test_guide_poses_takes_a_slower_copys_rhythm_and_keeps_the_staggering(sessions, name):
     s = sessions(name)
     m = s.source
