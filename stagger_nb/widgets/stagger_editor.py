@@ -148,6 +148,7 @@ class StaggerEditor(_Editor):
         self._links.append(traitlets.link((model, "w_r_reference"), (c["w_r_reference"], "value")))
         model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint", "region", "propagate"])
         model.observe(self._on_selection, names=["joint"])
+        model.observe(self._show_region, names=["region_weights"])
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
@@ -218,6 +219,13 @@ class StaggerEditor(_Editor):
         _inert(c["region_frame"], not m.region, "the region's centre: inert while the region is off")
         _inert(c["sigma"], not (m.region or m.propagate), "the falloff width: inert while neither the region nor "
                                                           "propagation is on")
+
+    def _show_region(self, change=None) -> None:
+        """The timing edits' region (``model.region_weights``, a weight per pose) on the dope sheet, when the editor
+        has one (``editor.timeline``); the pose-probability plot draws it too."""
+        timeline = self.__dict__.get("timeline")
+        if timeline is not None and hasattr(timeline, "region"):
+            timeline.region = [float(w) for w in self.model.region_weights]
 
     def _on_selection(self, change=None) -> None:
         self._redraw(self._draw_curves)
