@@ -16,7 +16,6 @@ each beside its baseline in this process:
 """
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -24,20 +23,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import read_bvh, timewarp  # noqa: E402
-from stagger_nb.core.motion import concatenate  # noqa: E402
+from stagger_nb import timewarp  # noqa: E402
 from stagger_nb.session import Session  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_staggered_interactive import clip  # noqa: E402  (CMU 01_01's first 900 frames, or the walk looped)
 
 N = 12   # slider positions per path
-
-
-def clip():
-    for p in (REPO / "data" / "cmu_01_01.bvh", Path(os.environ.get("STAGGER_NB_DATA", "")) / "cmu_01_01.bvh"):
-        if p.is_file():
-            return read_bvh(p).slice(0, 900), "cmu_01_01 frames 0-900"
-    from stagger_nb import data
-    m = data.load("walk")
-    return concatenate([m] * 3).slice(0, 900), "procedural walk looped to 900 frames (cmu_01_01 absent)"
 
 
 def per_move(session: Session, lists) -> float:

@@ -592,6 +592,15 @@ class IKPose(Op):
         _check_propagate(self)
 
 
+def _check_free_length(op) -> None:
+    """A warp op's ``free_length`` excludes a ``duration`` and ``keytimes`` (the warp chooses its length)."""
+    if op.free_length:
+        if op.duration is not None:
+            raise ValueError("duration: free_length chooses the duration itself; leave duration out")
+        if op.keytimes:
+            raise ValueError("keytimes: need a duration (free_length chooses the output length itself)")
+
+
 @dataclass(frozen=True)
 class GuidePoses(Op):
     """Staggered poses timed like a reference (Hsu et al. 2007 on Coleman et al. 2008): the guided time warp of
@@ -611,11 +620,7 @@ class GuidePoses(Op):
     upsample: int | None = _spec(optional(integer(1, 16)), None, omit_none=True)
 
     def _validate(self):
-        if self.free_length:
-            if self.duration is not None:
-                raise ValueError("duration: free_length chooses the duration itself; leave duration out")
-            if self.keytimes:
-                raise ValueError("keytimes: need a duration (free_length chooses the output length itself)")
+        _check_free_length(self)
 
     def warp_op(self, duration: float) -> "GuidedWarp":
         """The ``guided_warp`` op this retiming reads its warp from (``duration``: this op's, or the default)."""
@@ -698,12 +703,8 @@ class GuidedWarp(Op):
     upsample: int | None = _spec(optional(integer(1, 16)), None, omit_none=True)
 
     def _validate(self):
-        if self.free_length:
-            if self.duration is not None:
-                raise ValueError("duration: free_length chooses the duration itself; leave duration out")
-            if self.keytimes:
-                raise ValueError("keytimes: need a duration (free_length chooses the output length itself)")
-        elif self.duration is None:
+        _check_free_length(self)
+        if not self.free_length and self.duration is None:
             raise ValueError("duration: required unless free_length is true")
 
 
