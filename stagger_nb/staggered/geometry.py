@@ -128,7 +128,7 @@ def pose_offset_basis(sm: StaggeredMotion, reproduced=None) -> OffsetBasis:
     """The offset-independent half of re-measuring every displacement map of ``sm`` (see
     :class:`OffsetBasis`): ``exaggerate(sm, ..., basis=pose_offset_basis(sm))`` equals ``exaggerate(sm, ...)``
     to rounding (~1e-16 rad). Cost: about one :func:`evaluate`; memory ~100 bytes
-    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.representation.
+    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.evaluation.
     static_rotations`) are left out: an edit that moves one re-measures without the basis.
 
     ``reproduced``: a Motion ``sm`` reproduces at its frames (frame f at ``f * frame_time`` seconds), e.g. the
