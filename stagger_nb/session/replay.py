@@ -294,6 +294,14 @@ class Replay:
         self._held[self._keys[j]] = st
         return st
 
+    def origin(self, ops: tuple) -> Motion:
+        """The Motion the last staggered state of the replay of ``ops`` was extracted from (the source when no
+        state is staggered)."""
+        j = self.last_staggered_index(ops)
+        if j is None:
+            return self.source
+        return self._origin(ops, self._keys[:j + 1], [None] * (j + 1))
+
     def messages(self, ops: tuple) -> list[str]:
         """The runners' notes and the timing summary of the last replay of ``ops`` ([] when the op list
         changed since, or before the first replay)."""

@@ -310,6 +310,18 @@ class Session:
             out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
         return out
 
+    def pose_falloff(self, frame: int, sigma: float | None = None, frame_range=None):
+        """The magic wand's falloff around source ``frame`` (Dean et al. 2018, §3.3; the cached basis of ``sigma``)
+        read at every pose of :meth:`staggered` at its source time, shape (K,): the weight a timing edit with
+        ``"falloff": {"frame": frame, "sigma": sigma}`` gives each pose's offsets (a region of the clip), and the
+        share a propagated pose edit at that frame's pose gives it. ``frame`` indexes the motion the poses were
+        extracted from (the source, unless a motion op comes first)."""
+        from .runners import Run, falloff_at_poses
+        sm = self.staggered()
+        fr = None if frame_range is None else tuple(int(x) for x in frame_range)
+        run = Run(self._ctx, self._replay.origin(self._history.ops))
+        return falloff_at_poses(sm, run, int(frame), None if sigma is None else float(sigma), fr, "")
+
     # -- background cache fills --------------------------------------------------------------------
     def warm(self, *jobs, progress: Callable | None = None) -> Future:
         """Fill the caches in the background, on the session's own executor (one worker thread).

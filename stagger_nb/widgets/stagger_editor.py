@@ -65,7 +65,18 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
     for a in "xyz":
         c["ik_" + a] = _slider(widgets.FloatSlider, f"target {a}", min=-1.0, max=1.0, step=st("ik_" + a),
                                readout_format=".3f")
-    for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
+    c["propagate"] = widgets.Checkbox(description="propagate pose edits to similar poses", indent=False,
+                                      tooltip="the magic wand (Dean et al. 2018 §3.3): each nudge and IK target "
+                                              "changes every similar pose, weighted by the Green's falloff")
+    c["region"] = widgets.Checkbox(description="timing edits in a region", indent=False,
+                                   tooltip="s and τ scaled by the magic-wand falloff around the region frame "
+                                           "(turning it on centres it on the selected pose)")
+    c["region_frame"] = widgets.BoundedIntText(min=0, max=max(m.num_frames - 1, 0), description="region frame",
+                                               **wide, layout=widgets.Layout(width="230px"))
+    c["sigma"] = widgets.BoundedFloatText(min=0.0, max=1e6, step=0.05, description="wand σ (0 = auto)", **wide,
+                                          layout=widgets.Layout(width="230px"))
+    for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts", "propagate", "region",
+              "region_frame", "sigma"):
         c[k].add_class(f"sn-{k.replace('_', '-')}")
     c["percent"].add_class("sn-cull")   # its former name (browser checks)
     return c
@@ -78,6 +89,7 @@ def _rows(c: dict, insert: widgets.Button, delete: widgets.Button) -> list:
             widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
             widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
             widgets.HBox([c["w_r"], c["w_r_reference"]]),
+            widgets.HBox([c["propagate"], c["region"], c["region_frame"], c["sigma"]]),
             widgets.HBox([c["pose"], c["joint"]]),
             widgets.HBox([c["edit_mode"]]),
             widgets.HBox([c["rx"], c["ry"], c["rz"]]),
@@ -129,8 +141,9 @@ class StaggerEditor(_Editor):
         self._links.append(_link(model, "w_r_reference", c["w_r_reference"]))
         for a in "xyz":   # the IK target sliders reach where the model says (around the effector)
             model.observe(lambda ch, a=a: self._ik_reach(a), names="ik_range")
-        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint"])
+        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint", "region", "propagate"])
         model.observe(self._on_selection, names=["joint"])
+        model.observe(self._show_region, names=["region_weights"])
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
@@ -204,6 +217,16 @@ class StaggerEditor(_Editor):
         _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
         for a in "xyz":
             _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+        _inert(c["region_frame"], not m.region, "the region's centre: inert while the region is off")
+        _inert(c["sigma"], not (m.region or m.propagate), "the falloff width: inert while neither the region nor "
+                                                          "propagation is on")
+
+    def _show_region(self, change=None) -> None:
+        """The timing edits' region (``model.region_weights``, a weight per pose) on the dope sheet, when the editor
+        has one (``editor.timeline``); the pose-probability plot draws it too."""
+        timeline = self.__dict__.get("timeline")
+        if timeline is not None and hasattr(timeline, "region"):
+            timeline.region = [float(w) for w in self.model.region_weights]
 
     def _on_selection(self, change=None) -> None:
         self._redraw(self._draw_curves)
@@ -260,6 +283,7 @@ class StaggerEditor(_Editor):
         sm, full = stagger_state(self.model, self.session)
         self._last_staggered = sm
         K = sm.num_poses
+        self.binding.show_staggered(sm)   # pose times, their source frames, the region's weights
         c = self.controls
         c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
         opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(self.model.candidate_times)]
@@ -295,14 +319,16 @@ class StaggerEditor(_Editor):
     def _draw_probability(self, full, sm, x_range) -> None:
         """The pose-probability plot: rebuilt only when the extraction or the kept poses changed (a timing or
         exaggeration slider leaves it as it is: no figure rebuilt, nothing sent)."""
-        key = (full, tuple(self.model.pose_times), tuple(x_range))
+        region = list(self.model.region_weights)
+        region = region if len(region) == len(self.model.pose_times) else None
+        key = (full, tuple(self.model.pose_times), tuple(x_range), None if region is None else tuple(region))
         last = getattr(self, "_probability_key", None)
         if last is not None and last[0] is full and last[1:] == key[1:] and self.probability.figure:
             return
         v = probability_view(self.session, sm, full)
         self.probability.figure = pose_probability_figure(
             v["times"], v["probability"], v["candidate_times"], v["candidate_values"], v["kept_times"],
-            v["kept_values"], x_range=x_range)
+            v["kept_values"], x_range=x_range, region=region)
         self._probability_key = key
 
     def _draw_curves(self, edited: Motion, sm=None) -> None:

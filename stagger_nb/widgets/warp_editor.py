@@ -59,6 +59,12 @@ class WarpEditor(_Editor):
         c["free_length"] = widgets.Checkbox(description="free length", indent=False)
         c["skip"] = _slider(widgets.IntSlider, "skip s", min=1, max=16)
         c["backward"] = widgets.Checkbox(description="backward", indent=False)
+        c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("the staggered poses", "poses")],
+                                            description="retime", style={**_STYLE, "button_width": "140px"},
+                                            tooltips=["warp the edited motion (guided_warp)",
+                                                      "warp the staggered pose times (guide_poses): the staggering "
+                                                      "and the staggered edits stay, still editable"])
+        c["target"].add_class("sn-warp-target")
         c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
         c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
                                step=model.step("segment"), readout_format=".2f")
@@ -67,7 +73,7 @@ class WarpEditor(_Editor):
         self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
         self.warp_plot = PlotView(frame_time=m.frame_time)
-        layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]),
+        layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]), widgets.HBox([c["target"]]),
                   widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
                   widgets.HBox([c["reference"], c["segment"]])]
         self.click_keytime = widgets.Checkbox(value=False, indent=False,
@@ -81,11 +87,12 @@ class WarpEditor(_Editor):
         self._setup(model, session, view, [self.warp_plot], layout, references=refs)
         # a reference given to the constructor is the one used (when the session has no warp op yet)
         traitlets.link((model, "reference_options"), (c["reference"], "options"))
-        for k in ("mode", "duration", "free_length", "skip", "backward", "reference"):
+        for k in ("mode", "duration", "free_length", "skip", "backward", "reference", "target"):
             self._links.append(_link(model, k, c[k]))
         self._links.append(_link(model, "segment", c["segment"], transform=(tuple, list)))
         self._links.append(_link(model, "keytimes_text", self.keytimes))
-        model.observe(self._on_inert, names=["mode", "reference", "free_length", "duration", "keytimes", "backward"])
+        model.observe(self._on_inert, names=["mode", "reference", "free_length", "duration", "keytimes", "backward",
+                                             "target", "has_staggered"])
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
@@ -127,6 +134,9 @@ class WarpEditor(_Editor):
             _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
                                     "change the duration, the reference or a keytime first")
         _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
+        _inert(c["target"], linear or not (m.has_staggered or m.target == "poses"),
+               "the staggered pose times can be warped in a session holding staggered edits (guided mode)")
+        _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")
         _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
 
     def _update_views(self, edited: Motion) -> None:

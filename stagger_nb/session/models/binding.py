@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import inspect
 import json
 import weakref
 from typing import Callable
@@ -18,6 +19,7 @@ from typing import Callable
 import traitlets as T
 
 from ..replay import ReplayError
+from ..ops import OPS
 from ._base import _canon, _Model
 from .messages import plain_message
 from .stagger import STAGGER_OPS, StaggerModel, stagger_ops_to_params, stagger_params_to_ops
@@ -29,16 +31,17 @@ __all__ = ["ModelBinding", "merge_ops"]
 # fields of each owned op the editor controls (others, e.g. exaggerate.poses, are kept as they are)
 _CONTROLLED = {
     "cull": ("percent", "count", "keep"),
-    "succession": ("root", "s", "l", "joints"),
-    "random_timing": ("tau", "seed", "joints"),
+    "succession": ("root", "s", "l", "joints", "falloff"),
+    "random_timing": ("tau", "seed", "joints", "falloff"),
     "exaggerate": ("w_r", "reference"),
-    "edit_pose": ("pose", "deltas", "targets", "mode"),
+    "edit_pose": ("pose", "deltas", "targets", "mode", "propagate", "sigma", "frame_range"),
     "retime": ("pose", "time"),
-    "ik_pose": ("pose", "joint", "target"),
+    "ik_pose": ("pose", "joint", "target", "propagate", "sigma", "frame_range"),
     "keep_contacts": (),
     "propagate": ("frame", "frames", "deltas", "sigma", "frame_range", "repetitions"),
     "edit_frame": ("frame", "deltas"),
     "guided_warp": ("duration", "free_length", "skip", "reference", "keytimes", "backward"),
+    "guide_poses": ("duration", "free_length", "skip", "reference", "keytimes"),
     "linear_warp": ("duration", "keytimes"),
 }
 
@@ -61,6 +64,8 @@ def _key(op: dict):
         return (name, op["pose"], op["joint"])
     if name == "edit_frame":
         return (name, op["frame"])
+    if name == "guide_poses":
+        return (name,)     # a warp of the pose times sits among the staggered ops, not at the end
     if name in WARP_OPS:
         return ("warp",)
     return (name,)
@@ -78,7 +83,7 @@ def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
     Only instances (see ``_key``) whose op differs between ``old_owned`` and ``new_owned`` are touched; each is
     replaced in place (its last occurrence in ``current``; fields the editor does not control are kept),
     removed, or inserted next to the owned ops of neighbouring rank (``owned`` gives the order), or at
-    ``home(ops)`` when the list holds none of them (default: the end). Every other op keeps its place.
+    ``home(ops, op)`` when the list holds none of them (default: the end). Every other op keeps its place.
     """
     old = {_key(o): o for o in old_owned}
     new = {_key(o): o for o in new_owned}
@@ -111,16 +116,40 @@ def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
         elif after:
             pos = after[0]
         else:
-            pos = len(out) if home is None else home(out)
+            pos = len(out) if home is None else _at_home(home, out, b)
         out.insert(pos, copy.deepcopy(b))
     return out
 
 
-def _stagger_home(ops):
+def _at_home(home: Callable, ops: list, op: dict) -> int:
+    """``home(ops, op)``, or ``home(ops)`` for a home that takes only the list."""
+    try:
+        takes_op = len(inspect.signature(home).parameters) >= 2
+    except (TypeError, ValueError):
+        takes_op = False
+    return home(ops, op) if takes_op else home(ops)
+
+
+def _stagger_home(ops, op=None):
     return 0
 
 
-def _wand_home(ops):
+def _warp_home(ops, op=None):
+    """Where a warp op goes in a list without one: a warp of the motion at the end; ``guide_poses`` (the pose
+    times, a staggered op) after the staggered ops, before the contact layer and the motion ops."""
+    if op is None or op["op"] != "guide_poses":
+        return len(ops)
+    pos = 0
+    for i, o in enumerate(ops):
+        if o["op"] == "keep_contacts":
+            return i
+        cls = OPS.get(o["op"])
+        if cls is not None and cls.needs == "staggered":
+            pos = i + 1
+    return pos
+
+
+def _wand_home(ops, op=None):
     for i, o in enumerate(ops):
         if o["op"] in ("guided_warp", "linear_warp", "resample"):
             return i
@@ -168,7 +197,7 @@ class ModelBinding:
             self.owned, self._home = WAND_OPS, _wand_home
             model.frame_time = float(session.source.frame_time)
         elif isinstance(model, WarpModel):
-            self.owned, self._home = WARP_OPS, None
+            self.owned, self._home = WARP_OPS, _warp_home
             model.source_duration = float(session.source.duration)
             model.frame_time = float(session.source.frame_time)
             model.reference_options = ["self", "segment"] + [n for n in self.references if n not in ("self", "segment")]
@@ -339,6 +368,10 @@ class ModelBinding:
         if isinstance(self.model, WandModel):
             with self.model.loading():
                 self.model.input_frames = _wand_input_frames(self.session)
+        if isinstance(self.model, WarpModel):
+            with self.model.loading():
+                self.model.has_staggered = any(getattr(OPS.get(o["op"]), "needs", "") == "staggered"
+                                               for o in self.session.ops if o["op"] != "guide_poses")
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:
@@ -358,6 +391,25 @@ class ModelBinding:
         self._notes = notes
         self._error = ""
         self._show()
+
+    def show_staggered(self, sm) -> None:
+        """StaggerModel: show the staggered state ``sm`` (the session's last, drawn by the editor): its pose times,
+        each pose's source frame (``staggered.source_pose_times``) and, while the region is on, the region's
+        falloff at each pose (``Session.pose_falloff``: the scale of the timing edits there)."""
+        from ... import staggered
+        m = self.model
+        ft = self.session.source.frame_time
+        weights = []
+        if m.region:
+            try:
+                weights = [float(w) for w in self.session.pose_falloff(m.region_frame, m.sigma or None)]
+            except ValueError as e:     # a region frame past the clip: said in the message line
+                self._notes = [n for n in self._notes if not n.startswith("region")] + [f"region: {e}"]
+                self._show()
+        with m.loading(), m.hold_trait_notifications():
+            m.pose_times = [float(t) for t in sm.pose_times]
+            m.pose_source_frames = [int(round(float(t) / ft)) for t in staggered.source_pose_times(sm)]
+            m.region_weights = weights
 
     def _clear_bases(self) -> None:
         if self.model.edit_bases:

@@ -48,6 +48,14 @@ class StaggerModel(_Model):
     ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(
         op=True, label="the IK target")
     keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
+    propagate = T.Bool(False, help="spread each pose edit (nudge, IK target) to every similar pose, weighted by the "
+                                   "magic wand's falloff of the edited pose (Dean et al. 2018, §3.3)").tag(op=True)
+    sigma = T.Float(0.0, help="falloff width σ of the propagation and of the region (pose-space units; 0 = the "
+                              "clip's default)").tag(op=True)
+    region = T.Bool(False, help="limit the timing edits (s, τ) to the magic-wand region around region_frame: each "
+                                "pose's offsets scaled by the falloff at its time").tag(op=True)
+    region_frame = T.Int(0, help="source frame the region is centred on (turning the region on puts it at the "
+                                 "selected pose)").tag(op=True)
 
     # view state
     edit_bases = T.Dict(help="{pose index: {joint: [x, y, z, w]}} the true pose value (editing knot at t_k) each "
@@ -75,6 +83,10 @@ class StaggerModel(_Model):
                       help="[[lo, hi]] * 3: where the IK target sliders reach, x, y, z (world units): the effector's "
                            "place at the selected pose +- the pose's extent, widened to show any target held")
     quality = T.Dict(help="read-only summary of the edit's quality (sn.quality.compare), updated after each replay")
+    pose_source_frames = T.List(T.Int(), help="source frame of each current pose, before any retiming (set by "
+                                              "the binding)")
+    region_weights = T.List(T.Float(), help="the region's falloff at each current pose, in [0, 1] (set by the "
+                                            "binding; [] while the region is off): what the timeline shows")
 
     @T.validate("percent")
     def _v_percent(self, p):
@@ -154,6 +166,25 @@ class StaggerModel(_Model):
         lo = t[k - 1] if k > 0 else limits(Retime, "time")[0]
         hi = t[k + 1] if k + 1 < len(t) else max(self.source_duration, t[k]) if self.source_duration else t[k]
         return float(lo), float(hi)
+
+    @T.validate("sigma")
+    def _v_sigma(self, p):
+        v = _finite("sigma", p["value"])
+        if v < 0:
+            raise T.TraitError(f"sigma: expected a number >= 0 (0 = the clip's default), got {v}")
+        return v
+
+    @T.validate("region_frame")
+    def _v_region_frame(self, p):
+        if p["value"] < 0:
+            raise T.TraitError(f"region_frame: expected a source frame index >= 0, got {p['value']}")
+        return p["value"]
+
+    @T.observe("region")
+    def _region_at_pose(self, change):
+        """Turning the region on (a user's move) centres it on the selected pose's source frame."""
+        if change["new"] and not self._loading and 0 <= self.pose < len(self.pose_source_frames):
+            self.region_frame = int(self.pose_source_frames[self.pose])
 
     @T.validate("w_r_reference")
     def _v_ref(self, p):
@@ -342,6 +373,9 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
     knot that takes that value: the true pose at ``t_k`` (staggered, Fig. 6a) or the extreme value (Fig. 6b).
     Without a base a nudge is written as ``deltas`` (the same change to both knots: the modes then agree).
 
+    ``propagate`` adds ``"propagate": true`` (and ``sigma`` when not 0) to the pose edits and IK targets, ``region``
+    a ``"falloff": {"frame": region_frame, "sigma": ...}`` to the succession and the random timing (issue 24).
+
     Identity values write no op (percent = 100, s = 0, τ = 0, w_r = 0, an all-zero nudge); ``keep_contacts``
     writes ``{"op": "keep_contacts"}`` when on and any other staggered op is written. Optional fields are
     written only when they differ from the op's default (so the op list stays short and readable).
@@ -353,6 +387,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         ops.append({"op": "cull", "count": int(p["count"])})
     elif p["cull_by"] == "keep" and p["keep"]:
         ops.append({"op": "cull", "keep": sorted(int(k) for k in p["keep"])})
+    spread = {}
+    if p.get("propagate"):      # the pose edits spread to every similar pose (Dean et al. 2018, §3.3)
+        spread = {"propagate": True, **({"sigma": float(p["sigma"])} if p.get("sigma") else {})}
+    region = {}
+    if p.get("region"):         # the timing edits inside the region only
+        region = {"falloff": {"frame": int(p["region_frame"]), "sigma": float(p["sigma"]) if p.get("sigma") else None}}
     for k in sorted(p["pose_edits"]):
         nudges = {j: [float(x) for x in v] for j, v in p["pose_edits"][k].items() if any(v)}
         known = (bases or {}).get(k, {})
@@ -363,12 +403,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
                 op = {"op": "edit_pose", "pose": int(k), field: value}
                 if p["edit_mode"] != "staggered":
                     op["mode"] = p["edit_mode"]
-                ops.append(op)
+                ops.append({**op, **spread})
     for k in sorted(p["retimes"]):
         ops.append({"op": "retime", "pose": int(k), "time": float(p["retimes"][k])})
     for e in p["ik_targets"]:
         ops.append({"op": "ik_pose", "pose": int(e["pose"]), "joint": e["joint"],
-                    "target": [float(x) for x in e["target"]]})
+                    "target": [float(x) for x in e["target"]], **spread})
     if p["w_r"] != 0.0:
         op = {"op": "exaggerate", "w_r": float(p["w_r"])}
         if p["w_r_reference"] != "previous":
@@ -378,12 +418,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         op = {"op": "succession", "root": p["root"], "s": float(p["s"]), "l": float(p["l"])}
         if p["joints"]:
             op["joints"] = list(p["joints"])
-        ops.append(op)
+        ops.append({**op, **region})
     if p["tau"] > 0.0:
         op = {"op": "random_timing", "tau": float(p["tau"]), "seed": int(p["seed"])}
         if p["tau_joints"]:
             op["joints"] = list(p["tau_joints"])
-        ops.append(op)
+        ops.append({**op, **region})
     if p["keep_contacts"] and ops:
         ops.append({"op": "keep_contacts"})
     return ops
@@ -465,6 +505,18 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | N
     p["retimes"] = {int(o["pose"]): float(o["time"]) for o in ops if o["op"] == "retime"}
     p["ik_targets"] = [{"pose": int(o["pose"]), "joint": o["joint"], "target": [float(x) for x in o["target"]]}
                        for o in ops if o["op"] == "ik_pose"]
+    edits = [o for o in ops if o["op"] in ("edit_pose", "ik_pose")]
+    if edits:
+        p["propagate"] = bool(edits[-1].get("propagate", False))
+        if p["propagate"]:
+            p["sigma"] = float(edits[-1].get("sigma") or 0.0)
+    timed = [o for o in ops if o["op"] in ("succession", "random_timing")]
+    if timed:
+        r = timed[-1].get("falloff")
+        p["region"] = r is not None
+        if r is not None:
+            p["region_frame"] = int(r["frame"])
+            p["sigma"] = float(r.get("sigma") or 0.0)
     others = [o for o in ops if o["op"] in STAGGER_OPS and o["op"] != "keep_contacts"]
     if "keep_contacts" in by:
         p["keep_contacts"] = True

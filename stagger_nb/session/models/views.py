@@ -91,7 +91,7 @@ def warp_view(session) -> dict:
     warp = None
     names = [op.name for op in session.typed_ops]
     for i in range(len(names) - 1, -1, -1):
-        if names[i] in ("guided_warp", "linear_warp"):
+        if names[i] in ("guided_warp", "linear_warp", "guide_poses"):
             warp = session.warp_curve(i)
             break
     if warp is None:

@@ -13,8 +13,8 @@ from ._base import _canon, _finite, _Model, snap
 
 __all__ = ["WarpModel", "WARP_OPS", "warp_params_to_ops", "warp_ops_to_params"]
 
-WARP_OPS = ("guided_warp", "linear_warp")
-"""Ops the WarpEditor writes."""
+WARP_OPS = ("guided_warp", "linear_warp", "guide_poses")
+"""Ops the WarpEditor writes (``guide_poses``: the guided warp applied to the staggered pose times, issue 24)."""
 
 
 class WarpModel(_Model):
@@ -31,6 +31,11 @@ class WarpModel(_Model):
     backward = T.Bool(False, help="allow the warp to run backward in time").tag(op=True)
     keytimes_text = T.Unicode("", help="the keytimes as typed, 'in:out, in:out' (seconds): setting it sets "
                                        "keytimes (a malformed entry is refused)").tag(label="keytimes")
+    target = T.Enum(["motion", "poses"], "motion",
+                    help="what the guided warp retimes: the edited motion (guided_warp) or the staggered pose times "
+                         "(guide_poses: refinements and the staggered edits kept and editable; needs a session "
+                         "with staggered edits, guided mode, forward)").tag(op=True)
+    has_staggered = T.Bool(False, help="the session holds staggered edits (set by the binding): 'poses' applies")
 
     source_duration = T.Float(0.0, help="duration of the source (seconds; set by the binding)")
     frame_time = T.Float(0.0, help="seconds per frame of the source (set by the binding; 0 = unknown)")
@@ -148,14 +153,15 @@ def warp_params_to_ops(p: dict, references: dict | None = None, source_duration:
         ref = {"segment": [float(x) for x in p["segment"]]}
     else:
         ref = copy.deepcopy((references or {}).get(r, {"path": r}))
-    op = {"op": "guided_warp", "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
+    name = "guide_poses" if p.get("target") == "poses" else "guided_warp"
+    op = {"op": name, "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
     if kt:
         op["keytimes"] = kt
     if p["free_length"]:   # the warp chooses its length: no duration, no keytimes (they need one)
         op["free_length"] = True
         del op["duration"]
         op.pop("keytimes", None)
-    if p["backward"]:
+    if p["backward"] and name == "guided_warp":   # (the pose times keep their order: no backward guide_poses)
         op["backward"] = True
     return [op]
 
@@ -175,10 +181,11 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
         return p, notes, new_refs
     o = mine[-1]
     p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
+    p["target"] = "poses" if o["op"] == "guide_poses" else "motion"
     if o.get("duration") is not None:
         p["duration"] = float(o["duration"])
     p["keytimes"] = [[float(a), float(b)] for a, b in (o.get("keytimes") or [])]
-    if o["op"] == "guided_warp":
+    if o["op"] in ("guided_warp", "guide_poses"):
         p["skip"] = int(o.get("skip", 8))
         p["free_length"] = bool(o.get("free_length", False))
         p["backward"] = bool(o.get("backward", False))
