@@ -165,7 +165,7 @@ def main(argv=None) -> dict:
                 page.wait_for_selector(f"{sel} canvas", timeout=120000)
                 bh.wait_plots_drawn(page, sel, timeout=180)
                 runtime = bh.runtime_dir(folder)
-                bh.wait_kernel(runtime, "all(f.done() for f in se._futures())", timeout=600, every=1.0)
+                bh.wait_kernel(runtime, "all(f.done() for f in se.warm_futures)", timeout=600, every=1.0)
                 bh.wait_kernel_idle(page)
                 bh.wait_plots_synced(page, sel)
                 kernel = bh.Kernel(runtime)
