@@ -15,10 +15,12 @@ from ..session import Session, joint_rotation_degrees
 from ..session.models import STAGGER_OPS, StaggerModel
 from ..staggered import end_effectors
 from ..plotting import joint_curves_figure, pose_probability_figure
-from ._editor import (_STYLE, _Editor, _default_joint, _inert, _link, _session_for, _slider,
+from ..session.timeline import knot_table
+from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _Editor, _default_joint, _inert, _link, _session_for, _slider,
                       _x_span)
 from .plots import PlotView
 from .skeleton_view import SkeletonView
+from .timeline import Timeline
 
 __all__ = ["StaggerEditor"]
 
@@ -31,14 +33,14 @@ def _controls(m: Motion, names: list, effectors: list) -> dict:
     wide = {"style": _STYLE}
     c = {}
     c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"), ("picked", "keep")],
-                                         description="cull poses", style={**_STYLE, "button_width": "90px"},
+                                         description="cull poses", style={**_STYLE, "button_width": "84px"},
                                          tooltips=["keep a percentage of the poses, by priority",
                                                    "keep a number of poses, by priority",
                                                    "keep the poses you pick (click the probability plot)"])
     c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=5.0, readout_format=".0f")
     c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep (0 = all)", **wide,
                                         layout=widgets.Layout(width="230px"))
-    c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", **wide,
+    c["keep"] = widgets.SelectMultiple(options=[], rows=3, description="keep poses", **wide,
                                        layout=widgets.Layout(width="260px"))
     c["root"] = widgets.Dropdown(options=names, description="succession root", **wide)
     c["joints"] = widgets.SelectMultiple(options=names, rows=4, description="delayed joints", **wide,
@@ -75,18 +77,19 @@ def _controls(m: Motion, names: list, effectors: list) -> dict:
     return c
 
 
-def _rows(c: dict, insert: widgets.Button, delete: widgets.Button) -> list:
-    """The control rows, one tool per row."""
-    return [widgets.HBox([c["cull_by"], c["keep_contacts"]]),
-            widgets.HBox([c["percent"], c["count"], c["keep"]]),
-            widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
-            widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
-            widgets.HBox([c["w_r"], c["w_r_reference"]]),
-            widgets.HBox([c["pose"], c["joint"]]),
-            widgets.HBox([c["edit_mode"]]),
-            widgets.HBox([c["rx"], c["ry"], c["rz"]]),
-            widgets.HBox([c["pose_time"], insert, delete]),
-            widgets.HBox([c["ik_joint"], c["ik_x"], c["ik_y"], c["ik_z"]])]
+def _tools(c: dict, insert: widgets.Button, delete: widgets.Button) -> tuple[list, dict]:
+    """(the main sliders, always shown: cull %, s, τ, w_r; the tools, one tab each: their other settings)."""
+    quick = [c["percent"], c["s"], c["tau"], c["w_r"]]
+    tools = {"cull": [widgets.HBox([c["cull_by"]]), widgets.HBox([c["count"]]), widgets.HBox([c["keep"]])],
+             "timing": [widgets.HBox([c["root"], c["l"]]), widgets.HBox([c["joints"]]),
+                        widgets.HBox([c["seed"], c["tau_joints"]])],
+             "pose": [widgets.HBox([c["pose"], c["joint"]]), widgets.HBox([c["w_r_reference"], c["edit_mode"]]),
+                      widgets.HBox([c["rx"], c["ry"], c["rz"]]), widgets.HBox([c["pose_time"], insert, delete])],
+             "IK": [widgets.HBox([c["ik_joint"]]), widgets.HBox([c["ik_x"], c["ik_y"], c["ik_z"]])],
+             "contacts": [widgets.HBox([c["keep_contacts"]]),
+                          widgets.HTML('<span style="font-size:12px;color:#4a5568">the source\'s foot contacts, '
+                                       "carried through the timing edits, are held by IK</span>")]}
+    return quick, tools
 
 
 class StaggerEditor(_Editor):
@@ -118,14 +121,18 @@ class StaggerEditor(_Editor):
         self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
         self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
         self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
-        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.curves = PlotView(frame_time=m.frame_time)
         self.probability = PlotView(frame_time=m.frame_time)
         self.probability.on_click(self._on_probability_click)
+        self.timeline = Timeline()
+        self._knots = None   # the KnotTable the dope sheet shows
         self._defer = precompute   # first paint without the staggered plots; the warm-up's extraction draws them
         self._fk_cache = (None, None)
-        self._setup(model, session, view, [self.curves, self.probability], _rows(c, self.insert_button,
-                                                                                 self.delete_button))
+        quick, tools = _tools(c, self.insert_button, self.delete_button)
+        self._setup(model, session, view, [self.curves, self.probability], tools, quick=quick,
+                    views=[self.timeline])
+        self._bind_timeline()
         # the model first (the binding set it from the session's ops), then the controls attached to it
         for k, w in c.items():
             if k in ("keep", "w_r_reference"):
@@ -141,6 +148,74 @@ class StaggerEditor(_Editor):
         self._on_pose()
         if precompute:
             self._warm_positions()
+
+    # -- the dope sheet --------------------------------------------------------------------------------
+    def _bind_timeline(self) -> None:
+        """The dope sheet follows the selected pose and joint and the playhead; its drags and clicks go to the
+        model (a refused drag says why under the sheet)."""
+        t, m = self.timeline, self.model
+        self._links += [traitlets.dlink((m, "pose"), (t, "selected_pose")),
+                        traitlets.dlink((m, "joint"), (t, "selected_joint")),
+                        traitlets.dlink((m, "frame"), (t, "frame"))]
+        self.view.link_frame(t, "frame")   # browser playback moves its playhead too
+        t.observe(self._timeline_seeks, names="frame")
+        m.observe(self._open_joint_group, names="joint")
+        t.on_refine(self._on_refine)
+        t.on_retime(self._on_retime)
+        t.on_select(self._on_timeline_select)
+
+    def _timeline_seeks(self, change) -> None:
+        if not self.timeline.frame_from_browser:
+            self.model.frame = change["new"]
+
+    def _open_joint_group(self, change=None) -> None:
+        """Every limb group closed but the selected joint's (the sheet stays a few rows tall)."""
+        if self._knots is None:
+            return
+        j = self._knots.joints.index(self.model.joint) if self.model.joint in self._knots.joints else -1
+        mine = [label for label, js in self._knots.groups if j in js]
+        if getattr(self, "_groups_set", False):   # the user's choice, with the selected joint's group opened
+            self.timeline.collapsed = [g for g in self.timeline.collapsed if g not in mine]
+        else:
+            self.timeline.collapsed = [label for label, _ in self._knots.groups if label not in mine]
+            self._groups_set = True
+
+    def _on_refine(self, pose: int, joint: str, time: float) -> None:
+        """A knot dropped at ``time``: the refine op when the knot stays between its neighbours, else a message."""
+        if self._knots is None:
+            return
+        try:
+            op = self._knots.refine_op(pose, joint, time)
+            self.model.joint = joint
+            self.model.refine(op["pose"], op["joint"], op["time"])
+        except (ValueError, traitlets.TraitError) as e:
+            self.timeline.message = str(e)
+
+    def _on_retime(self, pose: int, time: float) -> None:
+        """A pose's tab dropped at ``time``: the pose retimed (the model's retime op), else a message."""
+        if self._knots is None:
+            return
+        try:
+            t = self._knots.retime_time(pose, time)
+            self.model.pose = pose
+            self.model.pose_time = t
+        except (ValueError, traitlets.TraitError) as e:
+            self.timeline.message = str(e)
+
+    def _on_timeline_select(self, pose: int, joint: str) -> None:
+        try:
+            if 0 <= pose < len(self.model.pose_times):
+                self.model.pose = pose
+            if joint:
+                self.model.joint = joint
+        except traitlets.TraitError as e:
+            self.timeline.message = str(e)
+
+    def _draw_timeline(self, edited: Motion) -> None:
+        self._knots = knot_table(self.session)
+        self.timeline.x_range = [float(x) for x in _x_span(edited)]
+        self.timeline.set_table(self._knots)
+        self._open_joint_group()
 
     def _warm_positions(self) -> None:
         """After first paint: the extraction (then the plots that need it), then every cull position's refit and
@@ -302,6 +377,7 @@ class StaggerEditor(_Editor):
         kept = np.asarray(sm.pose_times)
         self._draw_probability(full, sm, kept, _x_span(edited))
         self._draw_curves(edited, sm)
+        self._draw_timeline(edited)
         self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
 
@@ -339,5 +415,5 @@ class StaggerEditor(_Editor):
         self.curves.figure = joint_curves_figure(
             edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
             pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
-            title=f"{name}: rotation vector (°), edited vs original", x_range=_x_span(edited))
+            title=f"{name}: rotation vector (°), edited vs original", x_range=_x_span(edited), height=_PLOT_HEIGHT)
         self.view.highlight_joints([name])

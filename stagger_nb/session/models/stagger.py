@@ -12,7 +12,7 @@ from ._base import _Model, _finite
 
 __all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
 
-STAGGER_OPS = ("cull", "edit_pose", "retime", "ik_pose", "exaggerate", "succession", "random_timing",
+STAGGER_OPS = ("cull", "edit_pose", "retime", "ik_pose", "exaggerate", "succession", "random_timing", "refine",
                "keep_contacts")
 """Ops the StaggerEditor writes, in the order it inserts them (staggered ops first, the constraint last)."""
 
@@ -43,6 +43,8 @@ class StaggerModel(_Model):
                        help="pose edits in staggered (Fig. 6a) or non-staggered (Fig. 6b) mode").tag(op=True)
     retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True)
     ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(op=True)
+    refines = T.List(T.Dict(), help="[{pose, joint, time}] one joint's knot of one pose at the refined time "
+                                    "t_k + r[k, j] s (the dope sheet's drags; after the timing edits)").tag(op=True)
     keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
 
     # view state
@@ -141,6 +143,24 @@ class StaggerModel(_Model):
             self._known_joint(f"ik_targets[{i}].joint", e["joint"])
             [_finite(f"ik_targets[{i}].target", x) for x in e["target"]]
         return p["value"]
+
+    @T.validate("refines")
+    def _v_refines(self, p):
+        held = {(x["pose"], x["joint"]) for x in self.refines}
+        for i, e in enumerate(p["value"]):
+            if not isinstance(e, dict) or set(e) != {"pose", "joint", "time"}:
+                raise T.TraitError(f"refines[{i}]: expected {{pose, joint, time}}, got {e!r}")
+            if (e["pose"], e["joint"]) not in held:
+                self._index_below(f"refines[{i}].pose", e["pose"], len(self.pose_times), "poses")
+                self._known_joint(f"refines[{i}].joint", e["joint"])
+            if _finite(f"refines[{i}].time", e["time"]) < 0:
+                raise T.TraitError(f"refines[{i}].time: expected seconds >= 0, got {e['time']}")
+        return p["value"]
+
+    def refine(self, pose: int, joint: str, time: float) -> None:
+        """Put ``joint``'s knot of pose ``pose`` at ``time`` seconds (replacing an earlier refine of that knot)."""
+        rest = [e for e in self.refines if (e["pose"], e["joint"]) != (int(pose), joint)]
+        self.refines = rest + [{"pose": int(pose), "joint": str(joint), "time": float(time)}]
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
     def pose_frame(self, k: int) -> int:
@@ -307,6 +327,8 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         if p["tau_joints"]:
             op["joints"] = list(p["tau_joints"])
         ops.append(op)
+    for e in p.get("refines", ()):
+        ops.append({"op": "refine", "pose": int(e["pose"]), "joint": e["joint"], "time": float(e["time"])})
     if p["keep_contacts"] and ops:
         ops.append({"op": "keep_contacts"})
     return ops
@@ -388,6 +410,8 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | N
     p["retimes"] = {int(o["pose"]): float(o["time"]) for o in ops if o["op"] == "retime"}
     p["ik_targets"] = [{"pose": int(o["pose"]), "joint": o["joint"], "target": [float(x) for x in o["target"]]}
                        for o in ops if o["op"] == "ik_pose"]
+    p["refines"] = [{"pose": int(o["pose"]), "joint": o["joint"], "time": float(o["time"])}
+                    for o in ops if o["op"] == "refine"]
     others = [o for o in ops if o["op"] in STAGGER_OPS and o["op"] != "keep_contacts"]
     if "keep_contacts" in by:
         p["keep_contacts"] = True
