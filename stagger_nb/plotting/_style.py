@@ -119,12 +119,14 @@ def decimate(x, y, max_points: int = 1200):
     n = len(x)
     if n <= max_points:
         return x, y
-    edges = np.linspace(0, n, max_points // 4 + 1).astype(int)
-    lo, hi = edges[:-1], edges[1:] - 1
+    size = -(-n // (max_points // 4))                         # samples per bucket (the last may be shorter)
+    nb = -(-n // size)
     yy = np.where(np.isfinite(y), y, 0.0)
-    mins = np.array([a + int(np.argmin(yy[a:b + 1])) for a, b in zip(lo, hi)])
-    maxs = np.array([a + int(np.argmax(yy[a:b + 1])) for a, b in zip(lo, hi)])
-    keep = np.unique(np.concatenate([lo, hi, mins, maxs]))
+    grid = np.concatenate([yy, np.full(nb * size - n, yy[-1])]).reshape(nb, size)   # padded with the last value
+    start = np.arange(nb) * size
+    keep = np.concatenate([start, np.minimum(start + size - 1, n - 1), start + grid.argmin(axis=1),
+                           start + grid.argmax(axis=1)])
+    keep = np.unique(np.minimum(keep, n - 1))
     return x[keep], y[keep]
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.body import limb_groups
 
-__all__ = ["KnotTable", "knot_table"]
+__all__ = ["KnotTable", "knot_table", "knot_table_of"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,15 +101,26 @@ class KnotTable:
                 "duration": float(self.duration)}
 
 
-def knot_table(session) -> KnotTable:
-    """The knots of ``session``'s last staggered state (``Session.staggered()``: the extraction of the source
-    when no op is staggered). May replay the session (raises its ValueError when the replay fails)."""
-    sm = session.staggered()
+_GROUPS: dict = {}   # limb groups by skeleton (a skeleton is frozen: computed once per rig)
+
+
+def knot_table_of(sm, duration: float | None = None) -> KnotTable:
+    """The knots of the staggered motion ``sm``; the time axis ends at ``duration`` seconds (default the last
+    pose's time)."""
     sk = sm.skeleton
+    key = (sk.names, sk.parents.tobytes())
+    if key not in _GROUPS:
+        _GROUPS[key] = tuple((label, tuple(js)) for label, js in limb_groups(sk))
     t = np.array(sm.pose_times, dtype=float)
     knots = t[:, None] + np.asarray(sm.refinements, dtype=float)
     for a in (t, knots):
         a.setflags(write=False)
-    end = max(float(t[-1]), float(session.edited().duration))
-    return KnotTable(joints=tuple(sk.names), groups=tuple((label, tuple(js)) for label, js in limb_groups(sk)),
-                     pose_times=t, knots=knots, frame_time=float(sm.frame_time), duration=end)
+    end = max(float(t[-1]), float(duration or 0.0))
+    return KnotTable(joints=tuple(sk.names), groups=_GROUPS[key], pose_times=t, knots=knots,
+                     frame_time=float(sm.frame_time), duration=end)
+
+
+def knot_table(session) -> KnotTable:
+    """The knots of ``session``'s last staggered state (``Session.staggered()``: the extraction of the source
+    when no op is staggered). May replay the session (raises its ValueError when the replay fails)."""
+    return knot_table_of(session.staggered(), session.edited().duration)

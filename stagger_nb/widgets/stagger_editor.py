@@ -15,7 +15,7 @@ from ..session import Session, joint_rotation_degrees
 from ..session.models import STAGGER_OPS, StaggerModel
 from ..staggered import end_effectors
 from ..plotting import joint_curves_figure, pose_probability_figure
-from ..session.timeline import knot_table
+from ..session.timeline import knot_table_of
 from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _Editor, _default_joint, _inert, _link, _session_for, _slider,
                       _x_span)
 from .plots import PlotView
@@ -211,10 +211,17 @@ class StaggerEditor(_Editor):
         except traitlets.TraitError as e:
             self.timeline.message = str(e)
 
-    def _draw_timeline(self, edited: Motion) -> None:
-        self._knots = knot_table(self.session)
+    def _draw_timeline(self, edited: Motion, sm) -> None:
+        """The dope sheet of ``sm``: sent again only when the knots (or the axis) changed (an exaggeration or a
+        pose edit leaves them: nothing is sent)."""
+        last = self._knots
+        self._knots = knots = knot_table_of(sm, edited.duration)
         self.timeline.x_range = [float(x) for x in _x_span(edited)]
-        self.timeline.set_table(self._knots)
+        if last is None or last.duration != knots.duration or not (
+                np.array_equal(last.knots, knots.knots) and np.array_equal(last.pose_times, knots.pose_times)):
+            self.timeline.set_table(knots)
+        else:
+            self.timeline.message = ""
         self._open_joint_group()
 
     def _warm_positions(self) -> None:
@@ -377,7 +384,7 @@ class StaggerEditor(_Editor):
         kept = np.asarray(sm.pose_times)
         self._draw_probability(full, sm, kept, _x_span(edited))
         self._draw_curves(edited, sm)
-        self._draw_timeline(edited)
+        self._draw_timeline(edited, sm)
         self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
 
