@@ -19,9 +19,9 @@ EXAMPLES = [
     {"op": "cull", "percent": 40.0},
     {"op": "cull", "count": 5},
     {"op": "cull", "keep": [0, 3, 4, 9]},
-    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None},
-    {"op": "succession", "root": "Hips", "s": -0.01, "l": 1.0, "joints": ["LeftUpLeg", "LeftLeg"]},
-    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": ["Hips"]},
+    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None, "limit": 1.5},
+    {"op": "succession", "root": "Hips", "s": -0.01, "l": 1.0, "joints": ["LeftUpLeg", "LeftLeg"], "limit": None},
+    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": ["Hips"], "limit": 2.0},
     {"op": "exaggerate", "w_r": 0.5, "poses": None, "reference": "mean", "mode": "staggered", "joints": None},
     {"op": "exaggerate", "w_r": -0.3, "poses": [1, 2], "reference": 4, "mode": "unstaggered", "joints": ["Hips"]},
     {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "unstaggered"},
@@ -44,6 +44,19 @@ EXAMPLES = [
      "backward": False, "free_length": False, "upsample": 3},
     {"op": "linear_warp", "duration": 0.8, "keytimes": [[0.2, 0.3]]},
     {"op": "resample", "frame_time": 1 / 30},
+    # issue 24: pose edits propagated by the magic wand, timing edits in a region, pose times guided
+    {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "staggered", "propagate": True, "sigma": 0.4,
+     "frame_range": [0, 60]},
+    {"op": "exaggerate", "w_r": 0.5, "poses": [2, 5], "reference": "previous", "mode": "staggered", "joints": None,
+     "propagate": True},
+    {"op": "ik_pose", "pose": 1, "joint": "LeftHand", "target": [0.1, 1.2, -3.0], "propagate": True},
+    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None, "limit": 1.5,
+     "falloff": {"frame": 30, "sigma": None}},
+    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": None, "limit": None,
+     "falloff": {"frame": 3, "sigma": 0.5, "frame_range": [0, 40]}},
+    {"op": "guide_poses", "reference": {"path": "<memory:slow>"}, "keytimes": None, "skip": 8},
+    {"op": "guide_poses", "reference": "self", "keytimes": [[1.0, 1.5]], "duration": 3.0, "skip": 4, "upsample": 3},
+    {"op": "guide_poses", "reference": {"segment": [0.0, 1.0]}, "keytimes": None, "free_length": True, "skip": 8},
 ]
 
 
@@ -73,9 +86,19 @@ def test_json_round_trip(data):
 def test_defaults_are_filled_and_the_input_is_not_aliased():
     src = {"op": "random_timing", "tau": 0.05, "joints": ["A", "B"]}
     v = validate_op(src)
-    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"]}
+    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"], "limit": O.TIMING_LIMIT}
     v["joints"].append("C")
     assert src["joints"] == ["A", "B"]
+
+
+def test_timing_limit_is_checked_and_is_the_staggered_default():
+    from stagger_nb import staggered
+    assert O.TIMING_LIMIT == staggered.TIMING_LIMIT         # declared twice (ops import no technique): equal
+    assert O.Succession(root="Hips", s=0.1).limit == staggered.TIMING_LIMIT
+    assert O.Succession(root="Hips", s=0.1, limit=None).limit is None   # the paper's raw offsets
+    for bad in (1.0, 0.5, -2, "x", float("inf")):
+        with pytest.raises(ValueError, match=r"^limit: expected a number in \(1, 1000\]"):
+            O.RandomTiming(tau=0.1, limit=bad)
 
 
 def test_direct_construction_checks_fields_and_replace_keeps_them_checked():
@@ -144,6 +167,22 @@ HOSTILE = [
     ({"op": "guided_warp", "duration": 1, "keytimes": [[0.1]]}, r"keytimes\[0\]"),
     ({"op": "linear_warp", "duration": -1}, "duration"),
     ({"op": "resample", "frame_time": 0}, "frame_time"),
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "propagate": 1}, "propagate"),
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "sigma": 0.5}, "sigma"),             # without propagate
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "propagate": True, "sigma": 0}, "sigma"),
+    ({"op": "ik_pose", "pose": 1, "joint": "LeftHand", "target": [1, 2, 3], "frame_range": [0, 9]}, "frame_range"),
+    ({"op": "exaggerate", "w_r": 1, "propagate": True}, "poses"),                       # every pose: nothing to spread
+    ({"op": "exaggerate", "w_r": 1, "poses": [2, 2], "propagate": True}, "poses"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": 30}, "falloff"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": {"sigma": 1.0}}, "falloff.frame"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": {"frame": 3, "width": 1}}, "falloff.width"),
+    ({"op": "random_timing", "tau": 0.1, "falloff": {"frame": 3, "sigma": -1}}, "falloff.sigma"),
+    ({"op": "random_timing", "tau": 0.1, "falloff": {"frame": 30, "frame_range": [0, 9]}}, "falloff.frame"),
+    ({"op": "guide_poses", "free_length": True, "duration": 2.0}, "duration"),
+    ({"op": "guide_poses", "free_length": True, "keytimes": [[0.1, 0.1]]}, "keytimes"),
+    ({"op": "guide_poses", "reference": {"segment": [2, 1]}}, "reference.segment"),
+    ({"op": "guide_poses", "backward": True}, "backward"),                              # pose times keep their order
+    ({"op": "guide_poses", "skip": 0}, "skip"),
 ]
 
 

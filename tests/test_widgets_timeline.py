@@ -92,28 +92,32 @@ def test_the_editors_dope_sheet_writes_refine_ops_through_the_model(walk):
     e = StaggerEditor(walk, precompute=False)
     try:
         t = e.timeline
+        assert t.table == knot_table(e.session).to_json()       # the sheet shows the session's knots
         assert t.table["joints"] == list(walk.skeleton.names) and t.selected_joint == e.model.joint
         open_groups = [g for g, js in t.table["groups"] if g not in t.collapsed]
         assert open_groups == ["left arm"]                      # only the selected joint's limb is open
         k, j = 4, "LeftForeArm"
-        lo, hi = e._knots.knot_range(k, j)
+        lo, hi = knot_table(e.session).knot_range(k, j)
+        want = e.model.snap_time(lo + 0.7 * (hi - lo))
         t.drag_knot(k, j, lo + 0.7 * (hi - lo))
         assert [o["op"] for o in e.session.ops] == ["refine", "keep_contacts"]
+        assert e.session.ops[0]["time"] == want and abs(want - (lo + 0.7 * (hi - lo))) <= 0.5e-3   # to 1 ms at 60 Hz
         e.model.s = 0.02                                        # a later succession goes before the refine
         assert [o["op"] for o in e.session.ops] == ["succession", "refine", "keep_contacts"]
         t.drag_knot(k, j, lo + 0.6 * (hi - lo))                  # the same knot again: the op replaced
         refines = [o for o in e.session.ops if o["op"] == "refine"]
-        assert len(refines) == 1 and refines[0]["time"] == pytest.approx(lo + 0.6 * (hi - lo))
-        assert e._knots.knots[k, e._knots.joints.index(j)] == pytest.approx(refines[0]["time"])
+        assert len(refines) == 1 and refines[0]["time"] == pytest.approx(lo + 0.6 * (hi - lo), abs=0.5e-3)
+        shown = np.asarray(t.table["knots"])
+        assert shown[k, t.table["joints"].index(j)] == pytest.approx(refines[0]["time"], abs=1e-4)
         n = len(e.session.ops)
         t.drag_knot(k, j, hi + 0.5)                              # past the next knot: refused, nothing written
         assert len(e.session.ops) == n and "must stay between" in t.message
         e.session.undo()                                         # undo: the model reads the refine back
-        assert e.model.refines == [{"pose": k, "joint": j, "time": pytest.approx(lo + 0.7 * (hi - lo))}]
-        t5 = float(e._knots.pose_times[5]) + 0.01
+        assert e.model.refines == [{"pose": k, "joint": j, "time": want}]
+        t5 = float(t.table["pose_times"][5]) + 0.01
         t.drag_pose(5, t5)                                       # a pose's tab: the model's retime op
-        assert {"op": "retime", "pose": 5, "time": pytest.approx(t5, abs=1e-9)} in e.session.ops
-        assert e._knots.pose_times[5] == pytest.approx(t5)
+        assert {"op": "retime", "pose": 5, "time": e.model.snap_time(t5)} in e.session.ops
+        assert t.table["pose_times"][5] == pytest.approx(t5, abs=0.5e-3)
         t.select(2, "Head")
         assert (e.model.pose, e.model.joint) == (2, "Head") and "trunk" not in t.collapsed
     finally:

@@ -130,18 +130,83 @@ def remove_heading(world_quats: np.ndarray, up: np.ndarray) -> np.ndarray:
     return quat_normalize(quat_mul(quat_conj(heading_quats(q, up)), q))
 
 
-def positions_in_pelvis_frame(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+def positions_in_pelvis_frame(motion: Motion, fk=None) -> tuple[np.ndarray, np.ndarray]:
     """Positions of the pelvis's subtree in the pelvis's moving frame: ``R_p(t)^-1 (x_j(t) - x_p(t))``.
 
     Returns ``(positions (F, n, 3), joints (n,))`` with ``joints`` the subtree's indices (the pelvis first,
     its row zero).  Joints above the pelvis (a static root) are left out: they carry the global travel.
+    ``fk`` = ``forward_kinematics(motion)`` may be given to reuse it.
     """
-    pos, wq = forward_kinematics(motion)
+    pos, wq = forward_kinematics(motion) if fk is None else fk
     pelvis = pelvis_joint(motion.skeleton)
     joints = subtree(motion.skeleton, pelvis)
     rel = pos[:, joints] - pos[:, pelvis:pelvis + 1]
     return quat_rotate(quat_conj(wq[:, pelvis:pelvis + 1]), rel), joints
 
+
+FLOOR_PERCENTILE = 5.0   # the floor: this percentile over frames of the lowest joint's height
+
+
+def positions_in_heading_frame(motion: Motion, up=None, fk=None) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the pelvis's subtree in its *heading* frame, with heights above the clip's floor.
+
+    ``H(t)^-1 (x_j(t) - g(t))`` where ``H(t)`` is the pelvis's heading (its world rotation's twist about the
+    vertical ``up``, :func:`heading_quats`) and ``g(t)`` the pelvis's ground point: its position with the
+    vertical component replaced by the floor level (the :data:`FLOOR_PERCENTILE`-th percentile over frames of
+    the lowest subtree joint's height).  So the horizontal coordinates follow the character (no travel, no
+    heading), while the vertical coordinate is each joint's height above the floor: pitch and roll of the
+    pelvis and the body's vertical motion (a flight's parabola) stay in.  Invariant to travel on the ground,
+    to turning about the vertical and to a constant vertical offset of the whole clip; not to a tilt of the
+    world (gravity defines the vertical).
+
+    Returns ``(positions (F, n, 3), joints (n,))`` like :func:`positions_in_pelvis_frame` (``fk`` likewise).
+    """
+    pos, wq = forward_kinematics(motion) if fk is None else fk
+    pelvis = pelvis_joint(motion.skeleton)
+    joints = subtree(motion.skeleton, pelvis)
+    u = up_axis(motion, pos) if up is None else np.asarray(up, dtype=float)
+    p = pos[:, joints]
+    heights = p @ u                                                   # (F, n)
+    floor = float(np.percentile(heights.min(axis=1), FLOOR_PERCENTILE))
+    ground = pos[:, pelvis] - (pos[:, pelvis] @ u - floor)[:, None] * u[None, :]   # (F, 3)
+    h = heading_quats(wq[:, pelvis], u)
+    return quat_rotate(quat_conj(h[:, None]), p - ground[:, None]), joints
+
+
+AIRBORNE_CLEARANCE = 0.06   # airborne_frames: lowest point of each leg above the floor, x the pelvis's height
+
+
+def leg_chains(skeleton: Skeleton) -> list[np.ndarray]:
+    """The legs: the pelvis's child chains (subtrees with children) other than the largest (the spine, which
+    holds the arms and the head), each as its joint indices; ``[]`` on a single-chain rig."""
+    p = pelvis_joint(skeleton)
+    chains = sorted((subtree(skeleton, c) for c in skeleton.children(p) if skeleton.children(c)), key=len)
+    return chains[:-1] if len(chains) >= 2 else []
+
+
+def airborne_frames(motion: Motion, clearance: float = AIRBORNE_CLEARANCE, positions=None) -> np.ndarray:
+    """Frames where both feet are off the ground, shape (F,) bool.
+
+    A leg is off the ground when its lowest joint is more than ``clearance`` times the pelvis's median height
+    above the floor (the :data:`FLOOR_PERCENTILE`-th percentile over frames of the lower leg's lowest joint):
+    scale-free, so the same on a clip in cm, m or inches (6 % is 5.5 cm on CMU 01_01).  A rig without two
+    legs (:func:`leg_chains`) is never airborne.  ``positions`` (F, J, 3) from forward kinematics may be given.
+    """
+    legs = leg_chains(motion.skeleton)
+    if len(legs) < 2:
+        return np.zeros(motion.num_frames, dtype=bool)
+    if positions is None:
+        positions, _ = forward_kinematics(motion)
+    u = up_axis(motion, positions)
+    h = positions @ u                                                        # (F, J) heights
+    low = np.stack([h[:, leg].min(axis=1) for leg in legs], axis=1)         # (F, legs)
+    floor = float(np.percentile(low.min(axis=1), FLOOR_PERCENTILE))
+    pelvis = float(np.median(h[:, pelvis_joint(motion.skeleton)])) - floor
+    return np.all(low > floor + float(clearance) * max(pelvis, 1e-12), axis=1)
+
+
+__all__ += ["positions_in_pelvis_frame", "positions_in_heading_frame", "FLOOR_PERCENTILE", "leg_chains",
+            "airborne_frames", "AIRBORNE_CLEARANCE"]
 
 __all__ += ["positions_in_pelvis_frame"]
 

@@ -19,7 +19,8 @@ When a piece cannot be certified, a line-by-line parser (bounded memory) finds t
 raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
 :data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
 :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
-are refused.
+are refused. Both paths give the same bits, the sign of zero included: no quaternion component is -0, and an
+angle's quaternion does not depend on the other angles of its piece.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import threading
 import numpy as np
 
 from ..core.accel import NO_ACCEL_ENV, accel_allowed
-from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion, _continuous_inplace
 from ..core.rotations import quat_continuous
 from ..core.skeleton import Skeleton
 from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, decode, euler_components, euler_deg_to_quat,
@@ -234,6 +235,21 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
 
 
 _FIRST_TOKEN = re.compile(rb"\s*(\S{0,16})")
+#: Words of the format: the only first tokens an error quotes (a file that does not start with HIERARCHY is
+#: not a BVH file, and its content -- a text file's first words, /etc/shadow through a link -- is not repeated)
+_KEYWORDS = {b"ROOT", b"JOINT", b"END", b"SITE", b"OFFSET", b"CHANNELS", b"MOTION", b"FRAMES:", b"FRAME",
+             b"TIME:", b"{", b"}"}
+
+
+def _not_hierarchy(tok: bytes) -> str:
+    """The error for a file whose first token ``tok`` is not ``HIERARCHY``, quoting it only if it is a word
+    of the format."""
+    if not tok:
+        return "expected 'HIERARCHY', found nothing (an empty or blank file)"
+    if tok.upper() in _KEYWORDS:
+        return f"expected 'HIERARCHY', found {decode(tok)!r}"
+    what = "binary data" if any(b < 32 or b == 127 for b in tok) else "other text"
+    return f"expected 'HIERARCHY': not a BVH file (it starts with {what}, not quoted here)"
 _MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.MULTILINE | re.IGNORECASE)
 
 
@@ -327,8 +343,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>", *, max_samples: int |
     first = _FIRST_TOKEN.match(raw)  # a file that does not start with HIERARCHY is refused before any scan
     if first.group(1).upper() != b"HIERARCHY":  # (a 255 MB file of NULs: 9 s of searching for 'MOTION')
         ln = _normalise_breaks(raw[:first.start(1)]).count(b"\n") + 1
-        raise BVHError(source, ln, f"expected 'HIERARCHY', found {decode(first.group(1))!r}"
-                       + ("" if first.group(1) else " (an empty or blank file)"))
+        raise BVHError(source, ln, _not_hierarchy(first.group(1)))
     raw = _normalise_breaks(raw)
     motion_at = _find_motion_line(raw)
     if motion_at is None:
@@ -391,7 +406,12 @@ def parse_bvh(text: str | bytes, source: str = "<string>", *, max_samples: int |
             out = layout.empty(nf)
         layout.fill(data.T, done, out)
     root_pos, quats, trans = out
-    return Motion._from_owned(skel, float(ft), root_pos, quats, trans, continuous=continuous)
+    if not continuous:
+        _continuous_inplace(quats)
+    # no negative zeros: every -0 component becomes +0 (nothing else changes), after the sign flips of
+    # continuity, so the two paths (and any cut of the block) agree on the sign of zero by construction
+    quats += 0.0
+    return Motion._from_owned(skel, float(ft), root_pos, quats, trans, continuous=True)
 
 
 _ACCEL_VALUES = 1 << 16  # values per piece of the C parser's read (a 512 KB scratch buffer, reused)

@@ -56,6 +56,19 @@ class KnotTable:
             raise ValueError(f"joint: no joint named {joint!r} in this skeleton")
         return self.joints.index(joint)
 
+    def groups_of(self, joint) -> list:
+        """Labels of the limb groups holding ``joint`` ([] for a name not in the table)."""
+        if joint not in self.joints:
+            return []
+        j = self.joints.index(joint)
+        return [label for label, js in self.groups if j in js]
+
+    def same_as(self, other) -> bool:
+        """Whether ``other`` (a KnotTable or None) draws the same sheet: same joints, pose times, knots and time
+        axis (what a view needs to be sent again)."""
+        return (isinstance(other, KnotTable) and other.joints == self.joints and other.duration == self.duration
+                and np.array_equal(other.pose_times, self.pose_times) and np.array_equal(other.knots, self.knots))
+
     def knot_range(self, pose, joint) -> tuple[float, float]:
         """The open interval (seconds) joint ``joint``'s knot of pose ``pose`` may move in: between the same
         joint's knots of the neighbouring poses. An end pose's knots do not move: ValueError."""

@@ -129,7 +129,8 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
     else:
         arr = np.asarray(spec, dtype=float)
         if arr.ndim != 2 or arr.shape[0] != J or arr.shape[1] not in (3, 4):
-            raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), got {arr.shape}")
+            raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), "
+                             f"got {arr.shape}")
         items = enumerate(arr)
     for j, v in items:
         try:
@@ -142,9 +143,30 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
         elif v.size == 4 and np.linalg.norm(v) > 0:
             v = v / np.linalg.norm(v)             # quaternion (x, y, z, w)
         else:
-            raise ValueError(f"{name}[{j!r}] must be a rotation vector (3 numbers) or a quaternion (4), got {v.tolist()}")
+            raise ValueError(f"{name}[{j!r}] must be a rotation vector (3 numbers) or a quaternion (4), "
+                             f"got {v.tolist()}")
         if not np.all(np.isfinite(v)):
             raise ValueError(f"{name}[{j!r}] must be finite")
         q[jj] = v
         given |= jj
     return q, given
+
+
+def _pose_weights(sm: StaggeredMotion, weights, name: str = "weights", rows: int | None = None) -> np.ndarray | None:
+    """Per-pose weights as a float array: shape (K,) (``rows`` None) or (rows, K) (a (K,) array is accepted for
+    one row), every entry finite; None passes through."""
+    if weights is None:
+        return None
+    K = sm.num_poses
+    try:
+        w = np.array(weights, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of numbers, one per pose, got {type(weights).__name__}") from None
+    want = (K,) if rows is None else (rows, K)
+    if rows is not None and w.shape == (K,) and rows == 1:
+        w = w[None]
+    if w.shape != want:
+        raise ValueError(f"{name} must have shape {want} (one weight per pose), got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError(f"{name} must be finite")
+    return w

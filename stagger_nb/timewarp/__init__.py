@@ -16,19 +16,33 @@ Long takes: ``knn="auto"`` switches to an approximate kNN (:func:`.objective.can
 coarse-to-fine search; beyond ``MAX_SEARCH_FRAMES`` or ``MAX_WARP_BYTES`` (:func:`warp_memory`) a ValueError
 names the parameter and the remedy before anything is allocated.  :func:`speed_jumps` measures playback pops.
 The torso frame of the features is the pelvis (:func:`stagger_nb.core.body.pelvis_joint`), not joint 0.
+
+Issue 25 (the papers' claims on real clips): the defaults deviate from the paper where its form failed §4.1
+(features with the pelvis's height, input-time weighting, end terms, the speed penalty's unit and free ratio;
+the flags and measurements are in :func:`guided_warp`, :func:`solve_warp` and :mod:`.features`); free length
+integrates the score over input time; backward warps reverse the reference too; keytimes are met exactly and
+anywhere inside the clip (:func:`required_upsample` with ``keytimes=``).  Measures of the claims:
+:func:`airborne_speed` (:mod:`.measures`).  An editor that precomputes tables: duration changes use
+``prepare_warp(m, ref, skip, required_upsample(n, num_frames, keytimes=..., frame_time=..., skip=...))``;
+free length and backward use ``u, r = free_length_search(m.frame_time)`` and
+``prepare_warp(m, ref, skip, u, k=FREE_K, out_step=r, reverse=...)``.
 """
 from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
 from .guided import (FREE_K, FREE_UPSAMPLE, WarpSolution, WarpTables, cached_prepare_warp, clear_tables_cache,
-                     guided_warp, prepare_warp, required_upsample, reverse_motion, slice_tables, solve_warp,
-                     warp_memory)
+                     free_length_search, guided_warp, penalty_unit, prepare_warp, required_upsample, reverse_motion,
+                     slice_tables, solve_warp, warp_memory)
 from .linear import linear_warp, linear_warp_curve
-from .objective import knn_scores
-from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps, warp_speed
+from .measures import airborne_frames, airborne_speed, intervals, overall_speed, speed_inside
+from .objective import end_scores, knn_scores
+from .postprocess import (apply_warp, meet_keytimes, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps,
+                          warp_speed)
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
            "unconstrained_dp", "warp_bounds", "path_cost", "pose_features", "reference_features",
            "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes",
            "speed_jumps", "warp_memory", "mean_cost_dp", "FREE_K", "FREE_UPSAMPLE", "slice_tables",
-           "cached_prepare_warp", "clear_tables_cache", "input_time_dp"]
+           "cached_prepare_warp", "clear_tables_cache", "input_time_dp", "free_length_search", "penalty_unit",
+           "airborne_frames", "airborne_speed", "intervals", "overall_speed", "speed_inside", "end_scores",
+           "meet_keytimes"]

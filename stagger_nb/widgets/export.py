@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import scene3d
 from ..core.motion import Motion
-from ..io._common import atomic_write_bytes
+from ..io._common import atomic_write_bytes, read_file_head
 from .skeleton_view import _PALETTE, _rgb, MESH_JS
 
 __all__ = ["export_html", "read_export"]
@@ -191,8 +191,7 @@ def _refuse(path: str, source_path) -> None:
     if os.path.exists(real):
         if not os.path.isfile(real):
             raise ValueError(f"path: {path} exists and is not a regular file")
-        with open(real, "rb") as f:
-            head = f.read(512).lstrip().lower()
+        head = read_file_head(real, 512, what="path").lstrip().lower()  # the one input policy (no /proc)
         if head and not head.startswith((b"<!doctype html", b"<html")):
             raise ValueError(f"path: {path} exists and is not an HTML file; export_html only replaces HTML")
 
