@@ -30,6 +30,7 @@ _CONTROLLED = {
     "edit_pose": ("pose", "deltas", "targets", "mode", "propagate", "sigma", "frame_range"),
     "retime": ("pose", "time"),
     "ik_pose": ("pose", "joint", "target", "propagate", "sigma", "frame_range"),
+    "refine": ("pose", "joint", "time"),
     "keep_contacts": (),
     "propagate": ("frame", "frames", "deltas", "sigma", "frame_range", "repetitions"),
     "edit_frame": ("frame", "deltas"),
@@ -53,7 +54,7 @@ def _key(op: dict):
         return (name, op["pose"], "targets" if "targets" in op else "deltas")
     if name == "retime":
         return (name, op["pose"])
-    if name == "ik_pose":
+    if name in ("ik_pose", "refine"):
         return (name, op["pose"], op["joint"])
     if name == "edit_frame":
         return (name, op["frame"])

@@ -42,6 +42,9 @@ class StaggerModel(_Model):
     retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True, label="the pose time")
     ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(
         op=True, label="the IK target")
+    refines = T.List(T.Dict(), help="[{pose, joint, time}] one joint's knot of one pose at the refined time "
+                                    "t_k + r[k, j] s (the dope sheet's drags; after the timing edits)").tag(
+        op=True, label="the knot time")
     keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
     propagate = T.Bool(False, help="spread each pose edit (nudge, IK target) to every similar pose, weighted by the "
                                    "magic wand's falloff of the edited pose (Dean et al. 2018, §3.3)").tag(op=True)
@@ -227,6 +230,30 @@ class StaggerModel(_Model):
             self._known_joint(f"ik_targets[{i}].joint", e["joint"])
             [_within(f"ik_targets[{i}].target", x, -MAX_WORLD, MAX_WORLD) for x in e["target"]]
         return p["value"]
+
+    @T.validate("refines")
+    def _v_refines(self, p):
+        held = {(x["pose"], x["joint"]) for x in self.refines}
+        for i, e in enumerate(p["value"]):
+            if not isinstance(e, dict) or set(e) != {"pose", "joint", "time"}:
+                raise T.TraitError(f"refines[{i}]: expected {{pose, joint, time}}, got {e!r}")
+            if (e["pose"], e["joint"]) not in held:
+                self._index_below(f"refines[{i}].pose", e["pose"], len(self.pose_times), "poses")
+                self._known_joint(f"refines[{i}].joint", e["joint"])
+            if _finite(f"refines[{i}].time", e["time"]) < 0:
+                raise T.TraitError(f"refines[{i}].time: expected seconds >= 0, got {e['time']}")
+        return p["value"]
+
+    def refine(self, pose: int, joint: str, time: float) -> None:
+        """Put ``joint``'s knot of pose ``pose`` at ``time`` seconds, rounded as a pose time is
+        (:meth:`snap_time`), replacing an earlier refine of that knot. A refine the replay cannot apply is refused
+        (TraitError with the plain sentence; nothing recorded)."""
+        rest = [e for e in self.refines if (e["pose"], e["joint"]) != (int(pose), joint)]
+        self.refines = rest + [{"pose": int(pose), "joint": str(joint), "time": self.snap_time(time)}]
+
+    def snap_time(self, time: float) -> float:
+        """``time`` seconds rounded as the pose-time control rounds it (one decimal finer than a frame)."""
+        return snap(float(time), self.step("pose_time"))
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
     def pose_frame(self, k: int) -> int:

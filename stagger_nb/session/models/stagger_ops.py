@@ -11,7 +11,7 @@ from ...core.rotations import quat_conj, quat_mul, quat_to_rotvec, rotvec_to_qua
 
 __all__ = ["STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
 
-STAGGER_OPS = ("cull", "edit_pose", "retime", "ik_pose", "exaggerate", "succession", "random_timing",
+STAGGER_OPS = ("cull", "edit_pose", "retime", "ik_pose", "exaggerate", "succession", "random_timing", "refine",
                "keep_contacts")
 """Ops the StaggerEditor writes, in the order it inserts them (staggered ops first, the constraint last)."""
 
@@ -95,6 +95,8 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         if p["tau_joints"]:
             op["joints"] = list(p["tau_joints"])
         ops.append({**op, **region})
+    for e in p.get("refines", ()):
+        ops.append({"op": "refine", "pose": int(e["pose"]), "joint": e["joint"], "time": float(e["time"])})
     if p["keep_contacts"] and ops:
         ops.append({"op": "keep_contacts"})
     return ops
@@ -176,6 +178,8 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | N
     p["retimes"] = {int(o["pose"]): float(o["time"]) for o in ops if o["op"] == "retime"}
     p["ik_targets"] = [{"pose": int(o["pose"]), "joint": o["joint"], "target": [float(x) for x in o["target"]]}
                        for o in ops if o["op"] == "ik_pose"]
+    p["refines"] = [{"pose": int(o["pose"]), "joint": o["joint"], "time": float(o["time"])}
+                    for o in ops if o["op"] == "refine"]
     edits = [o for o in ops if o["op"] in ("edit_pose", "ik_pose")]
     if edits:
         p["propagate"] = bool(edits[-1].get("propagate", False))
