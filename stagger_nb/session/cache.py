@@ -37,6 +37,8 @@ BOUNDS = {
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
     "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
     "positions": 4,   # forward kinematics of a source motion (keep_contacts' targets)
+    "quality_source": 4,  # quality.prepare of a source motion (Session.quality: the source's figures, once)
+    "quality": 64,    # Session.quality reports by op-list digest (small: figures and names)
     "step": 512,      # (state content name, op) -> the op-prefix digest of the state it gave (strings)
     "state": 64,      # replay steps by op-prefix digest (a slider sweep touches a handful; the editor's
                       # warm-up replays every cull position: 2-3 steps each)
@@ -46,8 +48,8 @@ BOUNDS = {
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
 BUDGETS = {"state": 384 * 2**20}
 
-QUIET = {"state", "step", "offset_basis", "positions"}  # not reported to ``busy`` (replay steps and a head about one
-# evaluate long: the replay reports its own progress)
+# not reported to ``busy`` (replay steps and heads about one evaluate long: the replay reports its own progress)
+QUIET = {"state", "step", "offset_basis", "positions", "quality_source", "quality"}
 
 
 class Cache:
