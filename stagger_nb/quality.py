@@ -79,7 +79,7 @@ from .core.rotations import _SMALL, quat_angle, quat_mul_components
 from .core.skeleton import Skeleton
 
 __all__ = ["compare", "prepare", "SourceFigures", "QualityReport", "SummaryItem", "ContactFigures", "Bounds", "PRESETS",
-           "body_height", "scaled",
+           "body_height", "scaled", "ROW_FIELDS",
            "BODY_CM", "DETAIL_SIGMA", "DETAIL_FINE", "DETAIL_RATE", "SOURCE_SHRINK"]
 
 #: The body every length is expressed on (cm): the figures read as on a 170 cm person.
@@ -100,6 +100,9 @@ _BLOCK = 8192
 SOURCE_SHRINK = 0.1
 #: Added pops (degrees) and jumps (cm) below this are rounding (e.g. of a frame-rate ratio): 0.
 _ROUNDING = 1e-9
+#: The fields of :meth:`QualityReport.to_row`, in order.
+ROW_FIELDS = ("ok", "summary", "foot_travel", "foot_height", "floor", "pelvis", "pelvis_vs_baseline", "added_pop",
+              "added_pop_joint", "knots_out_of_order", "detail", "moved")
 #: Tolerance (cm) of "no more sliding than without the layer" (rounding of the two evaluations).
 _BASELINE_SLACK = 0.1
 
@@ -431,6 +434,17 @@ class QualityReport:
         d.update(failures=list(self.failures), ok=self.ok, summary=self.summary,
                  items=[item.to_dict() for item in self.items])
         return d
+
+    def to_row(self) -> dict:
+        """The main figures as one flat row of JSON scalars (what a table of clips shows, e.g. the batch
+        report): ``ok``, ``summary`` and :data:`ROW_FIELDS`' figures (cm of a 170 cm body, degrees, the detail
+        ratio; ``pelvis_vs_baseline`` None without a baseline; ``knots_out_of_order`` a count, None without a
+        StaggeredMotion)."""
+        row = {"ok": self.ok, "summary": self.summary}
+        for name in ROW_FIELDS[2:]:
+            v = getattr(self, name)
+            row[name] = len(v) if name == "knots_out_of_order" and v is not None else v
+        return row
 
     def __repr__(self) -> str:
         return f"QualityReport({self.summary!r})"
