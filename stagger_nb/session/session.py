@@ -29,6 +29,7 @@ from .history import Flag, History
 from .heads import CachedHeads, Heads
 from .ops import Op
 from .ops.fields import _fail, _limit, check_extract_options, text
+from .quality import session_quality
 from .replay import Replay
 from .warm import Worker, warm_items
 
@@ -226,6 +227,18 @@ class Session(CachedHeads):
         digest of the op prefix that made it: a slider move that leaves that state alone, or returns to it, does
         not recompute them); empty when no op is staggered."""
         return self._replay.timing_warnings(self._history.ops)
+
+    def quality(self, bounds=None):
+        """The :class:`~stagger_nb.quality.QualityReport` of the current edit against the source
+        (``sn.quality.compare``: feet in their carried contacts, pelvis, pops, knot order, detail; with a
+        ``keep_contacts`` op also against the same edit without it), cached per op list; ``bounds`` a preset
+        name, ``Bounds`` or dict (default ``"mild"``). See :mod:`stagger_nb.session.quality`."""
+        return session_quality(self, bounds)
+
+    def quality_summary(self, bounds=None) -> str:
+        """The one-line summary of :meth:`quality` ("feet held · pelvis ±0.8 cm · no pops"; what is out of
+        bounds named plainly); its parts for a widget: ``quality().items``."""
+        return self.quality(bounds).summary
 
     def warp_curve(self, index: int = -1):
         """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
