@@ -42,19 +42,19 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import timewarp, wand  # noqa: E402
-from stagger_nb.core.body import airborne_frames  # noqa: E402
-from stagger_nb.core.motion import Motion  # noqa: E402
-from stagger_nb.data.procedural import JUMP_TIMES  # noqa: E402
-from stagger_nb.timewarp.measures import airborne_speed, intervals  # noqa: E402
-from stagger_nb.wand.measures import hop_falloffs, walk_falloffs  # noqa: E402
+import stagger_nb as sn
+from stagger_nb import timewarp, wand
+from stagger_nb.core.body import airborne_frames
+from stagger_nb.core.motion import Motion
+from stagger_nb.data.procedural import JUMP_TIMES
+from stagger_nb.timewarp.measures import airborne_speed, intervals
+from stagger_nb.wand.measures import hop_falloffs, walk_falloffs
 
 RATE = 1.0 / 30.0
 OLD_WARP = dict(frame="pelvis", weighting="output", end_terms=False, penalty_scale="median", penalty_free_ratio=1.0)

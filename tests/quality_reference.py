@@ -10,8 +10,18 @@ from stagger_nb.core.body import pelvis_joint, up_axis
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_mul, quat_to_rotvec, slerp
-from stagger_nb.quality import (BODY_CM, DETAIL_FINE, DETAIL_RATE, DETAIL_SIGMA, SOURCE_SHRINK, ContactFigures,
-                                QualityReport, _as_motion, _bounds, _check_contacts)
+from stagger_nb.quality import (
+    BODY_CM,
+    DETAIL_FINE,
+    DETAIL_RATE,
+    DETAIL_SIGMA,
+    SOURCE_SHRINK,
+    ContactFigures,
+    QualityReport,
+    _as_motion,
+    _bounds,
+    _check_contacts,
+)
 from stagger_nb.quality import body_height as body_height_of
 
 __all__ = ["compare_reference"]
@@ -110,7 +120,7 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
                       body_height: float | None = None, source_positions: np.ndarray | None = None) -> QualityReport:
     """The report of ``stagger_nb.quality.compare`` (same parameters, without ``prepared`` and the positions of the
     edited motion and the baseline), computed the straightforward way."""
-    from stagger_nb import staggered as stg   # the arguments are trusted (compare checks them)
+    from stagger_nb import staggered as stg  # the arguments are trusted (compare checks them)
     motion, sm = _as_motion(edited, "edited")
     sm = staggered if staggered is not None else sm
     base = None if baseline is None else _as_motion(baseline, "baseline")[0]

@@ -8,13 +8,12 @@ import os
 
 import pyarrow.parquet as pq
 import pytest
+from conftest import SHARED_MOCAP
 
 import stagger_nb as sn
 from stagger_nb import batch
 from stagger_nb.__main__ import main
 from stagger_nb.session import Session
-
-from conftest import SHARED_MOCAP
 
 OPS = [{"op": "cull", "percent": 50}, {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0}]
 

@@ -17,10 +17,9 @@ from __future__ import annotations
 import io
 import json
 
+import browser_harness as bh
 import numpy as np
 import pytest
-
-import browser_harness as bh
 
 pytestmark = [pytest.mark.browser]
 

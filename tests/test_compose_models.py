@@ -8,8 +8,14 @@ import pytest
 
 from stagger_nb import data
 from stagger_nb.session import Session
-from stagger_nb.session.models import (StaggerModel, WarpModel, stagger_ops_to_params, stagger_params_to_ops,
-                                       warp_ops_to_params, warp_params_to_ops)
+from stagger_nb.session.models import (
+    StaggerModel,
+    WarpModel,
+    stagger_ops_to_params,
+    stagger_params_to_ops,
+    warp_ops_to_params,
+    warp_params_to_ops,
+)
 
 
 @pytest.fixture(scope="module")

@@ -20,12 +20,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import run_forked
 
 import stagger_nb as sn
 from stagger_nb import batch
 from stagger_nb.session import Session
-
-from conftest import run_forked
 
 REPO = Path(__file__).resolve().parents[1]
 MARKER = "MARKER-7f3a-not-a-clip"
@@ -58,7 +57,7 @@ def in_child(fn, timeout=TIMEOUT) -> str:
         try:
             fn()
             send("ok")
-        except BaseException as e:  # noqa: BLE001 - reported to the parent
+        except BaseException as e:
             send(f"{type(e).__name__}: {e}")
     return run_forked(body, timeout)[0]
 
@@ -182,7 +181,8 @@ def test_readers_session_and_warp_references_refuse_what_is_not_a_regular_file(j
              "warp reference": lambda: Session.load(tmp_path / "ref.json").edited()}
     for what, call in calls.items():
         got = in_child(call)
-        assert got.split(":")[0] in ("ValueError", "BVHError", "AMCError", "ReplayError"), (what, got)  # all ValueErrors
+        # all ValueErrors
+        assert got.split(":")[0] in ("ValueError", "BVHError", "AMCError", "ReplayError"), (what, got)
         assert "not a regular file" in got and str(path) in got, (what, got)
         assert MARKER not in got and "PATH=" not in got, (what, got)
 

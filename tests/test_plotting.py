@@ -43,8 +43,8 @@ def test_joint_curves_knots_sit_on_the_edited_curves():
     assert [tr.name for tr in g.data][:6] == ["x", "y", "z", "x original", "y original", "z original"]
     # one legend entry per component (edited and original toggle together), then the dotted "original",
     # the knots and the pose lines' entries
-    assert [tr.name for tr in g.data if tr.showlegend is not False] == ["x", "y", "z", "knots t<sub>k</sub> + r<sub>kj</sub>",
-                                                                      "original", "pose times t<sub>k</sub>"]
+    assert [tr.name for tr in g.data if tr.showlegend is not False] == [
+        "x", "y", "z", "knots t<sub>k</sub> + r<sub>kj</sub>", "original", "pose times t<sub>k</sub>"]
     np.testing.assert_allclose(g.data[1].y, 2 * T)
     np.testing.assert_allclose(g.data[6].y, [0.25, 0.5, 0.75])   # linear curves: interpolation is exact
     np.testing.assert_array_equal(g.data[8].x, [0.2, 0.2, np.nan, 0.6, 0.6, np.nan])   # the pose lines

@@ -9,11 +9,11 @@ import json
 
 import numpy as np
 import pytest
+from quality_reference import compare_reference
 
 import stagger_nb as sn
 from stagger_nb import data, quality, staggered
 from stagger_nb.core.body import pelvis_joint
-from quality_reference import compare_reference
 
 
 def _edits(m):
@@ -155,7 +155,7 @@ def test_fast_path_errors_name_the_parameter():
 # -- the one-line summary ----------------------------------------------------------------------------------
 
 def test_summary_items_are_the_line_and_say_what_is_out_of_bounds():
-    from test_quality import FEET, F, standing   # the hand-built 170 cm figure (Y up, cm)
+    from test_quality import FEET, F, standing  # the hand-built 170 cm figure (Y up, cm)
     fine = quality.compare(standing(), standing(), contacts=FEET)
     assert fine.summary == "feet held · pelvis ±0.0 cm · no pops"
     assert [(i.figure, i.ok) for i in fine.items] == [("foot_travel", True), ("pelvis", True), ("added_pop", True)]

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 
-import stagger_nb as sn
 from stagger_nb import data, quality, staggered
 from stagger_nb.session import Session
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mesh_reference import browser_mesh, skeleton_mesh
 
 import stagger_nb as sn
-from mesh_reference import browser_mesh, skeleton_mesh
 from stagger_nb import scene3d
 from stagger_nb.widgets import SkeletonView
 

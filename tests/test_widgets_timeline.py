@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 import stagger_nb as sn
-from stagger_nb import staggered
 from stagger_nb.session import Session
 from stagger_nb.session.timeline import knot_table
 from stagger_nb.widgets.timeline import Timeline

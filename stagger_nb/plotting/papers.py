@@ -18,7 +18,7 @@ returns ``{"data": [...], "layout": {...}}`` whose trace order is documented; no
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -133,8 +133,8 @@ def _strobe_fit(data, view: str, max_px: int) -> int:
     """The scene height (px) of a strobe, and its depth coordinates squeezed in place (``data`` is changed):
     the drawing fills the scene (<= 620 px across, ~70 % of its height: room for the tick labels) instead of a
     fixed 380 px scene with ~250 px empty above and below a wide strobe, or a strobe deep along the line of sight
-    drawn at a third of the width. The depth axis is seen end-on (orthographic): squeezing it changes the picture's scale, not
-    its content (hover shows the squeezed depth; its tick labels are hidden)."""
+    drawn at a third of the width. The depth axis is seen end-on (orthographic): squeezing it changes the picture's
+    scale, not its content (hover shows the squeezed depth; its tick labels are hidden)."""
     h, v, d = {"side": "zyx", "front": "xyz", "top": "xzy"}[view]
     span = {}
     for k in "xyz":

@@ -14,13 +14,27 @@ rotations as rotation vectors in degrees (x, y, z components). Every builder ret
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, LEGEND_ROW, LINES_AXIS, METHOD_COLOURS, METHOD_NAMES,
-                     POSE_COLOUR, base_layout, data_span, decimate, floats, legend_line, same_length, vline,
-                     vlines_trace)
+from ._style import (
+    COMPONENT_COLOURS,
+    EDIT_COLOUR,
+    LEGEND_ROW,
+    LINES_AXIS,
+    METHOD_COLOURS,
+    METHOD_NAMES,
+    POSE_COLOUR,
+    base_layout,
+    data_span,
+    decimate,
+    floats,
+    legend_line,
+    same_length,
+    vline,
+    vlines_trace,
+)
 
 __all__ = ["pose_probability_figure", "joint_curves_figure", "falloff_figure", "warp_figure",
            "SPEED_LIMITS"]
@@ -176,7 +190,8 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
         same_length(times=t, **{f"sweep[{k}]": y})
         a = k / max(1, len(sweep) - 1)
         data.append(dict(type="scatter", x=t, y=y, mode="lines", name=str(label), meta=f"sweep{k}", opacity=0.8,
-                         line=dict(width=1.2, color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
+                         line=dict(width=1.2,
+                                   color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
     et = floats(edited_times, "edited_times")
     if len(et):
         data.append(legend_line("edited frame" if len(et) == 1 else "edited frames", EDIT_COLOUR, "solid", 3))

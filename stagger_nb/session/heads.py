@@ -10,7 +10,7 @@ part of :class:`~stagger_nb.session.Session` that offers them to callers and to 
 from __future__ import annotations
 
 import inspect
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -234,7 +234,7 @@ class CachedHeads:
                 make = lambda: 1.0 - wand.normalize_distance(wand.diffusion_distance(m, f, sigma=sg), fr)  # noqa: E731
             elif name == "spline":
                 extent = spline_extent or max(2.0, m.num_frames / 10)
-                make = lambda: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
+                make = lambda extent=extent: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
             else:
                 raise ValueError(f"compare: unknown curve {name!r}; use 'isomap', 'diffusion', 'spline'")
             key = (name, f, sg, fr, spline_extent if name == "spline" else None)
@@ -247,7 +247,7 @@ class CachedHeads:
         ``"falloff": {"frame": frame, "sigma": sigma}`` gives each pose's offsets (a region of the clip), and the
         share a propagated pose edit at that frame's pose gives it. ``frame`` indexes the motion the poses were
         extracted from (the source, unless a motion op comes first)."""
-        from .runners import falloff_at_poses   # late: the runners import this module
+        from .runners import falloff_at_poses  # late: the runners import this module
         sm = self.staggered()
         fr = None if frame_range is None else tuple(int(x) for x in frame_range)
         run = Run(self._ctx, self._replay.origin(self._history.ops))

@@ -16,11 +16,12 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from ..core.motion import Motion
-from .ops import Op
 from .heads import Heads
+from .ops import Op
 from .run import Run, convert
 from .runners import BATCHED, RUNNERS
 

@@ -5,7 +5,8 @@ words. The technique packages are imported late: they load only when an op needs
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,7 +41,7 @@ class Run:
     ``progress``: ``callable(fraction in [0, 1])`` or None, passed to the long computations of the op (the
     staggered extraction and cull refits, guided warping's tables and solve)."""
 
-    def __init__(self, heads: "Heads", origin, progress: Callable | None = None):
+    def __init__(self, heads: Heads, origin, progress: Callable | None = None):
         self.heads = heads
         self.progress = progress
         self._origin = origin  # a Motion, or a callable giving it (found only when a runner asks)

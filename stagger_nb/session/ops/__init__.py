@@ -54,17 +54,65 @@ plain data.
 """
 from __future__ import annotations
 
-from .base import (MAX_DEGREES, MAX_EXPONENT, MAX_SECONDS, MAX_SKIP, MAX_TAU, MAX_TIMING_LIMIT, MAX_WEIGHT,
-                   MAX_WORLD, OPS, TIMING_LIMIT, Op, canonical, limits, op_from_json, validate_op)
-from .fields import EXTRACT_OPTIONS, MAX_ITEMS, check_extract_options
+from .base import (  # noqa: F401
+                   MAX_DEGREES,
+                   MAX_EXPONENT,
+                   MAX_SECONDS,
+                   MAX_SKIP,
+                   MAX_TAU,
+                   MAX_TIMING_LIMIT,
+                   MAX_WEIGHT,
+                   MAX_WORLD,
+                   OPS,
+                   TIMING_LIMIT,
+                   Op,
+                   _spec,
+                   canonical,
+                   deltas,
+                   limits,
+                   op_from_json,
+                   validate_op,
+)
+
 # the field checks, under their former module (ops.py before the split): stagger_nb.session.ops.number, ...
-from .fields import (_fail, _limit, boolean, choice, falloff_region, frame_range, integer,  # noqa: F401
-                     joint_map, keytimes, number, optional, pose_reference, quaternions, text, time_range,
-                     tuple_of, warp_reference)
-from .base import _spec, deltas  # noqa: F401
-from .staggered import (Cull, DeletePose, EditPose, Exaggerate, Extract, GuidePoses, IKPose, InsertPose,
-                        KeepContacts, RandomTiming, Refine, Retime, Succession)
+from .fields import (  # noqa: F401
+                   EXTRACT_OPTIONS,
+                   MAX_ITEMS,
+                   _fail,
+                   _limit,
+                   boolean,
+                   check_extract_options,
+                   choice,
+                   falloff_region,
+                   frame_range,
+                   integer,
+                   joint_map,
+                   keytimes,
+                   number,
+                   optional,
+                   pose_reference,
+                   quaternions,
+                   text,
+                   time_range,
+                   tuple_of,
+                   warp_reference,
+)
 from .motion import EditFrame, GuidedWarp, LinearWarp, Propagate, Resample
+from .staggered import (
+                   Cull,
+                   DeletePose,
+                   EditPose,
+                   Exaggerate,
+                   Extract,
+                   GuidePoses,
+                   IKPose,
+                   InsertPose,
+                   KeepContacts,
+                   RandomTiming,
+                   Refine,
+                   Retime,
+                   Succession,
+)
 
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",

@@ -6,18 +6,19 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
-from ...core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT   # each limit declared once there
+from ...core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT  # each limit declared once there
 from .fields import _fail, joint_map, number, tuple_of
 
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "limits", "deltas", "MAX_SKIP", "MAX_SECONDS",
            "MAX_EXPONENT", "MAX_WEIGHT", "MAX_DEGREES", "MAX_WORLD", "MAX_TAU", "TIMING_LIMIT", "MAX_TIMING_LIMIT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
-OPS: dict[str, type["Op"]] = {}
+OPS: dict[str, type[Op]] = {}
 
 MAX_SKIP = 127  # guided warping's largest input step per output frame (timewarp.prepare_warp's limit)
 #: Bounds of the timing and weight parameters (a hostile file's 1e308 is refused naming the field instead of
@@ -94,7 +95,7 @@ class Op:
         """Checks across fields (override); raise ValueError naming the field."""
 
     @classmethod
-    def from_json(cls, data: Any, where: str = "op") -> "Op":
+    def from_json(cls, data: Any, where: str = "op") -> Op:
         """The op of the JSON object ``data`` (the subclass named by ``data["op"]`` when called on
         :class:`Op`). Raises ValueError whose message starts with ``where`` and the bad field."""
         if not isinstance(data, dict):

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Callable
+from collections.abc import Callable
 
 __all__ = ["MAX_ITEMS", "number", "integer", "text", "boolean", "choice", "optional", "tuple_of", "joint_map",
            "quaternions", "keytimes", "frame_range", "time_range", "warp_reference", "pose_reference",

@@ -7,8 +7,20 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from .base import MAX_SKIP, Op, _check_free_length, _spec, deltas
-from .fields import (_deltas_json, _index, _positive, _reference_json, boolean, choice, frame_range, integer,
-                     keytimes, optional, tuple_of, warp_reference)
+from .fields import (
+    _deltas_json,
+    _index,
+    _positive,
+    _reference_json,
+    boolean,
+    choice,
+    frame_range,
+    integer,
+    keytimes,
+    optional,
+    tuple_of,
+    warp_reference,
+)
 
 __all__ = ["EditFrame", "Propagate", "GuidedWarp", "LinearWarp", "Resample"]
 

@@ -8,11 +8,42 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from .base import (MAX_EXPONENT, MAX_SECONDS, MAX_SKIP, MAX_TAU, MAX_TIMING_LIMIT, MAX_WEIGHT, MAX_WORLD,
-                   TIMING_LIMIT, Op, _check_free_length, _spec, deltas)
-from .fields import (_deltas_json, _index, _joints, _mode, _nonneg, _positive, _reference_json, _region_json,
-                     boolean, falloff_region, frame_range, integer, keytimes, number, optional, pose_reference,
-                     quaternions, text, tuple_of, warp_reference)
+from .base import (
+    MAX_EXPONENT,
+    MAX_SECONDS,
+    MAX_SKIP,
+    MAX_TAU,
+    MAX_TIMING_LIMIT,
+    MAX_WEIGHT,
+    MAX_WORLD,
+    TIMING_LIMIT,
+    Op,
+    _check_free_length,
+    _spec,
+    deltas,
+)
+from .fields import (
+    _deltas_json,
+    _index,
+    _joints,
+    _mode,
+    _nonneg,
+    _positive,
+    _reference_json,
+    _region_json,
+    boolean,
+    falloff_region,
+    frame_range,
+    integer,
+    keytimes,
+    number,
+    optional,
+    pose_reference,
+    quaternions,
+    text,
+    tuple_of,
+    warp_reference,
+)
 
 if TYPE_CHECKING:
     from .motion import GuidedWarp
@@ -67,7 +98,7 @@ class Succession(Op):
     needs: ClassVar[str] = "staggered"
     root: str = _spec(text)
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
-    l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
+    l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)
     joints: tuple | None = _spec(_joints, None)
     limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
     falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
@@ -230,9 +261,9 @@ class GuidePoses(Op):
     def _validate(self):
         _check_free_length(self)
 
-    def warp_op(self, duration: float) -> "GuidedWarp":
+    def warp_op(self, duration: float) -> GuidedWarp:
         """The ``guided_warp`` op this retiming reads its warp from (``duration``: this op's, or the default)."""
-        from .motion import GuidedWarp   # late: the motion ops are registered after the staggered ones
+        from .motion import GuidedWarp  # late: the motion ops are registered after the staggered ones
         return GuidedWarp(duration=None if self.free_length else float(self.duration or duration),
                           free_length=self.free_length, skip=self.skip, keytimes=self.keytimes,
                           reference=self.reference, upsample=self.upsample)
