@@ -34,8 +34,12 @@ test: setup
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 
+# the fast loop leaves out the browser tests, the real-clip sweeps (marker "shared") and the slow end-to-end files;
+# `make test` (and .ci/run) runs them all
+SLOW_TESTS := hostile_corpus hostile_batch hostile_heldout batch acceptance_editors acceptance_rigs compose_heldout io_gltf
 check: lint
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest tests -m "not browser and not slow" -q -p no:cacheprovider
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest tests -m "not browser and not shared" -q -p no:cacheprovider \
+	  $(foreach t,$(SLOW_TESTS),--ignore=tests/test_$(t).py)
 
 bench: setup
 	for f in benchmarks/bench_*.py; do echo "== $$f"; $(PY) $$f || exit 1; done

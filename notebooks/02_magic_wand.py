@@ -204,9 +204,8 @@ knee[J("LeftLeg")] = quat_mul(rotvec_to_quat(np.radians([30.0, 0.0, 0.0])), knee
 w_green = wand.greens_falloff(basis, top, frame_range=hop, repetitions=False)
 half = [np.count_nonzero(w_green[top::s] >= 0.5) for s in (-1, 1)]      # frames above one half each side
 w_spline = wand.spline_falloff(hops.num_frames, top, extent=(2 * half[0], 2 * half[1]))
-ankle = {n: (hops.times, sn.forward_kinematics(m)[0][:, J("LeftFoot"), 1]) for n, m in
-         (("original", hops), ("spline falloff", spread(top, knee, w_spline)),
-          ("Green's falloff", spread(top, knee, w_green)))}
+edits = {"original": hops, "spline falloff": spread(top, knee, w_spline), "Green's falloff": spread(top, knee, w_green)}
+ankle = {n: (hops.times, sn.forward_kinematics(m)[0][:, J("LeftFoot"), 1]) for n, m in edits.items()}
 pio.show(plotting.lines_figure(ankle, vlines=[hops.times[top]], y_title="left ankle height (cm)",
                                title=f"Fig. 6: bending the knee at frame {top}, spread two ways"))
 pio.show(plotting.falloff_figure(hops.times, {"green": w_green, "spline": w_spline}, edited_times=[hops.times[top]],
