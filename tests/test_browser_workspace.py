@@ -249,3 +249,53 @@ def test_after_a_pose_time_of_999_the_next_cull_move_still_changes_the_plot(lab)
         report["titles"] = [[s["title"] for s in before], [s["title"] for s in after]]
         assert [s["line0"] for s in after] != [s["line0"] for s in before] or \
             [s["title"] for s in after] != [s["title"] for s in before], report
+
+
+_WATCH = """([sel]) => {
+  const ed = document.querySelector(sel);
+  const gd = ed.querySelector('.sn-plot-view .js-plotly-plot');
+  const readout = ed.querySelector('.sn-s .widget-readout');
+  const W = window.__snDrag = { plot: 0, readouts: 0, up: false, plotAfterUp: 0 };
+  new MutationObserver(() => { if (W.up) W.plotAfterUp++; else W.plot++; })
+    .observe(gd, { subtree: true, childList: true, attributes: true, characterData: true });
+  new MutationObserver(() => { W.readouts++; })
+    .observe(readout, { subtree: true, childList: true, characterData: true });
+}"""
+
+
+def test_a_slider_drag_updates_the_plot_while_dragging_and_ends_on_the_last_value(lab):
+    """Live drag (issue 22 item 3): the plot changes before the mouse is released, the kernel applies fewer
+    values than the slider showed (ipywidgets keeps one message in flight per control, the latest value
+    buffered: no pile-up), and the value the kernel ends on is the one the slider shows."""
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_drag", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "drag", pose=0)
+        kernel = bh.Kernel(runtime)
+        kernel.run("_seen = []\nse.model.observe(lambda c: _seen.append(c['new']), names='s')")
+        page.evaluate(_WATCH, [sel])
+        handle = page.locator(f"{sel} .sn-s .noUi-handle").first
+        b = handle.bounding_box()
+        x, y = b["x"] + b["width"] / 2, b["y"] + b["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for i in range(1, 31):   # a 3-second drag to the right, 2 px every 100 ms
+            page.mouse.move(x + 2 * i, y)
+            page.wait_for_timeout(100)
+        during = page.evaluate("() => ({...window.__snDrag})")
+        page.evaluate("() => { window.__snDrag.up = true; }")
+        page.mouse.up()
+        bh.wait_kernel_idle(page)
+        page.wait_for_timeout(1500)
+        bh.wait_kernel_idle(page)
+        readout = float(page.locator(f"{sel} .sn-s .widget-readout").first.inner_text())
+        seen = kernel.eval("list(_seen)")
+        final = kernel.eval("se.model.s")
+        kernel.close()
+        report.update(during=during, readout=readout, seen=seen, final=final)
+        bh.screenshot(page, "workspace_drag")
+        assert during["plot"] >= 1 and len(seen) >= 2, report       # the plot followed before the release
+        assert during["readouts"] >= 10, report                      # the slider moved through many values
+        assert abs(final - readout) < 1e-9 and seen and abs(seen[-1] - readout) < 1e-9, report
+        assert final > 0.0, report
+        print("drag:", {k: report[k] for k in ("during", "readout", "final")}, "kernel applied", len(seen), "values")

@@ -184,6 +184,25 @@ def _on_kernel_thread(fn, *args) -> None:
         loop.add_callback(fn, *args)
 
 
+def _on_kernel_loop_later(delay: float, fn):
+    """``fn()`` on the kernel's IOLoop ``delay`` seconds from now (a handle with ``cancel()``); at once (and
+    None) outside a kernel (scripts, tests)."""
+    try:
+        from IPython import get_ipython
+        loop = getattr(getattr(get_ipython(), "kernel", None), "io_loop", None)
+    except ImportError:
+        loop = None
+    if loop is None:
+        fn()
+        return None
+    h = loop.call_later(delay, fn)
+
+    class _Handle:
+        def cancel(self):
+            loop.remove_timeout(h)
+    return _Handle()
+
+
 def _share_layouts_and_styles(root: widgets.Widget, keep=()) -> int:
     """Let the widgets under ``root`` with equal ``layout`` (or equal ``style``) share one model, closing the
     duplicates (ipywidgets lets controls share a Layout or style instance): fewer models for JupyterLab to send
@@ -313,10 +332,30 @@ class _Editor(widgets.VBox):
         self._refresh()
 
     def _show_quality(self, change=None) -> None:
+        """The quality line: the model's summary, each part green or red (``ok`` False: out of bounds)."""
         q = getattr(self.model, "quality", "") or ""
-        text, bad = (q.get("text", ""), not q.get("ok", True)) if isinstance(q, dict) else (str(q), False)
-        colour = "#c53030" if bad else "#2f855a"
-        self.quality.value = f'<span style="color:{colour};font-size:13px">{html.escape(text)}</span>' if text else ""
+        if not isinstance(q, dict):
+            q = {"text": str(q), "ok": True}
+        items = q.get("items") or ([{"text": q["text"], "ok": q.get("ok", True)}] if q.get("text") else [])
+        parts = [f'<span style="color:{"#2f855a" if i.get("ok", True) else "#c53030"}">{html.escape(i["text"])}'
+                 '</span>' for i in items]
+        self.quality.value = (f'<span style="font-size:13px">{" &middot; ".join(parts)}</span>' if parts else "")
+
+    def _quality_later(self, delay: float = 0.3) -> None:
+        """Ask the binding for the edit's quality line ``delay`` s after the last edit (on the kernel's loop,
+        once a drag rests: its ~60 ms on a 2,751-frame clip is not added to each slider move); at once outside
+        a kernel."""
+        handle = self.__dict__.pop("_quality_handle", None)
+        if handle is not None:
+            handle.cancel()
+        me = weakref.ref(self)
+
+        def run():
+            ed = me()
+            if ed is not None and ed._finalizer.alive:
+                ed.__dict__.pop("_quality_handle", None)
+                ed.binding.show_quality()
+        self._quality_handle = _on_kernel_loop_later(delay, run)
 
     def _plot_seeks(self, change) -> None:
         """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink: the Play's

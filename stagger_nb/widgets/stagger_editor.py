@@ -397,6 +397,7 @@ class StaggerEditor(_Editor):
         self._draw_timeline(edited, sm)
         self._show_motion(edited, pose_frames=self.model.pose_frames(),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
+        self._quality_later()   # the quality line, once the edit rests
 
     def _extraction_ready(self) -> bool:
         """Whether the staggered plots can be drawn now without waiting for the extraction: always without a
@@ -428,6 +429,6 @@ class StaggerEditor(_Editor):
                               self._source_degrees(self.session.source.skeleton.index(name)))
         self.curves.figure = joint_curves_figure(
             v["times"], v["degrees"], v["source_degrees"], v["source_times"], pose_times=v["pose_times"],
-            knot_times=v["knot_times"], title=f"{name}: rotation vector (°), edited vs original",
+            knot_times=v["knot_times"], title=f"{html.escape(name)}: rotation vector (°), edited vs original",
             x_range=_x_span(edited), height=_PLOT_HEIGHT)
         self.view.highlight_joints([name])

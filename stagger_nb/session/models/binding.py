@@ -270,6 +270,20 @@ class ModelBinding:
             m.pose_source_frames = [int(round(float(t) / ft)) for t in staggered.source_pose_times(sm)]
             m.region_weights = weights
 
+    def show_quality(self, bounds=None) -> None:
+        """StaggerModel: set ``model.quality`` from :meth:`Session.quality <stagger_nb.session.Session.quality>`
+        of the current edit: ``{"text": summary, "ok": bool, "items": [{"text", "ok"}, ...]}`` (the one-line
+        summary and its parts, each out-of-bounds part ``ok=False``); ``{}`` when the replay fails (the message
+        line says why)."""
+        try:
+            q = self.session.quality(bounds)
+        except ValueError:
+            q = None
+        value = {} if q is None else {"text": q.summary, "ok": bool(q.ok),
+                                      "items": [{"text": i.text, "ok": bool(i.ok)} for i in q.items]}
+        with self.model.loading():
+            self.model.quality = value
+
     def _clear_bases(self) -> None:
         if self.model.edit_bases:
             with self.model.loading():
