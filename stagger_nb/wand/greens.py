@@ -9,8 +9,9 @@ What exactly is computed (the choices the paper leaves open, stated once):
 **Deviations from the paper, and why the defaults are not Eq. 3 as printed.**  The paper's formula is
 ``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
 heading="keep", flips="keep")`` (every flag is opt-in; ``heading``: the default pose space leaves the root's
-heading out, ``flips``: it leaves out joints that flip 180 degrees between frames, :mod:`.pose_space`).  Measured on the issue's checks (default sigma, N = 50; same-phase weight must be
->= 0.8 and opposite-phase <= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
+heading out, ``flips``: it leaves out joints that flip 180 degrees between frames, :mod:`.pose_space`).
+Measured on the issue's checks (default sigma, N = 50; same-phase weight must be >= 0.8 and opposite-phase
+<= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
 0.67 / 0.59 (frames 10 / 20); bandai_run_cycle looped x4 same phase 0.47 / 0.81 / 0.56 and opposite
 0.22 / 0.33 / 0.37 (frames 3 / 5 / 15), with the neighbours of the edited frame down to 0.36 (a spike:
 the "snap" the paper blames on ISOMAP); xia_neutral_walk opposite 0.13.  No N in {5, 10, 20, 50} with
