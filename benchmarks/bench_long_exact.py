@@ -5,7 +5,7 @@
 A take made of copies of one real clip (``../shared/mocap/xia_neutral_walk.bvh``, 327 frames, 120 Hz, tiled and
 F rounded to whole copies; ``--cut`` cuts at F) holds the clip's poses only, so with the default
 ``distinct=True`` its graph is the graph of the clip's distinct poses (:func:`stagger_nb.wand.greens.pose_graph`).
- Nearly the same
+Nearly the same
 graph comes from the short take of three copies (981 frames; the seams join the clip's last pose to its first
 as in the long one): its falloff of the frame at the same place in the clip is the reference for every F.  Per size: CPU
 seconds of the graph (``pose_graph``), of the basis (default sigma) and of one falloff, the growth exponent
