@@ -29,14 +29,14 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import wand  # noqa: E402
+import stagger_nb as sn
+from stagger_nb import wand
 
 
 def tiled(m, F):
