@@ -36,7 +36,8 @@ lint: $(STAMP)
 
 # the fast loop leaves out the browser tests, the real-clip sweeps (marker "shared") and the slow end-to-end files;
 # `make test` (and .ci/run) runs them all
-SLOW_TESTS := hostile_corpus hostile_batch hostile_heldout batch acceptance_editors acceptance_rigs compose_heldout io_gltf
+SLOW_TESTS := hostile_corpus hostile_batch hostile_heldout batch acceptance_editors acceptance_rigs compose_heldout io_gltf \
+              compose_session editors_never_lock wand_repeats session_warm staggered_timing_limit
 check: lint
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest tests -m "not browser and not shared" -q -p no:cacheprovider \
 	  $(foreach t,$(SLOW_TESTS),--ignore=tests/test_$(t).py)
