@@ -1,0 +1,737 @@
+"""The contact layer: plants held where the source holds them (issue 20).
+
+After a staggered timing edit each joint replays the source on its own clock, so a foot that the source held
+still slides: its leg's rotations and the pelvis no longer agree in time. This layer is the final IK
+displacement of the staggered-poses paper (Coleman et al. 2008, §3: non-zero only while a constraint is
+active, plus a smoothly attenuated window), built the way footskate clean-up meets plants (Kovar, Schreiner
+& Gleicher 2002: plants met exactly by analytic leg IK, the root adjusted only as much as the plants need,
+smoothly, every change blended in and out).
+
+The steps, per limb (a leg or an arm found by :func:`find_limb`; every joint below its effector, e.g. toes
+and heel, moves with it as one foot):
+
+1. **Plants.** The source's contacts ``(joint, start, stop)`` (half-open source frames) are carried through
+   the time warp of the joint that holds them (:func:`carry_contacts`); a foot's contacts of one step (heel,
+   toe, toes) form one plant.
+2. **Where.** The plant tracks the source's own foot: at edited frame ``t`` the foot takes the source's
+   position and world orientation at source time ``σ(t)``, a monotone piecewise-linear map through the
+   plant's carried contact ends (each contact's first and last edited frame map to its first and last source
+   frame), so the source's heel-toe roll is kept and replayed on the edited timing. The whole plant is moved
+   horizontally by one constant offset ``d``: the mean of where the edited body puts the foot, moved along
+   the hip's travel if that lets the leg reach without lowering the pelvis. The height is the source's.
+   With no timing edit ``σ`` is the identity, ``d`` the (zero) mean offset: the motion comes back unchanged.
+3. **Blend.** Around each plant a raised-cosine weight (C1, ``blend`` seconds each side) moves the target
+   from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1,
+   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated.
+4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
+   the edited pose already has, if larger), the root is lowered by the smallest smooth profile above that
+   need (a max filter and a raised-cosine average, ``blend`` wide); legs in the air there keep their feet
+   where the edit put them.
+5. **IK.** Hip and knee are solved analytically: the knee turns about its hinge (the current bend plane,
+   signed by the knee's hinge axis measured on the source, so a straight leg bends the way it bends) by the
+   exact angle that gives the wanted hip-ankle distance, always on the forward-bent branch (no knee flip,
+   never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
+   The foot takes the target's world orientation; the joints below it take the source's local rotations.
+
+Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH); lengths in file units, every
+tolerance relative to a bone or the body (the layer is invariant to a uniform scale of the clip).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from ..core.kinematics import _fk_component_major, skeleton_height
+from ..core.motion import Motion
+from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
+from .contacts import chain_subset
+
+__all__ = ["Limb", "find_limb", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts"]
+
+_FOOT = re.compile(r"foot|toe|ankle|heel", re.I)
+_FOOT_ROOT = re.compile(r"foot|ankle", re.I)
+_HAND = re.compile(r"hand|wrist", re.I)
+_INLINE = re.compile(r"twist|roll|share", re.I)     # helper bones along a limb (CC_Base_*Twist*, *ShareBone)
+
+REACH = 0.98          # share of a leg's length a held leg may use (unless the edited pose already uses more)
+_MIN_BONE = 0.02      # a limb bone shorter than this share of the body is not a limb bone
+_MAX_DROP = 0.3       # the root is lowered by at most this share of the leg's length
+_HINGE_MIX = 0.01     # weight of the measured hinge axis in the bend axis: decides it only below ~0.6 degrees of bend
+# plant shifts tried along the hip's travel, in leg lengths: within a quarter leg of where the edit puts the foot
+_SHIFT_STEPS = np.linspace(-0.25, 0.25, 41)
+_TOL = 1e-6          # lengths below this share of a leg are rounding (no need to lower the root, no shift)
+
+
+# -- limbs ------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Limb:
+    """A two-bone limb holding a contact.
+
+    Attributes
+    ----------
+    upper, mid, eff : int
+        Hip (shoulder), knee (elbow), ankle (wrist) joints: the IK turns ``upper`` and ``mid``; ``eff`` takes
+        the plant's world orientation.
+    foot : tuple of int
+        Every joint below ``eff`` (toes, heel, their children): they take the source's local rotations.
+    leg : bool
+        A leg (its effector or a joint below it is named like a foot): its knee bends to keep the foot where
+        the edit put it where the root is lowered and the foot is in the air.
+    """
+
+    upper: int
+    mid: int
+    eff: int
+    foot: tuple = field(default=())
+    leg: bool = True
+
+
+def _rest(skeleton) -> np.ndarray:
+    rest = np.zeros((skeleton.num_joints, 3))
+    for j in range(1, skeleton.num_joints):
+        rest[j] = rest[skeleton.parents[j]] + skeleton.offsets[j]
+    return rest
+
+
+def find_limb(skeleton, joint) -> Limb | None:
+    """The limb that holds a contact on ``joint`` (name or index), or None when there is none.
+
+    A joint named like a foot part (foot/toe/ankle/heel) belongs to the foot whose top is the highest joint of
+    its run of foot-named ancestors named foot or ankle (a run named only toe/heel: its parent); a hand part
+    (hand/wrist) likewise; any other joint is its own effector. Zero-length bones are skipped (the effector
+    and the upper joint are the first joints not co-located with their child), and so are helper bones named
+    like twist/roll/share bones (``CC_Base_L_CalfTwist01``). None when the upper joint would be the root or a
+    bone is shorter than 2 % of the body (no two-bone limb)."""
+    names, par = skeleton.names, skeleton.parents
+    j = skeleton.index(joint) if isinstance(joint, str) else int(joint)
+    rest = _rest(skeleton)
+    H = max(float(np.ptp(rest, axis=0).max()), 1e-12)
+
+    def co(k):   # k sits where its parent does
+        return float(np.sum(skeleton.offsets[k] ** 2)) <= (1e-9 * H) ** 2
+
+    kind = _FOOT if _FOOT.search(names[j]) else _HAND if _HAND.search(names[j]) else None
+    eff = j
+    if kind is not None:
+        while par[eff] > 0 and kind.search(names[par[eff]]) and not _INLINE.search(names[par[eff]]):
+            eff = int(par[eff])
+        if kind is _FOOT and not _FOOT_ROOT.search(names[eff]) and par[eff] > 0:
+            eff = int(par[eff])                     # toes named, the foot not: the toes' parent is the ankle
+    while eff > 0 and co(eff):
+        eff = int(par[eff])
+    if eff <= 0:
+        return None
+    mid = int(par[eff])
+    while mid > 0 and _INLINE.search(names[mid]):
+        mid = int(par[mid])
+    c = mid
+    while c > 0 and co(c):
+        c = int(par[c])
+    up = int(par[c]) if c > 0 else -1
+    while up > 0 and _INLINE.search(names[up]):
+        up = int(par[up])
+    if up <= 0:
+        return None
+    if min(np.linalg.norm(rest[mid] - rest[up]), np.linalg.norm(rest[eff] - rest[mid])) < _MIN_BONE * H:
+        return None
+    below = np.zeros(skeleton.num_joints, bool)
+    below[eff] = True
+    for k in range(eff + 1, skeleton.num_joints):
+        below[k] = below[par[k]]
+    foot = tuple(int(k) for k in np.flatnonzero(below) if k != eff)
+    leg = bool(_FOOT.search(names[eff])) or any(_FOOT.search(names[k]) for k in foot)
+    return Limb(up, mid, eff, foot, leg)
+
+
+# -- carrying contacts through the timing edit ----------------------------------------------------------
+
+def _timeline(edited):
+    """(start time, frame time, frame count) of ``evaluate(edited)`` or of a Motion, and the warp tables."""
+    from .representation import StaggeredMotion, default_times
+    if isinstance(edited, StaggeredMotion):
+        from .editing import _warp_tables
+        return float(edited.pose_times[0]), edited.frame_time, default_times(edited).size, _warp_tables(edited)
+    if isinstance(edited, Motion):
+        return 0.0, edited.frame_time, edited.num_frames, None
+    raise ValueError(f"edited must be a StaggeredMotion or a Motion, got {type(edited).__name__}")
+
+
+def _parse(skeleton, contacts, num_frames: int | None = None) -> list[tuple[int, int, int]]:
+    out = []
+    for item in contacts:
+        try:
+            name, a, b = item
+            a, b = int(a), int(b)
+        except (TypeError, ValueError):
+            raise ValueError(f"contacts: each entry must be (joint_name, start_frame, stop_frame), got {item!r}") from None
+        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+            if not 0 <= int(name) < skeleton.num_joints:
+                raise ValueError(f"contacts: joint index {name} outside [0, {skeleton.num_joints})")
+            j = int(name)
+        else:
+            try:
+                j = skeleton.index(name)
+            except KeyError:
+                raise ValueError(f"contacts: unknown joint {name!r}") from None
+        hi = num_frames if num_frames is not None else b
+        if not 0 <= a < b <= hi:
+            raise ValueError(f"contacts: frame range [{a}, {b}) of {name!r} is empty or outside [0, {hi})")
+        out.append((j, a, b))
+    return out
+
+
+def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=None):
+    """``[(joint, e0, e1, start, stop, a, b)]``: each contact's first and last source frame ``a``, ``b - 1``
+    mapped to edited frames ``e0 <= e1`` (floats) through the warp of the joint that carries it, and the
+    edited frames ``[start, stop)`` inside; contacts that keep no frame are left out."""
+    from .editing import _warp_column
+    t0, ft, F, tables = _timeline(edited) if timeline is None else timeline
+    sk = edited.skeleton
+    out = []
+    for j, a, b in parsed:
+        times = np.array([a, b - 1], dtype=float) * source_frame_time
+        if tables is not None:
+            lim = find_limb(sk, j) if carry_by != "joint" else None
+            if carry_by == "limb":
+                clocks = [lim.upper if lim is not None else j]
+            elif carry_by == "span":
+                clocks = [j, lim.mid if lim is not None else j]
+            else:
+                clocks = [j]
+            w = np.array([_warp_column(*tables, c, times) for c in clocks])
+            times = np.array([w[:, 0].min(), w[:, 1].max()])
+        e0, e1 = (times - t0) / ft
+        start = max(int(np.ceil(e0 - 1e-6)), 0)
+        stop = min(int(np.floor(e1 + 1e-6)) + 1, F)
+        if stop > start:
+            out.append((j, float(e0), float(e1), start, stop, a, b))
+    return out
+
+
+def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str = "joint") -> list[tuple[str, int, int]]:
+    """Contacts of the source moved in time with the timing edit: ``(joint_name, start, stop)`` half-open
+    frames of ``evaluate(edited)``.
+
+    A contact's first and last source frames (times ``frame * source_frame_time``) are mapped through the
+    time warp (:func:`~stagger_nb.staggered.editing.warp_times`) of the joint that carries it:
+    ``carry_by="joint"`` (default) the contact joint's own, ``"limb"`` its limb's upper joint's (hip /
+    shoulder), ``"span"`` from the earlier to the later of the contact joint's and its limb's middle joint's
+    (knee / elbow). A Motion (no timing edit) keeps the frames. Contacts that keep no frame are dropped."""
+    if carry_by not in ("joint", "limb", "span"):
+        raise ValueError(f"carry_by must be 'joint', 'limb' or 'span', got {carry_by!r}")
+    ft_s = float(source_frame_time)
+    if not np.isfinite(ft_s) or ft_s <= 0:
+        raise ValueError(f"source_frame_time must be > 0 seconds, got {source_frame_time!r}")
+    sk = edited.skeleton
+    return [(sk.names[j], s, e) for j, _, _, s, e, _, _ in _carried(edited, _parse(sk, contacts), ft_s, carry_by)]
+
+
+# -- plants -----------------------------------------------------------------------------------------------
+
+def _isotonic(y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least-squares non-decreasing fit of ``y (n,)`` (pool adjacent violators)."""
+    vals, wts, cnt = [], [], []
+    for yi, wi in zip(y, w):
+        vals.append(float(yi)), wts.append(float(wi)), cnt.append(1)
+        while len(vals) > 1 and vals[-2] > vals[-1]:
+            v1, w1, c1 = vals.pop(), wts.pop(), cnt.pop()
+            vals[-1] = (vals[-1] * wts[-1] + v1 * w1) / (wts[-1] + w1)
+            wts[-1] += w1
+            cnt[-1] += c1
+    return np.repeat(vals, cnt)
+
+
+def _plants(carried, limb_of) -> list[dict]:
+    """The carried contacts grouped into plants: one limb's contacts whose edited frames overlap or touch, or
+    whose source frames overlap (a foot's heel and toe contacts of one step). Each plant: ``eff`` (its limb's
+    effector), edited frames ``[start, stop)``, and the keys of its source-time map ``σ``: edited frame ->
+    source frame, increasing in both (the contacts' ends, equal edited frames averaged, then made monotone)."""
+    by: dict[int, list] = {}
+    for c in carried:
+        by.setdefault(limb_of[c[0]].eff, []).append(c)
+    plants = []
+    for eff, items in by.items():
+        items.sort(key=lambda c: (c[3], c[5]))
+        groups: list[list] = []
+        for c in items:
+            g = groups[-1] if groups else None
+            if g is not None and (c[3] <= max(x[4] for x in g) or c[5] < max(x[6] for x in g)):
+                g.append(c)
+            else:
+                groups.append([c])
+        for g in groups:
+            ke = np.array([x[1] for x in g] + [x[2] for x in g])
+            ks = np.array([float(x[5]) for x in g] + [float(x[6] - 1) for x in g])
+            order = np.lexsort((ks, ke))
+            ke, ks = ke[order], ks[order]
+            # equal edited frames: one key at their mean source frame (no jump of the target)
+            new = np.r_[True, np.diff(ke) > 1e-9]
+            idx = np.cumsum(new) - 1
+            cnt = np.bincount(idx)
+            ke = ke[new]
+            ks = np.bincount(idx, weights=ks) / cnt
+            ks = _isotonic(ks, cnt.astype(float))
+            plants.append(dict(eff=eff, start=min(x[3] for x in g), stop=max(x[4] for x in g), ke=ke, ks=ks))
+    return plants
+
+
+# -- forward kinematics on chains --------------------------------------------------------------------------
+
+def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None):
+    """World positions ``(F, J, 3)`` and rotations ``(F, J, 4)`` of ``joints`` and their ancestors (NaN on
+    the joints not computed); ``local_quats`` / ``root_positions`` replace the motion's."""
+    sub, sub_par, _ = chain_subset(motion.skeleton.parents, joints)
+    F = motion.num_frames
+    lq = motion.local_quats if local_quats is None else local_quats
+    Q = np.ascontiguousarray(np.moveaxis(lq[:, sub], 0, -1).transpose(1, 0, 2))            # (4, n, F)
+    lt = motion.local_translations
+    T = (motion.skeleton.offsets[sub].T[:, :, None] if lt is None
+         else np.ascontiguousarray(np.moveaxis(lt[:, sub], 0, -1).transpose(1, 0, 2)))
+    rp = motion.root_positions if root_positions is None else root_positions
+    W, P = _fk_component_major(Q, T, np.ascontiguousarray(rp.T), sub_par)
+    pos = np.full((F, motion.num_joints, 3), np.nan)
+    wq = np.full((F, motion.num_joints, 4), np.nan)
+    pos[:, sub] = P.transpose(2, 1, 0)
+    wq[:, sub] = W.transpose(2, 1, 0)
+    return pos, wq
+
+
+def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``arr (F, ...)`` positions at fractional frames ``f (n,)`` (linear; clamped to the clip)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 1))
+    return arr[i0] * (1 - w) + arr[i1] * w
+
+
+def _sample_quats(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``arr (F, ..., 4)`` unit quaternions at fractional frames ``f (n,)`` (slerp; clamped)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
+    return slerp(arr[i0], arr[i1], np.broadcast_to(w, arr[i0].shape[:-1]))
+
+
+def _raised_cosine(d: np.ndarray, n: int) -> np.ndarray:
+    """C1 fade ``(1 + cos(pi d / (n + 1))) / 2`` for ``0 <= d <= n`` frames, 0 beyond."""
+    d = np.asarray(d, dtype=float)
+    return np.where((d >= 0) & (d <= n), 0.5 * (1.0 + np.cos(np.pi * np.minimum(d, n + 1) / (n + 1))), 0.0)
+
+
+def _envelope(need: np.ndarray, n: int) -> np.ndarray:
+    """Smallest-ish smooth profile ``>= need (F,)``: a max filter ``2n + 1`` frames wide, then a normalised
+    raised-cosine average of the same width (an average of values >= need[x] stays >= need[x])."""
+    if not np.any(need > 0):
+        return np.zeros_like(need)
+    w = max(int(n), 1)
+    peak = maximum_filter1d(np.maximum(need, 0.0), 2 * w + 1, mode="nearest")
+    kernel = 0.5 * (1.0 + np.cos(np.pi * np.arange(-w, w + 1) / (w + 1)))
+    kernel /= kernel.sum()
+    return np.convolve(np.pad(peak, w, mode="edge"), kernel, mode="valid")
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _vertical_need(hip: np.ndarray, target: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """How far ``(n,)`` the hip ``(n, 3)`` must come down (file units; <= 0: no need) for ``target (n, 3)``
+    to lie within ``reach (n,)`` of it; a target horizontally beyond reach gets the drop to its height plus
+    the horizontal excess (a penalty that keeps growing)."""
+    dx = hip[:, 0] - target[:, 0]
+    dz = hip[:, 2] - target[:, 2]
+    h2 = dx * dx + dz * dz
+    dy = hip[:, 1] - target[:, 1]
+    room = reach * reach - h2
+    return np.where(room >= 0, dy - np.sqrt(np.maximum(room, 0.0)), dy + np.sqrt(h2) - reach)
+
+
+def _choose_shifts(hip, base, reach, pid, d0, travel, lengths) -> np.ndarray:
+    """One horizontal shift ``(P, 3)`` per plant: ``d0[p] + a u_p`` with ``u_p`` the plant's hip travel
+    direction and ``a`` in ``_SHIFT_STEPS * lengths[p]``, the one nearest ``d0`` among those whose held
+    targets ``base + shift`` every hip ``hip`` reaches within ``reach`` (no lowering), else the one needing
+    the least lowering. Samples ``(n, ...)`` sorted by plant ``pid``."""
+    P = d0.shape[0]
+    out = np.array(d0, dtype=float)
+    out[:, 1] = 0.0
+    if not pid.size:
+        return out
+    ids, starts = np.unique(pid, return_index=True)
+    u = np.array(travel[ids][:, [0, 2]], dtype=float)
+    un = np.hypot(u[:, 0], u[:, 1])
+    moving = un > 1e-6 * lengths[ids]
+    u /= np.where(moving, un, 1.0)[:, None]
+    L = lengths[pid]
+    rel = (hip - base)[:, [0, 2]] - out[pid][:, [0, 2]]                              # (n, 2)
+    ru = np.einsum("nk,nk->n", rel, u[np.searchsorted(ids, pid)])
+    a = _SHIFT_STEPS[:, None] * L                                                   # (A, n)
+    h2 = np.einsum("nk,nk->n", rel, rel) + a * (a - 2.0 * ru)                        # |rel - a u|^2
+    room = reach * reach - h2
+    dy = (hip - base)[:, 1]
+    need = np.where(room >= 0, dy - np.sqrt(np.maximum(room, 0.0)), dy + np.sqrt(np.maximum(h2, 0.0)) - reach)
+    worst = np.maximum.reduceat(need, starts, axis=1)                               # (A, p)
+    ok = worst <= _TOL * lengths[ids]                                               # rounding is no need
+    k = np.where(ok.any(axis=0), np.argmin(np.where(ok, np.abs(_SHIFT_STEPS)[:, None], np.inf), axis=0),
+                 np.argmin(worst, axis=0))
+    step = np.where(moving, _SHIFT_STEPS[k] * lengths[ids], 0.0)
+    out[ids, 0] += step * u[:, 0]
+    out[ids, 2] += step * u[:, 1]
+    return out
+
+
+# -- IK ----------------------------------------------------------------------------------------------------
+
+def _leg_ik(a, b, c, t, hinge, d_max):
+    """Analytic two-bone IK, vectorised over rows.
+
+    Parameters
+    ----------
+    a, b, c, t : ndarray, shape (n, 3)
+        Upper joint, middle joint, effector, target (world).
+    hinge : ndarray, shape (n, 3)
+        The middle joint's hinge axis (world, unit): orients the bend (positive = the way the joint bends).
+    d_max : ndarray, shape (n,)
+        Largest upper-effector distance allowed (below the two bones' length).
+
+    Returns
+    -------
+    r_up, r_mid : ndarray, shape (n, 4)
+        World rotations to pre-multiply: the upper joint's world rotation by ``r_up``, the middle joint's by
+        ``r_up * r_mid`` (``r_mid`` about the middle joint, ``r_up`` about the upper joint).
+    """
+    x, y = b - a, c - b
+    lx, ly = np.linalg.norm(x, axis=-1), np.linalg.norm(y, axis=-1)
+    m = np.cross(x, y) / np.maximum(lx * ly, 1e-300)[:, None]                         # sin(bend) x normal
+    hp = hinge - np.einsum("ni,ni->n", hinge, x)[:, None] * x / np.maximum(lx * lx, 1e-300)[:, None]
+    k = _unit(m + _HINGE_MIX * _unit(hp))      # the current bend plane; the hinge where the limb is straight
+    d = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lx - ly) * (1 + 1e-9) + 1e-12, d_max)
+    # rotating y about k by theta: x . R y = A + B cos(theta) + C sin(theta)
+    ypar = np.einsum("ni,ni->n", y, k)[:, None] * k
+    yperp = y - ypar
+    A = np.einsum("ni,ni->n", x, ypar)
+    B = np.einsum("ni,ni->n", x, yperp)
+    C = np.einsum("ni,ni->n", x, np.cross(k, yperp))
+    D = 0.5 * (d * d - lx * lx - ly * ly)
+    rho = np.hypot(B, C)
+    phi = np.arctan2(C, B)                                   # the straightest the axis allows
+    delta = np.arccos(np.clip((D - A) / np.maximum(rho, 1e-300), -1.0, 1.0))
+    theta = np.arctan2(np.sin(phi + delta), np.cos(phi + delta))   # the forward-bent branch, in (-pi, pi]
+    r_mid = rotvec_to_quat(k * theta[:, None])
+    c1 = b + quat_rotate(r_mid, y)
+    r_up = quat_between_vectors(c1 - a, t - a)
+    return r_up, r_mid
+
+
+def _hinge_local(src_pos, src_wq, limb: Limb) -> np.ndarray:
+    """The middle joint's hinge axis in the upper joint's frame ``(3,)``, measured on the source: the mean
+    bend-plane normal (``(b - a) x (c - b)``, weighted by the bend) over the clip; where the source never
+    bends the limb, an axis normal to the upper bone."""
+    a, b, c = src_pos[:, limb.upper], src_pos[:, limb.mid], src_pos[:, limb.eff]
+    n = np.cross(b - a, c - b)
+    local = quat_rotate(quat_conj(src_wq[:, limb.upper]), n).sum(axis=0)
+    size = np.linalg.norm(local)
+    bone = quat_rotate(quat_conj(src_wq[0, limb.upper]), b[0] - a[0])
+    scale = float(np.linalg.norm(b - a, axis=-1).mean() * np.linalg.norm(c - b, axis=-1).mean())
+    if size > 1e-3 * scale * max(len(a), 1):
+        return local / size
+    other = np.array([1.0, 0.0, 0.0]) if abs(_unit(bone)[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    return _unit(np.cross(bone, other))
+
+
+# -- the layer ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class PlantsResult:
+    """Result of :func:`hold_plants`.
+
+    Attributes
+    ----------
+    motion : Motion
+        The edited motion with its plants held.
+    notes : tuple of str
+        Plain sentences for the user (no legs found, plants out of reach); empty when all went as asked.
+    drop : ndarray, shape (F,)
+        How far the root was lowered on each frame, file units (>= 0).
+    plants : int
+        Number of plants held.
+    """
+
+    motion: Motion
+    notes: tuple = ()
+    drop: np.ndarray | None = None
+    plants: int = 0
+
+
+def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+                lower_root: bool | float = True, reach: float = REACH,
+                source_positions: np.ndarray | None = None) -> PlantsResult:
+    """The contact layer (see the module docstring): :func:`keep_contacts` with its notes and root profile.
+
+    Parameters
+    ----------
+    edited : StaggeredMotion or Motion
+        The edited staggered motion, or an evaluated Motion (its contacts keep their frames).
+    source : Motion
+        The motion the extraction came from.
+    contacts : list of (joint_name, start_frame, stop_frame), optional
+        The source's contacts, half-open source frames; default ``edited.contacts`` (found at extraction) or
+        :func:`~stagger_nb.staggered.detect_contacts` of ``source``.
+    blend : float, seconds
+        Width of the fade on each side of a plant, and of the root profile's smoothing (>= 0).
+    carry_by : {"joint", "span", "limb"}
+        Whose time warp moves each contact (:func:`carry_contacts`); default the contact joint's own.
+    lower_root : bool or float
+        True (default): lower the root as much as the plants need; a number: at most that share of it
+        (0 / False: never; the legs then stop at ``reach`` and the feet short of their plants).
+    reach : float in (0, 1]
+        Share of a leg's length a held leg may use unless the edited pose already uses more (default 0.98).
+    source_positions : ndarray, shape (F_source, J, 3), optional
+        ``forward_kinematics(source)[0]`` when the caller has it (rows of the limbs' joints are read).
+    """
+    from .contacts import detect_contacts
+    from .representation import StaggeredMotion, evaluate
+    if not isinstance(source, Motion):
+        raise ValueError(f"source must be a Motion, got {type(source).__name__}")
+    if carry_by not in ("joint", "limb", "span"):
+        raise ValueError(f"carry_by must be 'joint', 'limb' or 'span', got {carry_by!r}")
+    blend = float(blend)
+    if not np.isfinite(blend) or blend < 0:
+        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
+    share = float(lower_root)
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    reach = float(reach)
+    if not 0.0 < reach <= 1.0:
+        raise ValueError(f"reach must be in (0, 1], got {reach!r}")
+    timeline = _timeline(edited)
+    is_sm = isinstance(edited, StaggeredMotion)
+    if edited.skeleton.num_joints != source.num_joints or tuple(edited.skeleton.names) != tuple(source.skeleton.names):
+        raise ValueError("edited and source must have the same skeleton")
+    if contacts is None:
+        contacts = list(edited.contacts) if is_sm and edited.contacts else detect_contacts(source)
+    sk = source.skeleton
+    parsed = _parse(sk, contacts, source.num_frames)
+    motion = evaluate(edited) if is_sm else edited
+    if source_positions is not None:
+        sp = np.asarray(source_positions)
+        if sp.shape != (source.num_frames, source.num_joints, 3):
+            raise ValueError(f"source_positions: expected shape ({source.num_frames}, {source.num_joints}, 3) "
+                             f"(forward_kinematics(source)[0]), got {sp.shape}")
+    if not parsed:
+        return PlantsResult(motion)
+    limb_of, missing = {}, []
+    for j in sorted({j for j, _, _ in parsed}):
+        lim = find_limb(sk, j)
+        if lim is None:
+            missing.append(sk.names[j])
+        else:
+            limb_of[j] = lim
+    notes = []
+    if missing:
+        notes.append(f"keep_contacts: no leg or arm found above {', '.join(missing)} (a two-bone limb below the "
+                     f"root): {'their' if len(missing) > 1 else 'its'} contacts are not held")
+    parsed = [c for c in parsed if c[0] in limb_of]
+    carried = _carried(edited, parsed, source.frame_time, carry_by, timeline)
+    if not carried:
+        return PlantsResult(motion, tuple(notes))
+    plants = _plants(carried, limb_of)
+    limbs = {lim.eff: lim for lim in limb_of.values()}
+    motion_out, drop, more = _hold(motion, source, limbs, plants, blend, share, reach, source_positions)
+    return PlantsResult(motion_out, tuple(notes + more), drop, len(plants))
+
+
+def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, blend: float, share: float, reach: float,
+          source_positions):
+    sk = motion.skeleton
+    F, Fs = motion.num_frames, source.num_frames
+    ratio = motion.frame_time / source.frame_time          # source frames per edited frame
+    nb = int(round(blend / motion.frame_time))
+    legs = [lim for lim in limbs.values() if lim.leg]
+    joints = set()
+    for lim in limbs.values():
+        joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
+    pos, wq = _fk_joints(motion, joints)
+    spos, swq = _fk_joints(source, {lim.eff for lim in limbs.values()} | {lim.upper for lim in limbs.values()}
+                           | {lim.mid for lim in limbs.values()})
+    slq = source.local_quats
+    # the share of its length each source limb uses on each source frame: a held leg may use as much
+    src_share = np.zeros((Fs, sk.num_joints))
+    for lim in limbs.values():
+        src_share[:, lim.eff] = np.linalg.norm(spos[:, lim.eff] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
+    # per plant: its frames, sigma there, the source foot there and the shift
+    P = len(plants)
+    by_limb: dict[int, list[int]] = {}
+    for i in sorted(range(P), key=lambda i: plants[i]["start"]):
+        by_limb.setdefault(plants[i]["eff"], []).append(i)
+    in_fr, in_pid, in_sig = [], [], []
+    for i, p in enumerate(plants):
+        fr = np.arange(p["start"], p["stop"])
+        in_fr.append(fr)
+        in_pid.append(np.full(fr.size, i))
+        in_sig.append(np.interp(fr, p["ke"], p["ks"]))
+    in_fr, in_pid, in_sig = np.concatenate(in_fr), np.concatenate(in_pid), np.concatenate(in_sig)
+    effs = np.array([p["eff"] for p in plants])
+    ups = np.array([limbs[e].upper for e in effs])
+    e_of = effs[in_pid]
+    u_of = ups[in_pid]
+    base = _sample_rows(spos, in_sig, e_of)                                          # (n, 3)
+    hip = pos[in_fr, u_of]
+    cur = pos[in_fr, e_of]
+    length = {e: _length(pos, limbs[e]) for e in limbs}                     # (F,) per limb
+    lengths = np.array([float(np.median(length[e])) for e in effs])
+    L_in = np.concatenate([length[p["eff"]][p["start"]:p["stop"]] for p in plants])
+    s_share = _sample_rows(src_share, in_sig, e_of)
+    R = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_share)
+    sums = np.zeros((P, 3))
+    np.add.at(sums, in_pid, cur - base)
+    d0 = sums / np.bincount(in_pid, minlength=P)[:, None]
+    starts = np.r_[0, np.cumsum([p["stop"] - p["start"] for p in plants])[:-1]]
+    lasts = starts + np.array([p["stop"] - p["start"] for p in plants]) - 1
+    travel = hip[lasts] - hip[starts]
+    shift = _choose_shifts(hip, base, R, in_pid, d0, travel, lengths)
+    # per limb: weight, and the two neighbouring plants' targets on every frame of its support
+    rows = []
+    for eff, ids in by_limb.items():
+        lim = limbs[eff]
+        st = np.array([plants[i]["start"] for i in ids])
+        sp_ = np.array([plants[i]["stop"] for i in ids])
+        f = np.arange(F)
+        inside = np.zeros(F, np.int64) - 1
+        for i, a, b in zip(ids, st, sp_):
+            inside[a:b] = i
+        li = np.searchsorted(sp_, f, side="right") - 1          # last plant ending at or before f
+        ri = np.searchsorted(st, f, side="right")               # first plant starting after f
+        has_l, has_r = li >= 0, ri < len(ids)
+        dl = np.where(has_l, f - (sp_[np.maximum(li, 0)] - 1), np.inf)
+        dr = np.where(has_r, st[np.minimum(ri, len(ids) - 1)] - f, np.inf)
+        wl = np.where(has_l, _raised_cosine(np.where(has_l, dl, 0), nb), 0.0)
+        wr = np.where(has_r, _raised_cosine(np.where(has_r, dr, 0), nb), 0.0)
+        w = np.where(inside >= 0, 1.0, wl + wr - wl * wr)
+        fr = np.flatnonzero(w > 0)
+        if not fr.size:
+            continue
+        ins = inside[fr] >= 0
+        pl = np.array(ids)[np.maximum(li[fr], 0)]
+        pr = np.array(ids)[np.minimum(ri[fr], len(ids) - 1)]
+        with np.errstate(invalid="ignore"):
+            alpha = np.where(wl[fr] > 0, np.where(wr[fr] > 0, dl[fr] / (dl[fr] + dr[fr]), 0.0), 1.0)
+        sig_l = np.array([plants[i]["ks"][-1] for i in pl]) + (fr - np.array([plants[i]["ke"][-1] for i in pl])) * ratio
+        sig_r = np.array([plants[i]["ks"][0] for i in pr]) - (np.array([plants[i]["ke"][0] for i in pr]) - fr) * ratio
+        # inside a plant: its own sigma and shift
+        pin = inside[fr]
+        sig_in = np.interp(fr, np.concatenate([plants[i]["ke"] for i in ids]),
+                           np.concatenate([plants[i]["ks"] for i in ids]))
+        sig_l = np.where(ins, sig_in, sig_l)
+        sig_r = np.where(ins, sig_in, sig_r)
+        alpha = np.where(ins, 0.0, alpha)
+        pl = np.where(ins, pin, pl)
+        pr = np.where(ins, pin, pr)
+        rows.append(dict(lim=lim, fr=fr, w=w[fr], alpha=alpha, sig_l=np.clip(sig_l, 0, Fs - 1),
+                         sig_r=np.clip(sig_r, 0, Fs - 1), d_l=shift[pl], d_r=shift[pr]))
+    # targets (blend of the two neighbouring plants, then from the edited foot by w)
+    need = np.zeros(F)
+    for r in rows:
+        lim, fr = r["lim"], r["fr"]
+        al = r["alpha"][:, None]
+        tgt = (1 - al) * (_sample(spos[:, lim.eff], r["sig_l"]) + r["d_l"]) + al * (
+            _sample(spos[:, lim.eff], r["sig_r"]) + r["d_r"])
+        e_cur = pos[fr, lim.eff]
+        r["g"] = e_cur + r["w"][:, None] * (tgt - e_cur)
+        h = pos[fr, lim.upper]
+        ss = (1 - r["alpha"]) * _sample(src_share[:, lim.eff], r["sig_l"]) + r["alpha"] * _sample(
+            src_share[:, lim.eff], r["sig_r"])
+        r["R"] = _reach(reach, length[lim.eff][fr], np.linalg.norm(e_cur - h, axis=-1), ss)
+        held = r["w"] >= 1.0          # the plants' own frames; the fades follow as far as the leg reaches
+        np.maximum.at(need, fr[held], _vertical_need(h[held], r["g"][held], r["R"][held])
+                      - _TOL * length[lim.eff][fr[held]])
+    notes = []
+    drop = np.zeros(F)
+    if share > 0 and np.any(need > 0):
+        cap = _MAX_DROP * float(min(lengths))
+        if need.max() > cap:
+            notes.append(f"keep_contacts: the legs cannot reach {int(np.sum(need > cap))} held frames even with the "
+                         f"pelvis {100 * _MAX_DROP:.0f} % of a leg lower: the feet stop short of their plants there")
+        drop = _envelope(np.minimum(need, cap), nb) * share
+    rp = motion.root_positions
+    if np.any(drop > 0):
+        rp = np.array(rp)
+        rp[:, 1] -= drop
+        pos = pos.copy()
+        pos[..., 1] -= drop[:, None]
+        # legs in the air where the root is lowered keep their feet where the edit put them
+        for lim in legs:
+            held = np.zeros(F, bool)
+            for r in rows:
+                if r["lim"] is lim:
+                    held[r["fr"]] = True
+            fr = np.flatnonzero((drop > 0) & ~held)
+            if fr.size:
+                e_cur = pos[fr, lim.eff] + np.array([0.0, 1.0, 0.0]) * drop[fr, None]
+                rows.append(dict(lim=lim, fr=fr, w=np.zeros(fr.size), g=e_cur,
+                                 R=length[lim.eff][fr] * (1 - 1e-9), swing=True))
+    out = np.array(motion.local_quats)
+    lq = motion.local_quats
+    hinges = {}
+    for r in rows:
+        lim, fr = r["lim"], r["fr"]
+        pm, pe = int(sk.parents[lim.mid]), int(sk.parents[lim.eff])
+        if lim.eff not in hinges:
+            hinges[lim.eff] = _hinge_local(spos, swq, lim)
+        hinge = quat_rotate(wq[fr, lim.upper], hinges[lim.eff])
+        r_up, r_mid = _leg_ik(pos[fr, lim.upper], pos[fr, lim.mid], pos[fr, lim.eff], r["g"], hinge, r["R"])
+        upw = wq[fr, lim.upper]
+        out[fr, lim.upper] = quat_mul(lq[fr, lim.upper], quat_mul(quat_conj(upw), quat_mul(r_up, upw)))
+        out[fr, lim.mid] = quat_mul(quat_conj(wq[fr, pm]), quat_mul(r_mid, wq[fr, lim.mid]))
+        r21 = quat_mul(r_up, r_mid)
+        if r.get("swing"):
+            q_eff = wq[fr, lim.eff]
+        else:
+            al = r["alpha"]
+            q_t = slerp(_sample_quats(swq[:, lim.eff], r["sig_l"]), _sample_quats(swq[:, lim.eff], r["sig_r"]), al)
+            q_eff = slerp(wq[fr, lim.eff], q_t, r["w"])
+        out[fr, lim.eff] = quat_mul(quat_conj(quat_mul(r21, wq[fr, pe])), q_eff)
+        if not r.get("swing") and lim.foot:
+            ft = np.array(lim.foot)
+            for k in ft:
+                s_l = _sample_quats(slq[:, k], r["sig_l"])
+                s_r = _sample_quats(slq[:, k], r["sig_r"])
+                out[fr, k] = slerp(lq[fr, k], slerp(s_l, s_r, r["alpha"]), r["w"])
+    return Motion._trusted(sk, motion.frame_time, rp, out, motion.local_translations), drop, notes
+
+
+def _length(pos, lim: Limb) -> np.ndarray:
+    """The limb's two bones' length on every frame ``(F,)`` (file units; animated translations may change it)."""
+    return (np.linalg.norm(pos[:, lim.mid] - pos[:, lim.upper], axis=-1)
+            + np.linalg.norm(pos[:, lim.eff] - pos[:, lim.mid], axis=-1))
+
+
+def _reach(reach: float, length: np.ndarray, extension: np.ndarray, source_share: np.ndarray) -> np.ndarray:
+    """Largest upper-effector distance a held limb may use ``(n,)``: ``reach`` of its ``length``, or the
+    ``extension`` the edited pose already has, or the share of its length the source used at the plant's
+    source time (``source_share``), whichever is more; never the full length."""
+    return np.minimum(np.maximum(np.maximum(reach, source_share) * length, extension), length * (1 - 1e-9))
+
+
+def _sample_rows(arr, f, cols):
+    """``arr (F, J, 3)`` at fractional frames ``f (n,)`` and joints ``cols (n,)`` (linear; clamped)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
+    return arr[i0, cols] * (1 - w) + arr[i1, cols] * w
+
+
+def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+                  lower_root: bool | float = True, reach: float = REACH,
+                  source_positions: np.ndarray | None = None) -> Motion:
+    """The constraint layer after staggered timing edits: the source's contacts carried through the edit and
+    held (:func:`hold_plants`, whose notes this drops); returns the held Motion."""
+    return hold_plants(edited, source, contacts=contacts, blend=blend, carry_by=carry_by, lower_root=lower_root,
+                       reach=reach, source_positions=source_positions).motion
