@@ -38,7 +38,7 @@ sys.path.insert(0, str(REPO))
 
 import stagger_nb as sn  # noqa: E402
 from stagger_nb.io._numparse import parse_table  # noqa: E402
-from stagger_nb.io.bvh import _parse_motion_lines  # noqa: E402
+from stagger_nb.io.bvh_read import _parse_motion_lines  # noqa: E402
 
 
 def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
@@ -162,7 +162,7 @@ def _run(args) -> None:
         tabbed.write_bytes(raw[:start] + block.replace(b" ", b"\t"))
         tab_block = block.replace(b" ", b"\t")
         assert np.array_equal(parse_table(tab_block, m.num_frames, C), ref)
-        from stagger_nb.io import bvh as bvh_mod
+        from stagger_nb.io import bvh_read as bvh_mod
         cpus = bvh_mod._cpus
 
         def one_thread():

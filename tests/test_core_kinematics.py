@@ -10,8 +10,9 @@ from stagger_nb.core.rotations import quat_to_matrix
 
 from conftest import SHARED_CLIPS
 
-ALL_CLIPS = ["bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
-             "pymo_walk_turnaround.bvh", "xia_angry_run.bvh", "xia_neutral_walk.bvh"]
+ALL_CLIPS = ["bandai_kick.bvh", "bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
+             "iclone_cmu_02_03_run.bvh", "iclone_cmu_07_01_walk.bvh", "pymo_walk_turnaround.bvh",
+             "xia_angry_run.bvh", "xia_depressed_run.bvh", "xia_neutral_walk.bvh", "xia_sexy_walk.bvh"]
 
 
 def three_joint_motion():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import stagger_nb as sn
-from stagger_nb.io import bvh
+from stagger_nb.io import bvh_read as bvh
 
 from conftest import SHARED_MOCAP
 

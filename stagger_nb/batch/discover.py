@@ -1,0 +1,56 @@
+"""Finding the clips of a batch and reading them: ``*.bvh`` files and CMU ``*.amc`` motions (with the ``*.asf``
+of the same folder: ``NN.asf`` for ``NN_MM.amc``, else the folder's only ``.asf``), found recursively, in
+sorted order; the SHA-256 of a clip's bytes keys the manifest."""
+from __future__ import annotations
+
+import hashlib
+import os
+
+__all__ = ["find_clips", "read_clip"]
+
+
+def _asf_for(amc: str) -> str | None:
+    folder, name = os.path.split(amc)
+    asfs = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
+    subject = name.split("_")[0].lower()
+    for f in asfs:
+        if os.path.splitext(f)[0].lower() == subject:
+            return os.path.join(folder, f)
+    return os.path.join(folder, asfs[0]) if len(asfs) == 1 else None
+
+
+def find_clips(input_dir, exclude=None) -> list[str]:
+    """Relative paths (``/``-separated, sorted) of the ``.bvh`` and ``.amc`` files under ``input_dir``;
+    ``exclude`` (a folder) is skipped, e.g. an output folder inside the input folder."""
+    root = os.path.abspath(os.fspath(input_dir))
+    if not os.path.isdir(root):
+        raise ValueError(f"input_dir: {input_dir} is not a folder")
+    skip = os.path.realpath(exclude) if exclude is not None else None
+    found = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".")
+                         and os.path.realpath(os.path.join(folder, d)) != skip)
+        for f in files:
+            if f.lower().endswith((".bvh", ".amc")) and not f.startswith("."):
+                found.append(os.path.relpath(os.path.join(folder, f), root).replace(os.sep, "/"))
+    return sorted(found)
+
+
+def read_clip(path: str):
+    """The Motion of a ``.bvh`` file, or of a ``.amc`` file with its folder's ``.asf``."""
+    from ..io import read_asf_amc, read_bvh
+    if path.lower().endswith(".amc"):
+        asf = _asf_for(path)
+        if asf is None:
+            raise ValueError(f"{path}: no .asf skeleton beside it (NN.asf for NN_MM.amc, or one .asf)")
+        return read_asf_amc(asf, path)
+    return read_bvh(path)
+
+
+def _sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
