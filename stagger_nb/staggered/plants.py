@@ -46,7 +46,8 @@ from scipy.ndimage import maximum_filter1d
 
 from ..core.kinematics import _fk_component_major, skeleton_height
 from ..core.motion import Motion
-from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
+from ..core.rotations import (quat_angle, quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat,
+                              slerp)
 from .contacts import chain_subset
 
 __all__ = ["Limb", "find_limb", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts"]
@@ -58,10 +59,12 @@ _INLINE = re.compile(r"twist|roll|share", re.I)     # helper bones along a limb 
 
 REACH = 0.98          # share of a leg's length a held leg may use (unless the edited pose already uses more)
 _MIN_BONE = 0.02      # a limb bone shorter than this share of the body is not a limb bone
-_MAX_DROP = 0.3       # the root is lowered by at most this share of the leg's length
-_HINGE_MIX = 0.01     # weight of the measured hinge axis in the bend axis: decides it only below ~0.6 degrees of bend
+_MAX_DROP = 0.03      # the root is lowered by at most this share of the leg's length (~2.7 cm of a 170 cm body)
 # plant shifts tried along the hip's travel, in leg lengths: within a quarter leg of where the edit puts the foot
-_SHIFT_STEPS = np.linspace(-0.25, 0.25, 41)
+_SHIFT_STEPS = np.linspace(-0.25, 0.25, 21)
+_SEGMENT = np.linspace(0.0, 1.0, 21)     # from where the edit puts the foot to the centre of the hip's path
+_ID = np.array([0.0, 0.0, 0.0, 1.0])
+_FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 _TOL = 1e-6          # lengths below this share of a leg are rounding (no need to lower the root, no shift)
 
 
@@ -232,24 +235,10 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
 
 # -- plants -----------------------------------------------------------------------------------------------
 
-def _isotonic(y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Weighted least-squares non-decreasing fit of ``y (n,)`` (pool adjacent violators)."""
-    vals, wts, cnt = [], [], []
-    for yi, wi in zip(y, w):
-        vals.append(float(yi)), wts.append(float(wi)), cnt.append(1)
-        while len(vals) > 1 and vals[-2] > vals[-1]:
-            v1, w1, c1 = vals.pop(), wts.pop(), cnt.pop()
-            vals[-1] = (vals[-1] * wts[-1] + v1 * w1) / (wts[-1] + w1)
-            wts[-1] += w1
-            cnt[-1] += c1
-    return np.repeat(vals, cnt)
-
-
 def _plants(carried, limb_of) -> list[dict]:
     """The carried contacts grouped into plants: one limb's contacts whose edited frames overlap or touch, or
     whose source frames overlap (a foot's heel and toe contacts of one step). Each plant: ``eff`` (its limb's
-    effector), edited frames ``[start, stop)``, and the keys of its source-time map ``σ``: edited frame ->
-    source frame, increasing in both (the contacts' ends, equal edited frames averaged, then made monotone)."""
+    effector), edited frames ``[start, stop)`` and source frames ``[s_lo, s_hi]`` (first and last held)."""
     by: dict[int, list] = {}
     for c in carried:
         by.setdefault(limb_of[c[0]].eff, []).append(c)
@@ -263,19 +252,8 @@ def _plants(carried, limb_of) -> list[dict]:
                 g.append(c)
             else:
                 groups.append([c])
-        for g in groups:
-            ke = np.array([x[1] for x in g] + [x[2] for x in g])
-            ks = np.array([float(x[5]) for x in g] + [float(x[6] - 1) for x in g])
-            order = np.lexsort((ks, ke))
-            ke, ks = ke[order], ks[order]
-            # equal edited frames: one key at their mean source frame (no jump of the target)
-            new = np.r_[True, np.diff(ke) > 1e-9]
-            idx = np.cumsum(new) - 1
-            cnt = np.bincount(idx)
-            ke = ke[new]
-            ks = np.bincount(idx, weights=ks) / cnt
-            ks = _isotonic(ks, cnt.astype(float))
-            plants.append(dict(eff=eff, start=min(x[3] for x in g), stop=max(x[4] for x in g), ke=ke, ks=ks))
+        plants += [dict(eff=eff, start=min(x[3] for x in g), stop=max(x[4] for x in g),
+                        s_lo=float(min(x[5] for x in g)), s_hi=float(max(x[6] for x in g) - 1)) for g in groups]
     return plants
 
 
@@ -353,36 +331,41 @@ def _vertical_need(hip: np.ndarray, target: np.ndarray, reach: np.ndarray) -> np
     return np.where(room >= 0, dy - np.sqrt(np.maximum(room, 0.0)), dy + np.sqrt(h2) - reach)
 
 
-def _choose_shifts(hip, base, reach, pid, d0, travel, lengths) -> np.ndarray:
-    """One horizontal shift ``(P, 3)`` per plant: ``d0[p] + a u_p`` with ``u_p`` the plant's hip travel
-    direction and ``a`` in ``_SHIFT_STEPS * lengths[p]``, the one nearest ``d0`` among those whose held
-    targets ``base + shift`` every hip ``hip`` reaches within ``reach`` (no lowering), else the one needing
-    the least lowering. Samples ``(n, ...)`` sorted by plant ``pid``."""
+def _choose_shifts(hip, base, reach, pid, d0, lengths) -> np.ndarray:
+    """One horizontal shift ``(P, 3)`` per plant, for held targets ``base + shift`` (samples ``(n, 3)``
+    sorted by plant ``pid (n,)``) that the hip ``hip (n, 3)`` reaches within ``reach (n,)``.
+
+    Candidates: the segment from ``d0`` (where the edit puts the foot, on average) to the shift that centres
+    the hip's path over the plant (the middle of its horizontal extent), then around that centre along the
+    hip's travel (within a quarter leg, ``lengths (P,)``). The first that needs no lowering, in that order
+    (the nearest to ``d0``), else the one needing the least."""
     P = d0.shape[0]
     out = np.array(d0, dtype=float)
     out[:, 1] = 0.0
     if not pid.size:
         return out
     ids, starts = np.unique(pid, return_index=True)
-    u = np.array(travel[ids][:, [0, 2]], dtype=float)
+    ends = np.r_[starts[1:], pid.size] - 1
+    rel = (hip - base)[:, [0, 2]]                                                   # (n, 2)
+    lo, hi = np.minimum.reduceat(rel, starts, axis=0), np.maximum.reduceat(rel, starts, axis=0)
+    centre = 0.5 * (lo + hi)                                                        # (p, 2)
+    u = rel[ends] - rel[starts]
     un = np.hypot(u[:, 0], u[:, 1])
-    moving = un > 1e-6 * lengths[ids]
-    u /= np.where(moving, un, 1.0)[:, None]
-    L = lengths[pid]
-    rel = (hip - base)[:, [0, 2]] - out[pid][:, [0, 2]]                              # (n, 2)
-    ru = np.einsum("nk,nk->n", rel, u[np.searchsorted(ids, pid)])
-    a = _SHIFT_STEPS[:, None] * L                                                   # (A, n)
-    h2 = np.einsum("nk,nk->n", rel, rel) + a * (a - 2.0 * ru)                        # |rel - a u|^2
+    u = np.where((un > 1e-9 * lengths[ids])[:, None], u / np.maximum(un, 1e-300)[:, None], 0.0)
+    d = out[ids][:, [0, 2]]
+    cand = np.concatenate([d[None] + _SEGMENT[:, None, None] * (centre - d)[None],
+                           centre[None] + (_SHIFT_STEPS[:, None] * lengths[ids])[:, :, None] * u[None]])   # (C, p, 2)
+    of = np.searchsorted(ids, pid)
+    diff = rel[None] - cand[:, of]                                                  # (C, n, 2)
+    h2 = np.einsum("cnk,cnk->cn", diff, diff)
     room = reach * reach - h2
     dy = (hip - base)[:, 1]
-    need = np.where(room >= 0, dy - np.sqrt(np.maximum(room, 0.0)), dy + np.sqrt(np.maximum(h2, 0.0)) - reach)
-    worst = np.maximum.reduceat(need, starts, axis=1)                               # (A, p)
+    need = np.where(room >= 0, dy - np.sqrt(np.maximum(room, 0.0)), dy + np.sqrt(h2) - reach)
+    worst = np.maximum.reduceat(need, starts, axis=1)                               # (C, p)
     ok = worst <= _TOL * lengths[ids]                                               # rounding is no need
-    k = np.where(ok.any(axis=0), np.argmin(np.where(ok, np.abs(_SHIFT_STEPS)[:, None], np.inf), axis=0),
-                 np.argmin(worst, axis=0))
-    step = np.where(moving, _SHIFT_STEPS[k] * lengths[ids], 0.0)
-    out[ids, 0] += step * u[:, 0]
-    out[ids, 2] += step * u[:, 1]
+    k = np.where(ok.any(axis=0), np.argmax(ok, axis=0), np.argmin(worst, axis=0))
+    best = cand[k, np.arange(ids.size)]
+    out[ids, 0], out[ids, 2] = best[:, 0], best[:, 1]
     return out
 
 
@@ -391,12 +374,19 @@ def _choose_shifts(hip, base, reach, pid, d0, travel, lengths) -> np.ndarray:
 def _leg_ik(a, b, c, t, hinge, d_max):
     """Analytic two-bone IK, vectorised over rows.
 
+    The middle joint turns about its hinge axis ``hinge`` (world, unit; the knee's bend axis measured on the
+    source, so the knee bends the way it bends and never flips sideways or backwards) by the exact angle that
+    puts the effector at the wanted distance from the upper joint; the upper joint then aims the limb at the
+    target by the shortest arc (no twist). Of the two angles that give the distance, the forward-bent one,
+    except where the current pose is bent backwards about the hinge and the target asks for no more bend
+    than it has (then the one nearer the current pose: an unedited pose is left as it is).
+
     Parameters
     ----------
     a, b, c, t : ndarray, shape (n, 3)
         Upper joint, middle joint, effector, target (world).
     hinge : ndarray, shape (n, 3)
-        The middle joint's hinge axis (world, unit): orients the bend (positive = the way the joint bends).
+        The middle joint's hinge axis (world, unit), oriented so a positive turn bends the limb.
     d_max : ndarray, shape (n,)
         Largest upper-effector distance allowed (below the two bones' length).
 
@@ -408,9 +398,7 @@ def _leg_ik(a, b, c, t, hinge, d_max):
     """
     x, y = b - a, c - b
     lx, ly = np.linalg.norm(x, axis=-1), np.linalg.norm(y, axis=-1)
-    m = np.cross(x, y) / np.maximum(lx * ly, 1e-300)[:, None]                         # sin(bend) x normal
-    hp = hinge - np.einsum("ni,ni->n", hinge, x)[:, None] * x / np.maximum(lx * lx, 1e-300)[:, None]
-    k = _unit(m + _HINGE_MIX * _unit(hp))      # the current bend plane; the hinge where the limb is straight
+    k = _unit(hinge)
     d = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lx - ly) * (1 + 1e-9) + 1e-12, d_max)
     # rotating y about k by theta: x . R y = A + B cos(theta) + C sin(theta)
     ypar = np.einsum("ni,ni->n", y, k)[:, None] * k
@@ -420,13 +408,33 @@ def _leg_ik(a, b, c, t, hinge, d_max):
     C = np.einsum("ni,ni->n", x, np.cross(k, yperp))
     D = 0.5 * (d * d - lx * lx - ly * ly)
     rho = np.hypot(B, C)
-    phi = np.arctan2(C, B)                                   # the straightest the axis allows
+    phi = np.arctan2(C, B)                     # the straightest the hinge allows; < 0 for a forward bend
     delta = np.arccos(np.clip((D - A) / np.maximum(rho, 1e-300), -1.0, 1.0))
-    theta = np.arctan2(np.sin(phi + delta), np.cos(phi + delta))   # the forward-bent branch, in (-pi, pi]
+    back = (phi > 0) & (delta <= phi + 1e-6)   # bent backwards now, and asked for no more bend than that
+    theta = np.where(back, phi - delta, phi + delta)
+    theta = np.arctan2(np.sin(theta), np.cos(theta))
     r_mid = rotvec_to_quat(k * theta[:, None])
     c1 = b + quat_rotate(r_mid, y)
     r_up = quat_between_vectors(c1 - a, t - a)
     return r_up, r_mid
+
+
+def _pivot(off: np.ndarray, to_hip: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) towards ``to_hip (n, 3)`` (toe -> hip) by the
+    least angle that brings the ankle within ``reach (n,)`` of the hip (fully towards it if even that is not
+    enough); rows already in reach are returned as they are."""
+    f = np.linalg.norm(off, axis=-1)
+    D = np.linalg.norm(to_hip, axis=-1)
+    u = to_hip / np.maximum(D, 1e-300)[:, None]
+    cos0 = np.einsum("ni,ni->n", off, u) / np.maximum(f, 1e-300)
+    need = np.clip((D * D + f * f - reach * reach) / np.maximum(2.0 * D * f, 1e-300), -1.0, 1.0)
+    turn = cos0 < need
+    if not turn.any():
+        return off
+    w = off - (cos0 * f)[:, None] * u
+    w = _unit(w)
+    sin = np.sqrt(1.0 - need * need)
+    return np.where(turn[:, None], f[:, None] * (need[:, None] * u + sin[:, None] * w), off)
 
 
 def _hinge_local(src_pos, src_wq, limb: Limb) -> np.ndarray:
@@ -470,7 +478,7 @@ class PlantsResult:
 
 
 def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
-                lower_root: bool | float = True, reach: float = REACH,
+                lower_root: bool | float = True, reach: float = REACH, max_drop: float | None = None,
                 source_positions: np.ndarray | None = None) -> PlantsResult:
     """The contact layer (see the module docstring): :func:`keep_contacts` with its notes and root profile.
 
@@ -543,167 +551,255 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         return PlantsResult(motion, tuple(notes))
     plants = _plants(carried, limb_of)
     limbs = {lim.eff: lim for lim in limb_of.values()}
-    motion_out, drop, more = _hold(motion, source, limbs, plants, blend, share, reach, source_positions)
+    carried = [c + (limb_of[c[0]].eff,) for c in carried]
+    motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share,
+                                   _MAX_DROP if max_drop is None else max_drop, reach)
     return PlantsResult(motion_out, tuple(notes + more), drop, len(plants))
 
 
-def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, blend: float, share: float, reach: float,
-          source_positions):
+def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
+          share: float, max_drop: float, reach: float):
+    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
+    from .editing import _warp_column
     sk = motion.skeleton
     F, Fs = motion.num_frames, source.num_frames
-    ratio = motion.frame_time / source.frame_time          # source frames per edited frame
-    nb = int(round(blend / motion.frame_time))
+    ft, ft_s = motion.frame_time, source.frame_time
+    t0, tables = timeline[0], timeline[3]
+    ratio = ft / ft_s                                       # source frames per edited frame
+    nb = int(round(blend / ft))
+    nc = max(1, nb // 2)                                    # fade of one contact's correction inside a plant
     legs = [lim for lim in limbs.values() if lim.leg]
     joints = set()
     for lim in limbs.values():
         joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
     pos, wq = _fk_joints(motion, joints)
-    spos, swq = _fk_joints(source, {lim.eff for lim in limbs.values()} | {lim.upper for lim in limbs.values()}
-                           | {lim.mid for lim in limbs.values()})
+    spos, swq = _fk_joints(source, {x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff)}
+                           | {c[0] for c in carried})
     slq = source.local_quats
-    # the share of its length each source limb uses on each source frame: a held leg may use as much
-    src_share = np.zeros((Fs, sk.num_joints))
-    for lim in limbs.values():
-        src_share[:, lim.eff] = np.linalg.norm(spos[:, lim.eff] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
-    # per plant: its frames, sigma there, the source foot there and the shift
+    length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
+    src_share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
+                 for e, lim in limbs.items()}                                # (Fs,): how straight the source is
+    # -- each plant's frames: the source time sigma (the effector's own inverse warp, kept inside the plant's
+    # source frames) and the source foot there --------------------------------------------------------------
     P = len(plants)
-    by_limb: dict[int, list[int]] = {}
-    for i in sorted(range(P), key=lambda i: plants[i]["start"]):
-        by_limb.setdefault(plants[i]["eff"], []).append(i)
-    in_fr, in_pid, in_sig = [], [], []
-    for i, p in enumerate(plants):
-        fr = np.arange(p["start"], p["stop"])
-        in_fr.append(fr)
-        in_pid.append(np.full(fr.size, i))
-        in_sig.append(np.interp(fr, p["ke"], p["ks"]))
-    in_fr, in_pid, in_sig = np.concatenate(in_fr), np.concatenate(in_pid), np.concatenate(in_sig)
+    sizes = np.array([p["stop"] - p["start"] for p in plants])
+    in_fr = np.concatenate([np.arange(p["start"], p["stop"]) for p in plants])
+    in_pid = np.repeat(np.arange(P), sizes)
     effs = np.array([p["eff"] for p in plants])
-    ups = np.array([limbs[e].upper for e in effs])
-    e_of = effs[in_pid]
-    u_of = ups[in_pid]
-    base = _sample_rows(spos, in_sig, e_of)                                          # (n, 3)
-    hip = pos[in_fr, u_of]
-    cur = pos[in_fr, e_of]
-    length = {e: _length(pos, limbs[e]) for e in limbs}                     # (F,) per limb
-    lengths = np.array([float(np.median(length[e])) for e in effs])
+    e_of, u_of = effs[in_pid], np.array([limbs[e].upper for e in effs])[in_pid]
+    in_sig = np.empty(in_fr.size)
+    for e in limbs:
+        sel = e_of == e
+        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, e, in_fr[sel])
+    in_sig = np.clip(in_sig, np.array([p["s_lo"] for p in plants])[in_pid], np.array([p["s_hi"] for p in plants])[in_pid])
+    base = _sample_rows(spos, in_sig, e_of)                                  # (n, 3) source foot at sigma
+    hip, cur = pos[in_fr, u_of], pos[in_fr, e_of]
     L_in = np.concatenate([length[p["eff"]][p["start"]:p["stop"]] for p in plants])
-    s_share = _sample_rows(src_share, in_sig, e_of)
-    R = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_share)
-    sums = np.zeros((P, 3))
-    np.add.at(sums, in_pid, cur - base)
-    d0 = sums / np.bincount(in_pid, minlength=P)[:, None]
-    starts = np.r_[0, np.cumsum([p["stop"] - p["start"] for p in plants])[:-1]]
-    lasts = starts + np.array([p["stop"] - p["start"] for p in plants]) - 1
-    travel = hip[lasts] - hip[starts]
-    shift = _choose_shifts(hip, base, R, in_pid, d0, travel, lengths)
-    # per limb: weight, and the two neighbouring plants' targets on every frame of its support
+    s_in = np.empty(in_fr.size)
+    for e in limbs:
+        sel = e_of == e
+        s_in[sel] = _sample(src_share[e], in_sig[sel])
+    R_in = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_in)
+    d0 = np.zeros((P, 3))
+    np.add.at(d0, in_pid, cur - base)
+    d0 /= sizes[:, None]
+    lengths = np.array([float(np.median(length[e])) for e in effs])
+    shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths)
+    contacts_of: dict[int, list] = {}
+    for c in carried:
+        contacts_of.setdefault(c[7], []).append(c)
     rows = []
-    for eff, ids in by_limb.items():
-        lim = limbs[eff]
-        st = np.array([plants[i]["start"] for i in ids])
-        sp_ = np.array([plants[i]["stop"] for i in ids])
-        f = np.arange(F)
-        inside = np.zeros(F, np.int64) - 1
-        for i, a, b in zip(ids, st, sp_):
-            inside[a:b] = i
-        li = np.searchsorted(sp_, f, side="right") - 1          # last plant ending at or before f
-        ri = np.searchsorted(st, f, side="right")               # first plant starting after f
-        has_l, has_r = li >= 0, ri < len(ids)
-        dl = np.where(has_l, f - (sp_[np.maximum(li, 0)] - 1), np.inf)
-        dr = np.where(has_r, st[np.minimum(ri, len(ids) - 1)] - f, np.inf)
-        wl = np.where(has_l, _raised_cosine(np.where(has_l, dl, 0), nb), 0.0)
-        wr = np.where(has_r, _raised_cosine(np.where(has_r, dr, 0), nb), 0.0)
-        w = np.where(inside >= 0, 1.0, wl + wr - wl * wr)
-        fr = np.flatnonzero(w > 0)
-        if not fr.size:
-            continue
-        ins = inside[fr] >= 0
-        pl = np.array(ids)[np.maximum(li[fr], 0)]
-        pr = np.array(ids)[np.minimum(ri[fr], len(ids) - 1)]
-        with np.errstate(invalid="ignore"):
-            alpha = np.where(wl[fr] > 0, np.where(wr[fr] > 0, dl[fr] / (dl[fr] + dr[fr]), 0.0), 1.0)
-        sig_l = np.array([plants[i]["ks"][-1] for i in pl]) + (fr - np.array([plants[i]["ke"][-1] for i in pl])) * ratio
-        sig_r = np.array([plants[i]["ks"][0] for i in pr]) - (np.array([plants[i]["ke"][0] for i in pr]) - fr) * ratio
-        # inside a plant: its own sigma and shift
-        pin = inside[fr]
-        sig_in = np.interp(fr, np.concatenate([plants[i]["ke"] for i in ids]),
-                           np.concatenate([plants[i]["ks"] for i in ids]))
-        sig_l = np.where(ins, sig_in, sig_l)
-        sig_r = np.where(ins, sig_in, sig_r)
-        alpha = np.where(ins, 0.0, alpha)
-        pl = np.where(ins, pin, pl)
-        pr = np.where(ins, pin, pr)
-        rows.append(dict(lim=lim, fr=fr, w=w[fr], alpha=alpha, sig_l=np.clip(sig_l, 0, Fs - 1),
-                         sig_r=np.clip(sig_r, 0, Fs - 1), d_l=shift[pl], d_r=shift[pr]))
-    # targets (blend of the two neighbouring plants, then from the edited foot by w)
     need = np.zeros(F)
-    for r in rows:
-        lim, fr = r["lim"], r["fr"]
-        al = r["alpha"][:, None]
-        tgt = (1 - al) * (_sample(spos[:, lim.eff], r["sig_l"]) + r["d_l"]) + al * (
-            _sample(spos[:, lim.eff], r["sig_r"]) + r["d_r"])
-        e_cur = pos[fr, lim.eff]
-        r["g"] = e_cur + r["w"][:, None] * (tgt - e_cur)
+    f_all = np.arange(F)
+    for eff, lim in limbs.items():
+        sel = np.flatnonzero(e_of == eff)
+        if not sel.size:
+            continue
+        fr, sig, pid = in_fr[sel], in_sig[sel], in_pid[sel]
+        d = shift[pid]
+        # the plant's own frames: the source foot at sigma, shifted, each contact joint then put where the
+        # source has it at that joint's own time (w_j^-1), faded (C1) over nc frames inside the plant
+        p_ref = _sample(spos[:, eff], sig) + d
+        q_ref = _sample_quats(swq[:, eff], sig)
+        n = fr.size
+        da, wa = np.zeros((n, 3)), np.zeros(n)
+        dt_sum, pt_sum, wt_sum, wt = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n)
+        lo = np.array([plants[i]["start"] for i in pid])
+        hi = np.array([plants[i]["stop"] for i in pid])
+        for j, e0, e1, A, B, a, b, _ in contacts_of.get(eff, ()):
+            kA, kB = np.searchsorted(fr, [A, B])
+            if kB <= kA:
+                continue
+            own = fr[kA:kB]
+            ts = np.clip(_source_frames(tables, t0, ft, ft_s, j, own), a, b - 1)
+            delta = _sample(spos[:, j], ts) - _sample(spos[:, j], sig[kA:kB])
+            k0, k1 = np.searchsorted(fr, [A - nc, B + nc])
+            seg = np.arange(k0, k1)
+            seg = seg[(lo[seg] <= A) & (hi[seg] >= B)]         # this contact's plant only
+            f_seg = fr[seg]
+            dist = np.where(f_seg < A, A - f_seg, np.where(f_seg >= B, f_seg - (B - 1), 0))
+            om = _raised_cosine(dist, nc)
+            dseg = delta[np.clip(np.searchsorted(own, f_seg), 0, own.size - 1)]
+            if j == eff:
+                take = om > wa[seg]
+                wa[seg] = np.where(take, om, wa[seg])
+                da[seg] = np.where(take[:, None], dseg, da[seg])
+            else:
+                dt_sum[seg] += om[:, None] * dseg
+                pt_sum[seg] += om[:, None] * (_sample(spos[:, j], sig[seg]) + d[seg])
+                wt_sum[seg] += om
+                wt[seg] = np.maximum(wt[seg], om)
+        has_t = wt_sum > 0
+        dt = np.where(has_t[:, None], dt_sum / np.where(has_t, wt_sum, 1.0)[:, None], 0.0)
+        pt = np.where(has_t[:, None], pt_sum / np.where(has_t, wt_sum, 1.0)[:, None], p_ref)
+        ankle = p_ref + wa[:, None] * da + ((1 - wa) * wt)[:, None] * dt
+        both = (wa * wt) > 0
+        if both.any():
+            # heel and toe held at once, each at its own joint's time: the toe aimed at its plant by turning
+            # the foot about the ankle, and what the rigid foot's length cannot fit shared by the two
+            toe_t = pt[both] + dt[both]
+            v = toe_t - ankle[both]
+            foot = np.linalg.norm(pt[both] - p_ref[both], axis=-1)
+            gap = (np.linalg.norm(v, axis=-1) - foot) * 0.5 * (wa * wt)[both]
+            ankle[both] += gap[:, None] * _unit(v)
+            turn = quat_between_vectors(pt[both] - p_ref[both], toe_t - ankle[both])
+            q_ref[both] = quat_mul(slerp(np.broadcast_to(_ID, turn.shape), turn, (wa * wt)[both]), q_ref[both])
+        e_cur = pos[fr, eff]
         h = pos[fr, lim.upper]
-        ss = (1 - r["alpha"]) * _sample(src_share[:, lim.eff], r["sig_l"]) + r["alpha"] * _sample(
-            src_share[:, lim.eff], r["sig_r"])
-        r["R"] = _reach(reach, length[lim.eff][fr], np.linalg.norm(e_cur - h, axis=-1), ss)
-        held = r["w"] >= 1.0          # the plants' own frames; the fades follow as far as the leg reaches
-        np.maximum.at(need, fr[held], _vertical_need(h[held], r["g"][held], r["R"][held])
-                      - _TOL * length[lim.eff][fr[held]])
+        R = _reach(reach, length[eff][fr], np.linalg.norm(e_cur - h, axis=-1), _sample(src_share[eff], sig))
+        toe_only = (wt * (1 - wa)) > 0
+        if toe_only.any():
+            # only the toe held (heel-off): where the leg cannot reach the ankle, the foot turns further about
+            # the toe towards the hip (the heel lifts more), by the least angle that brings the ankle in reach
+            k = np.flatnonzero(toe_only)
+            toe_t = pt[k] + dt[k]
+            off = ankle[k] - toe_t
+            turn = quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k]))
+            turn = slerp(np.broadcast_to(_ID, turn.shape), turn, (wt * (1 - wa))[k])
+            ankle[k] = toe_t + quat_rotate(turn, off)
+            q_ref[k] = quat_mul(turn, q_ref[k])
+        np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
+        foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
+        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig))
     notes = []
     drop = np.zeros(F)
-    if share > 0 and np.any(need > 0):
-        cap = _MAX_DROP * float(min(lengths))
-        if need.max() > cap:
-            notes.append(f"keep_contacts: the legs cannot reach {int(np.sum(need > cap))} held frames even with the "
-                         f"pelvis {100 * _MAX_DROP:.0f} % of a leg lower: the feet stop short of their plants there")
+    if share > 0 and max_drop > 0 and np.any(need > 0):
+        cap = max_drop * float(min(lengths))
         drop = _envelope(np.minimum(need, cap), nb) * share
+        short = int(np.sum(need > drop + 1e-3 * float(min(lengths))))
+        if short:
+            notes.append(f"keep_contacts: on {short} frame{'s' if short > 1 else ''} a held leg cannot reach its "
+                         f"plant with the pelvis at most {100 * max_drop * share:.1f} % of a leg lower: the foot "
+                         f"stops short of the plant there")
     rp = motion.root_positions
+    lowered = pos
     if np.any(drop > 0):
         rp = np.array(rp)
         rp[:, 1] -= drop
-        pos = pos.copy()
-        pos[..., 1] -= drop[:, None]
-        # legs in the air where the root is lowered keep their feet where the edit put them
-        for lim in legs:
-            held = np.zeros(F, bool)
-            for r in rows:
-                if r["lim"] is lim:
-                    held[r["fr"]] = True
-            fr = np.flatnonzero((drop > 0) & ~held)
-            if fr.size:
-                e_cur = pos[fr, lim.eff] + np.array([0.0, 1.0, 0.0]) * drop[fr, None]
-                rows.append(dict(lim=lim, fr=fr, w=np.zeros(fr.size), g=e_cur,
-                                 R=length[lim.eff][fr] * (1 - 1e-9), swing=True))
-    out = np.array(motion.local_quats)
+        lowered = pos.copy()
+        lowered[..., 1] -= drop[:, None]
     lq = motion.local_quats
-    hinges = {}
+    out = np.array(lq)
+    hinges = {lim.eff: _hinge_local(spos, swq, lim) for lim in limbs.values()}
+    # the plants' own frames: exact IK
     for r in rows:
         lim, fr = r["lim"], r["fr"]
-        pm, pe = int(sk.parents[lim.mid]), int(sk.parents[lim.eff])
-        if lim.eff not in hinges:
-            hinges[lim.eff] = _hinge_local(spos, swq, lim)
-        hinge = quat_rotate(wq[fr, lim.upper], hinges[lim.eff])
-        r_up, r_mid = _leg_ik(pos[fr, lim.upper], pos[fr, lim.mid], pos[fr, lim.eff], r["g"], hinge, r["R"])
-        upw = wq[fr, lim.upper]
-        out[fr, lim.upper] = quat_mul(lq[fr, lim.upper], quat_mul(quat_conj(upw), quat_mul(r_up, upw)))
-        out[fr, lim.mid] = quat_mul(quat_conj(wq[fr, pm]), quat_mul(r_mid, wq[fr, lim.mid]))
-        r21 = quat_mul(r_up, r_mid)
-        if r.get("swing"):
-            q_eff = wq[fr, lim.eff]
-        else:
-            al = r["alpha"]
-            q_t = slerp(_sample_quats(swq[:, lim.eff], r["sig_l"]), _sample_quats(swq[:, lim.eff], r["sig_r"]), al)
-            q_eff = slerp(wq[fr, lim.eff], q_t, r["w"])
-        out[fr, lim.eff] = quat_mul(quat_conj(quat_mul(r21, wq[fr, pe])), q_eff)
-        if not r.get("swing") and lim.foot:
-            ft = np.array(lim.foot)
-            for k in ft:
-                s_l = _sample_quats(slq[:, k], r["sig_l"])
-                s_r = _sample_quats(slq[:, k], r["sig_r"])
-                out[fr, k] = slerp(lq[fr, k], slerp(s_l, s_r, r["alpha"]), r["w"])
+        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff])
+        out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+        for k, fq in zip(lim.foot, r["foot"]):
+            out[fr, k] = fq
+    # around them: the foot led from the plant's first / last pose to where the edit has it, with a C1
+    # raised-cosine weight over a window long enough that the fade turns no joint much faster than
+    # _FADE_RATE on top of the edit; the foot's orientation keeps the boundary's correction, faded
+    covered = {}
+    for r in rows:
+        lim, fr = r["lim"], r["fr"]
+        eff = lim.eff
+        inside = np.zeros(F, bool)
+        inside[fr] = True
+        starts = np.flatnonzero(inside & ~np.r_[False, inside[:-1]])
+        ends = np.flatnonzero(inside & ~np.r_[inside[1:], False])
+        bnd = np.r_[starts, ends]
+        kb = np.searchsorted(fr, bnd)
+        chain = [lim.upper, lim.mid, eff] + list(lim.foot)
+        angle = np.max([quat_angle(lq[bnd, j], out[bnd, j]) for j in chain], axis=0)      # radians
+        width = np.maximum(nb, np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1).astype(np.int64)
+        w_start, w_end = width[:starts.size], width[starts.size:]
+        li = np.searchsorted(ends, f_all, side="right") - 1
+        ri = np.searchsorted(starts, f_all, side="right")
+        li_, ri_ = np.maximum(li, 0), np.minimum(ri, starts.size - 1)
+        has_l, has_r = (li >= 0) & ~inside, (ri < starts.size) & ~inside
+        dl = np.where(has_l, f_all - ends[li_], 0)
+        dr = np.where(has_r, starts[ri_] - f_all, 0)
+        wl = np.where(has_l, _raised_cosine(dl, w_end[li_]), 0.0)
+        wr = np.where(has_r, _raised_cosine(dr, w_start[ri_]), 0.0)
+        win = np.flatnonzero((wl > 0) | (wr > 0))
+        covered[eff] = np.r_[fr, win]
+        if not win.size:
+            continue
+        wl_, wr_ = wl[win], wr[win]
+        al = np.where(wl_ > 0, np.where(wr_ > 0, wr_ / np.maximum(wl_ + wr_, 1e-300), 0.0), 1.0)
+        w = wl_ + wr_ - wl_ * wr_
+        kl, kr = kb[starts.size + li_[win]], kb[ri_[win]]
+        e_w = pos[win, eff]
+        # the source's own approach / take-off (at the effector's own time), from the plant's boundary pose
+        sig_w = _source_frames(tables, t0, ft, ft_s, eff, win)
+        s_w = _sample(spos[:, eff], sig_w)
+        s_b = _sample(spos[:, eff], _source_frames(tables, t0, ft, ft_s, eff, fr[kb]))    # at the boundaries
+        t_l = r["g"][kl] + s_w - s_b[starts.size + li_[win]]
+        t_r = r["g"][kr] + s_w - s_b[ri_[win]]
+        g = e_w + w[:, None] * ((1 - al)[:, None] * t_l + al[:, None] * t_r - e_w)
+        qe = wq[:, eff]
+        c = slerp(quat_mul(quat_conj(qe[fr[kl]]), r["q"][kl]), quat_mul(quat_conj(qe[fr[kr]]), r["q"][kr]), al)
+        q = quat_mul(qe[win], slerp(np.broadcast_to(_ID, c.shape), c, w))
+        R = _reach(reach, length[eff][win], np.linalg.norm(e_w - pos[win, lim.upper], axis=-1), np.zeros(win.size))
+        a_new, m_new, e_new = _solve(sk, lim, win, lowered, wq, lq, g, q, R, hinges[eff])
+        out[win, lim.upper], out[win, lim.mid], out[win, eff] = a_new, m_new, e_new
+        for k, fq in zip(lim.foot, r["foot"]):
+            ck = slerp(quat_mul(quat_conj(lq[fr[kl], k]), fq[kl]), quat_mul(quat_conj(lq[fr[kr], k]), fq[kr]), al)
+            out[win, k] = quat_mul(lq[win, k], slerp(np.broadcast_to(_ID, ck.shape), ck, w))
+    # legs in the air where the root is lowered keep their feet where the edit put them
+    if np.any(drop > 0):
+        for lim in legs:
+            free = drop > 0
+            if lim.eff in covered:
+                free[covered[lim.eff]] = False
+            fr = np.flatnonzero(free)
+            if fr.size:
+                a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, pos[fr, lim.eff], wq[fr, lim.eff],
+                                             length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+                out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     return Motion._trusted(sk, motion.frame_time, rp, out, motion.local_translations), drop, notes
+
+
+def _solve(sk, lim: Limb, fr, pos, wq, lq, target, q_target, reach, hinge_local):
+    """New local rotations ``(upper, mid, eff)`` on frames ``fr`` putting the effector at ``target (n, 3)``
+    with world rotation ``q_target (n, 4)`` (positions ``pos`` already lowered with the root)."""
+    p3 = pos[fr][:, [lim.upper, lim.mid, lim.eff]]
+    return _solve_rows(sk, lim, fr, p3, wq, lq, target, q_target, reach, hinge_local)
+
+
+def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_local):
+    """:func:`_solve` from the chain's positions ``p3 (n, 3, 3)`` (upper, mid, eff) and the world rotations
+    ``wq (F, J, 4)`` / local rotations ``lq (F, J, 4)`` of the pose being changed."""
+    pm, pe = int(sk.parents[lim.mid]), int(sk.parents[lim.eff])
+    upw = wq[fr, lim.upper]
+    hinge = quat_rotate(upw, hinge_local)
+    r_up, r_mid = _leg_ik(p3[:, 0], p3[:, 1], p3[:, 2], target, hinge, reach)
+    a_new = quat_mul(lq[fr, lim.upper], quat_mul(quat_conj(upw), quat_mul(r_up, upw)))
+    m_new = quat_mul(quat_conj(wq[fr, pm]), quat_mul(r_mid, wq[fr, lim.mid]))
+    e_new = quat_mul(quat_conj(quat_mul(quat_mul(r_up, r_mid), wq[fr, pe])), q_target)
+    return a_new, m_new, e_new
+
+
+def _source_frames(tables, t0: float, ft: float, ft_s: float, joint: int, frames: np.ndarray) -> np.ndarray:
+    """Source frames (floats) of edited ``frames`` through ``joint``'s inverse time warp (identity without
+    warp ``tables``)."""
+    te = t0 + np.asarray(frames, dtype=float) * ft
+    if tables is not None:
+        from .editing import _warp_column
+        te = _warp_column(*tables, joint, te, inverse=True)
+    return te / ft_s
 
 
 def _length(pos, lim: Limb) -> np.ndarray:
