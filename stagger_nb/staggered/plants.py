@@ -59,11 +59,12 @@ _INLINE = re.compile(r"twist|roll|share", re.I)     # helper bones along a limb 
 
 REACH = 0.98          # share of a leg's length a held leg may use (unless the edited pose already uses more)
 _MIN_BONE = 0.02      # a limb bone shorter than this share of the body is not a limb bone
-_MAX_DROP = 0.03      # the root is lowered by at most this share of the leg's length (~2.7 cm of a 170 cm body)
+_MAX_DROP = 0.028     # the root is lowered by at most this share of a leg (~2.5 cm of a 170 cm body)
 # plant shifts tried along the hip's travel, in leg lengths: within a quarter leg of where the edit puts the foot
 _SHIFT_STEPS = np.linspace(-0.25, 0.25, 21)
 _SEGMENT = np.linspace(0.0, 1.0, 21)     # from where the edit puts the foot to the centre of the hip's path
 _ID = np.array([0.0, 0.0, 0.0, 1.0])
+_SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 _TOL = 1e-6          # lengths below this share of a leg are rounding (no need to lower the root, no shift)
 
@@ -371,7 +372,7 @@ def _choose_shifts(hip, base, reach, pid, d0, lengths) -> np.ndarray:
 
 # -- IK ----------------------------------------------------------------------------------------------------
 
-def _leg_ik(a, b, c, t, hinge, d_max):
+def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
     """Analytic two-bone IK, vectorised over rows.
 
     The middle joint turns about its hinge axis ``hinge`` (world, unit; the knee's bend axis measured on the
@@ -389,6 +390,9 @@ def _leg_ik(a, b, c, t, hinge, d_max):
         The middle joint's hinge axis (world, unit), oriented so a positive turn bends the limb.
     d_max : ndarray, shape (n,)
         Largest upper-effector distance allowed (below the two bones' length).
+    soft : ndarray, shape (n,), optional
+        Where given (> 0), distances beyond ``d_max - soft`` approach ``d_max`` exponentially (a C1 soft limit,
+        used while fading in and out of a plant so a far target straightens the leg gradually).
 
     Returns
     -------
@@ -399,7 +403,12 @@ def _leg_ik(a, b, c, t, hinge, d_max):
     x, y = b - a, c - b
     lx, ly = np.linalg.norm(x, axis=-1), np.linalg.norm(y, axis=-1)
     k = _unit(hinge)
-    d = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lx - ly) * (1 + 1e-9) + 1e-12, d_max)
+    d = np.linalg.norm(t - a, axis=-1)
+    if soft is not None:      # soft reach: C1 approach of d_max over the last ``soft`` of it (no knee snap)
+        knee = d_max - soft
+        over = (soft > 0) & (d > knee)
+        d = np.where(over, knee + soft * -np.expm1(-(d - knee) / np.where(soft > 0, soft, 1.0)), d)
+    d = np.clip(d, np.abs(lx - ly) * (1 + 1e-9) + 1e-12, d_max)
     # rotating y about k by theta: x . R y = A + B cos(theta) + C sin(theta)
     ypar = np.einsum("ni,ni->n", y, k)[:, None] * k
     yperp = y - ypar
@@ -708,22 +717,21 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
         for k, fq in zip(lim.foot, r["foot"]):
             out[fr, k] = fq
-    # around them: the foot led from the plant's first / last pose to where the edit has it, with a C1
-    # raised-cosine weight over a window long enough that the fade turns no joint much faster than
-    # _FADE_RATE on top of the edit; the foot's orientation keeps the boundary's correction, faded
-    covered = {}
+    # around them: the boundary solution's displacement (each joint's rotation against the edit's), faded
+    # out with a C1 raised cosine (Coleman et al. §3) over a window long enough that the fade turns no joint
+    # faster than _FADE_RATE on top of the edit; between two plants the two displacements are interpolated
+    fade_w = {}
     for r in rows:
         lim, fr = r["lim"], r["fr"]
-        eff = lim.eff
         inside = np.zeros(F, bool)
         inside[fr] = True
         starts = np.flatnonzero(inside & ~np.r_[False, inside[:-1]])
         ends = np.flatnonzero(inside & ~np.r_[inside[1:], False])
         bnd = np.r_[starts, ends]
-        kb = np.searchsorted(fr, bnd)
-        chain = [lim.upper, lim.mid, eff] + list(lim.foot)
-        angle = np.max([quat_angle(lq[bnd, j], out[bnd, j]) for j in chain], axis=0)      # radians
-        width = np.maximum(nb, np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1).astype(np.int64)
+        chain = [lim.upper, lim.mid, lim.eff] + list(lim.foot)
+        disp = {j: quat_mul(quat_conj(lq[bnd, j]), out[bnd, j]) for j in chain}
+        angle = np.max([quat_angle(d_) for d_ in disp.values()], axis=0)                  # radians
+        width = np.clip(np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1, nb, 4 * nb).astype(np.int64)
         w_start, w_end = width[:starts.size], width[starts.size:]
         li = np.searchsorted(ends, f_all, side="right") - 1
         ri = np.searchsorted(starts, f_all, side="right")
@@ -734,62 +742,116 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         wl = np.where(has_l, _raised_cosine(dl, w_end[li_]), 0.0)
         wr = np.where(has_r, _raised_cosine(dr, w_start[ri_]), 0.0)
         win = np.flatnonzero((wl > 0) | (wr > 0))
-        covered[eff] = np.r_[fr, win]
         if not win.size:
             continue
         wl_, wr_ = wl[win], wr[win]
-        al = np.where(wl_ > 0, np.where(wr_ > 0, wr_ / np.maximum(wl_ + wr_, 1e-300), 0.0), 1.0)
+        al = np.where(wl_ > 0, np.where(wr_ > 0, dl[win] / np.maximum(dl[win] + dr[win], 1), 0.0), 1.0)
         w = wl_ + wr_ - wl_ * wr_
-        kl, kr = kb[starts.size + li_[win]], kb[ri_[win]]
-        e_w = pos[win, eff]
-        # the source's own approach / take-off (at the effector's own time), from the plant's boundary pose
-        sig_w = _source_frames(tables, t0, ft, ft_s, eff, win)
-        s_w = _sample(spos[:, eff], sig_w)
-        s_b = _sample(spos[:, eff], _source_frames(tables, t0, ft, ft_s, eff, fr[kb]))    # at the boundaries
-        t_l = r["g"][kl] + s_w - s_b[starts.size + li_[win]]
-        t_r = r["g"][kr] + s_w - s_b[ri_[win]]
-        g = e_w + w[:, None] * ((1 - al)[:, None] * t_l + al[:, None] * t_r - e_w)
-        qe = wq[:, eff]
-        c = slerp(quat_mul(quat_conj(qe[fr[kl]]), r["q"][kl]), quat_mul(quat_conj(qe[fr[kr]]), r["q"][kr]), al)
-        q = quat_mul(qe[win], slerp(np.broadcast_to(_ID, c.shape), c, w))
-        R = _reach(reach, length[eff][win], np.linalg.norm(e_w - pos[win, lim.upper], axis=-1), np.zeros(win.size))
-        a_new, m_new, e_new = _solve(sk, lim, win, lowered, wq, lq, g, q, R, hinges[eff])
-        out[win, lim.upper], out[win, lim.mid], out[win, eff] = a_new, m_new, e_new
-        for k, fq in zip(lim.foot, r["foot"]):
-            ck = slerp(quat_mul(quat_conj(lq[fr[kl], k]), fq[kl]), quat_mul(quat_conj(lq[fr[kr], k]), fq[kr]), al)
-            out[win, k] = quat_mul(lq[win, k], slerp(np.broadcast_to(_ID, ck.shape), ck, w))
-    # legs in the air where the root is lowered keep their feet where the edit put them
-    if np.any(drop > 0):
+        kl, kr = starts.size + li_[win], ri_[win]
+        fade_w[lim.eff] = (win, w)
+        for j in chain:
+            dd = slerp(disp[j][kl], disp[j][kr], al)
+            out[win, j] = quat_mul(lq[win, j], slerp(np.broadcast_to(_ID, dd.shape), dd, w))
+        _no_hyperextension(sk, motion, lim, win, out, lq, hinges[lim.eff])
+    # legs in the air where the root is lowered keep their feet where the edit put them (in a fade: where the
+    # faded pose puts it on the lowered root, plus the part of the drop the fade has let go of)
+    if np.any(drop > 0) and legs:
+        held = {r["lim"].eff: r["fr"] for r in rows}
+        leg_joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
+                                                   int(sk.parents[lim.eff]))}
+        p_u, w_u = _fk_joints(motion, leg_joints, local_quats=out)       # the root not lowered
         for lim in legs:
             free = drop > 0
-            if lim.eff in covered:
-                free[covered[lim.eff]] = False
+            if lim.eff in held:
+                free[held[lim.eff]] = False
             fr = np.flatnonzero(free)
-            if fr.size:
-                a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, pos[fr, lim.eff], wq[fr, lim.eff],
-                                             length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
-                out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+            if not fr.size:
+                continue
+            p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
+            p3[..., 1] -= drop[fr, None]
+            wf = np.zeros(F)
+            if lim.eff in fade_w:
+                wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
+            tgt = p_u[fr, lim.eff].copy()
+            tgt[:, 1] -= wf[fr] * drop[fr]
+            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, w_u[fr, lim.eff],
+                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+            out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+    # feet in the air never go below the source's floor (the lowest any source joint goes): where the edit
+    # (or the lowered root) takes a foot joint under it, the leg lifts the foot by a smooth profile
+    if legs:
+        floor = float(np.nanmin(_fk_joints(source, {x for lim in legs for x in (lim.eff,) + lim.foot})[0][..., 1]))
+        held = {r["lim"].eff: r["fr"] for r in rows}
+        joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
+                                               int(sk.parents[lim.eff])) + lim.foot}
+        p_o, w_o = _fk_joints(motion, joints, local_quats=out, root_positions=rp)
+        for lim in legs:
+            low = np.min(p_o[:, [lim.eff] + list(lim.foot), 1], axis=1)
+            deficit = np.maximum(floor - low, 0.0)
+            if lim.eff in held:
+                deficit[held[lim.eff]] = 0.0
+            if not np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
+                continue
+            lift = _envelope(deficit, nb)
+            if lim.eff in fade_w:          # let go of it towards a plant (whose own frames sit on the ground)
+                win, w = fade_w[lim.eff]
+                lift[win] *= 1.0 - w
+            if lim.eff in held:
+                lift[held[lim.eff]] = 0.0
+            fr = np.flatnonzero(lift > 0)
+            tgt = p_o[fr, lim.eff].copy()
+            tgt[:, 1] += lift[fr]
+            p3 = p_o[fr][:, [lim.upper, lim.mid, lim.eff]]
+            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_o, out, tgt, w_o[fr, lim.eff],
+                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+            out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     return Motion._trusted(sk, motion.frame_time, rp, out, motion.local_translations), drop, notes
 
 
-def _solve(sk, lim: Limb, fr, pos, wq, lq, target, q_target, reach, hinge_local):
+def _solve(sk, lim: Limb, fr, pos, wq, lq, target, q_target, reach, hinge_local, soft=None):
     """New local rotations ``(upper, mid, eff)`` on frames ``fr`` putting the effector at ``target (n, 3)``
     with world rotation ``q_target (n, 4)`` (positions ``pos`` already lowered with the root)."""
     p3 = pos[fr][:, [lim.upper, lim.mid, lim.eff]]
-    return _solve_rows(sk, lim, fr, p3, wq, lq, target, q_target, reach, hinge_local)
+    return _solve_rows(sk, lim, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft)
 
 
-def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_local):
+def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft=None):
     """:func:`_solve` from the chain's positions ``p3 (n, 3, 3)`` (upper, mid, eff) and the world rotations
     ``wq (F, J, 4)`` / local rotations ``lq (F, J, 4)`` of the pose being changed."""
     pm, pe = int(sk.parents[lim.mid]), int(sk.parents[lim.eff])
     upw = wq[fr, lim.upper]
     hinge = quat_rotate(upw, hinge_local)
-    r_up, r_mid = _leg_ik(p3[:, 0], p3[:, 1], p3[:, 2], target, hinge, reach)
+    r_up, r_mid = _leg_ik(p3[:, 0], p3[:, 1], p3[:, 2], target, hinge, reach, soft)
     a_new = quat_mul(lq[fr, lim.upper], quat_mul(quat_conj(upw), quat_mul(r_up, upw)))
     m_new = quat_mul(quat_conj(wq[fr, pm]), quat_mul(r_mid, wq[fr, lim.mid]))
     e_new = quat_mul(quat_conj(quat_mul(quat_mul(r_up, r_mid), wq[fr, pe])), q_target)
     return a_new, m_new, e_new
+
+
+def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, lq, hinge_local) -> None:
+    """Where a fade has bent the middle joint backwards about its hinge beyond what the edit itself does
+    (its displacement composed with the edit's own straightening), turn it back to that (in place on
+    ``out (F, J, 4)``, frames ``fr``)."""
+    pm = int(sk.parents[lim.mid])
+    joints = {lim.upper, lim.mid, lim.eff, pm}
+    p_o, w_o = _fk_joints(motion, joints, local_quats=out)
+    p_e, w_e = _fk_joints(motion, joints)
+
+    def flex(p, w):
+        x = p[fr, lim.mid] - p[fr, lim.upper]
+        y = p[fr, lim.eff] - p[fr, lim.mid]
+        k = quat_rotate(w[fr, lim.upper], hinge_local)
+        return np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y)), k
+
+    f_o, k = flex(p_o, w_o)
+    f_e, _ = flex(p_e, w_e)
+    excess = np.minimum(f_e, 0.0) - f_o                  # > 0: more backwards than the edit
+    bad = excess > 1e-9
+    if not bad.any():
+        return
+    rows = fr[bad]
+    turn = rotvec_to_quat(k[bad] * excess[bad, None])
+    out[rows, lim.mid] = quat_mul(quat_conj(w_o[rows, pm]), quat_mul(turn, w_o[rows, lim.mid]))
 
 
 def _source_frames(tables, t0: float, ft: float, ft_s: float, joint: int, frames: np.ndarray) -> np.ndarray:
