@@ -23,8 +23,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from stagger_nb import data, forward_kinematics  # noqa: E402
-from stagger_nb.core.reference import forward_kinematics_reference  # noqa: E402
 from stagger_nb.core.rotations import quat_mul, quat_rotate  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
+from references import forward_kinematics_reference  # noqa: E402
 
 FRAMES = 2752
 TARGET_MS = 8.0

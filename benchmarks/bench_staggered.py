@@ -29,9 +29,12 @@ from stagger_nb.core.kinematics import skeleton_height  # noqa: E402
 from stagger_nb.core.rotations import quat_angle, quat_bezier  # noqa: E402
 from stagger_nb import staggered  # noqa: E402
 from stagger_nb.staggered.extraction import locate_poses  # noqa: E402
-from stagger_nb.staggered.fitting import (fit_rotation_tangents_nelder_mead, fit_staggered,  # noqa: E402
-                                          sample_segments, velocity_jumps)
-from stagger_nb.staggered.representation import evaluate_reference, knot_times  # noqa: E402
+from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
+from stagger_nb.staggered.representation import knot_times  # noqa: E402
+from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps  # noqa: E402
+from stagger_nb.staggered.sampling import sample_segments  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
+from references import evaluate_reference, fit_rotation_tangents_nelder_mead  # noqa: E402
 
 # ../shared/mocap and data/ beside/in the repository; STAGGER_NB_SHARED_MOCAP and STAGGER_NB_DATA point
 # elsewhere (as tests/conftest.py and stagger_nb.data), e.g. from a git worktree

@@ -20,8 +20,8 @@ sys.path.insert(0, str(REPO))
 
 import stagger_nb as sn  # noqa: E402
 from stagger_nb import staggered  # noqa: E402
-from stagger_nb.staggered.constraints import apply_contact_constraints  # noqa: E402
-from stagger_nb.staggered.editing import edit_pose  # noqa: E402
+from stagger_nb.staggered.contact_layer import apply_contact_constraints  # noqa: E402
+from stagger_nb.staggered.geometry import edit_pose  # noqa: E402
 from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
 
 CLIP = Path(os.environ.get("STAGGER_NB_MOCAP") or REPO.parent / "shared" / "mocap") / "cmu_131_01_walk_startstop.bvh"

@@ -31,7 +31,8 @@ sys.path.insert(0, str(REPO))
 
 from stagger_nb import read_bvh, staggered  # noqa: E402
 from stagger_nb.core.motion import concatenate  # noqa: E402
-from stagger_nb.staggered.representation import evaluate_reference  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
+from references import evaluate_reference  # noqa: E402
 
 
 def clip():
@@ -111,7 +112,7 @@ def replays(m, sm):
 def static_off(f):
     """``f()`` with evaluate's static-joint shortcut off (every joint through the spline, the previous
     evaluate): the baseline of that shortcut, measured in this process."""
-    from stagger_nb.staggered import representation as R
+    from stagger_nb.staggered import evaluation as R
     orig = R.static_rotations
     R.static_rotations = lambda sm: (np.zeros(sm.num_joints, bool), sm.values[0])
     try:

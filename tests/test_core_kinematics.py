@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from stagger_nb.core import Motion, Skeleton, fk_arrays, forward_kinematics, positions_in_root_frame, skeleton_height
-from stagger_nb.core.reference import forward_kinematics_reference
+from references import forward_kinematics_reference
 from stagger_nb.core.rotations import quat_to_matrix
 
 from conftest import SHARED_CLIPS

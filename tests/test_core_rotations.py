@@ -48,6 +48,23 @@ def test_quat_mul_broadcasts():
     assert np.allclose(got[2, 3], R.quat_mul(a[2], b[3]), atol=0)  # same arithmetic
 
 
+def test_one_quaternion_product_for_rows_and_last_axis():
+    """quat_mul_components is the one product: on the rows of component-first (4, N) arrays (the kernels'
+    layout) it gives quat_mul's bits, which match scipy (above); a 0-d component set works too."""
+    from stagger_nb.staggered import _kernels
+    a, b = rand_quats(seed=7), rand_quats(seed=8)
+    A, B = np.ascontiguousarray(a.T), np.ascontiguousarray(b.T)
+    rows = R.quat_mul_components(A, B, np.empty_like(A), np.empty(A.shape[1]))
+    assert np.array_equal(rows.T, R.quat_mul(a, b))                    # same operations in the same order
+    assert np.array_equal(_kernels.qmul_into(A, B, np.empty_like(A), np.empty(A.shape[1])), rows)
+    assert np.array_equal(R.quat_mul(a[0], b[0]), R.quat_mul(a[:1], b[:1])[0])
+    # the written-out Hamilton product of one pair, by hand
+    (x1, y1, z1, w1), (x2, y2, z2, w2) = a[0], b[0]
+    want = [w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2]
+    assert np.array_equal(R.quat_mul(a[0], b[0]), want)
+
+
 def test_quat_rotate_matches_scipy_and_matrix(rng):
     q = rand_quats(seed=5)
     v = rng.normal(size=(N, 3))

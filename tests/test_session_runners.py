@@ -283,10 +283,10 @@ def test_replay_computes_no_timing_warnings_until_asked(walk_session, monkeypatc
     """The staggered edits leave their timing warnings unread (computed on first read); the replay, its cache
     (whose byte estimate walks each state's metadata) included, never reads them: only
     Session.timing_warnings / messages compute those of the last staggered state, once."""
-    from stagger_nb.staggered import editing
+    from stagger_nb.staggered import timing_report
     calls = []
-    real = editing._timing_warnings
-    monkeypatch.setattr(editing, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = timing_report._timing_warnings
+    monkeypatch.setattr(timing_report, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
     s = _fresh(walk_session, [{"op": "cull", "percent": 60.0}, {"op": "exaggerate", "w_r": 0.3},
                               {"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0},
                               {"op": "random_timing", "tau": 0.05, "seed": 1}])

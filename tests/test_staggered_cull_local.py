@@ -47,7 +47,7 @@ def test_local_cull_matches_full_refit_procedural(walk):
 
 
 def test_local_cull_is_c1_where_the_full_one_is():
-    from stagger_nb.staggered.fitting import velocity_jumps
+    from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps
     sm = staggered.extract(data.load("walk"))
     a = staggered.cull(sm, 50)
     jump, speed = velocity_jumps(a)

@@ -9,9 +9,10 @@ from scipy.ndimage import gaussian_filter1d
 
 from stagger_nb import Motion, Skeleton, staggered
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
-from stagger_nb.staggered import editing as E
+from stagger_nb.staggered import timing_report
 from stagger_nb.staggered.fitting import fit_staggered
-from stagger_nb.staggered.representation import default_times, evaluate, evaluate_arrays, knot_times
+from stagger_nb.staggered.evaluation import evaluate, evaluate_arrays
+from stagger_nb.staggered.representation import default_times, knot_times
 
 FT = 1 / 30
 NAMES = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder", "RightArm",
@@ -91,7 +92,7 @@ def test_target_equal_to_current_pose_is_identity(fixture):
     k = 2
     for mode, vals in (("staggered", sm.editing_knots), ("unstaggered", sm.values)):
         target = {n: vals[k, j].tolist() for j, n in enumerate(NAMES)}
-        out = E.edit_pose(sm, k, target=target, mode=mode)
+        out = staggered.edit_pose(sm, k, target=target, mode=mode)
         a, b = max_change(evaluate(out), evaluate(sm))
         assert a.max() < 1e-9 and b.max() < 1e-9  # delta = identity up to round-off (< 1e-15 rad)
 
@@ -111,7 +112,7 @@ def test_edit_pose_moves_both_knots_by_delta_and_is_local(fixture, mode):
     _, sm = fixture
     k = 2
     deltas = {"LeftArm": [0.0, 0.0, 0.5], "LeftUpLeg": [0.3, -0.1, 0.0], "Spine": [0.0, 0.2, 0.0]}
-    out = E.edit_pose(sm, k, deltas, mode=mode, root_offset=[0.0, -0.3, 0.1])
+    out = staggered.edit_pose(sm, k, deltas, mode=mode, root_offset=[0.0, -0.3, 0.1])
     before, after = evaluate(sm), evaluate(out)
     for n, rv in deltas.items():
         j = NAMES.index(n)
@@ -143,10 +144,10 @@ def test_edit_pose_target_modes(fixture):
     _, sm = fixture
     k, j = 3, NAMES.index("RightArm")
     tq = rotvec_to_quat(np.array([0.2, 0.4, -0.1]))
-    s_out = E.edit_pose(sm, k, target={"RightArm": tq.tolist()}, mode="staggered")
+    s_out = staggered.edit_pose(sm, k, target={"RightArm": tq.tolist()}, mode="staggered")
     got = evaluate(s_out, [sm.pose_times[k]]).local_quats[0, j]
     assert quat_angle(got, tq) < 1e-9  # the true pose at t_k becomes the target
-    u_out = E.edit_pose(sm, k, target={"RightArm": tq.tolist()}, mode="unstaggered")
+    u_out = staggered.edit_pose(sm, k, target={"RightArm": tq.tolist()}, mode="unstaggered")
     assert quat_angle(u_out.values[k, j], tq) < 1e-12  # the extreme value becomes the target
     # the other knot follows by the same change in both modes
     d = quat_mul(quat_conj(sm.values[k, j]), tq)
@@ -155,7 +156,7 @@ def test_edit_pose_target_modes(fixture):
 
 def test_edit_pose_joints_subset_filters_deltas(fixture):
     _, sm = fixture
-    out = E.edit_pose(sm, 1, {"LeftArm": [0, 0, 0.3], "RightArm": [0, 0.3, 0]}, joints=["RightArm"])
+    out = staggered.edit_pose(sm, 1, {"LeftArm": [0, 0, 0.3], "RightArm": [0, 0.3, 0]}, joints=["RightArm"])
     ch = quat_angle(evaluate(out).local_quats, evaluate(sm).local_quats)
     assert ch[:, NAMES.index("LeftArm")].max() < 1e-9 and ch[:, NAMES.index("RightArm")].max() > 0.2
 
@@ -173,8 +174,8 @@ def test_exaggerate_w1_doubles_offset_from_reference(fixture, reference, mode):
         arg = reference
         ref = {"previous": vals[k - 1], "next": vals[k + 1], 0: vals[0]}.get(reference)
         if reference == "mean":
-            ref = E.mean_pose(vals)  # checked against brute force in test_mean_pose_maximises_alignment
-    out = E.exaggerate(sm, k, 1.0, reference=arg, mode=mode)
+            ref = staggered.mean_pose(vals)  # checked against brute force in test_mean_pose_maximises_alignment
+    out = staggered.exaggerate(sm, k, 1.0, reference=arg, mode=mode)
     new = out.editing_knots if mode == "staggered" else out.values
     off0 = 2 * quat_log(quat_hemisphere(quat_mul(quat_conj(ref), vals[k])))
     off1 = 2 * quat_log(quat_hemisphere(quat_mul(quat_conj(ref), new[k])))
@@ -182,7 +183,7 @@ def test_exaggerate_w1_doubles_offset_from_reference(fixture, reference, mode):
     tol = 1e-9  # rotation scaling exp(2 log q) = q^2: exact up to round-off
     assert np.allclose(off1, 2 * off0, atol=tol)
     # w_r = -1 collapses onto the reference
-    flat = E.exaggerate(sm, k, -1.0, reference=arg, mode=mode)
+    flat = staggered.exaggerate(sm, k, -1.0, reference=arg, mode=mode)
     newf = flat.editing_knots if mode == "staggered" else flat.values
     assert np.max(quat_angle(newf[k], ref)) < tol
 
@@ -191,7 +192,7 @@ def test_mean_pose_maximises_alignment():
     rng = np.random.default_rng(4)
     q = rotvec_to_quat(rng.normal(scale=0.6, size=(7, 3, 3)))
     q[::2] *= -1  # sign must not matter
-    m = E.mean_pose(q)
+    m = staggered.mean_pose(q)
     cand = rng.normal(size=(20000, 3, 4))
     cand /= np.linalg.norm(cand, axis=-1, keepdims=True)
     score = lambda x: np.sum(np.einsum("kja,...ja->...kj", q, x) ** 2, axis=-2)  # sum_k (q_k . x)^2 per joint
@@ -200,7 +201,7 @@ def test_mean_pose_maximises_alignment():
 
 def test_exaggerate_several_poses_and_partial(fixture):
     _, sm = fixture
-    out = E.exaggerate(sm, [1, 3], 0.5, reference="mean", joints=["LeftArm", "LeftForeArm"])
+    out = staggered.exaggerate(sm, [1, 3], 0.5, reference="mean", joints=["LeftArm", "LeftForeArm"])
     ch = quat_angle(evaluate(out).local_quats, evaluate(sm).local_quats)
     others = [j for j, n in enumerate(NAMES) if n not in ("LeftArm", "LeftForeArm")]
     assert ch[:, others].max() < 1e-9
@@ -213,26 +214,26 @@ def test_exaggerate_with_a_basis_equals_without(fixture, w_r, reference):
     """pose_offset_basis(sm) is the offset-independent half of the re-measuring: the same StaggeredMotion to
     rounding, for any w_r / reference, after timing edits too (off-frame knots, oversampled grids)."""
     _, sm = fixture
-    for base in (sm, E.random_timing(E.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.03, seed=1)):
-        basis = E.pose_offset_basis(base)
+    for base in (sm, staggered.random_timing(staggered.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.03, seed=1)):
+        basis = staggered.pose_offset_basis(base)
         ks = list(range(base.num_poses))
-        a = E.exaggerate(base, ks, w_r, reference=reference)
-        b = E.exaggerate(base, ks, w_r, reference=reference, basis=basis)
+        a = staggered.exaggerate(base, ks, w_r, reference=reference)
+        b = staggered.exaggerate(base, ks, w_r, reference=reference, basis=basis)
         assert quat_angle(evaluate(a).local_quats, evaluate(b).local_quats).max() < 1e-12   # rounding only
         assert np.allclose(a.displacements, b.displacements, atol=1e-12)
         assert np.array_equal(a.values, b.values) and np.array_equal(a.editing_knots, b.editing_knots)
         # an edit moving under half of the pairs (pose 0: 1 segment of 4) ignores the basis: bit-identical
-        assert np.array_equal(E.exaggerate(base, [0], w_r, basis=basis).displacements,
-                              E.exaggerate(base, [0], w_r).displacements)
+        assert np.array_equal(staggered.exaggerate(base, [0], w_r, basis=basis).displacements,
+                              staggered.exaggerate(base, [0], w_r).displacements)
 
 
 def test_exaggerate_refuses_a_basis_of_another_motion(fixture):
     _, sm = fixture
-    other = E.succession(sm, root="Hips", s=0.02, l=1.0)
+    other = staggered.succession(sm, root="Hips", s=0.02, l=1.0)
     with pytest.raises(ValueError, match="basis"):
-        E.exaggerate(other, [1], 0.5, basis=E.pose_offset_basis(sm))
+        staggered.exaggerate(other, [1], 0.5, basis=staggered.pose_offset_basis(sm))
     with pytest.raises(ValueError, match="basis"):
-        E.exaggerate(sm, [1], 0.5, basis="cached")
+        staggered.exaggerate(sm, [1], 0.5, basis="cached")
 
 
 # --- temporal editing ---------------------------------------------------------------------------------------
@@ -394,13 +395,13 @@ def test_timing_warnings_match_brute_force(fixture, root, s, l):
     out = staggered.succession(sm, root=root, s=s, l=l)
     out = staggered.random_timing(out, tau=0.1, seed=3)
     warns = out.metadata["warnings"]
-    assert warns == E.timing_warnings(out)
+    assert warns == staggered.timing_warnings(out)
     for min_angle in (0.0, 5.0):
-        got = {(w.pose, w.joint) for w in E.timing_warnings(out, min_angle=min_angle)}
+        got = {(w.pose, w.joint) for w in staggered.timing_warnings(out, min_angle=min_angle)}
         assert got == _brute_force_warnings(out, min_angle)
     assert warns, "the fixture must produce warnings"
     json.dumps([w.to_dict() for w in warns])  # UI-ready
-    assert E.timing_warnings(sm) == ()  # the fitted source has none
+    assert staggered.timing_warnings(sm) == ()  # the fitted source has none
 
 
 def test_uniform_shift_is_not_a_warning_but_crossing_is(fixture):
@@ -411,11 +412,11 @@ def test_uniform_shift_is_not_a_warning_but_crossing_is(fixture):
     j = sm.skeleton.index("LeftForeArm")
     small = staggered.succession(sm, root="LeftForeArm", s=0.2, l=1.0, joints=["LeftForeArm", "LeftHand"])
     # the hand is shifted 0.2 s (d = 1): closer to t_{k+1} than to t_k in places, yet no knot reaches another
-    assert all(w.joint != "LeftHand" for w in E.timing_warnings(small))
+    assert all(w.joint != "LeftHand" for w in staggered.timing_warnings(small))
     big = staggered.succession(sm, root="LeftForeArm", s=0.6, l=1.0, joints=["LeftForeArm", "LeftHand"])
     T = big.knot_times()[:, sm.skeleton.index("LeftHand")]
     assert T[-2] >= T[-1]                     # pose K-2's knot is past the anchored last pose
-    assert (sm.num_poses - 2, "LeftHand") in {(w.pose, w.joint) for w in E.timing_warnings(big)}
+    assert (sm.num_poses - 2, "LeftHand") in {(w.pose, w.joint) for w in staggered.timing_warnings(big)}
     del j
 
 
@@ -427,16 +428,16 @@ def test_still_joints_do_not_warn():
     q[:, h] = [0.0, 0.0, 0.0, 1.0]
     still = fit_staggered(m.replace(local_quats=q), sm.pose_times, sm.refinements, sm.root_refinements)
     out = staggered.succession(still, root="LeftForeArm", s=0.6, l=1.0, joints=["LeftHand"])
-    assert E.timing_warnings(out) == ()
-    assert {w.joint for w in E.timing_warnings(out, min_angle=0.0)} == {"LeftHand"}
+    assert staggered.timing_warnings(out) == ()
+    assert {w.joint for w in staggered.timing_warnings(out, min_angle=0.0)} == {"LeftHand"}
 
 
 def test_summarize_timing_warnings_is_one_plain_sentence(fixture):
     _, sm = fixture
     assert staggered.summarize_timing_warnings(()) == ""
-    assert staggered.summarize_timing_warnings(E.timing_warnings(sm)) == ""
+    assert staggered.summarize_timing_warnings(staggered.timing_warnings(sm)) == ""
     out = staggered.succession(sm, root="Hips", s=0.05, l=2.0)
-    warns = E.timing_warnings(out)
+    warns = staggered.timing_warnings(out)
     text = staggered.summarize_timing_warnings(warns)
     assert text.startswith(f"{len(warns)} refined time") and text.count(".") == 1 and text.endswith(".")
     assert "lower s or l" in text and warns[0].joint in text and "\n" not in text
@@ -451,12 +452,12 @@ def test_quickstart_edits_give_no_timing_warnings():
     from stagger_nb import data
     sm = staggered.extract(data.load("walk"))
     for root in ("LeftShoulder", "RightShoulder"):
-        assert E.timing_warnings(staggered.succession(sm, root=root, s=0.03, l=2.0)) == ()
+        assert staggered.timing_warnings(staggered.succession(sm, root=root, s=0.03, l=2.0)) == ()
     both = staggered.succession(staggered.succession(sm, root="LeftShoulder", s=0.03, l=2.0),
                                 root="RightShoulder", s=0.03, l=2.0)
     assert both.metadata["warnings"] == ()
     # while an edit that really collapses segments is reported: Hips with l = 2 pushes the fingers 2.4 s
-    assert len(E.timing_warnings(staggered.succession(sm, root="Hips", s=0.03, l=2.0))) > 20
+    assert len(staggered.timing_warnings(staggered.succession(sm, root="Hips", s=0.03, l=2.0))) > 20
 
 
 # --- insertion and deletion -------------------------------------------------------------------------------
@@ -474,7 +475,7 @@ def test_insert_and_delete_leave_the_motion_unchanged(fixture):
     a, b = max_change(evaluate(de), m)
     assert a.max() < 1e-9 and b.max() < 1e-9
     # the inserted pose is then editable like any other, locally
-    ed = E.edit_pose(ins, 3, {"LeftArm": [0, 0.4, 0]})
+    ed = staggered.edit_pose(ins, 3, {"LeftArm": [0, 0.4, 0]})
     ch = quat_angle(evaluate(ed).local_quats, evaluate(ins).local_quats)
     times = evaluate(ins).times
     T = knot_times(ins)
@@ -534,14 +535,14 @@ def test_insert_pose_where_timing_edits_moved_knots_past_t(fixture):
     (lambda sm: staggered.random_timing(sm, tau=-1), "tau"),
     (lambda sm: staggered.random_timing(sm, joints=["Nope"]), "joints"),
     (lambda sm: staggered.random_timing(sm, seed=1.5), "seed"),
-    (lambda sm: E.edit_pose(sm, 9, {"LeftArm": [0, 0, 1]}), "k must"),
-    (lambda sm: E.edit_pose(sm, 1, {"LeftArm": [0, 1]}), "deltas"),
-    (lambda sm: E.edit_pose(sm, 1), "deltas= or target="),
-    (lambda sm: E.edit_pose(sm, 1, {"LeftArm": [0, 0, 1]}, mode="x"), "mode"),
-    (lambda sm: E.exaggerate(sm, 1, 1.0, reference="far"), "reference"),
+    (lambda sm: staggered.edit_pose(sm, 9, {"LeftArm": [0, 0, 1]}), "k must"),
+    (lambda sm: staggered.edit_pose(sm, 1, {"LeftArm": [0, 1]}), "deltas"),
+    (lambda sm: staggered.edit_pose(sm, 1), "deltas= or target="),
+    (lambda sm: staggered.edit_pose(sm, 1, {"LeftArm": [0, 0, 1]}, mode="x"), "mode"),
+    (lambda sm: staggered.exaggerate(sm, 1, 1.0, reference="far"), "reference"),
     (lambda sm: staggered.retime(sm, {1: 10.0}), "increasing"),
     (lambda sm: staggered.retime(sm, [0, 1]), "pose_times"),
-    (lambda sm: E.edit_pose(object(), 1, {"LeftArm": [0, 0, 1]}), "StaggeredMotion"),
+    (lambda sm: staggered.edit_pose(object(), 1, {"LeftArm": [0, 0, 1]}), "StaggeredMotion"),
 ])
 def test_bad_arguments_raise_value_error(fixture, call, match):
     _, sm = fixture
@@ -557,7 +558,7 @@ def test_detail_preserved_on_real_walk(shared_motion):
     sm = staggered.extract(m)  # the real pipeline: poses at coordinated extrema (§4)
     assert sm.num_poses >= 4
     k = sm.num_poses // 2
-    out = E.edit_pose(sm, k, {"LeftArm": [0.0, 0.0, 0.6], "LeftForeArm": [0.4, 0.0, 0.0],
+    out = staggered.edit_pose(sm, k, {"LeftArm": [0.0, 0.0, 0.6], "LeftForeArm": [0.4, 0.0, 0.0],
                               "RightUpLeg": [0.3, 0.0, 0.0], "Spine": [0.0, 0.15, 0.0]})
     before, after = evaluate(sm), evaluate(out)
 
@@ -605,19 +606,19 @@ def test_timing_warnings_in_metadata_are_computed_when_read(fixture, monkeypatch
     import pickle
     _, sm = fixture
     calls = []
-    real = E._timing_warnings
-    monkeypatch.setattr(E, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = timing_report._timing_warnings
+    monkeypatch.setattr(timing_report, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
     out = staggered.random_timing(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0), tau=0.1, seed=3)
     assert calls == []                                  # two edits, nothing read yet
-    want = E.timing_warnings(out)
+    want = staggered.timing_warnings(out)
     assert want and len(calls) == 1                     # these edits do cross poses (else the check is empty)
     assert "warnings" in out.metadata and len(calls) == 1
     assert out.metadata["warnings"] == want and len(calls) == 2
     assert out.metadata.get("warnings") == want and len(calls) == 2    # kept after the first read
     for other in (staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0),):
-        assert dict(other.metadata)["warnings"] == E.timing_warnings(other)
-        assert pickle.loads(pickle.dumps(other.metadata))["warnings"] == E.timing_warnings(other)
-        assert copy.deepcopy(other.metadata)["warnings"] == E.timing_warnings(other)
+        assert dict(other.metadata)["warnings"] == staggered.timing_warnings(other)
+        assert pickle.loads(pickle.dumps(other.metadata))["warnings"] == staggered.timing_warnings(other)
+        assert copy.deepcopy(other.metadata)["warnings"] == staggered.timing_warnings(other)
         assert "warnings" in list(other.metadata) and set(other.metadata) == set(dict(other.metadata))
 
 
@@ -652,8 +653,8 @@ def test_exaggerate_with_a_basis_keeps_the_maps_it_does_not_move(fixture):
     _, sm = fixture
     moved = ["Hips", "Spine", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand"]   # over half the pairs
     ks = list(range(sm.num_poses))
-    a = E.exaggerate(sm, ks, 0.7, joints=moved)
-    b = E.exaggerate(sm, ks, 0.7, joints=moved, basis=E.pose_offset_basis(sm))
+    a = staggered.exaggerate(sm, ks, 0.7, joints=moved)
+    b = staggered.exaggerate(sm, ks, 0.7, joints=moved, basis=staggered.pose_offset_basis(sm))
     rest = [NAMES.index(n) for n in NAMES if n not in moved]
     M = sm.displacements.shape[2]
     assert np.array_equal(b.displacements[:, rest, :M], sm.displacements[:, rest])
@@ -670,11 +671,11 @@ def test_offset_basis_reads_the_reproduced_motion_on_frames(fixture):
     frames) or a geometric edit (sm no longer reproduces m) the basis is the plain one, bit for bit."""
     m, sm = fixture
     ks = list(range(sm.num_poses))
-    plain, read = E.pose_offset_basis(sm), E.pose_offset_basis(sm, reproduced=m)
+    plain, read = staggered.pose_offset_basis(sm), staggered.pose_offset_basis(sm, reproduced=m)
     assert not np.array_equal(plain.old, read.old)                      # it did read m (else nothing is tested)
     assert quat_angle(plain.old.T, read.old.T).max() < 1e-12
-    a = evaluate(E.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
-    b = evaluate(E.exaggerate(sm, ks, 0.8, basis=read)).local_quats
+    a = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
+    b = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=read)).local_quats
     assert quat_angle(a, b).max() < 1e-12
-    for other in (E.succession(sm, root="Hips", s=0.02, l=1.0), E.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
-        assert np.array_equal(E.pose_offset_basis(other, reproduced=m).old, E.pose_offset_basis(other).old)
+    for other in (staggered.succession(sm, root="Hips", s=0.02, l=1.0), staggered.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
+        assert np.array_equal(staggered.pose_offset_basis(other, reproduced=m).old, staggered.pose_offset_basis(other).old)

@@ -13,7 +13,7 @@ import pytest
 
 from stagger_nb import staggered
 from stagger_nb.core.rotations import quat_angle
-from stagger_nb.staggered.editing import _END_FLOOR, inside_ends
+from stagger_nb.staggered.timing import _END_FLOOR, inside_ends
 
 
 def test_inside_ends_identity_c1_increasing_bounded():

@@ -19,8 +19,10 @@ import pytest
 import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_exp, quat_log, quat_mul
-from stagger_nb.staggered import fitting
-from stagger_nb.staggered.fitting import fit_rotation_tangents, rotation_residuals, sample_segments
+from stagger_nb.staggered import fitting, rotation_fit, rotation_fit_c1, sampling, translation_fit
+from stagger_nb.staggered.displacement import displacement_rotvecs
+from stagger_nb.staggered.rotation_fit import fit_rotation_tangents, rotation_residuals
+from stagger_nb.staggered.sampling import sample_segments
 
 
 @pytest.fixture(scope="module", params=["walk", "run"])
@@ -41,10 +43,10 @@ def _brute_start(tn, q, pair, v0, v3, P):
     """Every shrink factor on every pair; the legal polygon of least cost (the replaced loop)."""
     x = quat_log(quat_mul(quat_conj(v0[pair]), q))
     b3 = quat_log(quat_mul(quat_conj(v0), v3))
-    inner = fitting._fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
+    inner = translation_fit._fit_inner_controls(tn, x, pair, np.zeros_like(b3), b3, P)
     chord = np.stack([b3 / 3.0, 2.0 * b3 / 3.0], axis=1)
     best = np.full(P, np.inf)
-    for alpha in fitting._SHRINK:
+    for alpha in rotation_fit._SHRINK:
         e = quat_exp(chord + alpha * (inner - chord))
         legal = ((e[:, 0, 3] > 0) & (np.sum(e[:, 0] * e[:, 1], axis=1) > 0)
                  & (np.sum(e[:, 1] * quat_exp(b3), axis=1) > 0)) | (alpha == 0.0)
@@ -58,7 +60,7 @@ def _brute_start(tn, q, pair, v0, v3, P):
 @pytest.mark.parametrize("batch", [0, 1 << 30])    # 0: the lazy loop of long takes; 2^30: one batched call
 def test_start_stops_shrinking_where_the_brute_force_would(samples, monkeypatch, batch):
     tn, q, pair, v0, v3, P = samples
-    monkeypatch.setattr(fitting, "_START_BATCH", batch)
+    monkeypatch.setattr(rotation_fit, "_START_BATCH", batch)
     _, cost = fit_rotation_tangents(tn, q, pair, v0, v3, P, iterations=0)
     want = _brute_start(tn, q, pair, v0, v3, P)
     # rounding only: the kernel's polynomial sine vs libm in rotation_residuals
@@ -114,8 +116,8 @@ def test_batched_finite_differences_and_unsorted_continuity_equal_the_plain_vers
     sm = st.extract(m, continuity=continuity)
     new = st.cull(sm, 40, continuity=continuity, local=False)
     with monkeypatch.context() as mp:
-        mp.setattr(fitting, "_FD_BATCH", 0)                        # one kernel call per perturbation
-        mp.setattr(fitting, "_segment_major", lambda *a: False)   # the sorted continuity pass
+        mp.setattr(rotation_fit_c1, "_FD_BATCH", 0)                        # one kernel call per perturbation
+        mp.setattr(sampling, "_segment_major", lambda *a: False)   # the sorted continuity pass
         old = st.cull(sm, 40, continuity=continuity, local=False)
     # the batched call evaluates the same per-sample formulas: bit for bit up to the polynomial sine's
     # degree, which adapts to the largest arc of a call (1e-12 covers it)
@@ -141,4 +143,4 @@ def test_displacement_rotvecs_equals_the_core_rotations_version(rng):
         if not first[i] and np.dot(cont[i], cont[i - 1]) < 0:
             cont[i] = -cont[i]
     want = 2.0 * quat_log(cont)
-    np.testing.assert_allclose(fitting.displacement_rotvecs(s, q, pair), want, rtol=0, atol=1e-14)  # rounding
+    np.testing.assert_allclose(displacement_rotvecs(s, q, pair), want, rtol=0, atol=1e-14)  # rounding

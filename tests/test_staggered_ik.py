@@ -7,7 +7,7 @@ import pytest
 
 from stagger_nb import data, staggered
 from stagger_nb.core.kinematics import forward_kinematics
-from stagger_nb.staggered.constraints import _limb
+from stagger_nb.staggered.limbs import _limb
 
 MM = {"cm": 0.1, "cmu": 0.1 / (2.54 / 0.45)}   # 1 mm in file units (CMU's unit is 1/0.45 inch = 5.644 cm)
 

@@ -11,10 +11,12 @@ from conftest import SHARED_CLIPS
 from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
 from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
-from stagger_nb.staggered.fitting import (fit_rotation_tangents, fit_rotation_tangents_nelder_mead,
-                                          fit_staggered, fit_translation_tangents, velocity_jumps)
-from stagger_nb.staggered.representation import (bezier_cubic, evaluate_arrays, evaluate_reference,
-                                                  rotation_spline)
+from references import evaluate_reference, fit_rotation_tangents_nelder_mead
+from stagger_nb.staggered.evaluation import bezier_cubic, evaluate_arrays, rotation_spline
+from stagger_nb.staggered.fitting import fit_staggered
+from stagger_nb.staggered.rotation_fit import fit_rotation_tangents
+from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps
+from stagger_nb.staggered.translation_fit import fit_translation_tangents
 
 CLIPS = ["bandai_kick.bvh", "bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
          "iclone_cmu_02_03_run.bvh", "iclone_cmu_07_01_walk.bvh", "pymo_walk_turnaround.bvh",
@@ -188,7 +190,7 @@ def test_c1_fit_never_swings_the_long_way_on_the_procedural_run():
     # procedural run (60 Hz): knees and hips hold a full flexion and extension between two knots. The C1
     # fit once accepted control-polygon legs past a half turn there (feet 177 deg off before displacement).
     from stagger_nb import data
-    from stagger_nb.staggered.fitting import _legs_within_half_turn
+    from stagger_nb.staggered.rotation_fit_c1 import _legs_within_half_turn
     m = data.load("run")
     sm = staggered.extract(m)
     P = sm.tangents.shape[0] * sm.num_joints
@@ -285,8 +287,8 @@ def test_default_fit_is_c1_and_c0_is_not(extracted):
 
 
 def test_c1_fit_recovers_a_known_c1_spline(rng):
-    from stagger_nb.staggered.fitting import _tangents_from_velocities, fit_rotation_tangents_c1
-    from stagger_nb.staggered.fitting import sample_segments
+    from stagger_nb.staggered.rotation_fit_c1 import _tangents_from_velocities, fit_rotation_tangents_c1
+    from stagger_nb.staggered.sampling import sample_segments
     from stagger_nb.core.rotations import quat_continuous
     K, C, ft = 6, 3, 0.01
     knots = np.cumsum(rng.uniform(0.2, 0.4, size=(K, C)), axis=0)
@@ -340,7 +342,7 @@ def test_evaluate_matches_naive_reference_after_random_edits(extracted, seed):
 
 
 def test_displacement_rotvecs_unwrap_past_half_turn():
-    from stagger_nb.staggered.fitting import displacement_rotvecs
+    from stagger_nb.staggered.displacement import displacement_rotvecs
     ang = np.linspace(0, 1.6 * np.pi, 50)                     # one pair whose residual passes pi
     targets = rotvec_to_quat(ang[:, None] * np.array([0.0, 0.0, 1.0]))
     from stagger_nb.core.rotations import quat_continuous
@@ -359,7 +361,8 @@ def test_evaluate_samples_equals_evaluate_at_scattered_pairs(extracted, rng):
     on source frames), before the first and after the last knot, and crossing knots. The segments equal a
     per-joint searchsorted exactly; values agree to 1e-12 (not bit for bit: evaluate_arrays computes t' with
     a reciprocal, and sin_poly's degree adapts to each batch's largest arc)."""
-    from stagger_nb.staggered.representation import _segments_of_pairs, evaluate_samples, knot_times
+    from stagger_nb.staggered.evaluation import _segments_of_pairs, evaluate_samples
+    from stagger_nb.staggered.representation import knot_times
     _, sm = extracted("xia_angry_run.bvh")
     r = np.array(sm.refinements)
     r[1:-1] += 0.3 * np.sign(np.arange(r.shape[1]) % 2 - 0.5)     # some knots pushed past their neighbours
@@ -382,7 +385,7 @@ def test_static_joints_evaluate_to_their_quaternion_exactly(extracted):
     """Joints with one quaternion throughout (8 of cmu_131_01's 31) skip the spline in evaluate: they are the
     source's quaternion bit for bit; every joint agrees with the straightforward evaluate_reference (1e-12:
     the component-first kernels round differently)."""
-    from stagger_nb.staggered.representation import static_rotations
+    from stagger_nb.staggered.evaluation import static_rotations
     m, sm = extracted("cmu_131_01_walk_startstop.bvh")
     static, c = static_rotations(sm)
     want = np.all(m.local_quats == m.local_quats[:1], axis=(0, 2))
@@ -398,7 +401,7 @@ def test_static_joints_evaluate_to_their_quaternion_exactly(extracted):
 def test_displacement_at_given_rows_equals_the_row_copy():
     """``displacement_at(table, counts, t, rows=seg)`` gathers the two entries each sample reads: bit for bit
     what interpolating the copied rows ``table[seg]`` gives (the form root_positions_at used before)."""
-    from stagger_nb.staggered.representation import displacement_at
+    from stagger_nb.staggered.evaluation import displacement_at
     rng = np.random.default_rng(3)
     table = rng.normal(size=(7, 40, 3))
     counts_of_row = rng.integers(2, 41, size=7)

@@ -18,8 +18,8 @@ import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_exp, quat_mul
-from stagger_nb.staggered import constraints, editing
-from stagger_nb.staggered.representation import rotation_spline
+from stagger_nb.staggered import _kernels, contact_layer, evaluation, geometry, limbs
+from stagger_nb.staggered.evaluation import rotation_spline
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_chain_fk_equals_full_fk_on_the_chains(edited):
     m, _ = edited
     sk = m.skeleton
     feet = [j for j, n in enumerate(sk.names) if "foot" in n.lower() or "toe" in n.lower()]
-    pos, wq = constraints._fk_joints(m, feet)
+    pos, wq = limbs._fk_joints(m, feet)
     P, W = forward_kinematics(m)
     done = ~np.isnan(pos[0, :, 0])
     assert done[feet].all() and done[0] and not done.all()      # the feet, their ancestors, not the arms
@@ -55,7 +55,7 @@ def test_chain_fk_equals_full_fk_on_the_chains(edited):
 def test_keep_contacts_equals_full_fk_version(edited, monkeypatch, opts):
     m, ed = edited
     new = st.keep_contacts(ed, m, **opts)
-    monkeypatch.setattr(constraints, "_fk_joints", _full_fk)
+    monkeypatch.setattr(contact_layer, "_fk_joints", _full_fk)
     old = st.keep_contacts(ed, m, **opts)
     np.testing.assert_array_equal(new.local_quats, old.local_quats)
     np.testing.assert_array_equal(new.root_positions, old.root_positions)
@@ -81,20 +81,20 @@ def _per_sample_spline(c0, c1, c2, c3, pair, t, out):
 
 
 def _old_target_pieces(monkeypatch):
-    monkeypatch.setattr(editing, "_PAIR_KERNEL_MIN", 10 ** 12)                # per-sample evaluator
-    monkeypatch.setattr(editing.kern, "spline_into", _per_sample_spline)
+    monkeypatch.setattr(evaluation, "_PAIR_KERNEL_MIN", 10 ** 12)                # per-sample evaluator
+    monkeypatch.setattr(_kernels, "spline_into", _per_sample_spline)
 
     def pair_weights(knots, tk, k, col, side, t, pair):
-        return editing._plateau_weights(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
+        return geometry._plateau_weights(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
 
     def rotations_at(sm, idx, tn):
         J = sm.num_joints
-        return editing._eval_rotations(sm, None, idx % J, seg=idx // J, tn=tn).T
+        return evaluation._eval_rotations(sm, None, idx % J, seg=idx // J, tn=tn).T
 
-    monkeypatch.setattr(editing, "_pair_plateau_weights", pair_weights)
-    monkeypatch.setattr(editing, "_rotations_at", rotations_at)
-    monkeypatch.setattr(editing.kern, "qexp", lambda v: quat_exp(v.T).T)
-    monkeypatch.setattr(editing.kern, "qmul", lambda a, b: quat_mul(a.T, b.T).T)
+    monkeypatch.setattr(geometry, "_pair_plateau_weights", pair_weights)
+    monkeypatch.setattr(geometry, "_rotations_at", rotations_at)
+    monkeypatch.setattr(_kernels, "qexp", lambda v: quat_exp(v.T).T)
+    monkeypatch.setattr(_kernels, "qmul", lambda a, b: quat_mul(a.T, b.T).T)
 
 
 @pytest.mark.parametrize("w_r, reference", [(0.4, "previous"), (1.5, "mean"), (-0.5, "next")])

@@ -24,7 +24,8 @@ from ..io.bvh import parse_bvh
 from .ops import _fail, integer, number, text, tuple_of
 
 __all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
-           "read_session_json", "session_bytes", "MAX_SESSION_BYTES", "check_save_target", "check_export_target", "same_file", "export_gltf"]
+           "read_session_json", "session_bytes", "MAX_SESSION_BYTES", "check_save_target",
+           "check_export_target", "same_file", "export_gltf"]
 
 SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1

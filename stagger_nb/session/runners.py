@@ -191,6 +191,11 @@ class Run:
     def origin(self, motion: Motion) -> None:
         self._origin = motion
 
+    def origin_or_lazy(self):
+        """The origin as held now: a Motion, or the callable that finds it (not called: the next op's run
+        takes it over and calls it only if its runner asks)."""
+        return self._origin
+
     def note(self, message: str) -> None:
         if message:
             self.notes.append(message)

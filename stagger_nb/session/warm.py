@@ -1,10 +1,10 @@
 """Background cache fills for :meth:`Session.warm <stagger_nb.session.Session.warm>`.
 
 A :class:`Worker` is the session's own executor: one daemon thread running submitted job lists in order.
-Each list is a sequence of ``(label, fn)`` items, ``fn(report)`` taking ``report(fraction)`` or None; its :class:`concurrent.futures.Future` is cancellable
-between items (the item running finishes; what it computed stays cached). The thread is a daemon so an
-interpreter exit never waits for a long warm-up (a ``ThreadPoolExecutor`` joins its threads at exit, which
-would wait for every remaining item).
+Each list is a sequence of ``(label, fn)`` items, ``fn(report)`` taking ``report(fraction)`` or None; its
+:class:`concurrent.futures.Future` is cancellable between items (the item running finishes; what it computed
+stays cached). The thread is a daemon so an interpreter exit never waits for a long warm-up (a
+``ThreadPoolExecutor`` joins its threads at exit, which would wait for every remaining item).
 
 The warm-up gives way to the user: while a foreground replay runs (:meth:`Worker.foreground`, which
 ``Session.states``/``edited`` enter), and for :data:`IDLE_S` after it, no new item starts, so a slider moved
@@ -19,7 +19,9 @@ from concurrent.futures import Future, InvalidStateError
 from contextlib import contextmanager
 from typing import Callable
 
-__all__ = ["Worker", "IDLE_S"]
+import numpy as np
+
+__all__ = ["Worker", "IDLE_S", "warm_items"]
 
 #: Seconds the warm-up waits after the last foreground replay before its next item (a slider being dragged
 #: sends a value every ~50-100 ms: the warm-up resumes when the user pauses).
@@ -121,3 +123,46 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
             fut.set_exception(e)
         except InvalidStateError:
             pass
+
+
+def warm_items(session, jobs) -> list:
+    """The ``(label, fn[, wait])`` items of :meth:`Session.warm <stagger_nb.session.Session.warm>`'s ``jobs`` on
+    ``session`` (each checked now: ValueError naming ``jobs[i]``)."""
+    from .ops import GuidedWarp, _fail, number, optional
+    from .runners import warp_k, warp_size
+    percent, sigma = number(0.0, 100.0, open_lo=True), optional(number(0.0, open_lo=True))
+    items = []
+    for i, job in enumerate(jobs):
+        where = f"jobs[{i}]"
+        name, values = (job, None) if isinstance(job, str) else (
+            tuple(job) if isinstance(job, (list, tuple)) and len(job) == 2 else (None, None))
+        if name == "extract" and values is None:
+            # not held back while the user moves a slider: every replay of theirs waits for it anyway
+            items.append(("extract", lambda p: session._ctx.extract(session.source, p), False))
+        elif name == "cull" and isinstance(values, (list, tuple, range, np.ndarray)):
+            pcs = [percent(v, f"{where}[1][{k}]") for k, v in enumerate(list(values))]
+            items += [(f"cull {p:g} %", lambda r, p=p: session._ctx.cull(session.extraction(), p, progress=r))
+                      for p in pcs]
+        elif name == "wand_basis" and isinstance(values, (list, tuple, range, np.ndarray)):
+            sgs = [sigma(v, f"{where}[1][{k}]") for k, v in enumerate(list(values))]
+            items.append(("pose graph", lambda r: session.wand_graph()))
+            items += [(f"basis sigma={'default' if s is None else format(s, 'g')}",
+                       lambda r, s=s: session.wand_basis(s)) for s in sgs]
+        elif name == "replay" and isinstance(values, (list, tuple)):
+            for k, ops in enumerate(values):
+                typed = session._typed_list(ops, f"{where}[1][{k}]")
+                items.append((f"replay {k + 1}/{len(values)}",
+                              lambda r, ops=typed: session._replay.into_cache(ops, r)))
+        elif name == "warp_tables" and isinstance(values, (list, tuple)):
+            for k, w in enumerate(values):
+                op = session._typed(dict(w, op="guided_warp") if isinstance(w, dict) and "op" not in w else w,
+                                    f"{where}[1][{k}]")
+                if not isinstance(op, GuidedWarp):
+                    _fail(f"{where}[1][{k}]", "a guided_warp op", w)
+                items.append((f"warp tables {k}", lambda r, op=op: session._ctx.warp_tables(
+                    session.source, op.reference, op.skip, warp_size(session.source, op)[1], op.backward,
+                    warp_k(warp_size(session.source, op)[0]), r)))
+        else:
+            _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("warp_tables", warps) or '
+                         '("replay", op_lists)', job)
+    return items

@@ -2,29 +2,52 @@
 
 Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_contacts`,
 :class:`StaggeredMotion` (``sm.pose_times (K,)``, ``sm.refinements (K, J)`` in seconds).
-The editing tools (§5) are in ``editing.py`` (timing warnings: :func:`timing_warnings`, one plain sentence:
-:func:`summarize_timing_warnings`; the per-joint time warp of the timing edits: :func:`warp_times`), the IK
-constraint layer in ``constraints.py`` (:func:`keep_contacts`: the source's contacts carried through the
-timing edits and held), IK posing of a staggered pose in ``ik.py`` (:func:`ik_pose`).
+
+Modules, one job each (paper sections in brackets):
+
+* ``representation``: :class:`StaggeredMotion` and its knot times (§3); ``evaluation``: the one evaluator,
+  :func:`evaluate` (§3; the C kernel ``_cspline.c`` behind ``_kernels`` where built).
+* ``features`` (motion-trail curvature, §4.1), ``contacts`` (detection, Appendix B), ``extraction``
+  (:func:`extract`, :func:`cull`, §4.1).
+* fitting (§4.1.1, Appendix A): ``sampling`` (grids), ``rotation_fit`` (C0) and ``rotation_fit_c1`` (C1),
+  ``translation_fit``, ``displacement`` (maps and their re-measuring), ``fitting`` (:func:`fit_staggered`).
+* editing (§5): ``geometry`` (:func:`edit_pose`, :func:`exaggerate`, §5.1), ``timing`` (:func:`succession`,
+  :func:`random_timing`, :func:`retime`, the per-joint time warp :func:`warp_times`, §5.2), ``timing_report``
+  (:func:`timing_warnings`, one plain sentence: :func:`summarize_timing_warnings`), ``structure``
+  (:func:`insert_pose`, :func:`delete_pose`).
+* constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
+  ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
+
+The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
+(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+"s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
+
+Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
+times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
+``t_k``). For rotations ``a ⊕ b = a b`` (quaternion product, ``b`` in the joint's local frame) and
+``c ⊖ a = a⁻¹ c``; "``w`` times a rotation" is a rotation scale ``exp(w log q)`` (§5.1 footnote).
 """
 from __future__ import annotations
 
-from .constraints import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
-                          contact_positions, foot_skate, keep_contacts, two_bone_ik)
+from .contact_layer import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
+                            contact_positions, foot_skate, keep_contacts)
 from .contacts import detect_contacts, end_effectors
-from .editing import (OffsetBasis, TimingWarning, delete_pose, edit_pose, exaggerate, insert_pose, mean_pose,
-                      pose_offset_basis, random_timing, retime, source_knot_times, succession, summarize_timing_warnings, timing_warnings, warp_times)
-from .ik import IKPoseResult, ik_pose, solve_limb
+from .evaluation import evaluate, evaluate_arrays
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
-from .representation import StaggeredMotion, evaluate, evaluate_arrays, knot_times
+from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset_basis
+from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
+from .representation import StaggeredMotion, knot_times
+from .structure import delete_pose, insert_pose
+from .timing import random_timing, retime, source_knot_times, succession, warp_times
+from .timing_report import TimingWarning, summarize_timing_warnings, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
-           "locate_poses",
-           "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered", "evaluate_arrays",
-           "knot_times",
-           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times", "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
-           "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik", "contact_positions",
-           "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts", "keep_contacts",
-           "IKPoseResult", "ik_pose", "solve_limb"]
+           "locate_poses", "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered",
+           "evaluate_arrays", "knot_times",
+           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times",
+           "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
+           "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik",
+           "contact_positions", "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts",
+           "keep_contacts", "IKPoseResult", "ik_pose", "solve_limb"]

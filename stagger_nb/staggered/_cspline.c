@@ -1,4 +1,4 @@
-/* Optional C accelerator of evaluate()'s inner kernel (stagger_nb/staggered/representation.py,
+/* Optional C accelerator of evaluate()'s inner kernel (stagger_nb/staggered/evaluation.py,
  * _rotations_block): per (segment, joint) sample, the quaternion Bezier of its pair's controls by recursive
  * slerp (Appendix A of Coleman 2008) times exp of the linearly interpolated displacement rotation vector.
  *

@@ -18,6 +18,7 @@ import threading
 import numpy as np
 
 from ..core.accel import NO_ACCEL_ENV, accel_allowed  # noqa: F401 (NO_ACCEL_ENV: the switch's name, here too)
+from ..core.rotations import quat_mul_components
 
 try:
     from . import _cspline  # the optional C kernel of evaluate's samples (setup.py builds it where a compiler is found)
@@ -232,22 +233,9 @@ def _sin_cos_wide(h, out, tmp):
 
 
 def qmul_into(a, b, out, tmp):
-    """Hamilton product of (4, N) quaternions into ``out`` (must not alias ``a`` or ``b``); ``tmp`` (N,)."""
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    terms = (((aw, bx, 1), (ax, bw, 1), (ay, bz, 1), (az, by, -1)),
-             ((aw, by, 1), (ax, bz, -1), (ay, bw, 1), (az, bx, 1)),
-             ((aw, bz, 1), (ax, by, 1), (ay, bx, -1), (az, bw, 1)),
-             ((aw, bw, 1), (ax, bx, -1), (ay, by, -1), (az, bz, -1)))
-    for r, row in enumerate(terms):
-        np.multiply(row[0][0], row[0][1], out=out[r])
-        for x, y, sg in row[1:]:
-            np.multiply(x, y, out=tmp)
-            if sg > 0:
-                out[r] += tmp
-            else:
-                out[r] -= tmp
-    return out
+    """Hamilton product of (4, N) quaternions into ``out`` (must not alias ``a`` or ``b``); ``tmp`` (N,):
+    :func:`~stagger_nb.core.rotations.quat_mul_components` on the rows."""
+    return quat_mul_components(a, b, out, tmp)
 
 
 def rotvec_between_into(a, b, out, work: Workspace = WORK, tag: str = "rv") -> np.ndarray:

@@ -1,10 +1,11 @@
-"""IK posing of a staggered pose: move an end effector to a world target at pose k's time, recorded as a
-geometric pose edit (Coleman et al. 2008, §5.1; issue 11 item 7).
+"""Inverse kinematics: the analytic two-bone solver (:func:`two_bone_ik`, also the constraint layer's) and IK
+posing of a staggered pose: move an end effector to a world target at pose k's time, recorded as a geometric
+pose edit (Coleman et al. 2008, §5.1; issue 11 item 7).
 
 The limb is solved on the pose the motion passes through at ``t_k`` (the editing knots ``v⁰_k``): a
 two-bone chain (upper joint, middle joint, effector: shoulder-elbow-wrist, hip-knee-ankle) analytically,
 keeping the bend plane so the elbow/knee keeps pointing where it pointed; a longer chain by damped least
-squares. The new local rotations become an :func:`~stagger_nb.staggered.editing.edit_pose` in staggered
+squares. The new local rotations become an :func:`~stagger_nb.staggered.geometry.edit_pose` in staggered
 mode (``v̂⁰ = target``, the extreme knots get the same change, §5.1 first approach), so the edit is part of
 the staggered pose: succession and random timing applied afterwards move it with the pose's timing.
 
@@ -17,17 +18,98 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.kinematics import forward_kinematics, skeleton_height
-from ..core.rotations import quat_conj, quat_exp, quat_mul, quat_rotate
-from .constraints import _limb, two_bone_ik
-from .editing import _finite, _pose_index, edit_pose
-from .representation import StaggeredMotion, evaluate
+from ..core.rotations import quat_conj, quat_exp, quat_mul, quat_rotate, rotvec_to_quat
+from ._checks import _finite, _pose_index
+from .evaluation import evaluate
+from .geometry import edit_pose
+from .limbs import _limb
+from .representation import StaggeredMotion
 
-__all__ = ["IKPoseResult", "ik_pose", "solve_limb"]
+__all__ = ["IKPoseResult", "ik_pose", "solve_limb", "two_bone_ik"]
 
 _DLS_DAMPING = 0.05     # damping λ of the least-squares steps, as a fraction of the chain length
 _DLS_MAX_STEP = 0.1     # largest effector move asked of one step, fraction of the chain length
 _DLS_ITERATIONS = 200   # per round; a reachable target converges in ~20-40 (each a 3x3 solve)
 _ROUNDS = 4             # solve, record, re-evaluate: the recorded edit is exact on the displacement grid only
+
+
+_EPS_LEN = 1e-6  # keeps the IK triangle strictly non-degenerate (file units; far below any bone length)
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0), n[..., 0]
+
+
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.arccos(np.clip(np.sum(_unit(u)[0] * _unit(v)[0], axis=-1), -1.0, 1.0))
+
+
+def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None, b_parent_world=None):
+    """Analytic two-bone IK, vectorised over N samples.
+
+    Rotates the upper joint ``a`` and the middle joint ``b`` so that the effector ``c`` reaches
+    ``target`` (clamped to the reachable annulus ``|l_ab - l_bc| < d < l_ab + l_bc``). The bend stays in
+    the current a-b-c plane (the knee keeps pointing where it pointed).
+
+    Parameters
+    ----------
+    a, b, c, target : ndarray, shape (N, 3)
+        World positions of the upper joint, middle joint, effector, and the effector's target.
+    a_world, b_world : ndarray, shape (N, 4), (x, y, z, w)
+        World rotations of the upper and middle joints.
+    a_local : ndarray, shape (N, 4)
+        Local rotation of the upper joint (relative to its parent).
+    fallback_axis : ndarray, shape (N, 3), optional
+        Bend axis used where the chain is exactly straight (no bend plane); default: the middle
+        joint's local x axis in world space (the knee/elbow hinge in common BVH rigs).
+    b_parent_world : ndarray, shape (N, 4), optional
+        World rotation of the middle joint's parent when that is not the upper joint (zero-length bones
+        in between, which move rigidly with the upper joint); default ``a_world``.
+
+    Returns
+    -------
+    a_local_new, b_local_new : ndarray, shape (N, 4)
+        New local rotations of the upper and middle joints.
+    b_world_new : ndarray, shape (N, 4)
+        New world rotation of the middle joint (to re-express the effector's local rotation).
+    """
+    a, b, c, t = (np.asarray(x, dtype=float) for x in (a, b, c, target))
+    lab = np.linalg.norm(b - a, axis=-1)
+    lbc = np.linalg.norm(c - b, axis=-1)
+    lat = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lab - lbc) + _EPS_LEN, lab + lbc - _EPS_LEN)
+
+    ac_ab_0 = _angle_between(c - a, b - a)
+    ba_bc_0 = _angle_between(a - b, c - b)
+    ac_at_0 = _angle_between(c - a, t - a)
+    # law of cosines for the wanted triangle
+    ac_ab_1 = np.arccos(np.clip((lbc ** 2 - lab ** 2 - lat ** 2) / (-2.0 * lab * lat), -1.0, 1.0))
+    ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lbc ** 2) / (-2.0 * lab * lbc), -1.0, 1.0))
+
+    axis0, n0 = _unit(np.cross(c - a, b - a))
+    straight = n0 < 1e-9
+    if np.any(straight):   # the fallback axis only where it is used (the same values there)
+        s_ = np.flatnonzero(straight)
+        fb = (quat_rotate(np.asarray(b_world, dtype=float)[s_], np.array([1.0, 0.0, 0.0])) if fallback_axis is None
+              else np.broadcast_to(np.asarray(fallback_axis, dtype=float), axis0.shape)[s_])
+        axis0 = np.array(axis0)
+        axis0[s_] = _unit(fb)[0]
+    axis1, n1 = _unit(np.cross(c - a, t - a))
+    axis1 = np.where((n1 < 1e-12)[:, None], axis0, axis1)  # c-a already points at t: no swing needed
+
+    r0 = rotvec_to_quat(axis0 * (ac_ab_1 - ac_ab_0)[:, None])   # swing the upper bone about a
+    r1 = rotvec_to_quat(axis0 * (ba_bc_1 - ba_bc_0)[:, None])   # open/close the middle joint
+    r2 = rotvec_to_quat(axis1 * ac_at_0[:, None])               # aim a->c at the target
+    r20 = quat_mul(r2, r0)
+    a_world_new = quat_mul(r20, a_world)
+    b_world_new = quat_mul(r20, quat_mul(r1, b_world))
+    a_local_new = quat_mul(a_local, quat_mul(quat_conj(a_world), a_world_new))
+    if b_parent_world is None:
+        b_parent_new = a_world_new
+    else:
+        b_parent_new = quat_mul(a_world_new, quat_mul(quat_conj(a_world), b_parent_world))
+    b_local_new = quat_mul(quat_conj(b_parent_new), b_world_new)
+    return a_local_new, b_local_new, b_world_new
 
 
 @dataclass(frozen=True)
@@ -65,7 +147,7 @@ def solve_limb(positions, world_quats, local_quats, parents, chain, target, *, d
     chain : list of int
         Joints from the upper joint down to the effector (the effector last; at least 3). Three joints
         with parent links (``chain[1]`` below ``chain[0]``): analytic two-bone IK with the bend plane
-        kept (:func:`~stagger_nb.staggered.constraints.two_bone_ik`; zero-length bones in between are
+        kept (:func:`two_bone_ik`; zero-length bones in between are
         allowed). More: damped least squares on the rotations of ``chain[:-1]``.
     target : ndarray, shape (3,)
 

@@ -10,7 +10,13 @@ __all__ = ["SkeletonView", "export_html", "PlotView", "JointCurvesPlot", "Probab
 
 
 def __getattr__(name):  # editors import the technique packages: load them on first use
-    if name in ("StaggerEditor", "WandEditor", "WarpEditor"):
-        from . import editors
-        return getattr(editors, name)
+    if name == "StaggerEditor":
+        from .stagger_editor import StaggerEditor
+        return StaggerEditor
+    if name == "WandEditor":
+        from .wand_editor import WandEditor
+        return WandEditor
+    if name == "WarpEditor":
+        from .warp_editor import WarpEditor
+        return WarpEditor
     raise AttributeError(f"module 'stagger_nb.widgets' has no attribute {name!r}")

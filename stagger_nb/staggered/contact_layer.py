@@ -11,131 +11,23 @@ Contacts are ``(joint_name, start_frame, stop_frame)`` triples with half-open fr
 (name containing ``"toe"``) is enforced through its parent (the ankle): the ankle target is chosen so the
 toe lands on its contact position with the foot's world orientation unchanged.
 
-The solver is a vectorised analytic two-bone IK (upper joint, middle joint, effector: hip-knee-ankle or
-shoulder-elbow-wrist). The effector's world orientation is kept, so the foot does not tilt.
+The solver is the vectorised analytic two-bone IK of :mod:`.ik` (upper joint, middle joint, effector:
+hip-knee-ankle or shoulder-elbow-wrist, found by :mod:`.limbs`). The effector's world orientation is kept, so
+the foot does not tilt.
 Up axis: +Y (BVH convention); lengths are in the motion's file units.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.kinematics import _fk_component_major, forward_kinematics
+from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
-from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat, slerp
-from .contacts import chain_subset
+from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, slerp
+from .ik import two_bone_ik
+from .limbs import _chain, _chain_length, _fk_joints
 
-__all__ = ["apply_contact_constraints", "two_bone_ik", "contact_positions", "contact_errors", "foot_skate",
+__all__ = ["apply_contact_constraints", "contact_positions", "contact_errors", "foot_skate",
            "attenuation_weights", "carry_contacts", "keep_contacts"]
-
-_EPS_LEN = 1e-6  # keeps the IK triangle strictly non-degenerate (file units; far below any bone length)
-
-
-def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0), n[..., 0]
-
-
-def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None) -> tuple[np.ndarray, np.ndarray]:
-    """``forward_kinematics(motion)`` computed only for ``joints`` and their ancestors (the chains the
-    constraint layer reads: a few legs' joints of a 30-joint body, about a third of the work);
-    ``local_quats`` (F, J, 4) / ``root_positions`` (F, 3) replace the motion's (no new Motion to validate).
-
-    Returns full-shaped ``(F, J, 3)`` positions and ``(F, J, 4)`` world rotations, equal (bit for bit: the
-    same products in the same order) to :func:`forward_kinematics` on the computed joints and NaN on the
-    others, so a read of a joint that was not asked for cannot pass unnoticed."""
-    sub, sub_par, _ = chain_subset(motion.skeleton.parents, joints)   # parents before children, root first
-    F = motion.num_frames
-    # component-major (C, joints, F) in and out, as forward_kinematics does, without its (F, J, C) round trips
-    lq = motion.local_quats if local_quats is None else local_quats
-    Q = np.empty((4, sub.size, F))
-    for c in range(4):
-        Q[c] = lq[:, sub, c].T
-    if motion.local_translations is None:
-        T = motion.skeleton.offsets[sub].T[:, :, None]              # the same offsets every frame
-    else:
-        T = np.empty((3, sub.size, F))
-        for c in range(3):
-            T[c] = motion.local_translations[:, sub, c].T
-    rp = motion.root_positions if root_positions is None else root_positions
-    W, P = _fk_component_major(Q, T, np.ascontiguousarray(rp.T), sub_par)
-    pos = np.full((F, motion.num_joints, 3), np.nan)
-    wq = np.full((F, motion.num_joints, 4), np.nan)
-    for c in range(3):
-        pos[:, sub, c] = P[c].T
-    for c in range(4):
-        wq[:, sub, c] = W[c].T
-    return pos, wq
-
-
-def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.arccos(np.clip(np.sum(_unit(u)[0] * _unit(v)[0], axis=-1), -1.0, 1.0))
-
-
-def two_bone_ik(a, b, c, target, a_world, b_world, a_local, fallback_axis=None, b_parent_world=None):
-    """Analytic two-bone IK, vectorised over N samples.
-
-    Rotates the upper joint ``a`` and the middle joint ``b`` so that the effector ``c`` reaches
-    ``target`` (clamped to the reachable annulus ``|l_ab - l_bc| < d < l_ab + l_bc``). The bend stays in
-    the current a-b-c plane (the knee keeps pointing where it pointed).
-
-    Parameters
-    ----------
-    a, b, c, target : ndarray, shape (N, 3)
-        World positions of the upper joint, middle joint, effector, and the effector's target.
-    a_world, b_world : ndarray, shape (N, 4), (x, y, z, w)
-        World rotations of the upper and middle joints.
-    a_local : ndarray, shape (N, 4)
-        Local rotation of the upper joint (relative to its parent).
-    fallback_axis : ndarray, shape (N, 3), optional
-        Bend axis used where the chain is exactly straight (no bend plane); default: the middle
-        joint's local x axis in world space (the knee/elbow hinge in common BVH rigs).
-    b_parent_world : ndarray, shape (N, 4), optional
-        World rotation of the middle joint's parent when that is not the upper joint (zero-length bones
-        in between, which move rigidly with the upper joint); default ``a_world``.
-
-    Returns
-    -------
-    a_local_new, b_local_new : ndarray, shape (N, 4)
-        New local rotations of the upper and middle joints.
-    b_world_new : ndarray, shape (N, 4)
-        New world rotation of the middle joint (to re-express the effector's local rotation).
-    """
-    a, b, c, t = (np.asarray(x, dtype=float) for x in (a, b, c, target))
-    lab = np.linalg.norm(b - a, axis=-1)
-    lbc = np.linalg.norm(c - b, axis=-1)
-    lat = np.clip(np.linalg.norm(t - a, axis=-1), np.abs(lab - lbc) + _EPS_LEN, lab + lbc - _EPS_LEN)
-
-    ac_ab_0 = _angle_between(c - a, b - a)
-    ba_bc_0 = _angle_between(a - b, c - b)
-    ac_at_0 = _angle_between(c - a, t - a)
-    # law of cosines for the wanted triangle
-    ac_ab_1 = np.arccos(np.clip((lbc ** 2 - lab ** 2 - lat ** 2) / (-2.0 * lab * lat), -1.0, 1.0))
-    ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lbc ** 2) / (-2.0 * lab * lbc), -1.0, 1.0))
-
-    axis0, n0 = _unit(np.cross(c - a, b - a))
-    straight = n0 < 1e-9
-    if np.any(straight):   # the fallback axis only where it is used (the same values there)
-        s_ = np.flatnonzero(straight)
-        fb = (quat_rotate(np.asarray(b_world, dtype=float)[s_], np.array([1.0, 0.0, 0.0])) if fallback_axis is None
-              else np.broadcast_to(np.asarray(fallback_axis, dtype=float), axis0.shape)[s_])
-        axis0 = np.array(axis0)
-        axis0[s_] = _unit(fb)[0]
-    axis1, n1 = _unit(np.cross(c - a, t - a))
-    axis1 = np.where((n1 < 1e-12)[:, None], axis0, axis1)  # c-a already points at t: no swing needed
-
-    r0 = rotvec_to_quat(axis0 * (ac_ab_1 - ac_ab_0)[:, None])   # swing the upper bone about a
-    r1 = rotvec_to_quat(axis0 * (ba_bc_1 - ba_bc_0)[:, None])   # open/close the middle joint
-    r2 = rotvec_to_quat(axis1 * ac_at_0[:, None])               # aim a->c at the target
-    r20 = quat_mul(r2, r0)
-    a_world_new = quat_mul(r20, a_world)
-    b_world_new = quat_mul(r20, quat_mul(r1, b_world))
-    a_local_new = quat_mul(a_local, quat_mul(quat_conj(a_world), a_world_new))
-    if b_parent_world is None:
-        b_parent_new = a_world_new
-    else:
-        b_parent_new = quat_mul(a_world_new, quat_mul(quat_conj(a_world), b_parent_world))
-    b_local_new = quat_mul(quat_conj(b_parent_new), b_world_new)
-    return a_local_new, b_local_new, b_world_new
 
 
 def _parse_contacts(motion: Motion, contacts) -> list[tuple[int, int, int]]:
@@ -290,41 +182,6 @@ def _root_drop(sk, pos, groups, nb: int) -> np.ndarray:
     kernel /= kernel.sum()
     # an average of values that are all >= need[x] stays >= need[x]: the smooth profile still reaches
     return np.convolve(np.pad(peak, w, mode="edge"), kernel, mode="valid")
-
-
-def _chain_length(p: np.ndarray, up: int, mid: int, eff: int) -> float:
-    """Length of the two bones up -> mid -> eff from world positions ``p (J, 3)`` of one frame."""
-    a, b = p[mid] - p[up], p[eff] - p[mid]
-    return float(np.sqrt(a @ a) + np.sqrt(b @ b))
-
-
-def _chain(skeleton, j: int) -> tuple[int, int, int]:
-    """(upper, middle, effector) joints that carry a contact on ``j``: toe contacts go through the ankle,
-    and zero-length bones are skipped so both IK bones have a length (e.g. CMU's ``lhand`` sits on
-    ``LeftWrist``; ``upper`` is the first ancestor not co-located with ``middle``). ``upper`` is -1 when the
-    chain would reach the root."""
-    par = skeleton.parents
-    return _limb(skeleton, int(par[j]) if "toe" in skeleton.names[j].lower() and par[j] > 0 else j)
-
-
-def _limb(skeleton, eff: int) -> tuple[int, int, int]:
-    """(upper, middle, effector) two-bone limb ending at joint ``eff`` (zero-length bones skipped, see
-    :func:`_chain`); ``upper`` is -1 when the limb would reach the root."""
-    par, offsets = skeleton.parents, skeleton.offsets
-
-    def zero(j):   # a zero-length bone (only the few joints visited are measured)
-        o = offsets[j]
-        return float(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]) < 1e-18
-
-    eff = int(eff)
-    while eff > 0 and zero(eff):
-        eff = int(par[eff])
-    mid = int(par[eff]) if eff > 0 else -1
-    c = mid
-    while c > 0 and zero(c):
-        c = int(par[c])
-    up = int(par[c]) if c > 0 else -1
-    return up, mid, eff
 
 
 def _constrained_joints(sk, parsed) -> set:
@@ -557,9 +414,9 @@ def _timeline(edited):
 
 def _carry(edited, contacts, source_frame_time: float, carry_by: str = "joint", tables=None):
     """``[(name, joint, start, stop, source_start, source_stop, clock)]`` of the contacts that keep a frame
-    (``clock``: the index of the joint whose time warp moved it); ``tables``: ``editing._warp_tables(edited)``
+    (``clock``: the index of the joint whose time warp moved it); ``tables``: ``timing._warp_tables(edited)``
     when the caller has them."""
-    from .editing import _warp_column, _warp_tables
+    from .timing import _warp_column, _warp_tables
     from .representation import StaggeredMotion
     ft_s = float(source_frame_time)
     if not np.isfinite(ft_s) or ft_s <= 0:
@@ -617,7 +474,7 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
 
     A contact ``(joint, start, stop)`` holds on source frames ``[start, stop)`` (times ``frame *
     source_frame_time``). Its first and last active times are mapped through the time warp of that joint's
-    rotation (:func:`~stagger_nb.staggered.editing.warp_times`: piecewise linear from the source knot times
+    rotation (:func:`~stagger_nb.staggered.timing.warp_times`: piecewise linear from the source knot times
     to the edited knot times, §3/§5.2), and become the frames of ``evaluate(edited)`` (times
     ``pose_times[0] + n * frame_time``) inside the mapped interval.
 
@@ -796,8 +653,9 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     Motion: ``evaluate(edited)`` (or ``edited``) with the contact chains' rotations displaced.
     """
     from .contacts import detect_contacts
-    from .editing import _warp_column, _warp_tables
-    from .representation import StaggeredMotion, evaluate
+    from .timing import _warp_column, _warp_tables
+    from .evaluation import evaluate
+    from .representation import StaggeredMotion
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
     if mode not in ("mean", "track"):

@@ -1,0 +1,319 @@
+"""Keeping an editor's model and a :class:`~stagger_nb.session.Session` in step: :func:`merge_ops` (an editor's
+ops into the session's list, every other op kept in place) and :class:`ModelBinding` (both directions).
+
+Ownership. Each editor *owns* some op names (``STAGGER_OPS``, ``WAND_OPS``, ``WARP_OPS``); every other op of the
+session is foreign and is kept, in place, by :func:`merge_ops`. Inside an owned op, fields the editor does not
+control (e.g. ``exaggerate.poses``) are kept as well. Only the owned ops whose parameters changed are rewritten,
+so an op the editor cannot represent (two ``succession`` ops, a ``cull`` by a field it shows differently)
+survives until the user moves the matching control.
+"""
+from __future__ import annotations
+
+import contextlib
+import copy
+import json
+from typing import Callable
+
+import traitlets as T
+
+from ._base import _canon, _Model
+from .stagger import STAGGER_OPS, StaggerModel, stagger_ops_to_params, stagger_params_to_ops
+from .wand import WAND_OPS, WandModel, wand_ops_to_params, wand_params_to_ops
+from .warp import WARP_OPS, WarpModel, warp_ops_to_params, warp_params_to_ops
+
+__all__ = ["ModelBinding", "merge_ops"]
+
+# fields of each owned op the editor controls (others, e.g. exaggerate.poses, are kept as they are)
+_CONTROLLED = {
+    "cull": ("percent", "count", "keep"),
+    "succession": ("root", "s", "l", "joints"),
+    "random_timing": ("tau", "seed", "joints"),
+    "exaggerate": ("w_r", "reference"),
+    "edit_pose": ("pose", "deltas", "targets", "mode"),
+    "retime": ("pose", "time"),
+    "ik_pose": ("pose", "joint", "target"),
+    "keep_contacts": (),
+    "propagate": ("frame", "frames", "deltas", "sigma", "frame_range", "repetitions"),
+    "edit_frame": ("frame", "deltas"),
+    "guided_warp": ("duration", "free_length", "skip", "reference", "keytimes", "backward"),
+    "linear_warp": ("duration", "keytimes"),
+}
+
+
+def _edit_prefix(ops: list) -> str:
+    """The ops before the StaggerEditor's first owned op past the cull (what its pose edits apply to), as
+    canonical JSON."""
+    i = next((n for n, o in enumerate(ops) if o["op"] in STAGGER_OPS and o["op"] != "cull"), len(ops))
+    return _canon(list(ops[:i]))
+
+
+def _key(op: dict):
+    """Which instance of an owned op this is: one per name, per pose, per (pose, joint) or per frame."""
+    name = op["op"]
+    if name == "edit_pose":
+        return (name, op["pose"], "targets" if "targets" in op else "deltas")
+    if name == "retime":
+        return (name, op["pose"])
+    if name == "ik_pose":
+        return (name, op["pose"], op["joint"])
+    if name == "edit_frame":
+        return (name, op["frame"])
+    if name in WARP_OPS:
+        return ("warp",)
+    return (name,)
+
+
+def _rank(op: dict, owned: tuple) -> tuple:
+    """Order of an owned op: by name (``owned``), then by instance (pose, frame...)."""
+    return (owned.index(op["op"]),) + _key(op)[1:]
+
+
+def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
+              home: Callable[[list], int] | None = None) -> list:
+    """The session's op list after an editor changes its ops from ``old_owned`` to ``new_owned``.
+
+    Only instances (see ``_key``) whose op differs between ``old_owned`` and ``new_owned`` are touched; each is
+    replaced in place (its last occurrence in ``current``; fields the editor does not control are kept),
+    removed, or inserted next to the owned ops of neighbouring rank (``owned`` gives the order), or at
+    ``home(ops)`` when the list holds none of them (default: the end). Every other op keeps its place.
+    """
+    old = {_key(o): o for o in old_owned}
+    new = {_key(o): o for o in new_owned}
+    out = copy.deepcopy(list(current))
+    order = [k for k in list(old) + list(new)]
+    seen = set()
+    for k in order:
+        if k in seen:
+            continue
+        seen.add(k)
+        a, b = old.get(k), new.get(k)
+        if a is not None and b is not None and _canon(a) == _canon(b):
+            continue
+        at = [i for i, o in enumerate(out) if o["op"] in owned and _key(o) == k]
+        if b is None:
+            if at:
+                del out[at[-1]]
+            continue
+        if at:
+            prev = out[at[-1]]
+            keep = {f: v for f, v in prev.items() if f not in _CONTROLLED.get(prev["op"], ()) and f != "op"}
+            out[at[-1]] = {**keep, **copy.deepcopy(b)}
+            continue
+        r = _rank(b, owned)
+        mine = [(i, _rank(o, owned)) for i, o in enumerate(out) if o["op"] in owned]
+        before = [i for i, ro in mine if ro <= r]
+        after = [i for i, ro in mine if ro > r]
+        if before:
+            pos = before[-1] + 1
+        elif after:
+            pos = after[0]
+        else:
+            pos = len(out) if home is None else home(out)
+        out.insert(pos, copy.deepcopy(b))
+    return out
+
+
+def _stagger_home(ops):
+    return 0
+
+
+def _wand_home(ops):
+    for i, o in enumerate(ops):
+        if o["op"] in ("guided_warp", "linear_warp", "resample"):
+            return i
+    return len(ops)
+
+
+def _wand_input_frames(session) -> int:
+    """Frames of the motion the WandEditor's ops see: the source's, unless an op that changes the length
+    comes before them (then 0, unknown: the replay checks the frame)."""
+    ops = session.ops
+    first = next((i for i, o in enumerate(ops) if o["op"] in WAND_OPS), _wand_home(ops))
+    return session.source.num_frames if _wand_home(ops[:first]) == first else 0
+
+
+class ModelBinding:
+    """Keeps ``model`` and ``session`` in step, both ways.
+
+    - A change of an op trait (``op=True``) writes the session's op list (:func:`merge_ops`, one undo step via
+      ``session.set_ops``); a refused op list (ValueError) leaves the session as it was and puts the reason in
+      ``model.message``.
+    - A change of the session's op list (undo/redo, load, code) sets the model's op traits from it; the model
+      then equals what the ops say (undo restores every parameter).
+
+    Parameters
+    ----------
+    model : StaggerModel, WandModel or WarpModel
+    session : Session
+    references : dict, optional
+        WarpModel only: ``{name: op reference JSON}`` of the extra reference clips.
+    """
+
+    def __init__(self, model: _Model, session, references: dict | None = None):
+        self.model = model
+        self.session = session
+        self.references = dict(references or {})
+        if isinstance(model, StaggerModel):
+            self.owned, self._home = STAGGER_OPS, _stagger_home
+        elif isinstance(model, WandModel):
+            self.owned, self._home = WAND_OPS, _wand_home
+        elif isinstance(model, WarpModel):
+            self.owned, self._home = WARP_OPS, None
+            model.source_duration = float(session.source.duration)
+            model.reference_options = ["self", "segment"] + [n for n in self.references if n not in ("self", "segment")]
+        else:
+            raise ValueError(f"model: expected a StaggerModel, WandModel or WarpModel, got {type(model).__name__}")
+        model.joint_names = list(session.source.skeleton.names)
+        self._loading = False
+        self._bases_prefix = None  # the op prefix model.edit_bases were recorded for
+        self._notes: list = []
+        self._error = ""
+        self._last = model.params()
+        self.pull()
+        model.observe(self._on_model, names=model.trait_names(op=True))
+        session.observe(self._on_session)
+
+    # -- pure parts, per model ------------------------------------------------------------------------
+    def to_ops(self, params: dict) -> list:
+        if isinstance(self.model, StaggerModel):
+            return stagger_params_to_ops(params, self.model.edit_bases)
+        if isinstance(self.model, WandModel):
+            return wand_params_to_ops(params)
+        return warp_params_to_ops(params, self.references, self.model.source_duration)
+
+    def from_ops(self, ops: list, base: dict) -> tuple[dict, list]:
+        names = self.model.joint_names
+        if isinstance(self.model, StaggerModel):
+            return stagger_ops_to_params(ops, base, names, self.model.edit_bases)
+        if isinstance(self.model, WandModel):
+            return wand_ops_to_params(ops, base, names, self.model.default_sigma or None)
+        p, notes, new_refs = warp_ops_to_params(ops, base, self.references, self.model.source_duration)
+        if new_refs:
+            self.references.update(new_refs)
+            self.model.reference_options = list(self.model.reference_options) + [
+                n for n in new_refs if n not in self.model.reference_options]
+        return p, notes
+
+    def ops_for(self, **changes) -> list:
+        """The session's op list as it would be if the model's op traits took ``changes`` (e.g.
+        ``percent=40.0``), the ops the editor does not own kept in place; neither the model nor the session
+        changes (e.g. to warm a slider's next positions with ``Session.warm(("replay", lists))``)."""
+        new = dict(self.model.params(), **changes)
+        return merge_ops(self.session.ops, self.to_ops(self._last), self.to_ops(new), self.owned, self._home)
+
+    @contextlib.contextmanager
+    def paused(self):
+        """Model changes made inside are not written to the session (e.g. a control resetting its value while
+        its options are replaced: the caller puts the model's value back before leaving)."""
+        old, self._loading = self._loading, True
+        try:
+            yield self
+        finally:
+            self._loading = old
+
+    # -- directions -----------------------------------------------------------------------------------
+    def _on_model(self, change) -> None:
+        if not self._loading:
+            self.push()
+
+    def push(self) -> bool:
+        """Model -> session. Returns True when the op list changed."""
+        new = self.model.params()
+        old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
+        if isinstance(self.model, StaggerModel):
+            # the bases belong to the state the edits apply to: a new cull (or anything before the edits)
+            # drops them, and the nudges are written as deltas until that state is the session's
+            cur = self.session.ops
+            nxt = merge_ops(cur, old_ops, stagger_params_to_ops(new), self.owned, self._home)
+            if _edit_prefix(nxt) != self._bases_prefix:
+                self._clear_bases()
+            if _edit_prefix(nxt) == _edit_prefix(cur):
+                # bases for the nudges this change makes (every nudge when edit_mode changes: the toggle acts
+                # on them all), only: an untouched edit keeps its form (deltas stay deltas, in place)
+                old_edits, toggle = self._last["pose_edits"], new["edit_mode"] != self._last["edit_mode"]
+                self._record_bases((k, j) for k, d in new["pose_edits"].items() for j in d
+                                   if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
+        ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
+        try:
+            changed = self.session.set_ops(ops)
+        except ValueError as e:
+            self._error = str(e)
+            self._show()
+            return False
+        self._error = ""
+        self._last = new
+        if not changed:
+            self._show()
+        return changed
+
+    def _on_session(self, session) -> None:
+        self.pull()
+
+    def pull(self) -> None:
+        """Session -> model (op traits set from the session's op list)."""
+        if isinstance(self.model, StaggerModel):
+            if _edit_prefix(self.session.ops) != self._bases_prefix:
+                self._clear_bases()
+            self._record_bases((int(o["pose"]), j) for o in self.session.ops if o["op"] == "edit_pose"
+                               for j in o.get("targets") or {})
+        if isinstance(self.model, WandModel):
+            with self.model.loading():
+                self.model.input_frames = _wand_input_frames(self.session)
+        params, notes = self.from_ops(self.session.ops, self.model.params())
+        self._loading = True
+        try:
+            with self.model.loading(), self.model.hold_trait_notifications():
+                for k, v in params.items():
+                    if _canon(getattr(self.model, k)) != _canon(v):
+                        setattr(self.model, k, v)
+            m = self.model
+            if isinstance(m, WandModel) and m.edits and m.edit_frame not in m.edits:
+                with m.loading():
+                    m.edit_frame = m.edited_frames[-1]
+        except T.TraitError as e:   # a value the model refuses: say so, keep the op
+            notes.append(f"{e}; the op is kept unchanged")
+        finally:
+            self._loading = False
+        self._last = self.model.params()
+        self._notes = notes
+        self._error = ""
+        self._show()
+
+    def _clear_bases(self) -> None:
+        if self.model.edit_bases:
+            with self.model.loading():
+                self.model.edit_bases = {}
+        self._bases_prefix = None
+
+    def _record_bases(self, pairs) -> None:
+        """StaggerModel: record in ``model.edit_bases`` the value of each new ``(pose, joint)`` in the staggered
+        state the pose edits apply to (its editing knot, the true pose at ``t_k``: what the view shows), once;
+        nothing when that state is not a staggered representation (the nudge is then written as deltas)."""
+        m = self.model
+        pairs = {(int(k), j) for k, j in pairs if j not in m.edit_bases.get(int(k), {})}
+        if not pairs:
+            return
+        try:
+            sm = self._edit_state()
+        except ValueError:  # a replay error: shown by the editor; the nudges stay deltas
+            sm = None
+        knots = getattr(sm, "editing_knots", None)
+        if knots is None:
+            return
+        names = list(sm.skeleton.names)
+        bases = copy.deepcopy(m.edit_bases)
+        for k, j in pairs:
+            if 0 <= k < len(knots) and j in names:
+                bases.setdefault(k, {})[j] = [float(x) for x in knots[k][names.index(j)]]
+        with m.loading():
+            m.edit_bases = bases
+        self._bases_prefix = _edit_prefix(self.session.ops)
+
+    def _edit_state(self):
+        """The state the StaggerEditor's pose edits apply to: after :func:`_edit_prefix` of the session's ops
+        (the source's extraction when it is empty)."""
+        n = len(json.loads(_edit_prefix(self.session.ops)))
+        return self.session.extraction() if n == 0 else self.session.states()[n - 1]
+
+    def _show(self) -> None:
+        self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)

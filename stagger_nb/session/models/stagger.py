@@ -1,0 +1,396 @@
+"""The StaggerEditor's model and its pure ``params <-> ops`` functions (Coleman et al. 2008: cull §4.3, succession
+and random timing §5.2, exaggeration §5.3, pose edits §5.1 Fig. 6, IK posing)."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import traitlets as T
+
+from ...core.rotations import quat_conj, quat_mul, quat_to_rotvec, rotvec_to_quat
+from ._base import _Model, _finite
+
+__all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
+
+STAGGER_OPS = ("cull", "edit_pose", "retime", "ik_pose", "exaggerate", "succession", "random_timing",
+               "keep_contacts")
+"""Ops the StaggerEditor writes, in the order it inserts them (staggered ops first, the constraint last)."""
+
+
+class StaggerModel(_Model):
+    """Parameters of the staggered-pose editor (Coleman et al. 2008).
+
+    Op traits (tagged ``op=True``) map to ops with :func:`stagger_params_to_ops`; the others are view state
+    (selected pose and joint, the nudge of that joint, the IK effector and target) kept consistent with them.
+    """
+
+    cull_by = T.Enum(["percent", "count", "keep"], "percent", help="how poses are culled (§4.3)").tag(op=True)
+    percent = T.Float(100.0, help="keep this % of the candidate poses (cull by percent; 100 = all)").tag(op=True)
+    count = T.Int(0, help="keep this many poses (cull by count; 0 = all)").tag(op=True)
+    keep = T.List(T.Int(), help="indices of the candidate poses to keep (cull by picking; [] = all)").tag(op=True)
+    root = T.Unicode("", help="succession root joint (§5.2)").tag(op=True)
+    joints = T.List(T.Unicode(), help="joints the succession delays ([] = all)").tag(op=True)
+    s = T.Float(0.0, help="succession delay per bone (seconds; 0 = off)").tag(op=True)
+    l = T.Float(1.0, help="succession exponent l (> 0; inert when s = 0)").tag(op=True)
+    tau = T.Float(0.0, help="random timing spread τ (seconds; 0 = off)").tag(op=True)
+    tau_joints = T.List(T.Unicode(), help="joints τ applies to ([] = all)").tag(op=True)
+    seed = T.Int(0, help="random seed of τ").tag(op=True)
+    w_r = T.Float(0.0, help="exaggeration weight w_r (§5.3; 0 = off)").tag(op=True)
+    w_r_reference = T.Union([T.Enum(["previous", "next", "mean"]), T.Int()], default_value="previous",
+                            help="exaggerate against the previous / next / mean pose or a pose index").tag(op=True)
+    pose_edits = T.Dict(help="{pose index: {joint: [rx, ry, rz] degrees}} geometric pose edits (§5.1)").tag(op=True)
+    edit_mode = T.Enum(["staggered", "unstaggered"], "staggered",
+                       help="pose edits in staggered (Fig. 6a) or non-staggered (Fig. 6b) mode").tag(op=True)
+    retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True)
+    ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(op=True)
+    keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
+
+    # view state
+    edit_bases = T.Dict(help="{pose index: {joint: [x, y, z, w]}} the true pose value (editing knot at t_k) each "
+                             "nudge starts from, set by the binding: pose edits are then written as targets "
+                             "base ⊕ nudge, so edit_mode chooses the knot that reaches them (§5.1, Fig. 6a/6b)")
+    pose = T.Int(0, help="selected pose index (the nudge, retime and IK controls act on it)")
+    joint = T.Unicode("", help="selected joint (curves, nudge)")
+    rx = T.Float(0.0, help="nudge of the selected joint at the selected pose, x (degrees)")
+    ry = T.Float(0.0, help="nudge, y (degrees)")
+    rz = T.Float(0.0, help="nudge, z (degrees)")
+    pose_times = T.List(T.Float(), help="times (s) of the current poses (set by the binding)")
+    pose_time = T.Float(0.0, help="time (s) of the selected pose; a user change retimes it (Fig. 6c)")
+    frame_time = T.Float(1.0, help="seconds per frame of the source (set by the binding)")
+    ik_joint = T.Unicode("", help="IK end effector ('' = none)")
+    ik_x = T.Float(0.0, help="IK target x (world units)")
+    ik_y = T.Float(0.0, help="IK target y")
+    ik_z = T.Float(0.0, help="IK target z")
+
+    @T.validate("percent")
+    def _v_percent(self, p):
+        v = _finite("percent", p["value"])
+        if not 0.0 < v <= 100.0:
+            raise T.TraitError(f"percent: expected a percentage in (0, 100], got {v}")
+        return v
+
+    @T.validate("count", "seed")
+    def _v_nonneg_int(self, p):
+        if p["value"] < 0:
+            raise T.TraitError(f"{p['trait'].name}: expected an integer >= 0, got {p['value']}")
+        return p["value"]
+
+    @T.validate("l")
+    def _v_l(self, p):
+        v = _finite("l", p["value"])
+        if v <= 0:
+            raise T.TraitError(f"l: expected a number > 0, got {v}")
+        return v
+
+    @T.validate("tau")
+    def _v_tau(self, p):
+        v = _finite("tau", p["value"])
+        if v < 0:
+            raise T.TraitError(f"tau: expected a number >= 0 (seconds), got {v}")
+        return v
+
+    @T.validate("s", "w_r", "rx", "ry", "rz", "ik_x", "ik_y", "ik_z")
+    def _v_finite(self, p):
+        return _finite(p["trait"].name, p["value"])
+
+    @T.validate("w_r_reference")
+    def _v_ref(self, p):
+        v = p["value"]
+        if isinstance(v, int) and v < 0:
+            raise T.TraitError(f"w_r_reference: expected 'previous', 'next', 'mean' or a pose index >= 0, got {v}")
+        if isinstance(v, int):
+            self._index_below("w_r_reference", v, len(self.pose_times), "poses")
+        return v
+
+    # joint names and pose indices are checked against the skeleton and the current poses (when known), so a
+    # bad value is refused here, before any op is written (nothing committed). A pose index the
+    # model already holds (read from the session, where a later cull may leave fewer poses than the edits
+    # saw) is not checked again.
+    @T.validate("root", "joint", "ik_joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint(p["trait"].name, p["value"])
+
+    @T.validate("joints", "tau_joints")
+    def _v_joint_names(self, p):
+        return [self._known_joint(p["trait"].name, j) for j in p["value"]]
+
+    @T.validate("pose_edits")
+    def _v_pose_edits(self, p):
+        return self._edits_at("pose_edits", p["value"], len(self.pose_times), "poses", self.pose_edits)
+
+    @T.validate("retimes")
+    def _v_retimes(self, p):
+        out = {(int(k) if int(k) in self.retimes else self._index_below("retimes", k, len(self.pose_times), "poses")):
+               _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
+        bad = {k: v for k, v in out.items() if v < 0}
+        if bad:
+            raise T.TraitError(f"retimes: expected times >= 0 (seconds), got {bad}")
+        return out
+
+    @T.validate("pose")
+    def _v_pose(self, p):
+        return self._index_below("pose", p["value"], len(self.pose_times), "poses")
+
+    @T.validate("ik_targets")
+    def _v_ik_targets(self, p):
+        for i, e in enumerate(p["value"]):
+            if not isinstance(e, dict) or set(e) != {"pose", "joint", "target"} or len(e["target"]) != 3:
+                raise T.TraitError(f"ik_targets[{i}]: expected {{pose, joint, target: [x, y, z]}}, got {e!r}")
+            if e["pose"] not in [x["pose"] for x in self.ik_targets]:
+                self._index_below(f"ik_targets[{i}].pose", e["pose"], len(self.pose_times), "poses")
+            self._known_joint(f"ik_targets[{i}].joint", e["joint"])
+            [_finite(f"ik_targets[{i}].target", x) for x in e["target"]]
+        return p["value"]
+
+    # -- consistency of the view state with the op traits (model-internal; no session involved) --------
+    def pose_frame(self, k: int) -> int:
+        """Frame of pose ``k`` (nearest to its time)."""
+        return int(round(self.pose_times[k] / self.frame_time))
+
+    @T.observe("pose")
+    def _pose_moves_playhead(self, change):
+        """Choosing a pose moves the playhead to it (not while the playhead itself selects the pose)."""
+        if not getattr(self, "_seeking", False) and 0 <= self.pose < len(self.pose_times):
+            self._seek(self.pose_frame(self.pose))
+
+    @T.observe("frame")
+    def _playhead_selects_pose(self, change):
+        """The playhead selects the pose nearest to it (the nudge / retime / IK controls act on that one)."""
+        if not self.pose_times:
+            return
+        t = self.frame * self.frame_time
+        k = min(range(len(self.pose_times)), key=lambda i: abs(self.pose_times[i] - t))
+        self._seeking = True
+        try:
+            self.pose = k
+        finally:
+            self._seeking = False
+
+    @T.observe("pose", "pose_times", "retimes")
+    def _show_pose_time(self, change):
+        if 0 <= self.pose < len(self.pose_times):
+            with self.loading():
+                self.pose_time = float(self.retimes.get(self.pose, self.pose_times[self.pose]))
+
+    @T.observe("pose_time")
+    def _retime(self, change):
+        if self._loading or not 0 <= self.pose < len(self.pose_times):
+            return
+        if abs(self.pose_time - self.retimes.get(self.pose, self.pose_times[self.pose])) > 1e-12:
+            self.retimes = {**self.retimes, self.pose: float(self.pose_time)}
+
+    def _selected_nudge(self):
+        return self.pose_edits.get(self.pose, {}).get(self.joint, [0.0, 0.0, 0.0])
+
+    @T.observe("pose", "joint", "pose_edits")
+    def _show_nudge(self, change):
+        v = self._selected_nudge()
+        with self.hold_trait_notifications():
+            self.rx, self.ry, self.rz = v
+        self._show_ik()
+
+    @T.observe("rx", "ry", "rz")
+    def _nudge(self, change):
+        v = [self.rx, self.ry, self.rz]
+        if v == self._selected_nudge() or not self.joint:
+            return
+        edits = copy.deepcopy(self.pose_edits)
+        d = edits.setdefault(self.pose, {})
+        d[self.joint] = v
+        if not any(v):
+            del d[self.joint]
+            if not d:
+                del edits[self.pose]
+        self.pose_edits = edits
+
+    def _ik_entry(self):
+        for e in self.ik_targets:
+            if e.get("pose") == self.pose and e.get("joint") == self.ik_joint:
+                return e
+        return None
+
+    @T.observe("ik_joint", "ik_targets")
+    def _on_ik_selection(self, change):
+        self._show_ik()
+
+    def _show_ik(self):
+        e = self._ik_entry()
+        if e is not None:
+            with self.hold_trait_notifications():
+                self.ik_x, self.ik_y, self.ik_z = (float(x) for x in e["target"])
+
+    @T.observe("ik_x", "ik_y", "ik_z")
+    def _move_ik_target(self, change):
+        """A user move of the target sliders records (or updates) the IK edit of the selected pose/effector."""
+        if self._loading or not self.ik_joint:
+            return
+        target = [self.ik_x, self.ik_y, self.ik_z]
+        e = self._ik_entry()
+        if e is not None and list(e["target"]) == target:
+            return
+        rest = [x for x in self.ik_targets if x is not e]
+        self.ik_targets = rest + [{"pose": int(self.pose), "joint": self.ik_joint, "target": target}]
+
+    def show_ik_target(self, position) -> None:
+        """Place the target sliders at ``position`` (the effector's current place) without recording an edit."""
+        with self.loading(), self.hold_trait_notifications():
+            self.ik_x, self.ik_y, self.ik_z = (float(x) for x in position)
+
+
+def _names_note(names, field, value, known) -> str | None:
+    if known and value not in known:
+        return (f"{field}: the session names joint {value!r}, which this skeleton does not have; the op is kept "
+                "unchanged")
+    return None
+
+
+def _target_of(base, nudge) -> list:
+    """``base ⊕ nudge``: the quaternion (x, y, z, w) reached from ``base`` by the rotation vector ``nudge``
+    (degrees), applied in the joint's local frame (``base * exp(nudge / 2)``)."""
+    return [float(x) for x in quat_mul(base, rotvec_to_quat(np.radians(np.asarray(nudge, dtype=float))))]
+
+
+def _nudge_of(base, target) -> list:
+    """The nudge (rotation vector, degrees) taking ``base`` to ``target`` (``base⁻¹ target``), rounded to
+    1e-9 degrees so a nudge written as a target reads back as itself."""
+    r = np.degrees(quat_to_rotvec(quat_mul(quat_conj(np.asarray(base, dtype=float)), target)))
+    return [round(float(c), 9) + 0.0 for c in r]
+
+
+def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
+    """The StaggerEditor's ops for parameters ``p`` (a :meth:`StaggerModel.params` dict), in canonical order.
+
+    ``bases`` (``StaggerModel.edit_bases``: ``{pose: {joint: [x, y, z, w]}}``) turns the nudges of those joints
+    into ``targets`` (``base ⊕ nudge``, the value the user sees plus the nudge), so ``edit_mode`` chooses the
+    knot that takes that value: the true pose at ``t_k`` (staggered, Fig. 6a) or the extreme value (Fig. 6b).
+    Without a base a nudge is written as ``deltas`` (the same change to both knots: the modes then agree).
+
+    Identity values write no op (percent = 100, s = 0, τ = 0, w_r = 0, an all-zero nudge); ``keep_contacts``
+    writes ``{"op": "keep_contacts"}`` when on and any other staggered op is written. Optional fields are
+    written only when they differ from the op's default (so the op list stays short and readable).
+    """
+    ops = []
+    if p["cull_by"] == "percent" and p["percent"] < 100.0:
+        ops.append({"op": "cull", "percent": float(p["percent"])})
+    elif p["cull_by"] == "count" and p["count"] > 0:
+        ops.append({"op": "cull", "count": int(p["count"])})
+    elif p["cull_by"] == "keep" and p["keep"]:
+        ops.append({"op": "cull", "keep": sorted(int(k) for k in p["keep"])})
+    for k in sorted(p["pose_edits"]):
+        nudges = {j: [float(x) for x in v] for j, v in p["pose_edits"][k].items() if any(v)}
+        known = (bases or {}).get(k, {})
+        targets = {j: _target_of(known[j], v) for j, v in nudges.items() if j in known}
+        deltas = {j: v for j, v in nudges.items() if j not in known}
+        for field, value in (("targets", targets), ("deltas", deltas)):  # one op per kind (exactly one each)
+            if value:
+                op = {"op": "edit_pose", "pose": int(k), field: value}
+                if p["edit_mode"] != "staggered":
+                    op["mode"] = p["edit_mode"]
+                ops.append(op)
+    for k in sorted(p["retimes"]):
+        ops.append({"op": "retime", "pose": int(k), "time": float(p["retimes"][k])})
+    for e in p["ik_targets"]:
+        ops.append({"op": "ik_pose", "pose": int(e["pose"]), "joint": e["joint"],
+                    "target": [float(x) for x in e["target"]]})
+    if p["w_r"] != 0.0:
+        op = {"op": "exaggerate", "w_r": float(p["w_r"])}
+        if p["w_r_reference"] != "previous":
+            op["reference"] = p["w_r_reference"]
+        ops.append(op)
+    if p["s"] != 0.0:
+        op = {"op": "succession", "root": p["root"], "s": float(p["s"]), "l": float(p["l"])}
+        if p["joints"]:
+            op["joints"] = list(p["joints"])
+        ops.append(op)
+    if p["tau"] > 0.0:
+        op = {"op": "random_timing", "tau": float(p["tau"]), "seed": int(p["seed"])}
+        if p["tau_joints"]:
+            op["joints"] = list(p["tau_joints"])
+        ops.append(op)
+    if p["keep_contacts"] and ops:
+        ops.append({"op": "keep_contacts"})
+    return ops
+
+
+def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | None = None) -> tuple[dict, list]:
+    """Parameters shown by a StaggerEditor for the session ``ops``: ``base`` (the model's current parameters)
+    updated from the owned ops (the last of each singleton op wins). Returns ``(params, notes)``; ``notes`` are
+    plain sentences (an op naming a joint this skeleton does not have: that field keeps its ``base`` value).
+    ``edit_pose`` targets read back as nudges from ``bases`` (as in :func:`stagger_params_to_ops`)."""
+    p = copy.deepcopy(base)
+    notes: list = []
+    known = set(joint_names)
+    by = {o["op"]: o for o in ops if o["op"] in STAGGER_OPS}
+    c = by.get("cull")
+    p["percent"] = 100.0
+    if c is None:
+        p["count"], p["keep"] = 0, []
+    elif c.get("percent") is not None:
+        p["cull_by"], p["percent"] = "percent", float(c["percent"])
+    elif c.get("count") is not None:
+        p["cull_by"], p["count"] = "count", int(c["count"])
+    elif c.get("keep") is not None:
+        p["cull_by"], p["keep"] = "keep", [int(k) for k in c["keep"]]
+    sc = by.get("succession")
+    p["s"] = 0.0 if sc is None else float(sc["s"])
+    if sc is not None:
+        p["l"] = float(sc.get("l", 1.0))
+        note = _names_note(joint_names, "succession.root", sc["root"], known)
+        if note:
+            notes.append(note)
+        else:
+            p["root"] = sc["root"]
+        bad = [j for j in (sc.get("joints") or []) if known and j not in known]
+        if bad:
+            notes.append(f"succession.joints: {', '.join(map(repr, bad))} not in this skeleton; the op is kept "
+                         "unchanged")
+        else:
+            p["joints"] = list(sc.get("joints") or [])
+    rt = by.get("random_timing")
+    p["tau"] = 0.0 if rt is None else float(rt["tau"])
+    if rt is not None:
+        p["seed"] = int(rt.get("seed", 0))
+        bad = [j for j in (rt.get("joints") or []) if known and j not in known]
+        if bad:
+            notes.append(f"random_timing.joints: {', '.join(map(repr, bad))} not in this skeleton; the op is kept "
+                         f"unchanged")
+        else:
+            p["tau_joints"] = list(rt.get("joints") or [])
+    ex = by.get("exaggerate")
+    p["w_r"] = 0.0 if ex is None else float(ex["w_r"])
+    if ex is not None:
+        p["w_r_reference"] = ex.get("reference", "previous")
+    edits: dict = {}
+    mode = None
+    for o in ops:
+        if o["op"] == "edit_pose":
+            k = int(o["pose"])
+            mine = edits.setdefault(k, {})
+            mine.update({j: [float(x) for x in v] for j, v in (o.get("deltas") or {}).items()})
+            kb = (bases or {}).get(k, {})
+            for j, q in (o.get("targets") or {}).items():
+                if j in kb:
+                    mine[j] = _nudge_of(kb[j], q)
+                else:
+                    notes.append(f"edit_pose.targets: no starting value of joint {j!r} at pose {k} is known; "
+                                 "the op is kept unchanged")
+            if not mine:
+                del edits[k]
+            mode = o.get("mode", "staggered")
+            for field in ("deltas", "targets"):
+                for j in o.get(field) or {}:
+                    if known and j not in known:
+                        notes.append(f"edit_pose.{field}: joint {j!r} is not in this skeleton; the op is kept "
+                                     "unchanged")
+    p["pose_edits"] = edits
+    if mode is not None:
+        p["edit_mode"] = mode
+    p["retimes"] = {int(o["pose"]): float(o["time"]) for o in ops if o["op"] == "retime"}
+    p["ik_targets"] = [{"pose": int(o["pose"]), "joint": o["joint"], "target": [float(x) for x in o["target"]]}
+                       for o in ops if o["op"] == "ik_pose"]
+    others = [o for o in ops if o["op"] in STAGGER_OPS and o["op"] != "keep_contacts"]
+    if "keep_contacts" in by:
+        p["keep_contacts"] = True
+    elif others:
+        p["keep_contacts"] = False
+    return p, notes

@@ -1,0 +1,180 @@
+"""The WandEditor's model and its pure ``params <-> ops`` functions (Dean et al. 2018: σ and repetitions, §3.3)."""
+from __future__ import annotations
+
+import copy
+
+import traitlets as T
+
+from ._base import _Model, _finite
+
+__all__ = ["WandModel", "WAND_OPS", "wand_params_to_ops", "wand_ops_to_params"]
+
+WAND_OPS = ("propagate", "edit_frame")
+"""Ops the WandEditor writes."""
+
+
+class WandModel(_Model):
+    """Parameters of the magic-wand editor (Dean et al. 2018): one or more edited frames, each a set of joint
+    rotations, propagated with the Green's-function falloff of width σ."""
+
+    sigma = T.Float(1.0, help="falloff width σ of the pose-space kernel (§3.3; > 0)").tag(op=True)
+    default_sigma = T.Float(0.0, help="the σ a propagate op without one uses (the clip's default σ, set by the "
+                                      "editor; 0 = unknown): undoing back to such an op shows it")
+    edits = T.Dict(help="{edited frame: {joint: [rx, ry, rz] degrees}}").tag(op=True)
+    propagate = T.Bool(True, help="propagate the edits (off: edit only the edited frames)").tag(op=True)
+    frame_range = T.List(T.Int(), help="[start, stop) frames the propagation may change ([] = all)").tag(op=True)
+    repetitions = T.Enum(["keep", "discard"], "keep",
+                         help="propagate to repetitions of the edited pose (keep) or not (discard), §3.3").tag(op=True)
+
+    input_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by "
+                                 "the binding; 0 = unknown)")
+    edit_frame = T.Int(0, help="the selected edited frame; changing it moves that frame's edit there (an edit "
+                               "already at the new frame is selected instead)")
+    joint = T.Unicode("", help="joint the rotation controls act on")
+    rx = T.Float(0.0, help="rotation of the joint at the edited frame, x (degrees)")
+    ry = T.Float(0.0, help="rotation, y (degrees)")
+    rz = T.Float(0.0, help="rotation, z (degrees)")
+    compare = T.List(T.Enum(["isomap", "diffusion", "spline"]), help="comparison falloffs drawn beside Green's")
+
+    @property
+    def edited_frames(self) -> list:
+        """The frames holding an edit, sorted."""
+        return sorted(self.edits)
+
+    @T.validate("sigma")
+    def _v_sigma(self, p):
+        v = _finite("sigma", p["value"])
+        if v <= 0:
+            raise T.TraitError(f"sigma: expected a number > 0, got {v}")
+        return v
+
+    @T.validate("edit_frame")
+    def _v_edit_frame(self, p):
+        if p["value"] < 0 or 0 < self.input_frames <= p["value"]:
+            top = f" and < {self.input_frames}" if self.input_frames else ""
+            raise T.TraitError(f"edit_frame: expected a frame index >= 0{top}, got {p['value']}")
+        return p["value"]
+
+    @T.validate("edits")
+    def _v_edits(self, p):
+        return self._edits_at("edits", p["value"], self.input_frames, "frames")
+
+    @T.validate("joint")
+    def _v_joint_name(self, p):
+        return p["value"] if p["value"] == "" else self._known_joint("joint", p["value"])
+
+    @T.validate("frame_range")
+    def _v_range(self, p):
+        v = p["value"]
+        if v and (len(v) != 2 or not 0 <= v[0] < v[1] or 0 < self.input_frames < v[1]):
+            top = f" <= {self.input_frames}" if self.input_frames else ""
+            raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop{top}, got {v}")
+        return v
+
+    @T.validate("rx", "ry", "rz")
+    def _v_finite(self, p):
+        return _finite(p["trait"].name, p["value"])
+
+    def _selected(self):
+        return self.edits.get(self.edit_frame, {}).get(self.joint, [0.0, 0.0, 0.0])
+
+    @T.observe("edit_frame")
+    def _move_edit(self, change):
+        """Changing the edited frame moves its edit there (onto a frame without one) and moves the playhead."""
+        old, new = change["old"], change["new"]
+        self._seek(new)
+        if not self._loading and old in self.edits and new not in self.edits:
+            edits = copy.deepcopy(self.edits)
+            edits[new] = edits.pop(old)
+            self.edits = edits
+        self._show_rotation(None)
+
+    @T.observe("joint", "edits")
+    def _show_rotation(self, change):
+        with self.hold_trait_notifications():
+            self.rx, self.ry, self.rz = self._selected()
+
+    @T.observe("rx", "ry", "rz")
+    def _rotate(self, change):
+        v = [self.rx, self.ry, self.rz]
+        if v == self._selected() or not self.joint:
+            return
+        edits = copy.deepcopy(self.edits)
+        d = edits.setdefault(self.edit_frame, {})
+        d[self.joint] = v
+        if not any(v):
+            del d[self.joint]
+        self.edits = edits
+
+    def add_edit(self, frame: int) -> None:
+        """Select ``frame`` as a new (empty) edited frame, keeping the others."""
+        edits = copy.deepcopy(self.edits)
+        edits.setdefault(int(frame), {})
+        with self.loading():
+            self.edits = edits
+            self.edit_frame = int(frame)
+
+    def remove_edit(self, frame: int) -> None:
+        edits = copy.deepcopy(self.edits)
+        edits.pop(int(frame), None)
+        self.edits = edits
+
+
+def wand_params_to_ops(p: dict) -> list:
+    """One ``propagate`` op over every edited frame with a non-zero edit (``frame``/``deltas`` for one,
+    ``frames``/``deltas`` lists for several, Dean et al. 2018 §3.3), or one ``edit_frame`` op per edited frame
+    when propagation is off."""
+    edits = []
+    for f in sorted(p["edits"]):
+        deltas = {j: [float(x) for x in v] for j, v in p["edits"][f].items() if any(v)}
+        if deltas:
+            edits.append((int(f), deltas))
+    if not edits:
+        return []
+    if not p["propagate"]:
+        return [{"op": "edit_frame", "frame": f, "deltas": d} for f, d in edits]
+    if len(edits) == 1:
+        op = {"op": "propagate", "frame": edits[0][0], "deltas": edits[0][1]}
+    else:
+        op = {"op": "propagate", "frames": [f for f, _ in edits], "deltas": [d for _, d in edits]}
+    op["sigma"] = float(p["sigma"])
+    if p["frame_range"]:
+        op["frame_range"] = [int(x) for x in p["frame_range"]]
+    if p["repetitions"] != "keep":
+        op["repetitions"] = p["repetitions"]
+    return [op]
+
+
+def _wand_edits(op: dict):
+    if op.get("frames") is not None:
+        return list(zip(op["frames"], op["deltas"]))
+    return [(op["frame"], op["deltas"])]
+
+
+def wand_ops_to_params(ops: list, base: dict, joint_names=(), default_sigma: float | None = None
+                       ) -> tuple[dict, list]:
+    """Inverse of :func:`wand_params_to_ops` on the session ``ops`` (see :func:`stagger_ops_to_params`).
+    A ``propagate`` op without ``sigma`` (the clip's default) reads as ``default_sigma`` when given."""
+    p = copy.deepcopy(base)
+    notes = []
+    known = set(joint_names)
+    mine = [o for o in ops if o["op"] in WAND_OPS]
+    edits: dict = {}
+    for o in mine:
+        for f, d in _wand_edits(o):
+            edits.setdefault(int(f), {}).update({j: [float(x) for x in v] for j, v in d.items()})
+            for j in d:
+                if known and j not in known:
+                    notes.append(f"{o['op']}.deltas: joint {j!r} is not in this skeleton; the op is kept unchanged")
+    p["edits"] = edits
+    if mine:
+        last = mine[-1]
+        p["propagate"] = last["op"] == "propagate"
+        if last["op"] == "propagate":
+            if last.get("sigma") is not None:
+                p["sigma"] = float(last["sigma"])
+            elif default_sigma:
+                p["sigma"] = float(default_sigma)
+            p["frame_range"] = list(last.get("frame_range") or [])
+            p["repetitions"] = last.get("repetitions", "keep")
+    return p, notes

@@ -1,0 +1,153 @@
+"""The WarpEditor's model and its pure ``params <-> ops`` functions (Hsu et al. 2007: duration, skip limit §4,
+keytimes §4.2, reference)."""
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import traitlets as T
+
+from ..runners import MAX_WARP_RATIO
+from ._base import _canon, _finite, _Model
+
+__all__ = ["WarpModel", "WARP_OPS", "warp_params_to_ops", "warp_ops_to_params"]
+
+WARP_OPS = ("guided_warp", "linear_warp")
+"""Ops the WarpEditor writes."""
+
+
+class WarpModel(_Model):
+    """Parameters of the guided time-warping editor (Hsu et al. 2007)."""
+
+    mode = T.Enum(["guided", "linear"], "guided", help="guided (DP, §4) or linear time warp").tag(op=True)
+    duration = T.Float(1.0, help="output duration (seconds; > 0)").tag(op=True)
+    free_length = T.Bool(False, help="let the warp choose its length (unconstrained end)").tag(op=True)
+    skip = T.Int(8, help="skip limit: input frames one output frame may advance (§4; >= 0)").tag(op=True)
+    reference = T.Unicode("self", help="'self', 'segment' or the name of a reference clip").tag(op=True)
+    segment = T.List(T.Float(), [0.0, 1.0], help="[start, stop] seconds of the source used as reference when "
+                                                  "reference = 'segment'").tag(op=True)
+    keytimes = T.List(T.List(T.Float()), help="[[input_s, output_s], ...] keytime constraints (§4.2)").tag(op=True)
+    backward = T.Bool(False, help="allow the warp to run backward in time").tag(op=True)
+
+    source_duration = T.Float(0.0, help="duration of the source (seconds; set by the binding)")
+    reference_options = T.List(T.Unicode(), ["self", "segment"], help="names the reference can take")
+
+    @T.validate("duration")
+    def _v_duration(self, p):
+        v = _finite("duration", p["value"])
+        if v <= 0:
+            raise T.TraitError(f"duration: expected seconds > 0, got {v}")
+        if self.source_duration > 0 and v > MAX_WARP_RATIO * self.source_duration:   # the runner's limit,
+            raise T.TraitError(f"duration: expected at most {MAX_WARP_RATIO} times the source's "   # said before
+                               f"{self.source_duration:g} s, got {v:g}")                         # an op is written
+        return v
+
+    @T.validate("skip")
+    def _v_skip(self, p):
+        if p["value"] < 0:
+            raise T.TraitError(f"skip: expected an integer >= 0, got {p['value']}")
+        return p["value"]
+
+    @T.validate("segment")
+    def _v_segment(self, p):
+        v = [_finite("segment", x) for x in p["value"]]
+        if len(v) != 2 or v[1] < v[0] or v[0] < 0 or 0 < self.source_duration < v[1]:
+            top = f" <= {self.source_duration:g}" if self.source_duration > 0 else ""
+            raise T.TraitError(f"segment: expected [start, stop] seconds with 0 <= start <= stop{top}, got {v}")
+        return v
+
+    @T.validate("keytimes")
+    def _v_keytimes(self, p):
+        out = []
+        for i, pair in enumerate(p["value"]):
+            if len(pair) != 2:
+                raise T.TraitError(f"keytimes[{i}]: expected [input_s, output_s], got {pair}")
+            out.append([_finite(f"keytimes[{i}]", x) for x in pair])
+            if min(out[-1]) < 0 or 0 < self.source_duration < out[-1][0]:
+                raise T.TraitError(f"keytimes[{i}]: expected input time in [0, {self.source_duration:g}] s and "
+                                   f"output time >= 0, got {pair}")
+            if i and not (out[-1][0] > out[-2][0] and out[-1][1] > out[-2][1]):
+                raise T.TraitError(f"keytimes[{i}]: input and output times must both increase, got {out[-2]} "
+                                   f"then {out[-1]}")
+        return out
+
+    @T.validate("reference")
+    def _v_reference(self, p):
+        if p["value"] not in self.reference_options:
+            raise T.TraitError(f"reference: expected one of {self.reference_options}, got {p['value']!r}")
+        return p["value"]
+
+
+def warp_params_to_ops(p: dict, references: dict | None = None, source_duration: float = 0.0) -> list:
+    """The warp op for ``p`` ([] for the identity: guided on itself at the source's duration, no keytimes).
+
+    ``references`` maps a reference name to its op JSON (``{"path": ...}``); "self" and "segment" are built in.
+    """
+    identity = (p["mode"] == "guided" and p["reference"] == "self" and not p["keytimes"] and not p["free_length"]
+                and not p["backward"] and abs(p["duration"] - source_duration) < 1e-9)
+    if identity:
+        return []
+    kt = [[float(a), float(b)] for a, b in p["keytimes"]] or None
+    if p["mode"] == "linear":
+        op = {"op": "linear_warp", "duration": float(p["duration"])}
+        if kt:
+            op["keytimes"] = kt
+        return [op]
+    r = p["reference"]
+    if r == "self":
+        ref: Any = "self"
+    elif r == "segment":
+        ref = {"segment": [float(x) for x in p["segment"]]}
+    else:
+        ref = copy.deepcopy((references or {}).get(r, {"path": r}))
+    op = {"op": "guided_warp", "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
+    if kt:
+        op["keytimes"] = kt
+    if p["free_length"]:   # the warp chooses its length: no duration, no keytimes (they need one)
+        op["free_length"] = True
+        del op["duration"]
+        op.pop("keytimes", None)
+    if p["backward"]:
+        op["backward"] = True
+    return [op]
+
+
+def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
+                       source_duration: float = 0.0) -> tuple[dict, list, dict]:
+    """Inverse of :func:`warp_params_to_ops` from the last warp op (no warp op: the identity warp, guided on
+    itself at ``source_duration``). Returns ``(params, notes, new_references)``: a path reference the editor did
+    not know is offered under its file name (``new_references``)."""
+    p = copy.deepcopy(base)
+    notes: list = []
+    new_refs: dict = {}
+    mine = [o for o in ops if o["op"] in WARP_OPS]
+    if not mine:
+        p.update(mode="guided", reference="self", duration=float(source_duration) or p["duration"], keytimes=[],
+                 free_length=False, backward=False)
+        return p, notes, new_refs
+    o = mine[-1]
+    p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
+    if o.get("duration") is not None:
+        p["duration"] = float(o["duration"])
+    p["keytimes"] = [[float(a), float(b)] for a, b in (o.get("keytimes") or [])]
+    if o["op"] == "guided_warp":
+        p["skip"] = int(o.get("skip", 8))
+        p["free_length"] = bool(o.get("free_length", False))
+        p["backward"] = bool(o.get("backward", False))
+        ref = o.get("reference", "self")
+        if ref == "self":
+            p["reference"] = "self"
+        elif isinstance(ref, dict) and "segment" in ref:
+            p["reference"], p["segment"] = "segment", [float(x) for x in ref["segment"]]
+        else:
+            refs = references or {}
+            name = next((n for n, j in refs.items() if _canon(j) == _canon(ref)), None)
+            if name is None:
+                path = ref.get("path", "") if isinstance(ref, dict) else str(ref)
+                name = path[len("<memory:"):-1] if path.startswith("<memory:") and path.endswith(">") else \
+                    path.replace("\\", "/").rsplit("/", 1)[-1] or "reference"
+                while name in ("self", "segment") or (name in refs and _canon(refs[name]) != _canon(ref)):
+                    name += "'"
+                new_refs[name] = copy.deepcopy(ref)
+            p["reference"] = name
+    return p, notes, new_refs

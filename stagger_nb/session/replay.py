@@ -1,0 +1,291 @@
+"""The replay of an op list: the state after each op prefix, computed once and found again by its digest.
+
+Each prefix of an op list is named by a digest chained from the previous one (``digest_i = H(digest_{i-1},
+op_i)``), so changing the last op (a slider move) replays only the tail and nothing is re-serialised per
+prefix. Every computed state goes to the session's one cache under its prefix digest, so any op list sharing
+that prefix (the session's own after an undo, or one warmed by :meth:`Session.warm
+<stagger_nb.session.Session.warm>`) finds it; the same op on the same state, reached by another prefix, is
+found by the state's content name and the op. :class:`Replay` also remembers, per step, the small things the
+views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`.
+
+The state flowing through the ops is a :class:`~stagger_nb.core.Motion` or a ``staggered.StaggeredMotion``;
+:func:`~.runners.convert` turns it into what the next op needs (Coleman et al. 2008, §3-§4).
+"""
+from __future__ import annotations
+
+import hashlib
+import threading
+from collections import OrderedDict
+from typing import Any, Callable
+
+from ..core.motion import Motion
+from .ops import Op
+from .runners import RUNNERS, Heads, Run, convert
+
+__all__ = ["Replay", "chain_keys"]
+
+
+class _Info:
+    """What the replay remembers of one step besides its state (small; kept for every op of recent
+    replays): the warp curve it computed (if a warp), its notes, whether its state is staggered, and the
+    timing-warning summary of that state (filled on demand)."""
+
+    __slots__ = ("warp", "notes", "staggered", "summary", "warnings")
+
+    def __init__(self, warp, notes, staggered: bool):
+        self.warp, self.notes, self.staggered = warp, tuple(notes), staggered
+        self.summary = self.warnings = None
+
+
+def _share(progress: Callable | None, done: int, total: int, a: float, b: float, label: str):
+    """``report(fraction)`` mapping an op's step onto ``progress(done + a + (b - a) * fraction, total, label)``
+    (None without ``progress``)."""
+    if progress is None:
+        return None
+    return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
+
+
+def _timing_summary(found) -> str:
+    """One plain sentence about the timing warnings ``found`` ('' when none), §5.2."""
+    from .. import staggered
+    summarize = getattr(staggered, "summarize_timing_warnings", None)
+    if summarize is not None:
+        return summarize(found)
+    return (f"{len(found)} timing warning(s): refined times cross a neighbouring pose; lower s, l or tau"
+            if found else "")
+
+
+def _chain(previous: str, op: Op) -> str:
+    return hashlib.blake2b(f"{previous}\n{op.key}".encode(), digest_size=16).hexdigest()
+
+
+def chain_keys(ops) -> list[str]:
+    """The chained digest of each prefix ``ops[:i + 1]`` of the typed ``ops``."""
+    keys, prev = [], "source"
+    for op in ops:
+        prev = _chain(prev, op)
+        keys.append(prev)
+    return keys
+
+
+class Replay:
+    """Replays typed op tuples on ``source`` with the cached ``heads`` (one per :class:`Session`).
+
+    The methods take the op tuple to replay (the session's current one); the last replay's final state and
+    the last staggered state asked for are held strongly, everything else lives in the bounded cache.
+    """
+
+    def __init__(self, heads: Heads, source: Motion):
+        self.heads = heads
+        self.source = source
+        self.lock = threading.RLock()
+        self._keys_of: tuple = ()       # the op tuple self._keys was computed for
+        self._keys: list[str] = []      # digest of each op prefix (ops[:i + 1])
+        self._info: OrderedDict = OrderedDict()   # prefix digest -> _Info, LRU (bounded in run)
+        self._held: dict[str, Any] = {}  # strong refs: the last replay's final and last staggered state
+        self.replayed = False            # whether the current op list was replayed to its end once
+
+    def prefix_keys(self, ops: tuple) -> list[str]:
+        """Digest of each op prefix, chained (O(1) per op; recomputed only from the first changed op)."""
+        if ops is not self._keys_of:
+            old_ops, old = self._keys_of, self._keys
+            same = 0
+            while same < min(len(ops), len(old_ops)) and ops[same] is old_ops[same]:
+                same += 1
+            keys = old[:same]
+            prev = keys[-1] if keys else "source"
+            for op in ops[same:]:
+                prev = _chain(prev, op)
+                keys.append(prev)
+            self._keys_of, self._keys = ops, keys
+        return self._keys
+
+    def _available(self, key: str):
+        """The state after the prefix ``key`` if held or cached, else None."""
+        hit = self._held.get(key)
+        return hit if hit is not None else self.heads.cache.peek("state", key)
+
+    def walk(self, ops: tuple, upto: int, keep_all: bool = False, progress: Callable | None = None):
+        """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them); the
+        final state is held."""
+        with self.lock:
+            keys = self.prefix_keys(ops)
+            out = self.run(ops, keys, upto, keep_all, progress)
+            if upto:
+                self._held = {keys[upto - 1]: out[-1] if keep_all else out}
+            if upto == len(ops):
+                self.replayed = True
+            return out
+
+    def run(self, ops: tuple, keys: list, upto: int, keep_all: bool = False, progress: Callable | None = None):
+        """The state after ``ops[:upto]`` (``keys``: their chained prefix digests), resuming from the latest
+        prefix whose state is held or cached and whose earlier steps are known. Linear in ``upto``: each state
+        is computed at most once; every computed state goes to the cache under its prefix digest."""
+        with self.lock:
+            info, cache = self._info, self.heads.cache
+            known = 0  # steps whose _Info is known, from the start
+            while known < upto and keys[known] in info:
+                known += 1
+            states = [None] * upto
+            r = 0
+            if keep_all:
+                for i in range(known):
+                    states[i] = self._available(keys[i])
+                r = next((i for i in range(known) if states[i] is None), known)
+            else:
+                for i in range(known, 0, -1):
+                    hit = self._available(keys[i - 1])
+                    if hit is not None:
+                        states[i - 1], r = hit, i
+                        break
+            todo = [i for i in range(r, upto) if states[i] is None]
+            total = len(todo)
+            state = self.source if r == 0 else states[r - 1]
+            origin = (lambda r=r, st=list(states[:r]): self._origin(ops, keys[:r], st))  # noqa: E731 (lazy)
+            done = 0
+            for i in range(r, upto):
+                if states[i] is not None:  # keep_all: a cached step past a missing one
+                    state = states[i]
+                    continue
+                op = ops[i]
+                if progress is not None:
+                    progress(done, total, op.name)
+                # the same op on the same state (another prefix reached it: two cull percents keeping the same
+                # poses, an undo to an equal edit) is the state computed then: found by the state's content
+                # name and the op, not recomputed
+                src = cache.token(state)
+                seen = cache.peek("step", src, op.key)
+                hit = None if seen is None or seen not in info else self._available(seen)
+                if hit is not None:
+                    if op.needs == "staggered" and isinstance(state, Motion):
+                        origin = state   # what convert() would have recorded
+                    state, step_info = hit, info[seen]
+                else:
+                    # an op extracting first reports the extraction as its first half, its own work as the rest
+                    split = 0.5 if op.needs == "staggered" and isinstance(state, Motion) else 0.0
+                    run = Run(self.heads, origin, _share(progress, done, total, 0.0, split, f"{op.name} (extract)"))
+                    try:
+                        state = convert(state, op.needs, run)
+                        run.progress = _share(progress, done, total, split, 1.0, op.name)
+                        state = RUNNERS[type(op)](state, op, run)
+                    except ValueError as e:
+                        raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
+                    except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
+                        raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
+                    origin = run.origin_or_lazy()
+                    step_info = _Info(run.warp, run.notes, not isinstance(state, Motion))
+                    cache.put("step", src, op.key, keys[i])
+                cache.name(state, keys[i])
+                cache.put("state", keys[i], None, state)
+                info[keys[i]] = step_info
+                if keep_all:
+                    states[i] = state  # otherwise only the bounded cache holds it (memory stays flat)
+                done += 1
+            if progress is not None and total:
+                progress(total, total, "done")
+            for k in keys[:upto]:  # recently used; the oldest infos go (bounded: a few replays' worth)
+                if k in info:
+                    info.move_to_end(k)
+            while len(info) > max(4096, 2 * len(keys)):
+                info.popitem(last=False)
+            return states if keep_all else (state if upto else self.source)
+
+    def _origin(self, ops, keys, states) -> Motion:
+        """The Motion the staggered state after ``keys`` (prefixes of ``ops``) was extracted from (the source
+        by default): the latest Motion state before the last run of staggered states."""
+        origin = self.source
+        for i in range(len(keys) - 1, -1, -1):
+            if not self._info[keys[i]].staggered:
+                if i == len(keys) - 1:
+                    return origin  # the state is a Motion: an extraction would start from it
+                st = states[i] if states[i] is not None else self.run(ops, keys, i + 1)
+                return st
+        return origin
+
+    def edited(self, ops: tuple, progress: Callable | None = None) -> Motion:
+        """The source with every op of ``ops`` applied, as a Motion (the last staggered state evaluated)."""
+        n = len(ops)
+        if not n:
+            return self.source
+        last = self.walk(ops, n, progress=progress)
+        if isinstance(last, Motion):
+            return last
+        try:
+            cache = self.heads.cache   # keyed by the state's content name: every prefix reaching it shares it
+            return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
+        except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
+            raise ValueError(f"ops[{n - 1}] ({ops[n - 1].name}): evaluating the result: {e}") from None
+
+    def into_cache(self, ops: tuple, report: Callable | None = None) -> None:
+        """Replay ``ops`` into the cache (each step under its op-prefix digest, and the evaluated result),
+        holding nothing. An op list that fails is skipped: the same failure is reported when a user's replay
+        reaches it."""
+        keys = chain_keys(ops)
+        progress = None if report is None else (lambda d, t, label: report(d / t if t else 1.0))
+        try:
+            last = self.run(ops, keys, len(ops), progress=progress)
+            if keys and not isinstance(last, Motion):
+                cache = self.heads.cache
+                cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
+        except (ValueError, ArithmeticError):
+            pass
+
+    def last_staggered_index(self, ops: tuple) -> int | None:
+        """Index of the last op of ``ops`` whose state is staggered (None when none is)."""
+        n = len(ops)
+        if n:
+            self.walk(ops, n)
+        keys = self._keys
+        return next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+
+    def staggered(self, ops: tuple, extraction: Callable, progress: Callable | None = None):
+        """The last staggered state of the replay of ``ops`` (``extraction()`` when none is staggered)."""
+        n = len(ops)
+        if n:
+            self.walk(ops, n, progress=progress)
+        j = self.last_staggered_index(ops)
+        if j is None:
+            return extraction()
+        st = self.walk(ops, j + 1)
+        self._held[self._keys[j]] = st
+        return st
+
+    def messages(self, ops: tuple) -> list[str]:
+        """The runners' notes and the timing summary of the last replay of ``ops`` ([] when the op list
+        changed since, or before the first replay)."""
+        if not self.replayed:
+            return []
+        with self.lock:
+            keys = self.prefix_keys(ops)
+            if any(k not in self._info for k in keys):
+                return []  # the op list changed since the last replay
+            out = [note for k in keys for note in self._info[k].notes]
+            summary, _ = self._warnings_of(ops, len(ops))
+            if summary:
+                out.append(summary)
+        return out
+
+    def timing_warnings(self, ops: tuple) -> tuple[str, tuple]:
+        """``(summary, warnings)`` of the last staggered state of the replay of ``ops``, once per state."""
+        n = len(ops)
+        if n:
+            self.walk(ops, n)
+        with self.lock:
+            return self._warnings_of(ops, n)
+
+    def _warnings_of(self, ops: tuple, n: int) -> tuple[str, tuple]:  # under the lock, ops[:n] replayed
+        keys = self.prefix_keys(ops)
+        j = next((i for i in range(n - 1, -1, -1) if self._info[keys[i]].staggered), None)
+        if j is None:
+            return "", ()
+        inf = self._info[keys[j]]
+        if inf.warnings is None:
+            from .. import staggered
+            found = tuple(staggered.timing_warnings(self.walk(ops, j + 1)))
+            inf.summary, inf.warnings = _timing_summary(found), found
+        return inf.summary, inf.warnings
+
+    def warp_curve(self, ops: tuple, i: int):
+        """The warp curve computed by op ``i`` of ``ops`` (None when it is not a warp)."""
+        self.walk(ops, len(ops))
+        return self._info[self._keys[i]].warp

@@ -1,0 +1,413 @@
+"""The edit session: a source motion plus an ordered list of ops, replayed into the edited motion.
+
+:class:`Session` holds the op list (:mod:`.history`: undo/redo, observers), the one cache of the expensive heads
+(:mod:`.runners`, :mod:`.cache`), the replay (:mod:`.replay`), the background warm-up (:mod:`.warm`) and the
+files (:mod:`.files`). Ops are validated on the way in (``add``/``set_ops``) and when a session file is loaded:
+an unknown op, an unknown or missing field or a wrongly typed value raises ``ValueError`` naming the field
+(e.g. ``ops[2].s``).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from concurrent.futures import Future
+from typing import Any, Callable
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import quat_to_rotvec
+from ..io._common import atomic_write_bytes, file_path, read_regular_file
+from ..io.bvh import write_bvh
+from .cache import Cache
+from .deprecated import REQUIRED
+from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, export_gltf,
+                    motion_from_json, motion_to_json, read_session_json, read_source, session_bytes)
+from .history import Flag, History
+from .ops import Op, _fail, _limit, check_extract_options, number, optional, text
+from .replay import Replay
+from .runners import Heads
+from .warm import Worker, warm_items
+
+__all__ = ["Session", "joint_rotation_degrees"]
+
+_percent = number(0.0, 100.0, open_lo=True)
+_sigma = optional(number(0.0, open_lo=True))
+
+
+def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
+    """Local rotation of ``joint`` (name or index) over time as a rotation vector, shape (F, 3), degrees."""
+    j = motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
+    return np.degrees(quat_to_rotvec(motion.local_quats[:, j]))
+
+
+class Session:
+    """A source motion plus an ordered list of ops; :meth:`edited` replays them.
+
+    Parameters
+    ----------
+    source : Motion
+        The unedited motion (never modified).
+    ops : list of op dicts (or :class:`~.ops.Op`), optional
+        Validated with :meth:`Op.from_json <stagger_nb.session.ops.Op.from_json>`.
+    source_path : str, optional
+        The file ``source`` was read from; saved sessions refer to it (with its SHA-256) instead of
+        embedding the motion, and :meth:`save` / :meth:`export_bvh` refuse to overwrite it.
+    extract_options : dict, optional
+        Keyword arguments for ``staggered.extract`` (checked: names, types, ranges; saved with the session).
+
+    Notes
+    -----
+    Each op list change (``add``, ``set_ops``, ``replace``, ``remove``, ``clear``) is one undo step.
+    Listeners registered with :meth:`observe` are called as ``listener(session)`` after every change.
+    """
+
+    REQUIRED = REQUIRED  # deprecated with register_op
+
+    def __init__(self, source: Motion, ops=None, source_path=None, extract_options=None):
+        if not isinstance(source, Motion):
+            raise ValueError(f"source: expected a Motion, got {type(source).__name__}")
+        self.source = source
+        self.source_path = None if source_path is None else os.path.abspath(file_path(source_path, "source_path"))
+        self.extract_options = check_extract_options(extract_options)
+        self._busy_listeners: list[Callable] = []
+        self._ctx = Heads(Cache(busy=self._busy), source, self.extract_options)
+        self._history = History(self._typed_list(ops or [], "ops"), owner=self)
+        self._replay = Replay(self._ctx, source)
+        self._worker = Worker()
+
+    @classmethod
+    def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
+        """Read ``path`` as the source motion (remembering the path)."""
+        motion, _ = read_source(file_path(path, "path"), "path")
+        return cls(motion, ops, source_path=path, **kwargs)
+
+    # -- ops ---------------------------------------------------------------------------------------
+    @staticmethod
+    def _typed(op, where: str) -> Op:
+        return op if isinstance(op, Op) else Op.from_json(op, where)
+
+    @classmethod
+    def _typed_list(cls, ops, where) -> tuple:
+        if not isinstance(ops, (list, tuple)):
+            _fail(where, "a list of op objects", ops)
+        _limit(ops, where)
+        return tuple(cls._typed(op, f"{where}[{i}]") for i, op in enumerate(ops))
+
+    @property
+    def ops(self) -> list:
+        """The current op list as JSON dicts (fresh copies: editing them does not edit the session)."""
+        return [op.to_json() for op in self._history.ops]
+
+    @property
+    def typed_ops(self) -> tuple:
+        """The current op list as typed, immutable :class:`~.ops.Op` objects."""
+        return self._history.ops
+
+    def __len__(self) -> int:
+        return len(self._history.ops)
+
+    def set_ops(self, ops) -> bool:
+        """Replace the whole op list (one undo step); returns False when nothing changed."""
+        return self._history.commit(self._typed_list(ops, "ops"))
+
+    def add(self, op) -> bool:
+        """Append one op."""
+        cur = self._history.ops
+        return self._history.commit(cur + (self._typed(op, f"ops[{len(cur)}]"),))
+
+    def _index(self, index: int) -> int:
+        n = len(self._history.ops)
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not -n <= index < n:
+            raise ValueError(f"index: {index!r} is outside the {n} ops")
+        return int(index) % n
+
+    def replace(self, index: int, op) -> bool:
+        """Replace op ``index`` (negative indices count from the end)."""
+        i = self._index(index)
+        new = list(self._history.ops)
+        new[i] = self._typed(op, f"ops[{i}]")
+        return self._history.commit(new)
+
+    def remove(self, index: int) -> bool:
+        i = self._index(index)
+        new = list(self._history.ops)
+        del new[i]
+        return self._history.commit(new)
+
+    def clear(self) -> bool:
+        return self._history.commit(())
+
+    @property
+    def can_undo(self) -> Flag:
+        """Whether :meth:`undo` would change something (a bool that may also be called: ``can_undo()``)."""
+        return Flag(self._history.can_undo)
+
+    @property
+    def can_redo(self) -> Flag:
+        return Flag(self._history.can_redo)
+
+    def undo(self) -> bool:
+        """Go back one change; returns False when there is nothing to undo."""
+        return self._history.undo()
+
+    def redo(self) -> bool:
+        return self._history.redo()
+
+    def observe(self, listener: Callable) -> None:
+        """Call ``listener(session)`` after every change of the op list (undo and redo included)."""
+        self._history.observe(listener)
+
+    def unobserve(self, listener: Callable) -> None:
+        self._history.unobserve(listener)
+
+    def observe_busy(self, listener: Callable) -> None:
+        """Call ``listener(kind, started)`` around expensive cached computations (``"extract"``, ``"cull"``,
+        ``"graph"``, ``"basis"``, ``"warp"``, ``"reference"``), e.g. to show a progress bar. Called from the
+        computing thread (the :meth:`warm` worker included)."""
+        self._busy_listeners.append(listener)
+
+    def _busy(self, kind: str, started: bool) -> None:
+        for f in list(self._busy_listeners):
+            f(kind, started)
+
+    # -- replay (session/replay.py) ---------------------------------------------------------------------
+    def states(self, progress: Callable | None = None) -> list:
+        """The state after each op (``len(ops)`` items; Motion or StaggeredMotion).
+
+        ``progress(done, total, label)`` is called before each op that is actually computed.
+        """
+        with self._worker.foreground():   # the warm-up gives way (session/warm.py)
+            ops = self._history.ops
+            return self._replay.walk(ops, len(ops), keep_all=True, progress=progress)
+
+    def edited(self, progress: Callable | None = None) -> Motion:
+        """The source motion with every op applied (a Motion; staggered states are evaluated).
+
+        ``progress(done, total, label)`` is called before each op actually computed, with a fractional
+        ``done`` while the op's long step reports (the staggered extraction, a cull refit, guided warping's
+        tables and solve), and with ``"done"`` at the end; :func:`progress_bar` makes a tqdm bar of it."""
+        if not self._history.ops:
+            return self.source
+        with self._worker.foreground():   # the warm-up gives way (session/warm.py)
+            return self._replay.edited(self._history.ops, progress)
+
+    def staggered(self, progress: Callable | None = None):
+        """The last staggered representation of the replay (after the last staggered op), or the
+        extraction of the source when no op is staggered."""
+        return self._replay.staggered(self._history.ops, self.extraction, progress)
+
+    def extraction(self):
+        """The (cached) staggered extraction of the source motion."""
+        return self._ctx.extract(self.source)
+
+    def messages(self) -> list[str]:
+        """Plain notes from the last replay, for the user: what a runner reported (an unreachable IK target,
+        …) and the summarised timing warnings of the last staggered state (``staggered.timing_warnings``).
+        Empty before the first replay."""
+        return self._replay.messages(self._history.ops)
+
+    def timing_warnings(self) -> tuple[str, tuple]:
+        """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
+        of :meth:`messages` ('' when none) and ``staggered.timing_warnings`` of that state (a tuple of
+        ``TimingWarning``). Both are computed once per state (keyed by the digest of the op prefix that made
+        it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
+        when no op is staggered."""
+        return self._replay.timing_warnings(self._history.ops)
+
+    def warp_curve(self, index: int = -1):
+        """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
+        (None when that op is not a warp)."""
+        return self._replay.warp_curve(self._history.ops, self._index(index))
+
+    # -- cached heads --------------------------------------------------------------------------------
+    def precompute_cull(self, percents, stop: Callable | None = None) -> int:
+        """Compute and cache ``cull`` of the source's extraction for each of ``percents`` in this thread;
+        stops early when ``stop()`` is true. Returns how many were computed or already cached.
+        (Prefer :meth:`warm`, which runs on the session's executor.)"""
+        n = 0
+        sm = self.extraction()
+        for pc in percents:
+            if stop is not None and stop():
+                break
+            self._ctx.cull(sm, _percent(pc, "percents[]"))
+            n += 1
+        return n
+
+    def precompute_wand_bases(self, sigmas, stop: Callable | None = None, motion: Motion | None = None) -> int:
+        """Compute and cache the magic-wand eigenbasis for each of ``sigmas`` in this thread; stops early when
+        ``stop()`` is true. Returns how many. (Prefer :meth:`warm`.)"""
+        n = 0
+        for sg in sigmas:
+            if stop is not None and stop():
+                break
+            self.wand_basis(_sigma(sg, "sigmas[]"), motion)
+            n += 1
+        return n
+
+    def use_reference(self, path: str, motion: Motion) -> dict:
+        """Resolve the op reference ``{"path": path}`` to ``motion`` in this session (e.g. an in-memory clip
+        under a name like ``"<memory:name>"``) instead of reading the file; returns that reference.
+        A saved session keeps only the path: a new process reads the file."""
+        if not isinstance(motion, Motion):
+            raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
+        self._ctx.memory_references[text(path, "path")] = motion
+        return {"path": path}
+
+    def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
+        """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
+        return self._ctx.wand_basis(self.source if motion is None else motion, sigma)
+
+    def wand_graph(self, motion: Motion | None = None):
+        """The (cached) sigma-independent pose graph of ``motion`` (default: the source)."""
+        return self._ctx.wand_graph(self.source if motion is None else motion)
+
+    def falloff_curves(self, frame: int, sigma: float | None = None, frame_range=None, compare=(),
+                       spline_extent: float | None = None, motion: Motion | None = None) -> dict:
+        """Falloff weights around ``frame`` (1 there, 0 far away), each (F,), for the views.
+
+        ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
+        basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
+        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6).
+        """
+        from .. import wand
+        m = self.source if motion is None else motion
+        fr = None if frame_range is None else tuple(frame_range)
+        f = int(frame)
+        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), f, fr)}
+        sg = None if sigma is None else float(sigma)
+        for name in compare:
+            if name == "isomap":
+                make = lambda: 1.0 - wand.normalize_distance(wand.isomap_distance(m, f), fr)  # noqa: E731
+            elif name == "diffusion":
+                make = lambda: 1.0 - wand.normalize_distance(wand.diffusion_distance(m, f, sigma=sg), fr)  # noqa: E731
+            elif name == "spline":
+                extent = spline_extent or max(2.0, m.num_frames / 10)
+                make = lambda: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
+            else:
+                raise ValueError(f"compare: unknown curve {name!r}; use 'isomap', 'diffusion', 'spline'")
+            key = (name, f, sg, fr, spline_extent if name == "spline" else None)
+            out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
+        return out
+
+    # -- background cache fills --------------------------------------------------------------------
+    def warm(self, *jobs, progress: Callable | None = None) -> Future:
+        """Fill the caches in the background, on the session's own executor (one worker thread).
+
+        Each job is one of
+
+        - ``"extract"``: the staggered extraction of the source;
+        - ``("cull", percents)``: ``cull`` of that extraction for each percent (a slider's positions);
+        - ``("wand_basis", sigmas)``: the magic wand's pose graph of the source, then its basis per sigma
+          (``None`` = the default sigma);
+        - ``("warp_tables", warps)``: guided warping's kNN tables of the source for each warp, a
+          ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
+          backward and upsample choose the table; a table also serves every smaller skip (sliced), so an
+          editor warms its skip slider's largest value only.
+        - ``("replay", op_lists)``: the replay of each op list (a list of op dicts, checked like
+          :meth:`set_ops`) into the cache, step by step under the digest of each op prefix, without changing
+          this session's op list or history: a later ``set_ops`` to one of them (a slider's next positions)
+          replays nothing. Lists share their common prefixes' states. Bounded by the cache (count and bytes).
+
+        Jobs are checked now (ValueError naming ``jobs[i]``); they run in order, one item at a time.
+        ``progress(done, total, label)`` is called from the worker before each item, with a fractional
+        ``done`` while an extraction, cull refit or warp table reports how far it is, and once at the end
+        (e.g. ``progress=progress_bar("warm")``, a tqdm bar).
+
+        Returns a :class:`concurrent.futures.Future` whose result is the number of items computed (or found
+        cached). ``future.cancel()`` stops the work before its next item (the item running finishes and is
+        cached) and makes the future cancelled; ``running()`` stays False until it is done. The worker is a
+        daemon thread: an interpreter exit does not wait for it. Everything warmed is also computed on
+        demand: warming only moves the wait.
+        """
+        return self._worker.submit(warm_items(self, jobs), progress)
+
+    def close(self, wait: bool = False) -> None:
+        """Cancel pending warm-ups (each stops before its next item); with ``wait``, also wait until the
+        item running now has finished (the worker is then idle: e.g. before timing something else in this
+        process, whose CPU time would otherwise include it)."""
+        self._worker.cancel_all()
+        if wait:
+            self._worker.submit([]).result()   # runs after the cancelled lists have stopped
+
+    # -- files -------------------------------------------------------------------------------------
+    def to_json(self, embed_source: bool | None = None) -> dict:
+        """The session as a JSON-ready dict. The source is referenced by path (+ SHA-256) when the
+        session has one, otherwise embedded (``embed_source=True`` forces embedding)."""
+        if embed_source is None:
+            embed_source = self.source_path is None
+        if embed_source:
+            source = {"motion": motion_to_json(self.source)}
+        else:
+            if self.source_path is None:
+                raise ValueError("embed_source: False needs a session with a source_path")
+            raw = read_regular_file(self.source_path, what="source file")
+            source = {"path": self.source_path, "sha256": hashlib.sha256(raw).hexdigest()}
+        return {"format": SESSION_FORMAT, "version": SESSION_VERSION, "source": source,
+                "extract_options": json.loads(json.dumps(self.extract_options)), "ops": self.ops}
+
+    def save(self, path, embed_source: bool | None = None) -> None:
+        """Write the session as JSON, atomically (temporary file + rename). Refuses to replace the source
+        clip or any existing file that is not a session file."""
+        path = file_path(path, "path")
+        check_save_target(path, self.source_path)
+        atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
+
+    @classmethod
+    def from_json(cls, data: Any, source: Motion | None = None) -> "Session":
+        """Validate ``data`` (a parsed session file) and build the session. ``source`` overrides the
+        stored source (for a moved file)."""
+        if not isinstance(data, dict):
+            _fail("session", "a JSON object", data)
+        for k in data:
+            if k not in ("format", "version", "source", "extract_options", "ops"):
+                raise ValueError(f"{k}: unknown field in a session file")
+        if data.get("format") != SESSION_FORMAT:
+            _fail("format", repr(SESSION_FORMAT), data.get("format"))
+        if type(data.get("version")) is not int or data.get("version") != SESSION_VERSION:  # true == 1
+            _fail("version", str(SESSION_VERSION), data.get("version"))
+        opts = check_extract_options(data.get("extract_options", {}))
+        ops = cls._typed_list(data.get("ops"), "ops")
+        src = data.get("source")
+        path = None
+        if source is None:
+            if not isinstance(src, dict):
+                _fail("source", '{"path": ..., "sha256": ...} or {"motion": {...}}', src)
+            if "path" in src and "motion" in src:
+                raise ValueError("source: give either path or motion, not both")
+            if "path" in src:
+                path = text(src["path"], "source.path")
+                source, digest = read_source(path, "source.path")
+                want = src.get("sha256")
+                if want is not None and text(want, "source.sha256") != digest:
+                    raise ValueError(f"source.sha256: {path} changed since the session was saved")
+            elif "motion" in src:
+                source = motion_from_json(src["motion"], "source.motion")
+            else:
+                _fail("source", '{"path": ...} or {"motion": {...}}', src)
+        elif isinstance(src, dict) and "path" in src:
+            path = src["path"] if isinstance(src["path"], str) else None
+        return cls(source, ops, source_path=path, extract_options=opts)
+
+    @classmethod
+    def load(cls, path, source: Motion | None = None) -> "Session":
+        """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
+        return cls.from_json(read_session_json(path), source=source)
+
+    def export_bvh(self, path) -> None:
+        """Write the edited motion as BVH, atomically; refuses to overwrite the source file."""
+        path = file_path(path, "path")
+        check_export_target(path, self.source_path)
+        write_bvh(self.edited(), path)
+
+    def export_gltf(self, path, units="auto") -> None:
+        """Write the edited motion as glTF 2.0 (``.glb`` or ``.gltf``: a skinned skeleton and one animation,
+        metres; :func:`stagger_nb.io.gltf.write_gltf`), atomically; refuses to overwrite the source file."""
+        export_gltf(self.edited(), path, self.source_path, units)
+
+    def __repr__(self) -> str:
+        src = os.path.basename(self.source_path) if self.source_path else repr(self.source)
+        names = [o.name for o in self._history.ops]
+        shown = ", ".join(names[:12]) + (f", … ({len(names) - 12} more)" if len(names) > 12 else "")
+        return f"Session({src}, {len(names)} ops: {shown or '-'})"

@@ -1,0 +1,347 @@
+"""What the three editors share: the message line, progress bar, undo/redo, the model <-> session binding, the
+one playhead, the warm-up futures and ``close``.
+
+State lives in one place, the editor's model (:mod:`stagger_nb.session.models`): controls are attached with
+``link``, the :class:`~stagger_nb.session.models.ModelBinding` writes the model into the session's op list (keeping
+every op the editor does not own, in place) and sets the model back from it on undo/redo/load. Views observe the
+model (``model.frame`` is the one playhead: the 3D view, every plot and the selected pose / edited frame follow it)
+and the session (a new op list redraws them in place). No math and no threads here: heavy heads are warmed by
+``Session.warm``.
+"""
+from __future__ import annotations
+
+import html
+
+import ipywidgets as widgets
+import numpy as np
+
+from ..core.motion import Motion
+from ..session import Session, joint_rotation_degrees
+from ..session.models import ModelBinding
+from .plots import PlotView
+from .skeleton_view import SkeletonView
+
+__all__ = ["_Editor"]
+
+_STYLE = {"description_width": "120px"}
+_WIDE = widgets.Layout(width="340px")
+
+
+def _session_for(motion, session: Session | None, source_path=None) -> Session:
+    if session is not None:
+        return session
+    if isinstance(motion, Session):
+        return motion
+    if not isinstance(motion, Motion):
+        raise ValueError(f"motion: expected a Motion or a Session, got {type(motion).__name__}")
+    return Session(motion, source_path=source_path)
+
+
+def _x_span(edited: Motion) -> tuple:
+    """The x range (seconds) of every time plot of an editor: the edited motion's span, the frames the
+    playhead walks; one range for all plots, so their playheads line up down the column."""
+    return (0.0, max(float(edited.times[-1]), float(edited.frame_time)))
+
+
+def _default_joint(names, *preferred) -> str:
+    for p in preferred:
+        for n in names:
+            if n.lower() == p.lower():
+                return n
+    return names[min(len(names) - 1, 1)]
+
+
+def _slider(cls, description, **kw):
+    return cls(description=description, continuous_update=True, style=_STYLE, layout=widgets.Layout(width="340px"),
+               **kw)
+
+
+def _grow_range(model, name, control, log=False):
+    """Let ``control``'s range grow to show whatever value the model holds (a session's skip = 100 is shown as
+    100, never clamped and written back). Registered before the link, so it runs first."""
+    def grow(change=None):
+        v = getattr(model, name)
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            return
+        x = float(np.log10(v)) if log else v
+        if x > control.max:
+            control.max = x
+        if x < control.min:
+            control.min = x
+    grow()
+    model.observe(grow, names=name)
+
+
+def _link(model, name, control, log=False):
+    if hasattr(control, "max") and hasattr(control, "min") and not isinstance(control, widgets.IntRangeSlider):
+        _grow_range(model, name, control, log=log)
+    return widgets.link((model, name), (control, "value"))
+
+
+def _on_kernel_thread(fn, *args) -> None:
+    """Run ``fn(*args)`` on the kernel's own thread (the IOLoop, where widget messages and user edits run) when
+    called from the session's warm-up worker; directly outside a kernel (scripts, tests)."""
+    try:
+        from IPython import get_ipython
+        loop = getattr(getattr(get_ipython(), "kernel", None), "io_loop", None)
+    except ImportError:
+        loop = None
+    if loop is None:
+        fn(*args)
+    else:
+        loop.add_callback(fn, *args)
+
+
+def _share_layouts_and_styles(root: widgets.Widget, keep=()) -> int:
+    """Let the widgets under ``root`` with equal ``layout`` (or equal ``style``) share one model, closing the
+    duplicates (ipywidgets lets controls share a Layout or style instance): fewer models for JupyterLab to send
+    and restore on a page reload. The 3D view and the plots (their own models), the widgets in ``keep`` (whose
+    layout is changed later) and the module's ``_WIDE`` are left alone. Call it before the editor is displayed.
+    Returns the number of models closed."""
+    canon, stack, done, closed = {}, [root], set(), 0
+    skip = {id(w) for w in keep}
+    while stack:
+        w = stack.pop()
+        if id(w) in done or id(w) in skip or isinstance(w, (SkeletonView, PlotView)):
+            continue
+        done.add(id(w))
+        stack.extend(getattr(w, "children", ()) or ())
+        for name in ("layout", "style"):
+            sub = getattr(w, name, None) if w.has_trait(name) else None
+            if not isinstance(sub, widgets.Widget):
+                continue
+            key = (type(sub), tuple(sorted((k, repr(v)) for k, v in sub.get_state().items())))
+            first = canon.setdefault(key, sub)
+            if first is not sub:
+                setattr(w, name, first)
+                if sub is not _WIDE:
+                    sub.close()
+                    closed += 1
+    return closed
+
+
+def _inert(control, inert: bool, why: str, tip: str = "") -> None:
+    """Disable ``control`` with a tooltip saying why (or enable it with its normal tooltip)."""
+    control.disabled = bool(inert)
+    control.tooltip = why if inert else tip
+
+
+class _Editor(widgets.VBox):
+    """Common plumbing: message line, progress bar, undo/redo, model <-> session binding, the shared playhead."""
+
+    _css = ""
+    _ALIASES: dict = {}   # former attribute names of controls (deprecated): name -> key in self.controls
+
+    def __getattr__(self, name):
+        """Deprecated aliases: ``editor.s`` etc. are the controls ``editor.controls["s"]`` (set the model instead:
+        ``editor.model.s = 0.03``)."""
+        controls = self.__dict__.get("controls")
+        if controls is not None and not name.startswith("_"):
+            key = self._ALIASES.get(name, name)
+            if isinstance(key, tuple):
+                return [controls[k] for k in key]
+            if key in controls:
+                return controls[key]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls: list,
+               references: dict | None = None):
+        self.model = model
+        self.session = session
+        self.view = view
+        self.plots = plots
+        self.error = ""
+        self.message = widgets.HTML("", layout=widgets.Layout(min_height="20px"))
+        self.progress = widgets.IntProgress(value=0, min=0, max=1, description="computing",
+                                            layout=widgets.Layout(visibility="hidden", width="300px"))
+        self.undo_button = widgets.Button(description="undo", icon="undo", layout=widgets.Layout(width="90px"))
+        self.redo_button = widgets.Button(description="redo", icon="repeat", layout=widgets.Layout(width="90px"))
+        self.undo_button.on_click(lambda _: self.session.undo())
+        self.redo_button.on_click(lambda _: self.session.redo())
+        self.binding = ModelBinding(model, session, references=references)
+        # the shared playhead: model.frame <-> the 3D view (its Play and slider follow the view)
+        self.frame_slider = getattr(view, "frame_slider", None) or view.slider
+        self.player = getattr(view, "player", None) or view.play
+        self.frame_slider.add_class("sn-frame")
+        self._links = [widgets.link((model, "frame"), (view, "frame"))]
+        for p in plots:
+            self._links.append(widgets.dlink((model, "frame"), (p, "frame")))
+            p.observe(self._plot_seeks, names="frame")   # a click on a plot seeks
+            if hasattr(view, "link_frame"):
+                view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
+        if model.has_trait("joint") and view.has_trait("selected_joint"):
+            view.observe(self._on_picked, names="selected_joint")
+        model.observe(self._show_message, names="message")
+        session.observe(self._on_session)
+        if hasattr(session, "observe_busy"):
+            session.observe_busy(self._on_busy)
+        for row in controls:   # a row that does not fit wraps (shrunk sliders lose their track at 1280 px)
+            if isinstance(row, widgets.HBox):
+                row.layout.flex_flow = "row wrap"
+        top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
+        # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
+        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
+                                                                           max_width="100%"))],
+                            layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
+        self.children = [top, widgets.VBox(controls), self.message, body]
+        self.shared_models_closed = _share_layouts_and_styles(self, keep=(self.progress,))
+        self.add_class(self._css)
+        self._update_buttons()
+        self._refresh()
+
+    def _plot_seeks(self, change) -> None:
+        """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink: the Play's
+        own message then moves it, and the Play, the slider and the kernel agree on one frame."""
+        if not change["owner"].frame_from_browser:
+            self.model.frame = change["new"]
+
+    def _on_picked(self, change) -> None:
+        """Clicking a joint in the 3D view selects it in the editor."""
+        if change["new"] and change["new"] in self.model.joint_names:
+            self.model.joint = change["new"]
+
+    def _show_motion(self, edited: Motion, pose_frames=None, contacts=None) -> None:
+        """Send the edited motion to the 3D view once per edit (not again for a view-only change); the pose
+        frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
+        pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
+        ct = None if contacts is None else tuple(tuple(c) for c in contacts)
+        last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
+        pf_new = pf if pf is not None and pf != last[0] else None
+        ct_new = ct if ct is not None and ct != last[1] else None
+        self.model.num_frames = edited.num_frames   # the playhead's range (a longer frame is refused)
+        if self.view.motion is edited and pf_new is None and ct_new is None:
+            return
+        self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
+        if self.view.motion is edited:   # only the highlights changed
+            if pf_new is not None:
+                self.view.set_pose_frames(pf_new)
+            if ct_new is not None:
+                self.view.set_contacts(ct_new)
+            return
+        self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
+
+    def _source_degrees(self, j: int) -> np.ndarray:
+        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""
+        src, cache = self.__dict__.get("_source_deg", (None, None))
+        if src is not self.session.source:
+            cache = {}
+            self._source_deg = (self.session.source, cache)
+        if j not in cache:
+            cache[j] = joint_rotation_degrees(self.session.source, j)
+        return cache[j]
+
+    def seek(self, frame: int) -> None:
+        """Move the playhead (what a click on a plot does)."""
+        self.model.frame = max(0, int(frame))
+
+    def figures(self) -> list:
+        """The plots' current figures as plotly JSON dicts (for ``export_html``)."""
+        return [p.figure for p in self.plots]
+
+    # -- session -> views ---------------------------------------------------------------------------
+    def _on_session(self, session) -> None:
+        self._update_buttons()
+        self._refresh()
+
+    def _update_buttons(self):
+        self.undo_button.disabled = not self.session.can_undo
+        self.redo_button.disabled = not self.session.can_redo
+
+    def _on_busy(self, kind: str, started: bool) -> None:
+        labels = {"extract": "extracting poses", "graph": "pose graph", "basis": "eigenvectors",
+                  "warp": "kNN tables", "cull": "culling poses"}
+        if started:
+            self.progress.description = labels.get(kind, kind)
+            self.progress.value = 0
+            self.progress.layout.visibility = "visible"
+        else:
+            self.progress.value = self.progress.max
+            self.progress.layout.visibility = "hidden"
+
+    def _on_progress(self, done, total, label) -> None:
+        if total > 1:
+            self.progress.max = total
+            self.progress.value = done
+
+    def _refresh(self) -> None:
+        """Replay (memoised) and redraw the views; an error is shown, never raised into the front end, and
+        cleared when its cause is gone."""
+        try:
+            edited = self.session.edited(progress=self._on_progress)
+            self._update_views(edited)
+            self.error = ""
+        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+            self.error = f"{type(e).__name__}: {e}"
+        self._show_message()
+
+    def _redraw(self, draw) -> None:
+        """``draw(session.edited())`` for a view-only change (no new ops): an error is shown, as in
+        :meth:`_refresh`, never raised into the front end."""
+        try:
+            draw(self.session.edited())
+        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+            self.error = f"{type(e).__name__}: {e}"
+            self._show_message()
+
+    def _notes(self) -> list:
+        """Plain notes of the last replay (``Session.messages`` when the session has it)."""
+        get = getattr(self.session, "messages", None)
+        return list(get()) if callable(get) else []
+
+    def _warnings_html(self) -> str:
+        return ""
+
+    def _show_message(self, change=None) -> None:
+        parts = []
+        for text, colour in ((self.error, "#c53030"), (self.model.message, "#c53030")):
+            if text:
+                parts.append(f'<div style="color:{colour}">&#9888; {html.escape(text)}</div>')
+        for text in self._notes():
+            parts.append(f'<div style="color:#b7791f">{html.escape(text)}</div>')
+        w = self._warnings_html()
+        if w:
+            parts.append(w)
+        self.message.value = "".join(parts)
+
+    def _update_views(self, edited: Motion) -> None:
+        raise NotImplementedError
+
+    def _warm(self, *jobs, then=None):
+        """Fill the session's caches after first paint (``Session.warm``: a cancellable future on the session's
+        executor, never a thread of ours); ``then()`` runs when it is done (e.g. draw what needed it). The
+        progress bar shows meanwhile. Returns the future (also ``editor.warm_future``), None without warm."""
+        warm = getattr(self.session, "warm", None)
+        if warm is None:
+            return None
+        self.progress.layout.visibility = "visible"
+        fut = warm(*jobs, progress=self._on_progress)
+        self.warm_future = fut
+        self.__dict__.setdefault("_warm_futures", []).append(fut)   # every one: close() cancels them all
+
+        def done(f):
+            if f is self.warm_future:
+                self.progress.layout.visibility = "hidden"
+            if not f.cancelled() and f.exception() is None and then is not None:
+                then()
+        fut.add_done_callback(lambda f: _on_kernel_thread(done, f))
+        return fut
+
+    def _futures(self):
+        """Every warm-up future this editor submitted (in order)."""
+        return list(self.__dict__.get("_warm_futures", ()))
+
+    def close(self):
+        """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
+        the layout boxes), so none stays registered with ipywidgets after the editor is gone."""
+        for fut in self._futures():
+            fut.cancel()
+        owned = [*getattr(self, "controls", {}).values(), getattr(self, "view", None), *getattr(self, "plots", [])]
+        stack = list(self.children)
+        while stack:
+            w = stack.pop()
+            stack.extend(getattr(w, "children", ()) or ())
+            owned.append(w)
+        for w in owned:
+            if isinstance(w, widgets.Widget):
+                w.close()
+        super().close()
