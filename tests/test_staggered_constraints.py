@@ -6,8 +6,8 @@ import pytest
 
 from stagger_nb import Motion, Skeleton, forward_kinematics
 from stagger_nb.core.rotations import quat_angle, quat_normalize, rotvec_to_quat
-from stagger_nb.staggered.contact_layer import (apply_contact_constraints, attenuation_weights, contact_errors,
-                                                contact_positions, foot_skate)
+from stagger_nb.staggered.plants import (apply_contact_constraints, attenuation_weights, contact_errors,
+                                         contact_positions, foot_skate)
 from stagger_nb.staggered.ik import two_bone_ik
 
 

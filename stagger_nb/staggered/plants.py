@@ -39,6 +39,7 @@ tolerance relative to a bone or the body (the layer is invariant to a uniform sc
 from __future__ import annotations
 
 import re
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,109 +47,25 @@ from scipy.ndimage import maximum_filter1d
 
 from ..core.kinematics import _fk_component_major, skeleton_height
 from ..core.motion import Motion
-from ..core.rotations import (quat_angle, quat_between_vectors, quat_conj, quat_mul, quat_rotate, rotvec_to_quat,
-                              slerp)
+from ..core.rotations import (quat_angle, quat_between_vectors, quat_conj, quat_mul, quat_rotate, quat_to_rotvec,
+                              rotvec_to_quat, slerp)
 from .contacts import chain_subset
+from .limbs import Limb, _fk_joints, find_limb
 
-__all__ = ["Limb", "find_limb", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts"]
+__all__ = ["Limb", "find_limb", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts",
+           "apply_contact_constraints", "contact_positions", "contact_errors", "foot_skate", "attenuation_weights"]
 
-_FOOT = re.compile(r"foot|toe|ankle|heel", re.I)
-_FOOT_ROOT = re.compile(r"foot|ankle", re.I)
-_HAND = re.compile(r"hand|wrist", re.I)
-_INLINE = re.compile(r"twist|roll|share", re.I)     # helper bones along a limb (CC_Base_*Twist*, *ShareBone)
 
 REACH = 0.98          # share of a leg's length a held leg may use (unless the edited pose already uses more)
-_MIN_BONE = 0.02      # a limb bone shorter than this share of the body is not a limb bone
 _MAX_DROP = 0.028     # the root is lowered by at most this share of a leg (~2.5 cm of a 170 cm body)
 # plant shifts tried along the hip's travel, in leg lengths: within a quarter leg of where the edit puts the foot
 _SHIFT_STEPS = np.linspace(-0.25, 0.25, 21)
 _SEGMENT = np.linspace(0.0, 1.0, 21)     # from where the edit puts the foot to the centre of the hip's path
 _ID = np.array([0.0, 0.0, 0.0, 1.0])
+_COVER = 0.1          # seconds: plants also cover the source's own contact frames, less this at each end
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 _TOL = 1e-6          # lengths below this share of a leg are rounding (no need to lower the root, no shift)
-
-
-# -- limbs ------------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Limb:
-    """A two-bone limb holding a contact.
-
-    Attributes
-    ----------
-    upper, mid, eff : int
-        Hip (shoulder), knee (elbow), ankle (wrist) joints: the IK turns ``upper`` and ``mid``; ``eff`` takes
-        the plant's world orientation.
-    foot : tuple of int
-        Every joint below ``eff`` (toes, heel, their children): they take the source's local rotations.
-    leg : bool
-        A leg (its effector or a joint below it is named like a foot): its knee bends to keep the foot where
-        the edit put it where the root is lowered and the foot is in the air.
-    """
-
-    upper: int
-    mid: int
-    eff: int
-    foot: tuple = field(default=())
-    leg: bool = True
-
-
-def _rest(skeleton) -> np.ndarray:
-    rest = np.zeros((skeleton.num_joints, 3))
-    for j in range(1, skeleton.num_joints):
-        rest[j] = rest[skeleton.parents[j]] + skeleton.offsets[j]
-    return rest
-
-
-def find_limb(skeleton, joint) -> Limb | None:
-    """The limb that holds a contact on ``joint`` (name or index), or None when there is none.
-
-    A joint named like a foot part (foot/toe/ankle/heel) belongs to the foot whose top is the highest joint of
-    its run of foot-named ancestors named foot or ankle (a run named only toe/heel: its parent); a hand part
-    (hand/wrist) likewise; any other joint is its own effector. Zero-length bones are skipped (the effector
-    and the upper joint are the first joints not co-located with their child), and so are helper bones named
-    like twist/roll/share bones (``CC_Base_L_CalfTwist01``). None when the upper joint would be the root or a
-    bone is shorter than 2 % of the body (no two-bone limb)."""
-    names, par = skeleton.names, skeleton.parents
-    j = skeleton.index(joint) if isinstance(joint, str) else int(joint)
-    rest = _rest(skeleton)
-    H = max(float(np.ptp(rest, axis=0).max()), 1e-12)
-
-    def co(k):   # k sits where its parent does
-        return float(np.sum(skeleton.offsets[k] ** 2)) <= (1e-9 * H) ** 2
-
-    kind = _FOOT if _FOOT.search(names[j]) else _HAND if _HAND.search(names[j]) else None
-    eff = j
-    if kind is not None:
-        while par[eff] > 0 and kind.search(names[par[eff]]) and not _INLINE.search(names[par[eff]]):
-            eff = int(par[eff])
-        if kind is _FOOT and not _FOOT_ROOT.search(names[eff]) and par[eff] > 0:
-            eff = int(par[eff])                     # toes named, the foot not: the toes' parent is the ankle
-    while eff > 0 and co(eff):
-        eff = int(par[eff])
-    if eff <= 0:
-        return None
-    mid = int(par[eff])
-    while mid > 0 and _INLINE.search(names[mid]):
-        mid = int(par[mid])
-    c = mid
-    while c > 0 and co(c):
-        c = int(par[c])
-    up = int(par[c]) if c > 0 else -1
-    while up > 0 and _INLINE.search(names[up]):
-        up = int(par[up])
-    if up <= 0:
-        return None
-    if min(np.linalg.norm(rest[mid] - rest[up]), np.linalg.norm(rest[eff] - rest[mid])) < _MIN_BONE * H:
-        return None
-    below = np.zeros(skeleton.num_joints, bool)
-    below[eff] = True
-    for k in range(eff + 1, skeleton.num_joints):
-        below[k] = below[par[k]]
-    foot = tuple(int(k) for k in np.flatnonzero(below) if k != eff)
-    leg = bool(_FOOT.search(names[eff])) or any(_FOOT.search(names[k]) for k in foot)
-    return Limb(up, mid, eff, foot, leg)
 
 
 # -- carrying contacts through the timing edit ----------------------------------------------------------
@@ -157,7 +74,7 @@ def _timeline(edited):
     """(start time, frame time, frame count) of ``evaluate(edited)`` or of a Motion, and the warp tables."""
     from .representation import StaggeredMotion, default_times
     if isinstance(edited, StaggeredMotion):
-        from .editing import _warp_tables
+        from .timing import _warp_tables
         return float(edited.pose_times[0]), edited.frame_time, default_times(edited).size, _warp_tables(edited)
     if isinstance(edited, Motion):
         return 0.0, edited.frame_time, edited.num_frames, None
@@ -188,15 +105,15 @@ def _parse(skeleton, contacts, num_frames: int | None = None) -> list[tuple[int,
     return out
 
 
-def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=None):
+def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=None, index=None, cover=None):
     """``[(joint, e0, e1, start, stop, a, b)]``: each contact's first and last source frame ``a``, ``b - 1``
     mapped to edited frames ``e0 <= e1`` (floats) through the warp of the joint that carries it, and the
     edited frames ``[start, stop)`` inside; contacts that keep no frame are left out."""
-    from .editing import _warp_column
+    from .timing import _warp_column
     t0, ft, F, tables = _timeline(edited) if timeline is None else timeline
     sk = edited.skeleton
     out = []
-    for j, a, b in parsed:
+    for i, (j, a, b) in enumerate(parsed):
         times = np.array([a, b - 1], dtype=float) * source_frame_time
         if tables is not None:
             lim = find_limb(sk, j) if carry_by != "joint" else None
@@ -211,8 +128,14 @@ def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=N
         e0, e1 = (times - t0) / ft
         start = max(int(np.ceil(e0 - 1e-6)), 0)
         stop = min(int(np.floor(e1 + 1e-6)) + 1, F)
+        if cover is not None and tables is not None:     # also the source's own frames, less ``cover`` s each end
+            c0 = (a * source_frame_time + cover - t0) / ft
+            c1 = ((b - 1) * source_frame_time - cover - t0) / ft
+            if c1 >= c0:
+                start = max(min(start, int(np.ceil(c0 - 1e-6))), 0)
+                stop = min(max(stop, int(np.floor(c1 + 1e-6)) + 1), F)
         if stop > start:
-            out.append((j, float(e0), float(e1), start, stop, a, b))
+            out.append((j, float(e0), float(e1), start, stop, a, b, i if index is None else index[i]))
     return out
 
 
@@ -231,7 +154,7 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
     if not np.isfinite(ft_s) or ft_s <= 0:
         raise ValueError(f"source_frame_time must be > 0 seconds, got {source_frame_time!r}")
     sk = edited.skeleton
-    return [(sk.names[j], s, e) for j, _, _, s, e, _, _ in _carried(edited, _parse(sk, contacts), ft_s, carry_by)]
+    return [(sk.names[c[0]], c[3], c[4]) for c in _carried(edited, _parse(sk, contacts), ft_s, carry_by)]
 
 
 # -- plants -----------------------------------------------------------------------------------------------
@@ -259,25 +182,6 @@ def _plants(carried, limb_of) -> list[dict]:
 
 
 # -- forward kinematics on chains --------------------------------------------------------------------------
-
-def _fk_joints(motion: Motion, joints, local_quats=None, root_positions=None):
-    """World positions ``(F, J, 3)`` and rotations ``(F, J, 4)`` of ``joints`` and their ancestors (NaN on
-    the joints not computed); ``local_quats`` / ``root_positions`` replace the motion's."""
-    sub, sub_par, _ = chain_subset(motion.skeleton.parents, joints)
-    F = motion.num_frames
-    lq = motion.local_quats if local_quats is None else local_quats
-    Q = np.ascontiguousarray(np.moveaxis(lq[:, sub], 0, -1).transpose(1, 0, 2))            # (4, n, F)
-    lt = motion.local_translations
-    T = (motion.skeleton.offsets[sub].T[:, :, None] if lt is None
-         else np.ascontiguousarray(np.moveaxis(lt[:, sub], 0, -1).transpose(1, 0, 2)))
-    rp = motion.root_positions if root_positions is None else root_positions
-    W, P = _fk_component_major(Q, T, np.ascontiguousarray(rp.T), sub_par)
-    pos = np.full((F, motion.num_joints, 3), np.nan)
-    wq = np.full((F, motion.num_joints, 4), np.nan)
-    pos[:, sub] = P.transpose(2, 1, 0)
-    wq[:, sub] = W.transpose(2, 1, 0)
-    return pos, wq
-
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
     """``arr (F, ...)`` positions at fractional frames ``f (n,)`` (linear; clamped to the clip)."""
@@ -513,7 +417,8 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         ``forward_kinematics(source)[0]`` when the caller has it (rows of the limbs' joints are read).
     """
     from .contacts import detect_contacts
-    from .representation import StaggeredMotion, evaluate
+    from .evaluation import evaluate
+    from .representation import StaggeredMotion
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
     if carry_by not in ("joint", "limb", "span"):
@@ -554,22 +459,31 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
     if missing:
         notes.append(f"keep_contacts: no leg or arm found above {', '.join(missing)} (a two-bone limb below the "
                      f"root): {'their' if len(missing) > 1 else 'its'} contacts are not held")
-    parsed = [c for c in parsed if c[0] in limb_of]
-    carried = _carried(edited, parsed, source.frame_time, carry_by, timeline)
+    return _layer(edited, motion, source, parsed, limb_of, timeline, tuple(notes), carry_by, blend, share,
+                  _MAX_DROP if max_drop is None else max_drop, reach)
+
+
+def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, blend, share, max_drop, reach,
+           targets=None, shift_plants=True, above_floor=True) -> PlantsResult:
+    """Carry ``parsed`` contacts (those with a limb in ``limb_of``) and hold them (:func:`_hold`)."""
+    keep = [i for i, c in enumerate(parsed) if c[0] in limb_of]
+    carried = _carried(edited, [parsed[i] for i in keep], source.frame_time, carry_by, timeline, index=keep,
+                       cover=_COVER)
     if not carried:
         return PlantsResult(motion, tuple(notes))
     plants = _plants(carried, limb_of)
     limbs = {lim.eff: lim for lim in limb_of.values()}
-    carried = [c + (limb_of[c[0]].eff,) for c in carried]
-    motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share,
-                                   _MAX_DROP if max_drop is None else max_drop, reach)
-    return PlantsResult(motion_out, tuple(notes + more), drop, len(plants))
+    carried = [c[:7] + (limb_of[c[0]].eff, c[7]) for c in carried]
+    motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share, max_drop, reach,
+                                   targets, shift_plants, above_floor)
+    return PlantsResult(motion_out, tuple(notes) + tuple(more), drop, len(plants))
 
 
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
-          share: float, max_drop: float, reach: float):
+          share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
+          above_floor: bool = True):
     """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
-    from .editing import _warp_column
+    from .timing import _warp_column
     sk = motion.skeleton
     F, Fs = motion.num_frames, source.num_frames
     ft, ft_s = motion.frame_time, source.frame_time
@@ -582,12 +496,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     for lim in limbs.values():
         joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
     pos, wq = _fk_joints(motion, joints)
-    spos, swq = _fk_joints(source, {x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff)}
-                           | {c[0] for c in carried})
+    spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
-    src_share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
-                 for e, lim in limbs.items()}                                # (Fs,): how straight the source is
     # -- each plant's frames: the source time sigma (the effector's own inverse warp, kept inside the plant's
     # source frames) and the source foot there --------------------------------------------------------------
     P = len(plants)
@@ -613,7 +524,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     np.add.at(d0, in_pid, cur - base)
     d0 /= sizes[:, None]
     lengths = np.array([float(np.median(length[e])) for e in effs])
-    shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths)
+    shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths) if shift_plants else np.zeros((P, 3))
     contacts_of: dict[int, list] = {}
     for c in carried:
         contacts_of.setdefault(c[7], []).append(c)
@@ -635,13 +546,19 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         dt_sum, pt_sum, wt_sum, wt = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n)
         lo = np.array([plants[i]["start"] for i in pid])
         hi = np.array([plants[i]["stop"] for i in pid])
-        for j, e0, e1, A, B, a, b, _ in contacts_of.get(eff, ()):
+        at_sig = {}
+        for j, e0, e1, A, B, a, b, _, ci in contacts_of.get(eff, ()):
             kA, kB = np.searchsorted(fr, [A, B])
             if kB <= kA:
                 continue
             own = fr[kA:kB]
-            ts = np.clip(_source_frames(tables, t0, ft, ft_s, j, own), a, b - 1)
-            delta = _sample(spos[:, j], ts) - _sample(spos[:, j], sig[kA:kB])
+            if j not in at_sig:
+                at_sig[j] = _sample(spos[:, j], sig)
+            if targets is not None and targets[ci] is not None:     # given: where the joint must be
+                delta = np.broadcast_to(targets[ci], (B - A, 3)) - at_sig[j][kA:kB] - d[kA:kB]
+            else:
+                ts = np.clip(_source_frames(tables, t0, ft, ft_s, j, own), a, b - 1)
+                delta = _sample(spos[:, j], ts) - at_sig[j][kA:kB]
             k0, k1 = np.searchsorted(fr, [A - nc, B + nc])
             seg = np.arange(k0, k1)
             seg = seg[(lo[seg] <= A) & (hi[seg] >= B)]         # this contact's plant only
@@ -655,7 +572,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 da[seg] = np.where(take[:, None], dseg, da[seg])
             else:
                 dt_sum[seg] += om[:, None] * dseg
-                pt_sum[seg] += om[:, None] * (_sample(spos[:, j], sig[seg]) + d[seg])
+                pt_sum[seg] += om[:, None] * (at_sig[j][seg] + d[seg])
                 wt_sum[seg] += om
                 wt[seg] = np.maximum(wt[seg], om)
         has_t = wt_sum > 0
@@ -709,7 +626,6 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         lowered[..., 1] -= drop[:, None]
     lq = motion.local_quats
     out = np.array(lq)
-    hinges = {lim.eff: _hinge_local(spos, swq, lim) for lim in limbs.values()}
     # the plants' own frames: exact IK
     for r in rows:
         lim, fr = r["lim"], r["fr"]
@@ -730,6 +646,12 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         bnd = np.r_[starts, ends]
         chain = [lim.upper, lim.mid, lim.eff] + list(lim.foot)
         disp = {j: quat_mul(quat_conj(lq[bnd, j]), out[bnd, j]) for j in chain}
+        # ... and its rate there (per frame, towards the outside: from the plant's second frame to its first,
+        # from its second-last to its last), carried on, damped, so the fade starts with the plant's slope (C1)
+        inner = np.r_[np.minimum(starts + 1, F - 1), np.maximum(ends - 1, 0)]
+        inner = np.where(inside[inner], inner, bnd)
+        rate = {j: quat_to_rotvec(quat_mul(quat_conj(quat_mul(quat_conj(lq[inner, j]), out[inner, j])), disp[j]))
+                for j in chain}
         angle = np.max([quat_angle(d_) for d_ in disp.values()], axis=0)                  # radians
         width = np.clip(np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1, nb, 4 * nb).astype(np.int64)
         w_start, w_end = width[:starts.size], width[starts.size:]
@@ -745,64 +667,60 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         if not win.size:
             continue
         wl_, wr_ = wl[win], wr[win]
-        al = np.where(wl_ > 0, np.where(wr_ > 0, dl[win] / np.maximum(dl[win] + dr[win], 1), 0.0), 1.0)
+        # the right plant's share: its weight over its distance against the left's (1 next to the right plant,
+        # 0 next to the left one, and continuous where either fade begins)
+        ql, qr = wl_ / np.maximum(dl[win], 1), wr_ / np.maximum(dr[win], 1)
+        al = qr / (ql + qr)
         w = wl_ + wr_ - wl_ * wr_
         kl, kr = starts.size + li_[win], ri_[win]
         fade_w[lim.eff] = (win, w)
+        tau_l = np.maximum(w_end[li_[win]], 1) / 3.0
+        tau_r = np.maximum(w_start[ri_[win]], 1) / 3.0
+        s_l = (tau_l * -np.expm1(-dl[win] / tau_l))[:, None]          # ~ frames out, levelling off
+        s_r = (tau_r * -np.expm1(-dr[win] / tau_r))[:, None]
         for j in chain:
-            dd = slerp(disp[j][kl], disp[j][kr], al)
+            # the carried-on rate turns the displacement by at most its own size
+            size = quat_angle(disp[j])[:, None]
+            r_l = rate[j][kl] * np.minimum(1.0, size[kl] / np.maximum(
+                np.linalg.norm(rate[j][kl], axis=-1, keepdims=True) * tau_l[:, None], 1e-300))
+            r_r = rate[j][kr] * np.minimum(1.0, size[kr] / np.maximum(
+                np.linalg.norm(rate[j][kr], axis=-1, keepdims=True) * tau_r[:, None], 1e-300))
+            d_l = quat_mul(disp[j][kl], rotvec_to_quat(r_l * s_l))
+            d_r = quat_mul(disp[j][kr], rotvec_to_quat(r_r * s_r))
+            dd = slerp(d_l, d_r, al)
             out[win, j] = quat_mul(lq[win, j], slerp(np.broadcast_to(_ID, dd.shape), dd, w))
-        _no_hyperextension(sk, motion, lim, win, out, lq, hinges[lim.eff])
-    # legs in the air where the root is lowered keep their feet where the edit put them (in a fade: where the
-    # faded pose puts it on the lowered root, plus the part of the drop the fade has let go of)
-    if np.any(drop > 0) and legs:
+        _no_hyperextension(sk, motion, lim, win, out, pos, wq, hinges[lim.eff])
+    # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
+    # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
+    # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
+    # towards the plants (whose own frames sit on the ground)
+    if legs:
         held = {r["lim"].eff: r["fr"] for r in rows}
         leg_joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
-                                                   int(sk.parents[lim.eff]))}
+                                                   int(sk.parents[lim.eff])) + lim.foot}
         p_u, w_u = _fk_joints(motion, leg_joints, local_quats=out)       # the root not lowered
         for lim in legs:
-            free = drop > 0
+            free = np.ones(F, bool)
             if lim.eff in held:
                 free[held[lim.eff]] = False
-            fr = np.flatnonzero(free)
+            wf = np.zeros(F)
+            if lim.eff in fade_w:
+                wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
+            down = wf * drop                                  # how far the foot goes down with the root
+            low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) - down
+            deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
+            lift = np.zeros(F)
+            if above_floor and np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
+                lift = _envelope(deficit, nb) * (1.0 - wf)
+                lift[~free] = 0.0
+            fr = np.flatnonzero(free & ((drop > 0) | (lift > 0)))
             if not fr.size:
                 continue
             p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
             p3[..., 1] -= drop[fr, None]
-            wf = np.zeros(F)
-            if lim.eff in fade_w:
-                wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
             tgt = p_u[fr, lim.eff].copy()
-            tgt[:, 1] -= wf[fr] * drop[fr]
+            tgt[:, 1] += lift[fr] - down[fr]
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, w_u[fr, lim.eff],
-                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
-            out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
-    # feet in the air never go below the source's floor (the lowest any source joint goes): where the edit
-    # (or the lowered root) takes a foot joint under it, the leg lifts the foot by a smooth profile
-    if legs:
-        floor = float(np.nanmin(_fk_joints(source, {x for lim in legs for x in (lim.eff,) + lim.foot})[0][..., 1]))
-        held = {r["lim"].eff: r["fr"] for r in rows}
-        joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
-                                               int(sk.parents[lim.eff])) + lim.foot}
-        p_o, w_o = _fk_joints(motion, joints, local_quats=out, root_positions=rp)
-        for lim in legs:
-            low = np.min(p_o[:, [lim.eff] + list(lim.foot), 1], axis=1)
-            deficit = np.maximum(floor - low, 0.0)
-            if lim.eff in held:
-                deficit[held[lim.eff]] = 0.0
-            if not np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
-                continue
-            lift = _envelope(deficit, nb)
-            if lim.eff in fade_w:          # let go of it towards a plant (whose own frames sit on the ground)
-                win, w = fade_w[lim.eff]
-                lift[win] *= 1.0 - w
-            if lim.eff in held:
-                lift[held[lim.eff]] = 0.0
-            fr = np.flatnonzero(lift > 0)
-            tgt = p_o[fr, lim.eff].copy()
-            tgt[:, 1] += lift[fr]
-            p3 = p_o[fr][:, [lim.upper, lim.mid, lim.eff]]
-            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_o, out, tgt, w_o[fr, lim.eff],
                                               length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     return Motion._trusted(sk, motion.frame_time, rp, out, motion.local_translations), drop, notes
@@ -828,30 +746,67 @@ def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_lo
     return a_new, m_new, e_new
 
 
-def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, lq, hinge_local) -> None:
+def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, pos, wq, hinge_local) -> None:
     """Where a fade has bent the middle joint backwards about its hinge beyond what the edit itself does
     (its displacement composed with the edit's own straightening), turn it back to that (in place on
-    ``out (F, J, 4)``, frames ``fr``)."""
+    ``out (F, J, 4)``, frames ``fr``; ``pos`` / ``wq``: the edit's world positions and rotations)."""
     pm = int(sk.parents[lim.mid])
-    joints = {lim.upper, lim.mid, lim.eff, pm}
-    p_o, w_o = _fk_joints(motion, joints, local_quats=out)
-    p_e, w_e = _fk_joints(motion, joints)
+    p_o, w_o = _fk_rows(motion, {lim.upper, lim.mid, lim.eff, pm}, fr, out)
 
-    def flex(p, w):
-        x = p[fr, lim.mid] - p[fr, lim.upper]
-        y = p[fr, lim.eff] - p[fr, lim.mid]
-        k = quat_rotate(w[fr, lim.upper], hinge_local)
+    def flex(p, w, rows):
+        x = p[rows, lim.mid] - p[rows, lim.upper]
+        y = p[rows, lim.eff] - p[rows, lim.mid]
+        k = quat_rotate(w[rows, lim.upper], hinge_local)
         return np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y)), k
 
-    f_o, k = flex(p_o, w_o)
-    f_e, _ = flex(p_e, w_e)
+    f_o, k = flex(p_o, w_o, slice(None))
+    f_e, _ = flex(pos, wq, fr)
     excess = np.minimum(f_e, 0.0) - f_o                  # > 0: more backwards than the edit
     bad = excess > 1e-9
     if not bad.any():
         return
-    rows = fr[bad]
     turn = rotvec_to_quat(k[bad] * excess[bad, None])
-    out[rows, lim.mid] = quat_mul(quat_conj(w_o[rows, pm]), quat_mul(turn, w_o[rows, lim.mid]))
+    out[fr[bad], lim.mid] = quat_mul(quat_conj(w_o[bad, pm]), quat_mul(turn, w_o[bad, lim.mid]))
+
+
+def _fk_rows(motion: Motion, joints, frames, local_quats):
+    """World positions ``(n, J, 3)`` and rotations ``(n, J, 4)`` of ``joints`` (and ancestors; NaN elsewhere)
+    on ``frames (n,)`` only, with the local rotations ``local_quats (F, J, 4)``."""
+    sub, sub_par, _ = chain_subset(motion.skeleton.parents, joints)
+    n = len(frames)
+    Q = np.ascontiguousarray(local_quats[frames][:, sub].transpose(2, 1, 0))                   # (4, s, n)
+    lt = motion.local_translations
+    T = (motion.skeleton.offsets[sub].T[:, :, None] if lt is None
+         else np.ascontiguousarray(lt[frames][:, sub].transpose(2, 1, 0)))
+    W, P = _fk_component_major(Q, T, np.ascontiguousarray(motion.root_positions[frames].T), sub_par)
+    pos = np.full((n, motion.num_joints, 3), np.nan)
+    wq = np.full((n, motion.num_joints, 4), np.nan)
+    pos[:, sub] = P.transpose(2, 1, 0)
+    wq[:, sub] = W.transpose(2, 1, 0)
+    return pos, wq
+
+
+_SOURCE_CACHE = weakref.WeakKeyDictionary()
+
+
+def _source_tables(source: Motion, limbs: dict):
+    """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
+    positions and rotations of the limbs' and feet's chains, the share of each limb's length it uses per
+    frame, each limb's hinge axis, and the floor (the lowest height of the feet's joints)."""
+    key = tuple(sorted((lim.upper, lim.mid, lim.eff) + lim.foot for lim in limbs.values()))
+    per = _SOURCE_CACHE.setdefault(source, {})
+    if key not in per:
+        joints = {x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot}
+        spos, swq = _fk_joints(source, joints)
+        share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
+                 for e, lim in limbs.items()}
+        hinges = {e: _hinge_local(spos, swq, lim) for e, lim in limbs.items()}
+        feet = [x for lim in limbs.values() if lim.leg for x in (lim.eff,) + lim.foot]
+        floor = float(np.min(spos[:, feet, 1])) if feet else -np.inf
+        if len(per) > 8:
+            per.clear()
+        per[key] = (spos, swq, share, hinges, floor)
+    return per[key]
 
 
 def _source_frames(tables, t0: float, ft: float, ft_s: float, joint: int, frames: np.ndarray) -> np.ndarray:
@@ -859,7 +814,7 @@ def _source_frames(tables, t0: float, ft: float, ft_s: float, joint: int, frames
     warp ``tables``)."""
     te = t0 + np.asarray(frames, dtype=float) * ft
     if tables is not None:
-        from .editing import _warp_column
+        from .timing import _warp_column
         te = _warp_column(*tables, joint, te, inverse=True)
     return te / ft_s
 
@@ -893,3 +848,109 @@ def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15,
     held (:func:`hold_plants`, whose notes this drops); returns the held Motion."""
     return hold_plants(edited, source, contacts=contacts, blend=blend, carry_by=carry_by, lower_root=lower_root,
                        reach=reach, source_positions=source_positions).motion
+
+
+# -- the older names, over the new layer -------------------------------------------------------------------
+
+def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None = None, blend: float = 0.15,
+                              mode: str | None = None, *, targets=None, lower_root: bool | float = False,
+                              toe_offsets=None, raise_unreachable: bool = False) -> Motion:
+    """Hold ``contacts`` of ``motion`` at fixed targets with the contact layer's IK (no timing, no plant
+    shift): each contact joint at the ``reference``'s position on the same frame (``mode="track"``, the
+    default with a reference) or at its mean over the contact (``"mean"``, the default without: clean-up of
+    the motion's own skate), or at ``targets`` (one ``(3,)`` or ``(stop - start, 3)`` per contact). Faded in
+    and out over ``blend`` seconds like :func:`keep_contacts`; ``lower_root`` (a share in [0, 1]) lets the
+    root come down for a leg that cannot reach. ``toe_offsets`` and ``raise_unreachable`` are accepted for
+    compatibility and ignored (the layer keeps the source's heel-toe roll and turns the foot about the toe).
+    Contacts on a joint with no two-bone limb are a ValueError."""
+    if mode is None:
+        mode = "mean" if reference is None else "track"
+    if mode not in ("mean", "track"):
+        raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
+    if reference is None or targets is not None:
+        reference = motion
+    if not isinstance(motion, Motion) or not isinstance(reference, Motion):
+        raise ValueError("motion and reference must be Motions")
+    if reference.num_frames != motion.num_frames or reference.num_joints != motion.num_joints:
+        raise ValueError("reference must have the same number of frames and joints as motion")
+    blend = float(blend)
+    if not np.isfinite(blend) or blend < 0:
+        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
+    share = float(lower_root)
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    sk = motion.skeleton
+    parsed = _parse(sk, contacts, motion.num_frames)
+    if not parsed:
+        return motion
+    limb_of = {}
+    for j in {j for j, _, _ in parsed}:
+        lim = find_limb(sk, j)
+        if lim is None:
+            raise ValueError(f"contacts: joint {sk.names[j]!r} has no two-bone chain below the root")
+        limb_of[j] = lim
+    if targets is not None:
+        if len(targets) != len(parsed):
+            raise ValueError(f"targets: one per contact ({len(parsed)}), got {len(targets)}")
+        given = []
+        for (j, a, b), t in zip(parsed, targets):
+            t = np.asarray(t, dtype=float)
+            if t.shape not in ((3,), (b - a, 3)) or not np.all(np.isfinite(t)):
+                raise ValueError(f"targets: each must be 3 finite numbers or ({b - a}, 3), got shape {t.shape}")
+            given.append(t)
+    elif mode == "mean":
+        given = contact_positions(reference, contacts, mode="mean")
+    else:
+        given = [None] * len(parsed)             # the reference at the same frame: the layer's own target
+    return _layer(motion, motion, reference, parsed, limb_of, _timeline(motion), (), "joint", blend, share,
+                  _MAX_DROP if share > 0 else 0.0, 1.0, targets=given, shift_plants=False, above_floor=False).motion
+
+
+def contact_positions(reference: Motion, contacts, mode: str = "mean", positions=None) -> list[np.ndarray]:
+    """Where each contact should stay: world positions ``(stop - start, 3)`` of the contact joint in
+    ``reference``, per frame (``mode="track"``) or its mean over the contact repeated (``"mean"``)."""
+    if mode not in ("mean", "track"):
+        raise ValueError(f"mode must be 'mean' or 'track', got {mode!r}")
+    parsed = _parse(reference.skeleton, contacts, reference.num_frames)
+    p = _fk_joints(reference, {j for j, _, _ in parsed})[0] if positions is None else positions
+    out = []
+    for j, s, e in parsed:
+        seg = p[s:e, j]
+        out.append(np.broadcast_to(seg.mean(axis=0), seg.shape).copy() if mode == "mean" else seg.copy())
+    return out
+
+
+def contact_errors(motion: Motion, contacts, reference: Motion | None = None, mode: str = "mean") -> np.ndarray:
+    """Largest distance ``(N,)`` (file units) of each contact joint from its :func:`contact_positions` target
+    (from ``reference``, default ``motion``) over its frames."""
+    reference = motion if reference is None else reference
+    parsed = _parse(motion.skeleton, contacts, motion.num_frames)
+    targets = contact_positions(reference, contacts, mode=mode)
+    p = _fk_joints(motion, {j for j, _, _ in parsed})[0]
+    return np.array([np.linalg.norm(p[s:e, j] - t, axis=-1).max() for (j, s, e), t in zip(parsed, targets)])
+
+
+def foot_skate(motion: Motion, contacts, up_axis: int = 1) -> np.ndarray:
+    """Horizontal path length ``(N,)`` (file units) of each contact joint over its frames (0: planted)."""
+    parsed = _parse(motion.skeleton, contacts, motion.num_frames)
+    p = _fk_joints(motion, {j for j, _, _ in parsed})[0]
+    horiz = [k for k in range(3) if k != up_axis]
+    return np.array([np.linalg.norm(np.diff(p[s:e, j][:, horiz], axis=0), axis=-1).sum() for j, s, e in parsed])
+
+
+def attenuation_weights(active: np.ndarray, blend_frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smooth window around active frames: ``weight (F,)`` 1 on ``active`` frames, ``(1 + cos(pi d / (n + 1)))
+    / 2`` at ``d <= n = blend_frames`` frames from the nearest active frame, 0 beyond (C1, as the layer's
+    fades); ``left``, ``right`` ``(F,)``: the nearest active frame at or before / at or after each frame (-1
+    where none)."""
+    active = np.asarray(active, bool)
+    F = active.shape[0]
+    idx = np.arange(F)
+    left = np.maximum.accumulate(np.where(active, idx, -1))
+    right = np.minimum.accumulate(np.where(active, idx, F)[::-1])[::-1]
+    right = np.where(right >= F, -1, right)
+    wl = np.where(left >= 0, _raised_cosine(idx - left, blend_frames), 0.0)
+    wr = np.where(right >= 0, _raised_cosine(right - idx, blend_frames), 0.0)
+    weight = np.clip(wl + wr - wl * wr, 0.0, 1.0)
+    weight[active] = 1.0
+    return weight, left, right
