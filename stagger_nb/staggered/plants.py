@@ -644,15 +644,15 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         starts = np.flatnonzero(inside & ~np.r_[False, inside[:-1]])
         ends = np.flatnonzero(inside & ~np.r_[inside[1:], False])
         bnd = np.r_[starts, ends]
-        chain = [lim.upper, lim.mid, lim.eff] + list(lim.foot)
-        disp = {j: quat_mul(quat_conj(lq[bnd, j]), out[bnd, j]) for j in chain}
+        ch = np.array([lim.upper, lim.mid, lim.eff] + list(lim.foot))
+        disp = quat_mul(quat_conj(lq[bnd][:, ch]), out[bnd][:, ch])                    # (boundaries, C, 4)
         # ... and its rate there (per frame, towards the outside: from the plant's second frame to its first,
         # from its second-last to its last), carried on, damped, so the fade starts with the plant's slope (C1)
         inner = np.r_[np.minimum(starts + 1, F - 1), np.maximum(ends - 1, 0)]
         inner = np.where(inside[inner], inner, bnd)
-        rate = {j: quat_to_rotvec(quat_mul(quat_conj(quat_mul(quat_conj(lq[inner, j]), out[inner, j])), disp[j]))
-                for j in chain}
-        angle = np.max([quat_angle(d_) for d_ in disp.values()], axis=0)                  # radians
+        rate = quat_to_rotvec(quat_mul(quat_conj(quat_mul(quat_conj(lq[inner][:, ch]), out[inner][:, ch])), disp))
+        size = quat_angle(disp)                                                         # (boundaries, C) radians
+        angle = size.max(axis=1)
         width = np.clip(np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1, nb, 4 * nb).astype(np.int64)
         w_start, w_end = width[:starts.size], width[starts.size:]
         li = np.searchsorted(ends, f_all, side="right") - 1
@@ -678,18 +678,17 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         tau_r = np.maximum(w_start[ri_[win]], 1) / 3.0
         s_l = (tau_l * -np.expm1(-dl[win] / tau_l))[:, None]          # ~ frames out, levelling off
         s_r = (tau_r * -np.expm1(-dr[win] / tau_r))[:, None]
-        for j in chain:
-            # the carried-on rate turns the displacement by at most its own size
-            size = quat_angle(disp[j])[:, None]
-            r_l = rate[j][kl] * np.minimum(1.0, size[kl] / np.maximum(
-                np.linalg.norm(rate[j][kl], axis=-1, keepdims=True) * tau_l[:, None], 1e-300))
-            r_r = rate[j][kr] * np.minimum(1.0, size[kr] / np.maximum(
-                np.linalg.norm(rate[j][kr], axis=-1, keepdims=True) * tau_r[:, None], 1e-300))
-            d_l = quat_mul(disp[j][kl], rotvec_to_quat(r_l * s_l))
-            d_r = quat_mul(disp[j][kr], rotvec_to_quat(r_r * s_r))
-            dd = slerp(d_l, d_r, al)
-            out[win, j] = quat_mul(lq[win, j], slerp(np.broadcast_to(_ID, dd.shape), dd, w))
-        _no_hyperextension(sk, motion, lim, win, out, pos, wq, hinges[lim.eff])
+        # the carried-on rate turns the displacement by at most its own size
+        r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
+        r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None], 1e-300))[..., None]
+        r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None], 1e-300))[..., None]
+        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None]))
+        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
+        shape = d_l.shape[:-1]
+        dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
+        dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
+        out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
+        _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -746,12 +745,11 @@ def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_lo
     return a_new, m_new, e_new
 
 
-def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, pos, wq, hinge_local) -> None:
+def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, lq, pos, wq, hinge_local) -> None:
     """Where a fade has bent the middle joint backwards about its hinge beyond what the edit itself does
     (its displacement composed with the edit's own straightening), turn it back to that (in place on
     ``out (F, J, 4)``, frames ``fr``; ``pos`` / ``wq``: the edit's world positions and rotations)."""
     pm = int(sk.parents[lim.mid])
-    p_o, w_o = _fk_rows(motion, {lim.upper, lim.mid, lim.eff, pm}, fr, out)
 
     def flex(p, w, rows):
         x = p[rows, lim.mid] - p[rows, lim.upper]
@@ -759,8 +757,15 @@ def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, pos, wq, hinge_lo
         k = quat_rotate(w[rows, lim.upper], hinge_local)
         return np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y)), k
 
-    f_o, k = flex(p_o, w_o, slice(None))
+    # only where the edit's own bend is smaller than the fade's turn of the knee can the sum bend backwards
     f_e, _ = flex(pos, wq, fr)
+    turned = quat_angle(lq[fr, lim.mid], out[fr, lim.mid]) + quat_angle(lq[fr, lim.upper], out[fr, lim.upper])
+    maybe = f_e < turned + 1e-6
+    if not maybe.any():
+        return
+    fr, f_e = fr[maybe], f_e[maybe]
+    p_o, w_o = _fk_rows(motion, {lim.upper, lim.mid, lim.eff, pm}, fr, out)
+    f_o, k = flex(p_o, w_o, slice(None))
     excess = np.minimum(f_e, 0.0) - f_o                  # > 0: more backwards than the edit
     bad = excess > 1e-9
     if not bad.any():
