@@ -38,17 +38,24 @@ tolerance relative to a bone or the body (the layer is invariant to a uniform sc
 """
 from __future__ import annotations
 
-import re
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from ..core.kinematics import _fk_component_major, skeleton_height
+from ..core.kinematics import _fk_component_major
 from ..core.motion import Motion
-from ..core.rotations import (quat_angle, quat_between_vectors, quat_conj, quat_mul, quat_rotate, quat_to_rotvec,
-                              rotvec_to_quat, slerp)
+from ..core.rotations import (
+    quat_angle,
+    quat_between_vectors,
+    quat_conj,
+    quat_mul,
+    quat_rotate,
+    quat_to_rotvec,
+    rotvec_to_quat,
+    slerp,
+)
 from .contacts import chain_subset
 from .limbs import Limb, _fk_joints, find_limb
 
@@ -81,6 +88,17 @@ def _timeline(edited):
     raise ValueError(f"edited must be a StaggeredMotion or a Motion, got {type(edited).__name__}")
 
 
+def _blend_and_share(blend, lower_root) -> tuple[float, float]:
+    """``blend`` (seconds, >= 0) and ``lower_root`` (a bool or a share in [0, 1]) as floats, checked."""
+    blend = float(blend)
+    if not np.isfinite(blend) or blend < 0:
+        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
+    share = float(lower_root)
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    return blend, share
+
+
 def _parse(skeleton, contacts, num_frames: int | None = None) -> list[tuple[int, int, int]]:
     out = []
     for item in contacts:
@@ -88,7 +106,8 @@ def _parse(skeleton, contacts, num_frames: int | None = None) -> list[tuple[int,
             name, a, b = item
             a, b = int(a), int(b)
         except (TypeError, ValueError):
-            raise ValueError(f"contacts: each entry must be (joint_name, start_frame, stop_frame), got {item!r}") from None
+            raise ValueError(f"contacts: each entry must be (joint_name, start_frame, stop_frame), "
+                             f"got {item!r}") from None
         if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
             if not 0 <= int(name) < skeleton.num_joints:
                 raise ValueError(f"contacts: joint index {name} outside [0, {skeleton.num_joints})")
@@ -139,7 +158,8 @@ def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=N
     return out
 
 
-def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str = "joint") -> list[tuple[str, int, int]]:
+def carry_contacts(edited, contacts, source_frame_time: float, *,
+                   carry_by: str = "joint") -> list[tuple[str, int, int]]:
     """Contacts of the source moved in time with the timing edit: ``(joint_name, start, stop)`` half-open
     frames of ``evaluate(edited)``.
 
@@ -153,8 +173,9 @@ def carry_contacts(edited, contacts, source_frame_time: float, *, carry_by: str 
     ft_s = float(source_frame_time)
     if not np.isfinite(ft_s) or ft_s <= 0:
         raise ValueError(f"source_frame_time must be > 0 seconds, got {source_frame_time!r}")
+    timeline = _timeline(edited)
     sk = edited.skeleton
-    return [(sk.names[c[0]], c[3], c[4]) for c in _carried(edited, _parse(sk, contacts), ft_s, carry_by)]
+    return [(sk.names[c[0]], c[3], c[4]) for c in _carried(edited, _parse(sk, contacts), ft_s, carry_by, timeline)]
 
 
 # -- plants -----------------------------------------------------------------------------------------------
@@ -244,7 +265,6 @@ def _choose_shifts(hip, base, reach, pid, d0, lengths) -> np.ndarray:
     the hip's path over the plant (the middle of its horizontal extent), then around that centre along the
     hip's travel (within a quarter leg, ``lengths (P,)``). The first that needs no lowering, in that order
     (the nearest to ``d0``), else the one needing the least."""
-    P = d0.shape[0]
     out = np.array(d0, dtype=float)
     out[:, 1] = 0.0
     if not pid.size:
@@ -423,12 +443,7 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
     if carry_by not in ("joint", "limb", "span"):
         raise ValueError(f"carry_by must be 'joint', 'limb' or 'span', got {carry_by!r}")
-    blend = float(blend)
-    if not np.isfinite(blend) or blend < 0:
-        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
-    share = float(lower_root)
-    if not 0.0 <= share <= 1.0:
-        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    blend, share = _blend_and_share(blend, lower_root)
     reach = float(reach)
     if not 0.0 < reach <= 1.0:
         raise ValueError(f"reach must be in (0, 1], got {reach!r}")
@@ -483,12 +498,10 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
           share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
           above_floor: bool = True):
     """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
-    from .timing import _warp_column
     sk = motion.skeleton
-    F, Fs = motion.num_frames, source.num_frames
+    F = motion.num_frames
     ft, ft_s = motion.frame_time, source.frame_time
     t0, tables = timeline[0], timeline[3]
-    ratio = ft / ft_s                                       # source frames per edited frame
     nb = int(round(blend / ft))
     nc = max(1, nb // 2)                                    # fade of one contact's correction inside a plant
     legs = [lim for lim in limbs.values() if lim.leg]
@@ -511,7 +524,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     for e in limbs:
         sel = e_of == e
         in_sig[sel] = _source_frames(tables, t0, ft, ft_s, e, in_fr[sel])
-    in_sig = np.clip(in_sig, np.array([p["s_lo"] for p in plants])[in_pid], np.array([p["s_hi"] for p in plants])[in_pid])
+    s_lo, s_hi = np.array([p["s_lo"] for p in plants]), np.array([p["s_hi"] for p in plants])
+    in_sig = np.clip(in_sig, s_lo[in_pid], s_hi[in_pid])
     base = _sample_rows(spos, in_sig, e_of)                                  # (n, 3) source foot at sigma
     hip, cur = pos[in_fr, u_of], pos[in_fr, e_of]
     L_in = np.concatenate([length[p["eff"]][p["start"]:p["stop"]] for p in plants])
@@ -680,8 +694,10 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         s_r = (tau_r * -np.expm1(-dr[win] / tau_r))[:, None]
         # the carried-on rate turns the displacement by at most its own size
         r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
-        r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None], 1e-300))[..., None]
-        r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None], 1e-300))[..., None]
+        r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None],
+                                                          1e-300))[..., None]
+        r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
+                                                          1e-300))[..., None]
         d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None]))
         d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
         shape = d_l.shape[:-1]
@@ -878,12 +894,7 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         raise ValueError("motion and reference must be Motions")
     if reference.num_frames != motion.num_frames or reference.num_joints != motion.num_joints:
         raise ValueError("reference must have the same number of frames and joints as motion")
-    blend = float(blend)
-    if not np.isfinite(blend) or blend < 0:
-        raise ValueError(f"blend must be >= 0 seconds, got {blend!r}")
-    share = float(lower_root)
-    if not 0.0 <= share <= 1.0:
-        raise ValueError(f"lower_root must be a bool or a share in [0, 1], got {lower_root!r}")
+    blend, share = _blend_and_share(blend, lower_root)
     sk = motion.skeleton
     parsed = _parse(sk, contacts, motion.num_frames)
     if not parsed:

@@ -43,7 +43,9 @@ class StaggerModel(_Model):
                        help="pose edits in staggered (Fig. 6a) or non-staggered (Fig. 6b) mode").tag(op=True)
     retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True)
     ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(op=True)
-    keep_contacts = T.Bool(True, help="hold the source's foot contacts through the timing edits").tag(op=True)
+    # off by default (issue 20 item 4): the contact layer does not yet meet the issue's figures on every clip
+    # (hops and jumps at the mild edit, most clips at moderate); a user turns it on with the checkbox
+    keep_contacts = T.Bool(False, help="hold the source's foot contacts through the timing edits").tag(op=True)
 
     # view state
     edit_bases = T.Dict(help="{pose index: {joint: [x, y, z, w]}} the true pose value (editing knot at t_k) each "
