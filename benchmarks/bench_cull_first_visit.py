@@ -100,7 +100,7 @@ def evaluate_samples_per_joint_loop(sm, times, joints):
     np.clip(seg, 0, sm.num_poses - 2, out=seg)
     a, b = T[seg, joints], T[seg + 1, joints]
     tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
-    return np.array(_rotations_at(sm, seg * J + joints, tn).T)
+    return np.array(_rotations_at(sm.rotations, seg * J + joints, tn).T)
 
 
 rng = np.random.default_rng(0)

@@ -96,7 +96,7 @@ def main():
     seg, tn = R.segment_coordinates(R.knot_times(ed)[:, mov], times)
     idx = seg.reshape(-1) * J + np.tile(mov, N)
     t = tn.reshape(-1)
-    R._rotations_at(ed, idx, t)                        # fills the per-pair workspace rows read below
+    R._rotations_at(ed.rotations, idx, t)              # fills the per-pair workspace rows read below
     W, n_s = K.WORK, t.size
     P = ed.tangents.shape[0] * J
     ctrl, arcp = W.get("ev_ctrl", (16, P)), W.get("ev_arcp", (9, P))
@@ -107,7 +107,7 @@ def main():
     print(f"evaluate: {n_s} (frame, moving joint) samples of {mov.size}/{J} joints, {P} (segment, joint) pairs")
     for name, f in (("evaluate", lambda: staggered.evaluate(ed)),
                     ("  segment_coordinates", lambda: R.segment_coordinates(R.knot_times(ed)[:, mov], times)),
-                    ("  _rotations_at (spline + displacement)", lambda: R._rotations_at(ed, idx, t)),
+                    ("  _rotations_at (spline + displacement)", lambda: R._rotations_at(ed.rotations, idx, t)),
                     ("    gathers of pair controls (25 rows)", lambda: (K.take_cols_into(ctrl, idx, c_),
                                                                          K.take_cols_into(arcp, idx, a_))),
                     ("    bezier_into (6 slerps + 3 arcs)", lambda: K.bezier_into(

@@ -7,7 +7,8 @@ procedural walk if absent). For each size it prints wall and CPU time and the pe
 (tracemalloc: numpy's buffers, the interpreter's objects) of each call, then the scaling exponent
 ``d log t / d log n`` fitted over the sizes (1 = linear; n log n reads about 1.1 here). ``--baseline`` also
 times the previous fit (every sample, ``fit_samples=None``) at the smallest size, in this process, as a
-ratio. Goals: 100,000 frames within 2 GB, extract <= 10 s, exponent <= ~1.1.
+ratio. Goals: 100,000 frames within 2 GB, extract <= 10 s, exponent <= ~1.1. ``--bounded`` times only the
+bounded-work paths whose results tests/test_staggered_long.py checks (refusals, 10^9 smoothing passes, 5 kHz).
 """
 from __future__ import annotations
 
@@ -64,11 +65,50 @@ def measure(f):
     return w, c, peak, out
 
 
+def bounded_work():
+    """CPU time of the bounded-work paths tests/test_staggered_long.py checks for their results (timings belong
+    here, not in the tests), each with a baseline measured in this process."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import dataclasses
+
+    from helpers import chain_motion
+    from stagger_nb.staggered.features import laplacian_smooth
+    x = np.random.default_rng(0).normal(size=(5000, 8))
+    _, c64, _, _ = measure(lambda: laplacian_smooth(x, 64, 0.5))
+    _, c9, _, _ = measure(lambda: laplacian_smooth(x, 10 ** 9, 0.5))
+    print(f"laplacian_smooth 5000 x 8, 10^9 passes {1e3 * c9:8.2f} ms cpu  ratio {c9 / max(c64, 1e-9):.2f} x 64 passes "
+          f"(the loop, {1e3 * c64:.2f} ms)")
+    m = chain_motion([0.5, 1.0, 1.5], duration=2.0)
+    _, c_ok, _, sm = measure(lambda: staggered.extract(m))
+
+    def refused(f):
+        try:
+            f()
+        except ValueError:
+            return
+        raise AssertionError("not refused")
+    _, c_bad, _, _ = measure(lambda: refused(lambda: staggered.extract(m, iterations=1e9)))
+    print(f"extract refusing iterations=1e9        {1e3 * c_bad:8.2f} ms cpu  ratio {c_bad / c_ok:.3f} x a valid "
+          f"extract ({1e3 * c_ok:.2f} ms)")
+    tiny = dataclasses.replace(sm, frame_time=1e-9)
+    _, c_t, _, _ = measure(lambda: refused(lambda: staggered.evaluate(tiny)))
+    _, c_ev, _, _ = measure(lambda: staggered.evaluate(sm))
+    print(f"evaluate refusing frame_time 1e-9      {1e3 * c_t:8.2f} ms cpu  ratio {c_t / max(c_ev, 1e-9):.3f} x "
+          f"evaluate ({1e3 * c_ev:.2f} ms)")
+    hi = chain_motion([0.2, 0.25, 0.3], duration=0.4, fps=5000.0)
+    _, c_hi, _, _ = measure(lambda: staggered.extract(hi))
+    print(f"extract at 5000 fps (2001 frames)      {1e3 * c_hi:8.2f} ms cpu  ratio {c_hi / c_ok:.1f} x the 120 fps "
+          f"extract")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="10000,30000,100000")
     ap.add_argument("--baseline", action="store_true")
+    ap.add_argument("--bounded", action="store_true", help="only the bounded-work paths of test_staggered_long")
     args = ap.parse_args()
+    if args.bounded:
+        return bounded_work()
     sizes = [int(s) for s in args.sizes.split(",")]
     src, label = walk_clip()
     ref = np.random.default_rng(1).uniform(size=1_000_000)

@@ -35,10 +35,13 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from stagger_nb import data  # noqa: E402
-from stagger_nb.timewarp.dp import constrained_dp, constrained_dp_loop  # noqa: E402
+from stagger_nb.timewarp.dp import constrained_dp  # noqa: E402
 from stagger_nb.timewarp.features import pose_features  # noqa: E402
 from stagger_nb.timewarp.guided import solve_warp  # noqa: E402
-from stagger_nb.timewarp.objective import knn_scores, knn_scores_loop  # noqa: E402
+from stagger_nb.timewarp.objective import knn_scores  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from timewarp_reference import constrained_dp_loop, knn_scores_loop  # noqa: E402  (naive references, tests/)
 
 S = 8
 K = 3

@@ -4,7 +4,8 @@
     python -m stagger_nb extract-poses INPUT_DIR OUT.parquet [--scheduler ADDRESS] [--workers N]
 
 Exit status: 0 when every clip was written (or skipped as finished), 1 when some clips failed (listed in the
-report), 2 on a usage error.
+report), 2 on a usage error or a run that could not record what it did (a full disk: the message and the
+report say so).
 """
 from __future__ import annotations
 
@@ -37,21 +38,28 @@ def main(argv=None) -> int:
     if args.workers < 1:
         parser.error("--workers must be at least 1")
     from . import batch
+    from .batch.report import terminal_text
     kw = dict(executor=args.executor, workers=args.workers, scheduler=args.scheduler, progress=not args.no_progress)
     try:
         if args.command == "batch":
             res = batch.run_session_batch(args.session, args.input_dir, args.output_dir, **kw)
         else:
             res = batch.run_extract_poses(args.input_dir, args.out, **kw)
-    except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
+    except ValueError as err:  # a bad argument or file (named), a corrupt manifest, a full disk
+        res = getattr(err, "result", None)
+        if res is not None:
+            _failed(res, terminal_text)
+        print(f"error: {terminal_text(str(err))}", file=sys.stderr)
         return 2
     print(f"{len(res.done)} written, {len(res.skipped)} skipped (finished earlier), {len(res.failed)} failed "
-          f"in {res.seconds:.1f} s; report: {res.report}")
-    for row in res.failed:
-        print(f"  failed: {row['file']}: {row['error']}", file=sys.stderr)  # the error names the line
+          f"in {res.seconds:.1f} s; report: {terminal_text(res.report)}")
+    _failed(res, terminal_text)
     return 1 if res.failed else 0
 
+
+def _failed(res, shown) -> None:
+    for row in res.failed:  # the error names the line; names and errors printed as safe text
+        print(f"  failed: {shown(row['file'])}: {shown(str(row['error']))}", file=sys.stderr)
 
 if __name__ == "__main__":
     sys.exit(main())

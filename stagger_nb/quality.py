@@ -49,12 +49,12 @@ The figures (:class:`QualityReport`):
 * ``knots_out_of_order``: names of the joints (and ``"<root translation>"``) of ``staggered`` whose refined
   knot times ``t_k + r[k, j]`` are not strictly increasing (``None`` without a StaggeredMotion).
 * ``detail`` (ratio): high-frequency energy of the edited joint curves over the source's: per joint the local
-  angular velocity ``ω(n) = rotvec(q(n)⁻¹ q(n+1)) / frame_time`` (rad/s), minus its Gaussian low-pass
-  (σ = 0.05 s), squared and averaged over frames; the ratio of the sums over joints (1: the detail is kept;
-  smoothing lowers it, added jitter raises it). Both curves are read on the source's frames, the edited one
+  angular velocity ``ω(n) = rotvec(q(n)⁻¹ q(n+1)) / frame_time`` (rad/s), band-passed (its Gaussian low-pass
+  of σ = 0.015 s minus that of σ = 0.08 s: the wiggles of roughly 2-10 Hz, not frame-level jitter), squared
+  and averaged over frames; the ratio of the sums over joints (1: the detail is kept; smoothing lowers it,
+  added jitter raises it). Both curves are read on the source's frames, the edited one
   at each joint's warped time (``warp_times(staggered, n * source.frame_time, j)``, slerp between edited
-  frames), so retiming alone keeps the ratio near 1 (the in-between slerp smooths a little: a pure timing
-  edit reads ~0.9-1.0).
+  frames), so retiming alone keeps the ratio near 1.
 
 :attr:`QualityReport.failures` checks them against :class:`Bounds` (default the ``"mild"`` preset, the goals
 of issue "Edits an animator would keep"); :attr:`~QualityReport.summary` says it in one line.
@@ -74,14 +74,17 @@ from .core.rotations import quat_angle, quat_mul, quat_conj, quat_to_rotvec, sle
 from .core.skeleton import Skeleton
 
 __all__ = ["compare", "QualityReport", "ContactFigures", "Bounds", "PRESETS", "body_height", "scaled",
-           "BODY_CM", "DETAIL_SIGMA", "SOURCE_SHRINK"]
+           "BODY_CM", "DETAIL_SIGMA", "DETAIL_FINE", "SOURCE_SHRINK"]
 
 #: The body every length is expressed on (cm): the figures read as on a 170 cm person.
 BODY_CM = 170.0
 #: Percentile of the per-frame vertical extent taken as the body height (see :func:`body_height`).
 HEIGHT_PERCENTILE = 90.0
-#: Gaussian σ (seconds) of the low-pass whose residue is the "detail" (high-frequency) of a joint curve.
-DETAIL_SIGMA = 0.05
+#: Gaussian σs (seconds) of the band-pass whose output is the "detail" of a joint curve: what a 0.08 s
+#: low-pass removes (the wiggles), less what a 0.015 s low-pass removes (frame-level jitter, and the smoothing
+#: that reading a curve between its frames does: neither is visible detail).
+DETAIL_SIGMA = 0.08
+DETAIL_FINE = 0.015
 #: Seconds cut from each end of a source contact for ``foot_travel_source`` (heel strike and toe-off).
 SOURCE_SHRINK = 0.1
 #: Tolerance (cm) of "no more sliding than without the layer" (rounding of the two evaluations).
@@ -465,7 +468,8 @@ def _detail_energy(q: np.ndarray, frame_time: float) -> np.ndarray:
     if q.shape[0] < 3:
         return np.zeros(q.shape[1])
     w = quat_to_rotvec(quat_mul(quat_conj(q[:-1]), q[1:])) / frame_time          # (F-1, J, 3)
-    hp = w - gaussian_filter1d(w, DETAIL_SIGMA / frame_time, axis=0, mode="nearest")
+    hp = (gaussian_filter1d(w, DETAIL_FINE / frame_time, axis=0, mode="nearest")
+          - gaussian_filter1d(w, DETAIL_SIGMA / frame_time, axis=0, mode="nearest"))
     return np.mean(np.sum(hp * hp, axis=-1), axis=0)
 
 

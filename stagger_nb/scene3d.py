@@ -12,13 +12,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import fftconvolve
 
+from .core.body import joint_sides  # noqa: F401 - re-exported (the bones' colour key)
 from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
 from .core.rotations import quat_rotate
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
            "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys", "body_size",
-           "skeleton_points", "segments", "MeshTemplate", "mesh_template", "skeleton_mesh", "joint_states",
+           "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
            "trail_segments", "mesh_index"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
@@ -107,27 +108,6 @@ def bones(motion: Motion) -> list[Bone]:
         if length < 1e-9:
             continue
         out.append(Bone(p, c, tuple(float(x) for x in v / 2), tuple(float(x) for x in _y_to(v)), length))
-    return out
-
-
-def joint_sides(names) -> list[str]:
-    """'left' / 'right' / 'centre' for each joint name (``Left…``, ``L…`` + capital, ``l…`` CMU ASF names
-    like ``lfemur``, ``…_l``); colour key of the bones."""
-    out = []
-    for n in names:
-        low = n.lower()
-        if low.startswith("left") or low.endswith(("_l", ".l", "left")) or "_left" in low or \
-                (len(n) > 1 and n[0] == "L" and n[1].isupper()) or \
-                low.startswith(("lhip", "lfemur", "ltibia", "lfoot", "ltoes", "lclavicle", "lhumerus", "lradius",
-                                "lwrist", "lhand", "lfingers", "lthumb", "lshoulder", "lelbow", "lknee", "lankle")):
-            out.append("left")
-        elif low.startswith("right") or low.endswith(("_r", ".r", "right")) or "_right" in low or \
-                (len(n) > 1 and n[0] == "R" and n[1].isupper()) or \
-                low.startswith(("rhip", "rfemur", "rtibia", "rfoot", "rtoes", "rclavicle", "rhumerus", "rradius",
-                                "rwrist", "rhand", "rfingers", "rthumb", "rshoulder", "relbow", "rknee", "rankle")):
-            out.append("right")
-        else:
-            out.append("centre")
     return out
 
 
@@ -359,9 +339,10 @@ def joint_radius(motion: Motion) -> float:
 
 # -- one merged skeleton mesh ----------------------------------------------------------------------------------
 # The 3D view draws the whole skeleton as ONE indexed triangle mesh (a sphere per joint, an open tube per bone)
-# whose vertices the browser recomputes each shown frame from the world points of that frame (``_conductor.js``
-# applies the same affine maps as :func:`skeleton_mesh`). A handful of widget models instead of one per bone,
-# joint, material and keyframe track: what JupyterLab restores quickly after a page reload.
+# whose vertices the browser computes for each shown frame from the world points of that frame (the one builder:
+# ``widgets/_skeleton_mesh.js``; ``tests/mesh_reference.py`` is its naive twin for the tests). A handful of widget
+# models instead of one per bone, joint, material and keyframe track: what JupyterLab restores quickly after a page
+# reload.
 
 def skeleton_points(motion: Motion) -> np.ndarray:
     """World positions of the joints and then the End Sites, ``(F, J + E, 3)`` float32, file units.
@@ -425,47 +406,6 @@ def mesh_template(radial: int = 8, rings: int = 6) -> MeshTemplate:
     tube = np.concatenate([np.concatenate([ring + [0, y, 0], ring], -1) for y in (1.0, 0.0)])
     return MeshTemplate(sphere.astype(np.float32), _grid_index(rings, 2 * radial).astype(np.uint32),
                         tube.astype(np.float32), _grid_index(1, radial).astype(np.uint32))
-
-
-def _bone_frames(a: np.ndarray, b: np.ndarray):
-    """Right-handed orthonormal frames of bones from ``a (B, 3)`` to ``b (B, 3)``: axes x, y (along the bone),
-    z, each (B, 3), and lengths (B,). A zero-length bone gets y = +y. The helper axis for x is +x, or +z when
-    the bone is nearly along x (same rule in ``_conductor.js``)."""
-    d = b - a
-    length = np.linalg.norm(d, axis=1)
-    y = np.where(length[:, None] > 1e-12, d / np.maximum(length, 1e-12)[:, None], [0.0, 1.0, 0.0])
-    helper = np.where(np.abs(y[:, :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    x = np.cross(y, helper)
-    x /= np.linalg.norm(x, axis=1, keepdims=True)
-    return x, y, np.cross(x, y), length
-
-
-def skeleton_mesh(points: np.ndarray, segs: np.ndarray, num_joints: int, joint_radius: float,
-                  bone_radius: float, template: MeshTemplate, selected=(), selected_scale: float = 1.6):
-    """The merged skeleton mesh of one frame: ``positions (V, 3)``, ``normals (V, 3)`` float32.
-
-    ``points (P, 3)``: world points of the frame (:func:`skeleton_points`); vertices are the joint spheres
-    (joint j: rows ``j Vs .. (j+1) Vs``, radius ``joint_radius``, × ``selected_scale`` for ``selected`` joints)
-    then the bone tubes (bone i from ``segs[i, 0]`` to ``segs[i, 1]``, radius ``bone_radius``), each the template
-    mapped by the bone's frame (:func:`_bone_frames`)."""
-    P = np.asarray(points, dtype=float)
-    J = int(num_joints)
-    r = np.full(J, float(joint_radius))
-    r[list(selected)] *= selected_scale
-    s = template.sphere.astype(float)
-    sp = (P[:J, None, :] + r[:, None, None] * s[None, :, :3]).reshape(-1, 3)
-    sn = np.broadcast_to(s[None, :, 3:], (J,) + s[:, 3:].shape).reshape(-1, 3)
-    a, b = P[segs[:, 0]], P[segs[:, 1]]
-    x, y, z, length = _bone_frames(a, b)
-    t = template.tube.astype(float)
-    scale = np.stack([np.full_like(length, bone_radius), length, np.full_like(length, bone_radius)], 1)
-    axes = np.stack([x, y, z], 1)                                  # (B, 3 axes, 3)
-    # vertex v of bone b: a_b + sum_k t_vk scale_bk axes_bkc, as (V, 3) @ (B, 3, 3) matrix products (a 3-operand
-    # einsum took ~15x longer here)
-    tp = a[:, None] + t[None, :, :3] @ (scale[:, :, None] * axes)
-    tn = t[None, :, 3:] @ axes
-    return (np.concatenate([sp, tp.reshape(-1, 3)]).astype(np.float32),
-            np.concatenate([sn, tn.reshape(-1, 3)]).astype(np.float32))
 
 
 def mesh_index(num_joints: int, num_bones: int, template: MeshTemplate):

@@ -14,7 +14,8 @@ from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import quat_bezier, quat_mul, quat_normalize, rotvec_to_quat, slerp
 from stagger_nb.staggered.representation import StaggeredMotion, knot_times
 
-__all__ = ["forward_kinematics_reference", "evaluate_reference", "fit_rotation_tangents_nelder_mead"]
+__all__ = ["forward_kinematics_reference", "evaluate_reference", "fit_rotation_tangents_nelder_mead",
+           "plateau_weights_reference"]
 
 
 def forward_kinematics_reference(motion: Motion):
@@ -93,3 +94,23 @@ def fit_rotation_tangents_nelder_mead(tn, targets, v0, v3, w_f: float = 1000.0, 
     # scipy's default Nelder-Mead settings (maxiter 200 * 8, xatol = fatol = 1e-4): a straight port
     res = minimize(f, x0, method="Nelder-Mead", options={"maxiter": maxiter} if maxiter else None)
     return quat_normalize(res.x.reshape(2, 4))
+
+
+def plateau_weights_reference(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.ndarray, t: np.ndarray,
+                     side: np.ndarray) -> np.ndarray:
+    """Weight ``(N,)`` of pose ``k`` at time ``t`` for control variable ``col`` of ``knots (K, C)`` on
+    ``side`` (-1: t is before pose k's knot, in segment k-1; +1: after, in segment k): 1 on the plateau
+    between ``t_k`` and ``T[k, col]``, a raised cosine down to 0 at the neighbouring pose's plateau edge (per
+    sample, numpy's cos: the reference of ``geometry._pair_plateau_weights``)."""
+    T = np.maximum.accumulate(knots, axis=0)
+    lo = np.minimum(tk[:, None], T)          # plateau [lo, hi] of every (pose, column)
+    hi = np.maximum(tk[:, None], T)
+    kn = np.clip(k + side, 0, T.shape[0] - 1)
+    inner = np.where(side < 0, hi[kn, col], lo[kn, col])   # where the ramp reaches 0
+    outer = np.where(side < 0, lo[k, col], hi[k, col])     # where the ramp reaches 1
+    L = outer - inner
+    u = np.where(np.abs(L) > 0, (t - inner) / np.where(np.abs(L) > 0, L, 1.0), 1.0)
+    u = np.clip(u, 0.0, 1.0)
+    w = 0.5 * (1.0 - np.cos(np.pi * u))
+    on_plateau = (t >= lo[k, col]) & (t <= hi[k, col])
+    return np.where(on_plateau, 1.0, w)

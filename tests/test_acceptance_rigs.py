@@ -142,14 +142,15 @@ def renamed(m):
     return m.replace(skeleton=_rig([f"j{i}" for i in range(sk.num_joints)], sk.parents, sk.offsets))
 
 
-def global_move(m, seed=0):
-    """A rigid, time-varying turn and travel of the whole character (on joint 0)."""
+def global_move(m, seed=0, rise=5.0):
+    """A rigid, time-varying turn and travel of the whole character (on joint 0), rising ``rise`` cm over the
+    clip (guided warping's default features keep the height above the floor: ``rise=0`` for them)."""
     rng = np.random.default_rng(seed)
     t = m.times / max(m.duration, 1e-9)
     rot = rotvec_to_quat(np.outer(2.5 * np.sin(3 * t) + 0.3 * rng.uniform(), [0.0, 1.0, 0.0]))
     q = np.array(m.local_quats)
     q[:, 0] = quat_mul(rot, q[:, 0])
-    return m.replace(local_quats=q, root_positions=quat_rotate(rot, m.root_positions) + np.outer(t, [800., 5., -300.]))
+    return m.replace(local_quats=q, root_positions=quat_rotate(rot, m.root_positions) + np.outer(t, [800., rise, -300.]))
 
 
 def _variants(m):
@@ -169,24 +170,29 @@ def _variants(m):
 @pytest.mark.parametrize("clip", ["bandai_walk.bvh", "bandai_run_cycle.bvh"])
 def test_torso_frame_features_free_of_global_travel_on_bandai_like_rigs(clip):
     m = _load(clip)
-    ref = timewarp.pose_features(m)
+    ref = timewarp.pose_features(m, frame="pelvis")
+    level = timewarp.pose_features(m)                  # the default: + the pelvis's height above the floor
     height = float(np.ptp(sn.forward_kinematics(m)[0][0, :, 1]))
     for label, (v, pelvis) in _variants(m).items():
         np.testing.assert_allclose(sn.forward_kinematics(v)[0][:, -1], sn.forward_kinematics(m)[0][:, -1],
                                    atol=1e-6 * height, err_msg=f"{label}: the variant is not the same motion")
         assert pelvis_joint(v.skeleton) == pelvis, label
-        X = timewarp.pose_features(v)
+        X = timewarp.pose_features(v, frame="pelvis")
         assert X.shape == ref.shape, label
         np.testing.assert_allclose(X, ref, atol=1e-6 * height, err_msg=label)
         # free of global travel: a rigid turn + 8 m of travel on joint 0 changes nothing; the features stay
         # within a body's size
-        np.testing.assert_allclose(timewarp.pose_features(global_move(v)), X, atol=1e-6 * height, err_msg=label)
+        np.testing.assert_allclose(timewarp.pose_features(global_move(v), frame="pelvis"), X, atol=1e-6 * height,
+                                   err_msg=label)
         assert np.abs(X).max() < height, label
+        # the default frame adds the pelvis's height above the floor: free of travel on the ground and turns
+        np.testing.assert_allclose(timewarp.pose_features(global_move(v, rise=0.0)), level, atol=1e-6 * height,
+                                   err_msg=label)
 
 
 def test_guided_warp_on_a_travelling_root_bandai_variant_matches_the_original():
     m = _load("bandai_walk.bvh")
-    v = global_move(renamed(insert_above(travel_on_root(m), 1, ["a", "b"])))
+    v = global_move(renamed(insert_above(travel_on_root(m), 1, ["a", "b"])), rise=0.0)
     n = int(0.75 * m.num_frames)
     _, w0 = timewarp.guided_warp(m, m, n)
     _, w1 = timewarp.guided_warp(v, v, n)
@@ -367,7 +373,7 @@ def test_pelvis_where_legs_hang_off_their_own_joint():
                                sn.forward_kinematics(m)[0][:, m.skeleton.names.index("RightToeBase")], atol=1e-9)
     assert v.skeleton.names[pelvis_joint(v.skeleton)] == "Hips"     # not the chest (three chains: neck, arms)
     height = float(np.ptp(sn.forward_kinematics(m)[0][0, :, 1]))
-    X, ref = timewarp.pose_features(global_move(v)), timewarp.pose_features(m)
+    X, ref = timewarp.pose_features(global_move(v), frame="pelvis"), timewarp.pose_features(m, frame="pelvis")
     assert X.shape[1] == ref.shape[1] + 3                            # every joint, the legs included
     assert np.abs(X).max() < height
 

@@ -303,7 +303,9 @@ def test_view_plays_in_the_browser_and_picks(lab):
 
 
 def test_exported_page_plays_offline(tmp_path):
-    """export_html of an editor, opened from file:// with every request other than the page itself blocked."""
+    """export_html of an editor, opened from file:// with every request other than the page itself blocked; one
+    joint is named ``<!--<script>`` (legal in BVH): the page still parses, draws the skeleton and the plots and
+    plays."""
     reason = bh.skip_reason()
     if reason:
         print("SKIP:", reason)
@@ -314,6 +316,11 @@ def test_exported_page_plays_offline(tmp_path):
     from playwright.sync_api import sync_playwright
 
     run = sn.data.load("run")
+    names = list(run.skeleton.names)
+    names[names.index("LeftForeArm")] = "<!--<script>"
+    sk = run.skeleton
+    run = run.replace(skeleton=sn.Skeleton(tuple(names), sk.parents, sk.offsets, channels=sk.channels,
+                                           end_sites=sk.end_sites))
     editor = StaggerEditor(run, precompute=False)
     editor.s.value = 0.05
     page_path = export_html(editor, tmp_path / "run.html")
@@ -335,6 +342,9 @@ def test_exported_page_plays_offline(tmp_path):
             page.route("**/*", route)
             page.on("request", lambda r: None if r.url == page_path.as_uri() else requests.append(r.url))
             page.goto(page_path.as_uri(), wait_until="load", timeout=60000)
+            page.wait_for_function("() => document.body.dataset.ready === '1' || document.body.dataset.error",
+                                   timeout=60000)
+            report["page_error_shown"] = page.evaluate("() => document.body.dataset.error || null")
             page.wait_for_selector("#sn-view canvas", timeout=30000)
             page.wait_for_function("() => document.querySelectorAll('.sn-plot .main-svg').length > 0", timeout=30000)
             page.wait_for_timeout(800)
@@ -350,6 +360,8 @@ def test_exported_page_plays_offline(tmp_path):
             report.update(size=page_path.stat().st_size, stddev=max(ImageStat.Stat(a).stddev), changed=_changed(a, b),
                           plots=n_plots, traces=traces, requests=requests, errors=errors)
             print(json.dumps(report, indent=1))
+            assert report["page_error_shown"] is None, report
+            assert report["size"] <= 3_000_000, report
             assert report["stddev"] > 5, report          # not blank (a blank canvas has ~0)
             assert report["changed"] > 0.001, report     # it plays: the two screenshots 1 s apart differ
             assert n_plots == len(editor.figures() if hasattr(editor, "figures") else editor.plots) > 0 and \

@@ -360,7 +360,7 @@ def test_write_is_atomic(tmp_path, monkeypatch):
     out = tmp_path / "x.bvh"
     out.write_text("previous contents")
 
-    def boom(src, dst):
+    def boom(src, dst, **dir_fds):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", boom)

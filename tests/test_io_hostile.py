@@ -196,7 +196,8 @@ def test_write_fsyncs_data_then_folder(tmp_path, monkeypatch):
     monkeypatch.setattr(os, "fsync", lambda fd: (calls.append(("fsync", os.path.isdir(f"/proc/self/fd/{fd}")
                                                                   if os.path.exists("/proc/self/fd") else None)),
                                                  real_fsync(fd))[1])
-    monkeypatch.setattr(os, "replace", lambda a, b: (calls.append(("replace", None)), real_replace(a, b))[1])
+    monkeypatch.setattr(os, "replace",
+                        lambda a, b, **kw: (calls.append(("replace", None)), real_replace(a, b, **kw))[1])
     sn.write_bvh(parse_bvh(TINY), tmp_path / "a.bvh")
     kinds = [c[0] for c in calls]
     assert kinds.index("fsync") < kinds.index("replace") < len(kinds) - 1 - kinds[::-1].index("fsync")
@@ -378,7 +379,7 @@ def test_atomic_write_both_ways_leaves_old_or_new(tmp_path, monkeypatch, unnamed
     os.chmod(out, 0o640)
     real_replace = os.replace
 
-    def boom(src, dst):
+    def boom(src, dst, **dir_fds):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", boom)

@@ -74,7 +74,7 @@ def test_validate_op_names_the_bad_field(op, field):
 def test_validate_op_fills_defaults_and_copies():
     op = {"op": "random_timing", "tau": 0.05, "joints": ["A", "B"]}
     v = validate_op(op)
-    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"]}
+    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"], "limit": 1.5}
     v["joints"].append("C")
     assert op["joints"] == ["A", "B"]  # the caller's dict is not aliased
 

@@ -19,14 +19,15 @@ EXAMPLES = [
     {"op": "cull", "percent": 40.0},
     {"op": "cull", "count": 5},
     {"op": "cull", "keep": [0, 3, 4, 9]},
-    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None},
-    {"op": "succession", "root": "Hips", "s": -0.01, "l": 1.0, "joints": ["LeftUpLeg", "LeftLeg"]},
-    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": ["Hips"]},
+    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None, "limit": 1.5},
+    {"op": "succession", "root": "Hips", "s": -0.01, "l": 1.0, "joints": ["LeftUpLeg", "LeftLeg"], "limit": None},
+    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": ["Hips"], "limit": 2.0},
     {"op": "exaggerate", "w_r": 0.5, "poses": None, "reference": "mean", "mode": "staggered", "joints": None},
     {"op": "exaggerate", "w_r": -0.3, "poses": [1, 2], "reference": 4, "mode": "unstaggered", "joints": ["Hips"]},
     {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "unstaggered"},
     {"op": "edit_pose", "pose": 2, "mode": "staggered", "targets": {"LeftUpLeg": [0.0, 0.0, 0.6, 0.8]}},
     {"op": "retime", "pose": 3, "time": 1.25},
+    {"op": "refine", "pose": 2, "joint": "LeftFoot", "time": 1.23},
     {"op": "insert_pose", "time": 0.7},
     {"op": "delete_pose", "pose": 2},
     {"op": "keep_contacts"},
@@ -72,9 +73,19 @@ def test_json_round_trip(data):
 def test_defaults_are_filled_and_the_input_is_not_aliased():
     src = {"op": "random_timing", "tau": 0.05, "joints": ["A", "B"]}
     v = validate_op(src)
-    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"]}
+    assert v == {"op": "random_timing", "tau": 0.05, "seed": 0, "joints": ["A", "B"], "limit": O.TIMING_LIMIT}
     v["joints"].append("C")
     assert src["joints"] == ["A", "B"]
+
+
+def test_timing_limit_is_checked_and_is_the_staggered_default():
+    from stagger_nb import staggered
+    assert O.TIMING_LIMIT == staggered.TIMING_LIMIT         # declared twice (ops import no technique): equal
+    assert O.Succession(root="Hips", s=0.1).limit == staggered.TIMING_LIMIT
+    assert O.Succession(root="Hips", s=0.1, limit=None).limit is None   # the paper's raw offsets
+    for bad in (1.0, 0.5, -2, "x", float("inf")):
+        with pytest.raises(ValueError, match=r"^limit: expected a number in \(1, 1000\]"):
+            O.RandomTiming(tau=0.1, limit=bad)
 
 
 def test_direct_construction_checks_fields_and_replace_keeps_them_checked():

@@ -114,9 +114,16 @@ def test_timing_warnings_are_summarised_in_messages(walk_session):
     s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0}])
     assert s.messages() == []  # nothing replayed yet
     s.edited()
-    want = staggered.summarize_timing_warnings(staggered.timing_warnings(s.staggered()))
-    assert want  # this exaggerated succession does cross poses, or the check proves nothing
+    want = staggered.timing_summary(s.staggered())
+    assert want.startswith("To keep each joint's poses in order, the delay was limited for")  # saturated
     assert s.messages() == [want]
+    raw = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0, "limit": None}])
+    raw.edited()
+    assert raw.messages() == [staggered.timing_summary(raw.staggered())]
+    assert "now play out of order" in raw.messages()[0]       # the paper's raw offsets cross poses
+    mild = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.005, "l": 1.0}])
+    mild.edited()
+    assert mild.messages() == [] and staggered.timing_warnings(mild.staggered()) == ()
 
 
 def test_timing_warnings_once_per_state_and_equal_to_the_staggered_call(walk_session, monkeypatch):
@@ -125,12 +132,12 @@ def test_timing_warnings_once_per_state_and_equal_to_the_staggered_call(walk_ses
     calls = []
     real = staggered.timing_warnings
     monkeypatch.setattr(staggered, "timing_warnings", lambda sm, **kw: calls.append(1) or real(sm, **kw))
-    s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0},
+    s = _fresh(walk_session, [{"op": "succession", "root": "Hips", "s": 0.3, "l": 3.0, "limit": None},
                               {"op": "edit_frame", "frame": 3, "deltas": {"Hips": [5.0, 0.0, 0.0]}}])
     summary, found = s.timing_warnings()
     want = real(s.staggered())
     assert found == tuple(want) and want  # crosses poses (else the check proves nothing)
-    assert summary == staggered.summarize_timing_warnings(want) and s.messages() == [summary]
+    assert summary == staggered.timing_summary(s.staggered()) and summary and s.messages() == [summary]
     assert len(calls) == 1
     s.replace(1, {"op": "edit_frame", "frame": 4, "deltas": {"Hips": [5.0, 0.0, 0.0]}})   # after the state
     assert s.timing_warnings() == (summary, found) and len(calls) == 1

@@ -253,7 +253,7 @@ def tree_depth_below(parents, root, j):
                                         ("Hips", -0.01, 1.5), ("Spine", 0.015, 3.0)])
 def test_succession_offsets_are_s_d_to_the_l(fixture, root, s, l):
     _, sm = fixture
-    out = staggered.succession(sm, root=root, s=s, l=l)
+    out = staggered.succession(sm, root=root, s=s, l=l, limit=None)        # the paper's raw form
     dr = out.refinements - sm.refinements
     r = NAMES.index(root)
     for j in range(len(NAMES)):
@@ -392,8 +392,8 @@ def _brute_force_warnings(sm, min_angle):
 @pytest.mark.parametrize("root, s, l", [("LeftShoulder", 0.03, 2.0), ("Hips", 0.05, 2.0), ("Hips", -0.06, 1.0)])
 def test_timing_warnings_match_brute_force(fixture, root, s, l):
     _, sm = fixture
-    out = staggered.succession(sm, root=root, s=s, l=l)
-    out = staggered.random_timing(out, tau=0.1, seed=3)
+    out = staggered.succession(sm, root=root, s=s, l=l, limit=None)        # raw: knots may cross
+    out = staggered.random_timing(out, tau=0.1, seed=3, limit=None)
     warns = out.metadata["warnings"]
     assert warns == staggered.timing_warnings(out)
     for min_angle in (0.0, 5.0):
@@ -410,10 +410,12 @@ def test_uniform_shift_is_not_a_warning_but_crossing_is(fixture):
     anchored last pose (a collapsed segment) is."""
     _, sm = fixture        # poses every 0.5 s, refinements up to 0.1 s
     j = sm.skeleton.index("LeftForeArm")
-    small = staggered.succession(sm, root="LeftForeArm", s=0.2, l=1.0, joints=["LeftForeArm", "LeftHand"])
+    small = staggered.succession(sm, root="LeftForeArm", s=0.2, l=1.0, joints=["LeftForeArm", "LeftHand"],
+                                 limit=None)
     # the hand is shifted 0.2 s (d = 1): closer to t_{k+1} than to t_k in places, yet no knot reaches another
     assert all(w.joint != "LeftHand" for w in staggered.timing_warnings(small))
-    big = staggered.succession(sm, root="LeftForeArm", s=0.6, l=1.0, joints=["LeftForeArm", "LeftHand"])
+    big = staggered.succession(sm, root="LeftForeArm", s=0.6, l=1.0, joints=["LeftForeArm", "LeftHand"],
+                               limit=None)
     T = big.knot_times()[:, sm.skeleton.index("LeftHand")]
     assert T[-2] >= T[-1]                     # pose K-2's knot is past the anchored last pose
     assert (sm.num_poses - 2, "LeftHand") in {(w.pose, w.joint) for w in staggered.timing_warnings(big)}
@@ -501,7 +503,7 @@ def test_insert_delete_bad_arguments(fixture):
         staggered.insert_pose(sm, 30 * FT)  # on an existing pose
     with pytest.raises(ValueError, match="t must lie"):
         staggered.insert_pose(sm, 5.0)
-    crossed = staggered.succession(sm, root="LeftShoulder", s=0.3, l=2.0, poses=[1])  # LeftHand +2.7 s
+    crossed = staggered.succession(sm, root="LeftShoulder", s=0.3, l=2.0, poses=[1], limit=None)  # LeftHand +2.7 s
     with pytest.raises(ValueError, match="LeftHand"):                # past pose 2's knot: out of order
         staggered.insert_pose(crossed, float(sm.pose_times[1] + 0.15))
 
@@ -608,7 +610,8 @@ def test_timing_warnings_in_metadata_are_computed_when_read(fixture, monkeypatch
     calls = []
     real = timing_report._timing_warnings
     monkeypatch.setattr(timing_report, "_timing_warnings", lambda *a, **k: calls.append(1) or real(*a, **k))
-    out = staggered.random_timing(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0), tau=0.1, seed=3)
+    out = staggered.random_timing(staggered.succession(sm, root="LeftShoulder", s=0.05, l=2.0, limit=None),
+                                  tau=0.1, seed=3, limit=None)
     assert calls == []                                  # two edits, nothing read yet
     want = staggered.timing_warnings(out)
     assert want and len(calls) == 1                     # these edits do cross poses (else the check is empty)
@@ -677,5 +680,7 @@ def test_offset_basis_reads_the_reproduced_motion_on_frames(fixture):
     a = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=plain)).local_quats
     b = evaluate(staggered.exaggerate(sm, ks, 0.8, basis=read)).local_quats
     assert quat_angle(a, b).max() < 1e-12
-    for other in (staggered.succession(sm, root="Hips", s=0.02, l=1.0), staggered.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
-        assert np.array_equal(staggered.pose_offset_basis(other, reproduced=m).old, staggered.pose_offset_basis(other).old)
+    for other in (staggered.succession(sm, root="Hips", s=0.02, l=1.0),
+                  staggered.edit_pose(sm, 2, {"LeftArm": [0.3, 0.0, 0.0]})):
+        assert np.array_equal(staggered.pose_offset_basis(other, reproduced=m).old,
+                              staggered.pose_offset_basis(other).old)

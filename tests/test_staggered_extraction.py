@@ -5,32 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import quat_angle, rotvec_to_quat
-from stagger_nb.core.skeleton import Skeleton
+from helpers import chain_motion
 from stagger_nb import staggered
 from stagger_nb.staggered.extraction import (candidate_poses, local_maxima, locate_poses, pose_priorities,
                                              tent_filter, timing_refinements)
 from stagger_nb.staggered.features import laplacian_smooth, local_evidence, motion_trail_curvature
-
-
-# -- a hand-built chain whose joints swing about z and reverse at chosen times ---------------------
-
-def chain_motion(reverse_times, duration=2.0, fps=120.0, amplitude=1.0, span=1.0):
-    """Root + len-1 joints in a chain along +y (offset 1 each, End Site on the last); joint i rotates about
-    z by ``amplitude * (1 - ((t - t_i) / span)^2)``, which reverses direction exactly at ``t_i``. The root
-    does not translate."""
-    J = len(reverse_times)
-    names = ["Root"] + [f"J{i}" for i in range(1, J)]
-    parents = np.arange(-1, J - 1)
-    offsets = np.zeros((J, 3))
-    offsets[1:, 1] = 1.0
-    sk = Skeleton(names, parents, offsets, end_sites={J - 1: np.array([0.0, 1.0, 0.0])})
-    t = np.arange(int(round(duration * fps)) + 1) / fps
-    ang = amplitude * (1.0 - ((t[:, None] - np.asarray(reverse_times)[None]) / span) ** 2)
-    rv = np.zeros(ang.shape + (3,))
-    rv[..., 2] = ang
-    return Motion(sk, 1.0 / fps, np.zeros((t.size, 3)), rotvec_to_quat(rv))
 
 
 # -- curvature ------------------------------------------------------------------------------------

@@ -79,7 +79,7 @@ def test_carry_contacts_move_with_the_foot_own_timing(walk):
     exactly 3 frames, every other contact stays (a pure shift of interior knots is a shift of the warp)."""
     m, sm = walk
     dt = 3 * m.frame_time
-    shifted = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"])  # d = 1
+    shifted = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], limit=None)  # d = 1
     carried = staggered.carry_contacts(shifted, sm.contacts, m.frame_time)
     T0 = sm.pose_times
     for (n0, a0, b0), (n1, a1, b1) in zip(sm.contacts, carried):

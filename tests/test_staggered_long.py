@@ -3,8 +3,6 @@ slow ones (each checked against the slow path on small inputs). Long-take figure
 benchmarks/bench_staggered_long.py, not here."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -13,7 +11,7 @@ from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import quat_angle
 from stagger_nb.staggered.features import laplacian_smooth
 
-from test_staggered_extraction import chain_motion
+from helpers import chain_motion
 
 
 def _slow_smooth(signal, iterations, lam=0.5):
@@ -32,11 +30,9 @@ def test_spectral_smoothing_equals_the_pass_loop(rng, F, n, lam):
     np.testing.assert_allclose(laplacian_smooth(x, n, lam), _slow_smooth(x, n, lam), rtol=0, atol=1e-12)
 
 
-def test_many_smoothing_passes_cost_no_more_than_a_few(rng):
+def test_many_smoothing_passes_take_the_closed_form(rng):
     x = rng.normal(size=(5000, 8))
-    t = time.perf_counter()
-    y = laplacian_smooth(x, 10 ** 9, 0.5)             # the loop would take hours
-    assert time.perf_counter() - t < 2.0
+    y = laplacian_smooth(x, 10 ** 9, 0.5)             # the loop would take hours (CPU time: bench_staggered_long.py)
     # the limit is flat at the mean of the reflected (period 2F - 2) signal: ends count half
     mean = (x[0] / 2 + x[1:-1].sum(axis=0) + x[-1] / 2) / (x.shape[0] - 1)
     np.testing.assert_allclose(y, np.broadcast_to(mean, y.shape), rtol=0, atol=1e-12)
@@ -50,17 +46,13 @@ def _with_frame_time(m: Motion, ft: float) -> Motion:
 def test_tiny_frame_time_is_refused_quickly_naming_frame_time_and_resample(ft):
     # Motion's own constructor now refuses such frame times (core.motion.check_frame_time); either way the
     # request ends at once in a ValueError naming frame_time, never in an endless smoothing loop
-    t = time.perf_counter()
     with pytest.raises(ValueError, match=r"frame_time"):
         staggered.extract(_with_frame_time(chain_motion([0.5, 1.0, 1.5], duration=0.5), ft))
-    assert time.perf_counter() - t < 1.0
 
 
-def test_a_high_but_allowed_frame_rate_extracts_in_seconds():
+def test_a_high_but_allowed_frame_rate_extracts_exactly():
     m = chain_motion([0.2, 0.25, 0.3], duration=0.4, fps=5000.0)     # 2001 frames, 80,000 smoothing passes
-    t = time.perf_counter()
-    sm = staggered.extract(m)
-    assert time.perf_counter() - t < 10.0
+    sm = staggered.extract(m)                         # (its CPU time: benchmarks/bench_staggered_long.py)
     out = staggered.evaluate(sm)
     assert quat_angle(out.local_quats, m.local_quats).max() < 1e-6
 
@@ -78,10 +70,8 @@ def test_a_high_but_allowed_frame_rate_extracts_in_seconds():
 ])
 def test_every_option_is_checked_with_an_error_naming_it(option, value):
     m = chain_motion([0.5, 1.0, 1.5], duration=2.0)
-    t = time.perf_counter()
     with pytest.raises(ValueError, match=option):
         staggered.extract(m, **{option: value})
-    assert time.perf_counter() - t < 1.0
 
 
 def test_valid_options_still_work():
@@ -193,11 +183,9 @@ def test_evaluate_and_cull_refuse_work_a_tiny_frame_time_would_ask_for():
     import dataclasses
     sm = staggered.extract(chain_motion([0.5, 1.0, 1.5], duration=2.0))
     tiny = dataclasses.replace(sm, frame_time=1e-9)                 # 2e9 default frames
-    t = time.perf_counter()
     with pytest.raises(ValueError, match="evaluate: .*times"):
         staggered.evaluate(tiny)
     with pytest.raises(ValueError, match="frame_time"):
         staggered.cull(tiny, 50)
     with pytest.raises(ValueError, match="evaluate: .*times"):
         staggered.evaluate(sm, np.linspace(0, 2, 10 ** 7))
-    assert time.perf_counter() - t < 2.0

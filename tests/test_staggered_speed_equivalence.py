@@ -17,9 +17,10 @@ import pytest
 import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
-from stagger_nb.core.rotations import quat_exp, quat_mul
-from stagger_nb.staggered import _kernels, evaluation, geometry, limbs, plants
-from stagger_nb.staggered.evaluation import rotation_spline
+from stagger_nb.core.rotations import quat_bezier, quat_exp, quat_mul
+from references import plateau_weights_reference
+from stagger_nb.staggered import _kernels, geometry, limbs, plants
+from stagger_nb.staggered.evaluation import displacement_at, rotation_spline
 
 
 @pytest.fixture(scope="module")
@@ -82,15 +83,17 @@ def _per_sample_spline(c0, c1, c2, c3, pair, t, out):
 
 
 def _old_target_pieces(monkeypatch):
-    monkeypatch.setattr(evaluation, "_PAIR_KERNEL_MIN", 10 ** 12)                # per-sample evaluator
     monkeypatch.setattr(_kernels, "spline_into", _per_sample_spline)
 
     def pair_weights(knots, tk, k, col, side, t, pair):
-        return geometry._plateau_weights(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
+        return plateau_weights_reference(knots, tk, k[pair], col[pair], t, np.full(pair.size, side))
 
-    def rotations_at(sm, idx, tn):
-        J = sm.num_joints
-        return evaluation._eval_rotations(sm, None, idx % J, seg=idx // J, tn=tn).T
+    def rotations_at(ch, idx, tn):                 # per sample, core quaternion helpers
+        seg, col = np.divmod(idx, ch.num_columns)
+        tg = ch.tangents[seg, col]
+        s = quat_bezier(ch.values[seg, col], tg[:, 0], tg[:, 1], ch.values[seg + 1, col], tn)
+        d = displacement_at(ch.displacements, ch.counts[seg, col], tn, (seg, col))
+        return quat_mul(s, quat_exp(0.5 * d)).T
 
     monkeypatch.setattr(geometry, "_pair_plateau_weights", pair_weights)
     monkeypatch.setattr(geometry, "_rotations_at", rotations_at)

@@ -6,8 +6,10 @@ import itertools
 import numpy as np
 import pytest
 
+from stagger_nb import timewarp
 from stagger_nb.timewarp import dp
 from stagger_nb.timewarp.objective import knn_scores
+from timewarp_reference import constrained_dp_loop
 
 
 def _admissible_paths(n, m, s):
@@ -64,7 +66,7 @@ def test_dp_equals_exhaustive_search(n, s, m, seed, kind):
     assert cost == pytest.approx(best_cost, rel=1e-12, abs=1e-12)
     assert tuple(frames) == best  # continuous random scores: the optimum is unique
     assert dp.path_cost(scores, frames) == pytest.approx(cost, rel=1e-12, abs=1e-12)
-    loop_frames, loop_cost = dp.constrained_dp_loop(scores, m)
+    loop_frames, loop_cost = constrained_dp_loop(scores, m)
     assert tuple(loop_frames) == best and loop_cost == pytest.approx(best_cost, rel=1e-12, abs=1e-12)
 
 
@@ -94,7 +96,7 @@ def test_vectorised_dp_equals_loop_dp_on_a_larger_problem():
     scores = _random_table(rng, n, s, "uniform")
     keys = [(10, 17), (20, 42)]
     f1, c1 = dp.constrained_dp(scores, m, keys=keys)
-    f2, c2 = dp.constrained_dp_loop(scores, m, keys=keys)
+    f2, c2 = constrained_dp_loop(scores, m, keys=keys)
     np.testing.assert_array_equal(f1, f2)
     assert c1 == pytest.approx(c2, rel=1e-12)  # float64 round-off only
 
@@ -214,3 +216,56 @@ def test_kept_costs_and_int8_backpointers_pick_the_same_frames(seed, monkeypatch
     ptr = dp.constrained_dp(scores, m, keys=keys)
     np.testing.assert_array_equal(kept[0], ptr[0])
     assert kept[1] == ptr[1]
+
+
+def _ends(rng, s):
+    return rng.random(s), rng.random(s)
+
+
+@pytest.mark.parametrize("n,s", [(6, 2), (9, 3), (11, 4), (12, 8)])
+def test_end_terms_equal_exhaustive_search(n, s):
+    """With ``ends`` every output frame is charged: the first by start[first step - 1], the last by end[last step
+    - 1]; the constrained, unconstrained, least-mean and input-time searches against all admissible paths."""
+    rng = np.random.default_rng(5 * n + s)
+    scores = _random_table(rng, n, s, "uniform")
+    ends = _ends(rng, s)
+
+    def total(f):
+        return dp.path_cost(scores, f) + ends[0][f[1] - f[0] - 1] + ends[1][f[-1] - f[-2] - 1]
+    paths = [f for m in range(2, n + 1) if (m - 1) * s >= n - 1 for f in _admissible_paths(n, m, s)]
+    for m in sorted({len(f) for f in paths}):
+        best = min((total(f), f) for f in paths if len(f) == m)
+        frames, cost = dp.constrained_dp(scores, m, ends=ends)
+        assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12) and dp.path_cost(scores, frames, ends) == \
+            pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    best = min((total(f), f) for f in paths)
+    frames, cost = dp.unconstrained_dp(scores, ends=ends)
+    assert tuple(frames) == best[1] and cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    best = min((total(f) / len(f), f) for f in paths)
+    frames, mean = dp.mean_cost_dp(scores, ends=ends)
+    assert mean == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+
+    def integrated(f):
+        inner = sum(scores[f[q], f[q] - f[q - 1] - 1, f[q + 1] - f[q] - 1] * (f[q + 1] - f[q - 1]) / 2.0
+                    for q in range(1, len(f) - 1))
+        a, b = f[1] - f[0], f[-1] - f[-2]
+        return inner + ends[0][a - 1] * a / 2.0 + ends[1][b - 1] * b / 2.0
+    best = min((integrated(f), f) for f in paths)
+    frames, cost = dp.input_time_dp(scores, ends=ends)
+    assert cost == pytest.approx(best[0], rel=1e-12, abs=1e-12)
+    with pytest.raises(ValueError, match="ends"):
+        dp.constrained_dp(scores, n, ends=(np.zeros(s + 1), np.zeros(s)))
+
+
+def test_end_scores_are_the_knn_distance_of_the_one_sided_features():
+    rng = np.random.default_rng(3)
+    X = np.cumsum(rng.standard_normal((12, 4)), axis=0)
+    R = np.cumsum(rng.standard_normal((15, 4)), axis=0)
+    w = (1.0, 2.0, 3.0)
+    start, end = timewarp.end_scores(X, R, 4, 2, w)
+    Z = np.array([np.r_[w[0] * R[t], w[1] * 0.5 * (R[t + 1] - R[t - 1])] for t in range(1, 14)])
+    for b in range(1, 5):
+        for base, other, out in ((0, b, start), (11, 11 - b, end)):
+            q = np.r_[w[0] * X[base], w[1] * (X[base] - X[other]) * (1 if base else -1)]
+            d = np.sort(np.linalg.norm(Z - q, axis=1))[:2].mean()
+            assert out[b - 1] == pytest.approx(d, rel=1e-9)

@@ -90,16 +90,23 @@ def test_self_reference_compression_has_no_speed_pops_cmu_131(shared_motion):
 
 
 def test_same_duration_style_warp_upsamples(walk):
-    """A same-length warp against a different reference is no longer silently the identity (issue 11 item 5)."""
+    """A same-length warp against a different reference is no longer silently the identity (issue 11 item 5).
+
+    The reference is the walk itself, its first half fast and its second slow: every pose of the cyclic walk is
+    in it both fast and slow, so only the objective's preferences decide.  Eq. (1) (``weighting="output"``)
+    prefers fewer output frames and plays part of it faster (input half at 45 % of the output); the default
+    input-time weighting has no such preference and the kNN, finding more slow reference frames (the slow half
+    is denser), keeps every pose at 1x: the identity (max deviation 2e-14 s).  The upsampling is what is
+    tested here, with eq. (1)."""
     n, d = walk.num_frames, walk.duration
     ref, _ = timewarp.linear_warp(walk, n, keytimes=[(0.5 * d, 0.3 * d)])   # first half fast, second slow
     assert timewarp.required_upsample(n, n, reference_differs=True) == 2
-    out, warp = timewarp.guided_warp(walk, ref, n)
+    out, warp = timewarp.guided_warp(walk, ref, n, weighting="output")
     assert out.num_frames == n and warp[0] == 0.0 and warp[-1] == pytest.approx(d)
     assert np.abs(warp - walk.times).max() > 5 * walk.frame_time          # the timing changed
     t = timewarp.prepare_warp(walk, ref, 8, 2)
-    sol = timewarp.solve_warp(t, n, speed_penalty=0.0)
-    assert sol.cost < timewarp.path_cost(t.scores, 2 * np.arange(n))     # better than the identity (eq. 1)
+    sol = timewarp.solve_warp(t, n, speed_penalty=0.0, weighting="output")
+    assert sol.cost < timewarp.path_cost(t.scores, 2 * np.arange(n), t.ends)     # better than the identity (eq. 1)
     # with itself as reference the only same-length answer is the identity (§3.1)
     _, same = timewarp.guided_warp(walk, walk, n)
     np.testing.assert_allclose(same, walk.times, atol=1e-9)

@@ -7,7 +7,8 @@ import pytest
 import stagger_nb.timewarp.objective as objective
 from stagger_nb.core.rotations import euler_to_quat, quat_mul
 from stagger_nb.timewarp.features import pose_features, reference_blocks, reference_features, triple_features
-from stagger_nb.timewarp.objective import knn_scores, knn_scores_loop
+from stagger_nb.timewarp.objective import knn_scores
+from timewarp_reference import knn_scores_loop
 
 
 def _walks(rng, n, r, d, scale=1.0):
@@ -107,23 +108,29 @@ def test_pose_features_ignore_global_position_and_heading(shared_motion):
     q[:, 0] = quat_mul(np.broadcast_to(turn, q[:, 0].shape), q[:, 0])
     moved = m.replace(local_quats=q, root_positions=m.root_positions + np.array([300.0, 0.0, -120.0]))
     # FK round-off on cm-sized coordinates
-    np.testing.assert_allclose(pose_features(moved), pose_features(m), atol=1e-9)
+    for frame in ("pelvis_height", "heading", "pelvis"):
+        np.testing.assert_allclose(pose_features(moved, frame=frame), pose_features(m, frame=frame), atol=1e-9)
 
 
 def test_joint_weights_and_prefilter(shared_motion):
     m = shared_motion("bandai_walk.bvh").slice(0, 30)
     J = m.num_joints
     n = J - 1                                           # the static joint_Root above the pelvis is left out
-    raw = pose_features(m, prefilter=0.0).reshape(30, n, 3)
+    raw = pose_features(m, prefilter=0.0, frame="pelvis").reshape(30, n, 3)
     w = np.linspace(0.0, 2.0, J)
-    weighted = pose_features(m, joint_weights=w, prefilter=0.0).reshape(30, n, 3)
+    weighted = pose_features(m, joint_weights=w, prefilter=0.0, frame="pelvis").reshape(30, n, 3)
     np.testing.assert_allclose(weighted, raw * np.sqrt(w[1:])[None, :, None], atol=1e-12)  # one product each
-    smooth = pose_features(m, prefilter=3 * m.frame_time).reshape(30, n, 3)
+    # the default appends the pelvis's height, weighted by sqrt(sum of the weights)
+    hw, h = pose_features(m, joint_weights=w, prefilter=0.0)[:, -1], pose_features(m, prefilter=0.0)[:, -1]
+    np.testing.assert_allclose(hw, h * np.sqrt(w[1:].sum() / n), atol=1e-9)
+    smooth = pose_features(m, prefilter=3 * m.frame_time, frame="pelvis").reshape(30, n, 3)
     np.testing.assert_allclose(smooth[5], raw[4:7].mean(axis=0), atol=1e-9)    # a 3-frame box, round-off
     with pytest.raises(ValueError, match="joint_weights"):
         pose_features(m, joint_weights=np.ones(J + 1))
     with pytest.raises(ValueError, match="prefilter"):
         pose_features(m, prefilter=-1.0)
+    with pytest.raises(ValueError, match="frame"):
+        pose_features(m, frame="torso")
 
 
 @pytest.mark.parametrize("kwargs,match", [

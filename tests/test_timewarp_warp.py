@@ -33,7 +33,7 @@ def test_discrete_solution_keeps_the_ends_and_respects_skip(walk30, walk_tables,
     assert sol.frames[0] == 0 and sol.frames[-1] == walk30.num_frames - 1
     steps = np.diff(sol.frames)
     assert steps.min() >= 1 and steps.max() <= 8
-    assert sol.cost == pytest.approx(dp.path_cost(walk_tables.scores, sol.frames), rel=1e-12)  # round-off
+    assert sol.cost == pytest.approx(dp.path_cost(walk_tables.scores, sol.frames, walk_tables.ends), rel=1e-12)
     out, warp = timewarp.guided_warp(walk30, walk30, num_frames, tables=walk_tables)
     assert out.num_frames == num_frames and out.frame_time == walk30.frame_time
     assert warp[0] == 0.0 and warp[-1] == pytest.approx(walk30.duration, abs=1e-12)
@@ -140,7 +140,10 @@ def test_coarse_to_fine_agrees_with_the_full_dp_on_an_easy_case(shared_motion, f
     tables = timewarp.prepare_warp(inp, ref)
     full = timewarp.solve_warp(tables, n)
     np.testing.assert_array_equal(np.diff(full.frames), np.r_[np.ones(40, int), np.full(n - 41, 2)])
-    fast = timewarp.solve_warp(tables, n, coarse=factor, band=2 * factor)   # narrow: the coarse path must be close
+    # narrow bands for factors 2 and 4: the coarse path must be close; at the paper's factor 8 the coarse problem has
+    # 17 frames and starts its path fast (frame 16 at output 9 where the optimum has 9), so the default band
+    band = 2 * factor if factor < 8 else None
+    fast = timewarp.solve_warp(tables, n, coarse=factor, band=band)
     np.testing.assert_array_equal(fast.frames, full.frames)
     assert fast.cost == pytest.approx(full.cost, rel=1e-12)            # same path, same sum
 

@@ -482,7 +482,7 @@ def test_stagger_warm_up_replays_its_own_ops_only(walk):
     assert len(lists) == 19
     for ops in lists:
         assert [o["op"] for o in ops] == ["cull", "succession"]   # keep_contacts: off, as the session had it
-        assert ops[1] == dict(_quickstart(m)[0], joints=None)
+        assert ops[1] == dict(_quickstart(m)[0], joints=None, limit=1.5)   # the op's default timing limit
 
 
 def test_an_editors_controls_share_equal_layouts_and_styles(walk):

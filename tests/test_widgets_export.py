@@ -15,6 +15,7 @@ import stagger_nb as sn
 from stagger_nb import scene3d
 from stagger_nb.session import Session
 from stagger_nb.widgets import export_html
+from stagger_nb.widgets.export import read_export
 
 
 class _Scripts(HTMLParser):
@@ -45,52 +46,96 @@ def _parse(path):
     return p.scripts
 
 
-def _f32(b64):
-    return np.frombuffer(base64.b64decode(b64), dtype="<f4")
+def _points_close(decoded, motion, entry):
+    """Decoded points equal the view's points to half a quantisation step (and float rounding)."""
+    want = scene3d.skeleton_points(motion).astype(float)
+    assert decoded.shape == want.shape
+    err = np.abs(decoded - want).max()
+    # half a step, plus the float64 -> float32 rounding of the reference points
+    assert err <= entry["step"] / 2 + 1e-6 * np.abs(want).max(), (err, entry["step"])
+    return err
 
 
-def test_motion_page_is_self_contained_and_embeds_the_tracks(tmp_path):
+def test_motion_page_is_self_contained_and_embeds_the_points(tmp_path):
     m = sn.data.load("run")
     out = export_html(m, tmp_path / "run.html")
     scripts = _parse(out)
     assert all("src" not in attrs for attrs, _ in scripts)               # every script inline
+    blocks = {attrs["id"]: body for attrs, body in scripts if attrs.get("type") == "application/octet-stream"}
+    assert set(blocks) == {"sn-lib-three", "sn-lib-plotly", "sn-data"}
+    assert all(re.fullmatch(r"[A-Za-z0-9+/=]+", b) for b in blocks.values())   # base64 only: nothing to escape
+    page = read_export(out)
+    assert b'REVISION="97"' in page["libraries"]["sn-lib-three"]            # three.js from pythreejs
+    assert b"plotly.js v" in page["libraries"]["sn-lib-plotly"][:2000]      # plotly.js from plotly
+    h, arr = page["header"], page["arrays"]
+    assert h["num_frames"] == m.num_frames and not h["has_ghost"] and h["names"] == list(m.skeleton.names)
+    _points_close(arr["points"], m, h["arrays"]["points"])
+    assert h["arrays"]["points"]["step"] == pytest.approx(scene3d.body_size(scene3d.world_positions(m)) / 4000)
     code = "".join(body for attrs, body in scripts if not attrs.get("type"))
-    assert 'REVISION="97"' in code                                          # three.js from pythreejs
-    assert "plotly.js v" in code or "Plotly" in code                        # plotly.js from plotly
-    data = json.loads(next(body for attrs, body in scripts if attrs.get("id") == "sn-data"))
-    tr = scene3d.motion_tracks(m)
-    np.testing.assert_array_equal(_f32(data["motion"]["times"]), tr.times)
-    np.testing.assert_array_equal(_f32(data["motion"]["root_position"]).reshape(-1, 3), tr.root_position)
-    assert set(data["motion"]["quats"]) == {str(j) for j in tr.quats}
-    for j, q in tr.quats.items():
-        np.testing.assert_array_equal(_f32(data["motion"]["quats"][str(j)]).reshape(-1, 4), q)
-    assert data["ghost"] is None and data["num_frames"] == m.num_frames
+    assert "snMeshVertices" in code and "DecompressionStream" in code      # the live view's mesh builder
     assert not list(tmp_path.glob(".tmp-*"))                                # atomic: no temporary left
 
 
 def test_session_page_has_the_edit_and_the_original(tmp_path):
     m = sn.data.load("walk")
     s = Session(m, ops=[{"op": "linear_warp", "duration": 4.0}])
-    out = export_html(s, tmp_path / "walk.html")
-    data = json.loads(next(b for a, b in _parse(out) if a.get("id") == "sn-data"))
+    page = read_export(export_html(s, tmp_path / "walk.html"))
     edited = s.edited()
-    assert data["num_frames"] == edited.num_frames != m.num_frames
-    assert len(_f32(data["ghost"]["times"])) == m.num_frames
-    np.testing.assert_array_equal(_f32(data["motion"]["root_position"]).reshape(-1, 3),
-                                  edited.root_positions.astype(np.float32))
+    h, arr = page["header"], page["arrays"]
+    assert h["num_frames"] == edited.num_frames != m.num_frames and h["has_ghost"]
+    _points_close(arr["points"], edited, h["arrays"]["points"])
+    _points_close(arr["ghost"], m, h["arrays"]["ghost"])
+
+
+def test_a_long_walk_keeps_sixteen_bits_by_a_coarser_step(tmp_path):
+    """Travel far beyond 4000 body steps: the step grows to span the extent, the error stays half a step."""
+    m = sn.data.load("walk")
+    far = m.replace(root_positions=m.root_positions + np.outer(np.arange(m.num_frames), [60.0, 0.0, 0.0]))
+    page = read_export(export_html(far, tmp_path / "far.html"))
+    e = page["header"]["arrays"]["points"]
+    extent = np.ptp(scene3d.skeleton_points(far).reshape(-1, 3), axis=0).max()
+    assert e["step"] == pytest.approx(extent / 65535) and e["step"] > scene3d.body_size(
+        scene3d.world_positions(far)) / 4000
+    _points_close(page["arrays"]["points"], far, e)
 
 
 def test_editor_page_draws_its_figures(tmp_path):
     from stagger_nb.widgets import StaggerEditor
     e = StaggerEditor(sn.data.load("run"), precompute=False)
     try:
-        out = export_html(e, tmp_path / "editor.html")
-        figs = json.loads(next(b for a, b in _parse(out) if a.get("id") == "sn-figures"))
-        expected = e.figures() if hasattr(e, "figures") else [p.figure for p in e.plots]
+        page = read_export(export_html(e, tmp_path / "editor.html"))
+        figs, expected = page["header"]["figures"], e.figures()
         assert len(figs) == len(expected) > 0
         assert [len(f["data"]) for f in figs] == [len(f["data"]) for f in expected]
+        for f, want in zip(figs, expected):
+            assert f["layout"]["title"]["text"] == want["layout"]["title"]["text"]
+            for t, w in zip(f["data"], want["data"]):
+                for k in ("x", "y"):
+                    ref = t.get(k)
+                    if isinstance(ref, dict):                  # an array, stored once in the pack (float32)
+                        np.testing.assert_array_equal(page["arrays"][ref["__sn__"]],
+                                                      np.asarray(w[k], dtype=np.float32))
+        shared = {t["x"]["__sn__"] for t in figs[0]["data"][:6]}
+        assert len(shared) == 1                                # the six curves share one time axis
     finally:
         e.close()
+
+
+def test_a_hostile_joint_name_and_title_cannot_break_the_page(tmp_path):
+    """``<!--<script>`` is a legal BVH joint name: no joint name, title or label reaches the page's text."""
+    m = sn.data.load("run")
+    names = list(m.skeleton.names)
+    names[3] = "<!--<script>"
+    names[4] = "</script><b>x"
+    sk = sn.Skeleton(tuple(names), m.skeleton.parents, m.skeleton.offsets, channels=m.skeleton.channels,
+                     end_sites=m.skeleton.end_sites)
+    hostile = m.replace(skeleton=sk)
+    out = export_html(hostile, tmp_path / "hostile.html", title="</script><!-- a <script> title")
+    text = out.read_text(encoding="utf-8")
+    assert "<!--" not in text
+    assert text.count("<script") == len(_parse(out)) == 5   # our five scripts, nothing else opens one
+    assert read_export(out)["header"]["names"][3:5] == ["<!--<script>", "</script><b>x"]
+    assert "&lt;/script&gt;&lt;!-- a &lt;script&gt; title" in text
 
 
 def test_refuses_the_source_clip_and_non_html_files(tmp_path):
@@ -112,10 +157,17 @@ def test_refuses_the_source_clip_and_non_html_files(tmp_path):
         export_html(42, tmp_path / "x.html")
 
 
-def test_cmu_01_01_page_size(tmp_path):
+def test_cmu_01_01_pages_are_at_most_3_mb(tmp_path):
+    from stagger_nb.widgets import StaggerEditor
     m = sn.data.load("cmu_01_01")
-    size = export_html(m, tmp_path / "cmu.html").stat().st_size
-    tracks = scene3d.motion_tracks(m).nbytes
-    print(f"\nexport_html(CMU 01_01 Motion): {size:,} bytes (tracks {tracks:,} bytes as float32)")
-    # the scripts (plotly.js ~4.6 MB, three.js ~0.55 MB) plus the tracks in base64 (4/3) and small change
-    assert 4 / 3 * tracks < size < 4 / 3 * tracks + 6.5e6
+    motion_size = export_html(m, tmp_path / "cmu.html").stat().st_size
+    e = StaggerEditor(m, precompute=False)
+    try:
+        e.model.s = 0.02
+        size = export_html(e, tmp_path / "cmu_editor.html").stat().st_size
+    finally:
+        e.close()
+    points = scene3d.skeleton_points(m).nbytes
+    print(f"\nexport_html CMU 01_01: Motion {motion_size:,} bytes, StaggerEditor {size:,} bytes "
+          f"(points {points:,} bytes as float32, twice with the original)")
+    assert size <= 3_000_000 and motion_size < size

@@ -1,9 +1,10 @@
 """Finding the clips of a batch and reading them: ``*.bvh`` files and CMU ``*.amc`` motions (with the ``*.asf``
 of the same folder: ``NN.asf`` for ``NN_MM.amc``, else the folder's only ``.asf``), found recursively, in
-sorted order; the SHA-256 of a clip's bytes keys the manifest."""
+sorted order; the SHA-256 of a clip's bytes keys the manifest. Clips are read and hashed under the package's
+one input policy (:func:`stagger_nb.io._common.read_regular_file`): a FIFO, a device, a folder or a /proc file
+named ``x.bvh`` (or a link to one) is a failed clip, never opened for a blocking read."""
 from __future__ import annotations
 
-import hashlib
 import os
 
 __all__ = ["find_clips", "read_clip"]
@@ -47,10 +48,7 @@ def read_clip(path: str):
     return read_bvh(path)
 
 
-def _sha256_file(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
+def clip_sha256(path: str) -> str:
+    """SHA-256 of the clip's bytes (a regular file within the input size limit; ``ValueError`` naming it)."""
+    from ..io._common import sha256_regular_file
+    return sha256_regular_file(path, what="clip")

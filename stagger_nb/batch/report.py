@@ -1,19 +1,38 @@
-"""What a batch records in its output folder: the manifest (``.stagger_nb_manifest.json``: each finished clip's
-input and job keys and its output) and the reports (``batch_report.json``, ``batch_report.csv``: every failed
-clip with its file, line and error), each written atomically."""
+"""What a batch records in its output folder (OUT), all of it written inside OUT only
+(:func:`stagger_nb.io._common.write_confined`):
+
+- the manifest (``.stagger_nb_manifest.json``): each clip's input and job keys, the output it names (a path
+  inside OUT) and the SHA-256 of the bytes the batch wrote there, and the reports the batch writes. It is the
+  record of what the batch wrote: a file in OUT that it does not list (or whose bytes changed since) is the
+  user's and is never replaced. A manifest that is not one (bad JSON, wrong fields, an output outside OUT)
+  is an error naming the file, its content never quoted;
+- the reports (``batch_report.json``, ``batch_report.csv``): every failed clip with its file, line and error.
+  A small report is written before any clip runs, so a run that dies or fills the disk leaves one; the final
+  one replaces it atomically, or, when the disk is full, the first is overwritten in place (no new blocks)
+  to say so. Names that are not valid UTF-8 are shown with ``\\xNN`` escapes; CSV cells a spreadsheet would
+  evaluate (starting with ``= + - @``, tab or carriage return: the OWASP rule) are prefixed with ``'``.
+"""
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import os
+import re
 from dataclasses import dataclass, field
 
-__all__ = ["BatchResult", "MANIFEST", "REPORT_JSON", "REPORT_CSV"]
+from ..io._common import WriteError, confined_parts, overwrite_in_place, read_confined, write_confined
+
+__all__ = ["BatchResult", "BatchError", "MANIFEST", "REPORT_JSON", "REPORT_CSV"]
 
 MANIFEST = ".stagger_nb_manifest.json"
 REPORT_JSON = "batch_report.json"
 REPORT_CSV = "batch_report.csv"
+MANIFEST_FORMAT = "stagger_nb.batch_manifest"
+MANIFEST_VERSION = 2
+MAX_MANIFEST_BYTES = 64 << 20  # ~300 bytes a clip: 200,000 clips
+_HEX64 = re.compile(r"[0-9a-f]{64}")
 
 
 @dataclass
@@ -29,29 +48,204 @@ class BatchResult:
     worker_peak_mb: dict = field(default_factory=dict)
 
 
-def load_manifest(path: str) -> dict:
+class BatchError(ValueError):
+    """A run that could not record what it did (a full disk, a stopped scheduler): the message says what
+    failed and where the report is; ``result`` is the :class:`BatchResult` so far."""
+
+    def __init__(self, message: str, result: BatchResult):
+        super().__init__(message)
+        self.result = result
+
+
+# --------------------------------------------------------------------------------------------------
+# names as text
+# --------------------------------------------------------------------------------------------------
+def text_of(name: str) -> str:
+    """``name`` as UTF-8-safe text: the bytes of a file name that is not valid UTF-8 (surrogate escapes from
+    ``os.fsdecode``) shown as ``\\xNN``."""
+    if name.isprintable() or not any("\udc80" <= c <= "\udcff" for c in name):
+        return name
+    return "".join(f"\\x{ord(c) - 0xdc00:02x}" if "\udc80" <= c <= "\udcff" else c for c in name)
+
+
+def terminal_text(name: str) -> str:
+    """:func:`text_of`, with control characters (a line break in a file name) escaped too: safe to print."""
+    name = text_of(name)
+    if name.isprintable():
+        return name
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in name)
+
+
+def _cell(value) -> str:
+    """A CSV cell a spreadsheet shows as text: ``'`` before a leading ``= + - @``, tab or carriage return."""
+    s = "" if value is None else text_of(str(value))
+    return "'" + s if s[:1] in ("=", "+", "-", "@", "\t", "\r") else s
+
+
+def _rows_text(rows: list) -> list:
+    return [{k: (text_of(v) if isinstance(v, str) else v) for k, v in row.items()} for row in rows]
+
+
+# --------------------------------------------------------------------------------------------------
+# the manifest
+# --------------------------------------------------------------------------------------------------
+class Manifest:
+    """The record of a batch's output folder ``root`` (see the module docstring). ``clips``:
+    ``{rel: {"key": {...} or None, "output": path in root, "output_sha256": hex or None}}`` (``None``: written,
+    or being written, by the batch, bytes not known); ``reports``: the report names the batch writes there;
+    ``table_sha256``: the SHA-256 of the Parquet table extract-poses writes beside ``root`` (two while a new
+    table replaces the old one, so that either is known to be the batch's if the run stops in between)."""
+
+    def __init__(self, root: str, shown: str):
+        self.root, self.shown = root, shown
+        self.clips: dict = {}
+        self.reports: list = []
+        self.table_sha256: list = []
+
+    @property
+    def path(self) -> str:
+        return os.path.join(self.shown, MANIFEST)
+
+    def _bad(self, why: str) -> ValueError:
+        return ValueError(f"{self.path}: not a valid batch manifest ({why}); it is not used. Delete it (the batch "
+                          "then replaces none of the files in the folder) or restore it")
+
+    @classmethod
+    def load(cls, root: str, shown: str) -> "Manifest":
+        m = cls(root, shown)
+        if not os.path.lexists(os.path.join(root, MANIFEST)):
+            return m
+        try:
+            raw = read_confined(root, MANIFEST, what="manifest", max_bytes=MAX_MANIFEST_BYTES)
+        except ValueError as e:
+            raise m._bad(str(e).split(": ", 1)[-1]) from None
+        try:
+            data = json.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError as e:
+            raise m._bad(f"not UTF-8 text at byte {e.start}") from None
+        except json.JSONDecodeError as e:
+            raise m._bad(f"not JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
+        except (ValueError, RecursionError):
+            raise m._bad("JSON nested too deeply or holding too long a number") from None
+        if not isinstance(data, dict):
+            raise m._bad("not a JSON object")
+        if "format" in data:
+            if data.get("format") != MANIFEST_FORMAT or data.get("version") != MANIFEST_VERSION:
+                raise m._bad(f"its format is not {MANIFEST_FORMAT} version {MANIFEST_VERSION}")
+            if set(data) - {"format", "version", "clips", "reports", "table_sha256"}:
+                raise m._bad("unknown fields")
+            clips, reports, table = data.get("clips", {}), data.get("reports", []), data.get("table_sha256", [])
+        else:  # written by a batch before version 2: {rel: {"key", "output"}}
+            clips, reports, table = data, [REPORT_JSON, REPORT_CSV], []
+        if not isinstance(clips, dict):
+            raise m._bad("'clips' is not an object")
+        if not (isinstance(reports, list) and all(r in (REPORT_JSON, REPORT_CSV) for r in reports)):
+            raise m._bad("'reports' is not a list of report names")
+        if not (isinstance(table, list) and len(table) <= 2
+                and all(isinstance(t, str) and _HEX64.fullmatch(t) for t in table)):
+            raise m._bad("'table_sha256' is not a list of SHA-256")
+        for n, (rel, entry) in enumerate(clips.items(), 1):
+            why = _entry_problem(entry)
+            if why:
+                raise m._bad(f"entry {n} of {len(clips)}: {why}")
+        m.clips, m.reports, m.table_sha256 = dict(clips), list(reports), table
+        return m
+
+    def wrote(self, out_rel: str) -> bool:
+        """Did the batch write the file now at ``out_rel`` (listed, and its bytes those it wrote)?"""
+        entries = [e for e in self.clips.values() if e["output"] == out_rel]
+        if not entries:
+            return False
+        if any(e.get("output_sha256") is None for e in entries):
+            return True
+        try:
+            digest = hashlib.sha256(read_confined(self.root, out_rel, what="output")).hexdigest()
+        except ValueError:
+            return False
+        return any(e.get("output_sha256") == digest for e in entries)
+
+    def to_bytes(self) -> bytes:
+        data = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION, "clips": self.clips,
+                "reports": sorted(self.reports), "table_sha256": self.table_sha256}
+        return json.dumps(data, indent=1, sort_keys=True, allow_nan=False).encode("utf-8")
+
+    def save(self) -> None:
+        write_confined(self.root, MANIFEST, self.to_bytes(), replace=True)
+
+
+def _entry_problem(entry) -> str | None:
+    """Why a manifest entry is not one (its values are not quoted), or None."""
+    if not isinstance(entry, dict) or "output" not in entry or set(entry) - {"key", "output", "output_sha256"}:
+        return "not an object with 'key' and 'output'"
+    key = entry.get("key")
+    if key is not None and not (isinstance(key, dict) and set(key) == {"input_sha256", "job_sha256"}
+                                and all(isinstance(v, str) and _HEX64.fullmatch(v) for v in key.values())):
+        return "'key' is not the input and job SHA-256"
     try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-        return data if isinstance(data, dict) else {}
-    except (OSError, ValueError):
-        return {}
+        confined_parts(entry["output"], "output")
+    except ValueError:
+        return "its output is outside the output folder (an absolute path, '..', or not a path)"
+    digest = entry.get("output_sha256")
+    if digest is not None and not (isinstance(digest, str) and _HEX64.fullmatch(digest)):
+        return "'output_sha256' is not a SHA-256"
+    return None
 
 
-def dump_json(path: str, data) -> None:
-    from ..io._common import atomic_write_bytes
-    atomic_write_bytes(path, json.dumps(data, indent=1, sort_keys=True, allow_nan=False).encode("utf-8"))
-
-
-def write_reports(out_root: str, report: dict, failed: list) -> str:
-    """``batch_report.json`` (``report``) and ``batch_report.csv`` (the ``failed`` rows) in ``out_root``; the
-    JSON report's path."""
-    path = os.path.join(out_root, REPORT_JSON)
-    dump_json(path, report)
+# --------------------------------------------------------------------------------------------------
+# the reports
+# --------------------------------------------------------------------------------------------------
+def _csv_bytes(rows: list, quote_all: bool = False) -> bytes:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=["file", "line", "error"])
-    w.writeheader()
-    w.writerows(failed)
-    from ..io._common import atomic_write_bytes
-    atomic_write_bytes(os.path.join(out_root, REPORT_CSV), buf.getvalue().encode("utf-8"))
-    return path
+    w = csv.writer(buf, quoting=csv.QUOTE_ALL if quote_all else csv.QUOTE_MINIMAL)
+    w.writerow(["file", "line", "error"])
+    w.writerows([_cell(r.get("file")), _cell(r.get("line")), _cell(r.get("error"))] for r in rows)
+    return buf.getvalue().encode("utf-8")
+
+
+def _json_bytes(report: dict) -> bytes:
+    report = dict(report)
+    for k in ("done", "skipped"):
+        if k in report:
+            report[k] = [text_of(r) for r in report[k]]
+    if "failed" in report:
+        report["failed"] = _rows_text(report["failed"])
+    for k in ("input_dir", "output"):
+        if isinstance(report.get(k), str):
+            report[k] = text_of(report[k])
+    return json.dumps(report, indent=1, sort_keys=True, allow_nan=False).encode("utf-8")
+
+
+def write_reports(root: str, shown: str, report: dict) -> str:
+    """``batch_report.json`` (``report``) and ``batch_report.csv`` (its ``failed`` rows) in ``root``, atomically;
+    the JSON report's path. ``WriteError`` when either cannot be written."""
+    write_confined(root, REPORT_JSON, _json_bytes(report), replace=True)
+    write_confined(root, REPORT_CSV, _csv_bytes(report.get("failed", [])), replace=True)
+    return os.path.join(shown, REPORT_JSON)
+
+
+def report_failure(root: str, shown: str, report: dict, status: str) -> bool:
+    """Say ``status`` (why the run could not record itself) in the reports however the disk allows: an atomic
+    write, else an overwrite in place of the report there (a full disk has no room for a new file, but the old
+    one's blocks are reused). True when the JSON report says so."""
+    report = dict(report, status=status)
+    said = False
+    small = {k: report.get(k) for k in ("status", "input_dir", "output", "executor", "clips")}
+    small.update({f"{k}_count": len(report.get(k, [])) for k in ("done", "skipped", "failed")})
+    for name, full, brief, pad_at in ((REPORT_JSON, _json_bytes(report), _json_bytes(small), None),
+                                      (REPORT_CSV, _csv_bytes(report.get("failed", []) + [
+                                          {"file": "(this run)", "error": status}], quote_all=True),
+                                       _csv_bytes([{"file": "(this run)", "error": status}], quote_all=True), -3)):
+        ok = False
+        try:
+            write_confined(root, name, full, replace=True)
+            ok = True
+        except WriteError:
+            for data in (full, brief):
+                try:
+                    overwrite_in_place(root, name, data, pad_at=pad_at)
+                    ok = True
+                    break
+                except (WriteError, ValueError):
+                    continue
+        said = said or (ok and name == REPORT_JSON)
+    return said

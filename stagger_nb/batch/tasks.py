@@ -1,7 +1,10 @@
 """The task a batch runs on a worker for one clip: read it, apply the session's ops (or extract its staggered
-poses), write the output. Every executor runs ``_run_task``, so outputs are identical bit for bit."""
+poses), write the output inside the output folder (:func:`stagger_nb.io._common.write_confined`: no symbolic
+link inside it is followed, and a file the batch did not write is never replaced). Every executor runs
+``_run_task``, so outputs are identical bit for bit."""
 from __future__ import annotations
 
+import hashlib
 import io
 import os
 import resource
@@ -26,15 +29,16 @@ def _pin_threads() -> None:
 
 
 def _run_task(task: dict) -> dict:
-    """Run one clip; never raises: ``{"file", "ok", "output", "line", "error", "seconds"}``."""
+    """Run one clip; never raises: ``{"file", "ok", "output", "output_sha256", "line", "error", "seconds"}``."""
     _pin_threads()
     t0 = time.perf_counter()
-    res = {"file": task["rel"], "ok": False, "output": task["out_rel"], "line": None, "error": None}
+    res = {"file": task["rel"], "ok": False, "output": task["out_rel"], "output_sha256": None, "line": None,
+           "error": None}
     try:
-        if task["kind"] == "session":
-            _task_session(task)
-        else:
-            _task_poses(task)
+        data = _session_bytes(task) if task["kind"] == "session" else _poses_bytes(task)
+        from ..io._common import write_confined
+        write_confined(task["out_root"], task["out_rel"], data, replace=task["replace"])
+        res["output_sha256"] = hashlib.sha256(data).hexdigest()
         res["ok"] = True
     except Exception as e:  # noqa: BLE001 - recorded per file, the run goes on
         res["line"] = getattr(e, "line", None)
@@ -47,12 +51,13 @@ def _run_task(task: dict) -> dict:
     return res
 
 
-def _task_session(task: dict) -> None:
+def _session_bytes(task: dict) -> bytes:
+    """The BVH bytes of the clip edited by the session's ops."""
+    from ..io.bvh_write import bvh_bytes
     from ..session import Session
     motion = read_clip(task["input"])
     s = Session(motion, ops=task["ops"], extract_options=task["extract_options"] or None)
-    os.makedirs(os.path.dirname(task["output"]), exist_ok=True)
-    s.export_bvh(task["output"])
+    return bvh_bytes(s.edited())
 
 
 def _pose_schema():
@@ -95,10 +100,8 @@ def _table_bytes(table) -> bytes:
     return buf.getvalue()
 
 
-def _task_poses(task: dict) -> None:
-    from ..io._common import atomic_write_bytes
+def _poses_bytes(task: dict) -> bytes:
+    """The Parquet bytes of the clip's staggered poses (:func:`pose_table`)."""
     motion = read_clip(task["input"])
-    table = pose_table(motion, task["rel"], **(task["extract_options"] or {}))
-    os.makedirs(os.path.dirname(task["output"]), exist_ok=True)
-    atomic_write_bytes(task["output"], _table_bytes(table))
-
+    from .report import text_of  # a file name that is not UTF-8 is stored with \xNN escapes
+    return _table_bytes(pose_table(motion, text_of(task["rel"]), **(task["extract_options"] or {})))

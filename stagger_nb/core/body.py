@@ -8,6 +8,8 @@ Glossary: F frames, J joints; quaternions (x, y, z, w).
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from .kinematics import forward_kinematics
@@ -15,7 +17,7 @@ from .motion import Motion
 from .rotations import quat_conj, quat_mul, quat_normalize, quat_rotate
 from .skeleton import Skeleton
 
-__all__ = ["pelvis_joint", "subtree", "up_axis", "heading_quats", "remove_heading"]
+__all__ = ["pelvis_joint", "subtree", "up_axis", "heading_quats", "remove_heading", "joint_sides", "limb_groups"]
 
 
 def subtree(skeleton: Skeleton, j: int) -> np.ndarray:
@@ -141,4 +143,148 @@ def positions_in_pelvis_frame(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     return quat_rotate(quat_conj(wq[:, pelvis:pelvis + 1]), rel), joints
 
 
+FLOOR_PERCENTILE = 5.0   # the floor: this percentile over frames of the lowest joint's height
+
+
+def positions_in_heading_frame(motion: Motion, up=None) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the pelvis's subtree in its *heading* frame, with heights above the clip's floor.
+
+    ``H(t)^-1 (x_j(t) - g(t))`` where ``H(t)`` is the pelvis's heading (its world rotation's twist about the
+    vertical ``up``, :func:`heading_quats`) and ``g(t)`` the pelvis's ground point: its position with the
+    vertical component replaced by the floor level (the :data:`FLOOR_PERCENTILE`-th percentile over frames of
+    the lowest subtree joint's height).  So the horizontal coordinates follow the character (no travel, no
+    heading), while the vertical coordinate is each joint's height above the floor: pitch and roll of the
+    pelvis and the body's vertical motion (a flight's parabola) stay in.  Invariant to travel on the ground,
+    to turning about the vertical and to a constant vertical offset of the whole clip; not to a tilt of the
+    world (gravity defines the vertical).
+
+    Returns ``(positions (F, n, 3), joints (n,))`` like :func:`positions_in_pelvis_frame`.
+    """
+    pos, wq = forward_kinematics(motion)
+    pelvis = pelvis_joint(motion.skeleton)
+    joints = subtree(motion.skeleton, pelvis)
+    u = up_axis(motion, pos) if up is None else np.asarray(up, dtype=float)
+    p = pos[:, joints]
+    heights = p @ u                                                   # (F, n)
+    floor = float(np.percentile(heights.min(axis=1), FLOOR_PERCENTILE))
+    ground = pos[:, pelvis] - (pos[:, pelvis] @ u - floor)[:, None] * u[None, :]   # (F, 3)
+    h = heading_quats(wq[:, pelvis], u)
+    return quat_rotate(quat_conj(h[:, None]), p - ground[:, None]), joints
+
+
+AIRBORNE_CLEARANCE = 0.06   # airborne_frames: lowest point of each leg above the floor, x the pelvis's height
+
+
+def leg_chains(skeleton: Skeleton) -> list[np.ndarray]:
+    """The legs: the pelvis's child chains (subtrees with children) other than the largest (the spine, which
+    holds the arms and the head), each as its joint indices; ``[]`` on a single-chain rig."""
+    p = pelvis_joint(skeleton)
+    chains = sorted((subtree(skeleton, c) for c in skeleton.children(p) if skeleton.children(c)), key=len)
+    return chains[:-1] if len(chains) >= 2 else []
+
+
+def airborne_frames(motion: Motion, clearance: float = AIRBORNE_CLEARANCE, positions=None) -> np.ndarray:
+    """Frames where both feet are off the ground, shape (F,) bool.
+
+    A leg is off the ground when its lowest joint is more than ``clearance`` times the pelvis's median height
+    above the floor (the :data:`FLOOR_PERCENTILE`-th percentile over frames of the lower leg's lowest joint):
+    scale-free, so the same on a clip in cm, m or inches (6 % is 5.5 cm on CMU 01_01).  A rig without two
+    legs (:func:`leg_chains`) is never airborne.  ``positions`` (F, J, 3) from forward kinematics may be given.
+    """
+    legs = leg_chains(motion.skeleton)
+    if len(legs) < 2:
+        return np.zeros(motion.num_frames, dtype=bool)
+    if positions is None:
+        positions, _ = forward_kinematics(motion)
+    u = up_axis(motion, positions)
+    h = positions @ u                                                        # (F, J) heights
+    low = np.stack([h[:, leg].min(axis=1) for leg in legs], axis=1)         # (F, legs)
+    floor = float(np.percentile(low.min(axis=1), FLOOR_PERCENTILE))
+    pelvis = float(np.median(h[:, pelvis_joint(motion.skeleton)])) - floor
+    return np.all(low > floor + float(clearance) * max(pelvis, 1e-12), axis=1)
+
+
+__all__ += ["positions_in_pelvis_frame", "positions_in_heading_frame", "FLOOR_PERCENTILE", "leg_chains",
+            "airborne_frames", "AIRBORNE_CLEARANCE"]
+
 __all__ += ["positions_in_pelvis_frame"]
+
+
+_CMU_SIDED = ("hip", "femur", "tibia", "foot", "toes", "clavicle", "humerus", "radius", "wrist", "hand", "fingers",
+              "thumb", "shoulder", "elbow", "knee", "ankle")
+
+
+def joint_sides(names) -> list[str]:
+    """'left' / 'right' / 'centre' for each joint name, from its words: ``Left…`` / ``Right…``, ``L…`` / ``R…``
+    followed by a capital (``LHipJoint``), a word ``L`` / ``R`` (``CC_Base_L_Thigh``, ``hand_r``, ``Hand.L``),
+    the CMU ASF names (``lfemur``); a namespace (``mixamorig:``) is ignored."""
+    out = []
+    for n in names:
+        base = n.rsplit(":", 1)[-1] if isinstance(n, str) else str(n)
+        words = [w.lower() for w in re.split(r"[_.\-\s|]+", base) if w]
+        low = base.lower()
+        side = "centre"
+        for s, word in (("left", "l"), ("right", "r")):
+            if low.startswith(s) or low.endswith(s) or s in words or word in words or \
+                    (len(base) > 1 and base[0] == word.upper() and base[1].isupper()) or \
+                    low.startswith(tuple(word + x for x in _CMU_SIDED)):
+                side = s
+                break
+        out.append(side)
+    return out
+
+
+def _shape(skeleton: Skeleton) -> list:
+    """A canonical signature of each joint's subtree (equal for mirror-image limbs, whatever the child order)."""
+    sig: list = [None] * skeleton.num_joints
+    for j in range(skeleton.num_joints - 1, -1, -1):   # children come after their parents
+        sig[j] = "(" + "".join(sorted(sig[c] for c in skeleton.children(j))) + ")"
+    return sig
+
+
+_KINDS = (("arm", ("arm", "shoulder", "clavicle", "hand", "humerus", "radius", "wrist", "elbow", "finger",
+                   "thumb", "collar")),
+          ("leg", ("leg", "thigh", "hip", "femur", "tibia", "foot", "knee", "calf", "ankle", "toe", "shin")))
+
+
+def limb_groups(skeleton: Skeleton) -> list[tuple[str, tuple[int, ...]]]:
+    """The joints grouped by limb, for a view with one row per joint (the dope sheet): ``[(label, joints), ...]``,
+    every joint in exactly one group, ascending indices inside a group.
+
+    The trunk is every joint reached from joint 0 without entering a *limb*: a child with children of its own
+    whose subtree has the same shape as one of its siblings' (mirror-image legs and arms, found from the
+    hierarchy alone; single end joints such as eyes stay with their parent). Each limb is a group, labelled by
+    its side and kind from the joint names (``left leg``, ``right arm``), or by its side and first joint's
+    last word where the names do not say the kind (``left RibsTwist``), or that joint's name. Order: the trunk,
+    then the arms, the legs and the rest, left before right.
+    """
+    J = skeleton.num_joints
+    sig = _shape(skeleton)
+    limb_of = np.full(J, -1)
+    roots = []
+    for j in range(1, J):
+        p = int(skeleton.parents[j])
+        if limb_of[p] >= 0:
+            limb_of[j] = limb_of[p]
+        elif sig[j] != "()" and any(sig[c] == sig[j] for c in skeleton.children(p) if c != j):
+            limb_of[j] = len(roots)
+            roots.append(j)
+    sides = joint_sides(skeleton.names)
+    groups = []
+    for i, r in enumerate(roots):
+        members = tuple(int(j) for j in np.flatnonzero(limb_of == i))
+        words = " ".join(skeleton.names[j].lower() for j in members)
+        kind = next((k for k, keys in _KINDS if any(x in words for x in keys)), None)
+        side = sides[r]
+        if side == "centre":
+            label = skeleton.names[r]
+        else:   # "left leg", or the side and the first joint's last word ("left RibsTwist")
+            label = f"{side} {kind or re.split(r'[_.:|]+', skeleton.names[r])[-1]}"
+        order = ({"arm": 0, "leg": 1}.get(kind, 2), {"left": 0, "right": 1}.get(side, 2), r)
+        groups.append((order, label, members))
+    groups.sort()
+    labels = [g[1] for g in groups]
+    out = [("trunk", tuple(int(j) for j in np.flatnonzero(limb_of < 0)))]
+    for (_, label, members) in groups:   # two limbs of one label (two pairs of arms): add the first joint's name
+        out.append((label if labels.count(label) == 1 else f"{label} ({skeleton.names[members[0]]})", members))
+    return out

@@ -142,7 +142,8 @@ def quat_log(q: np.ndarray) -> np.ndarray:
     s = np.linalg.norm(v, axis=-1, keepdims=True)
     half = np.arctan2(s, q[..., 3:4])
     # Taylor: half/s -> 1/w for s -> 0
-    scale = np.where(s > _SMALL, half / np.where(s > _SMALL, s, 1.0), 1.0 / np.where(np.abs(q[..., 3:4]) > 0, q[..., 3:4], 1.0))
+    w = q[..., 3:4]
+    scale = np.where(s > _SMALL, half / np.where(s > _SMALL, s, 1.0), 1.0 / np.where(np.abs(w) > 0, w, 1.0))
     return v * scale
 
 

@@ -27,7 +27,6 @@ for the motion file).
 """
 from __future__ import annotations
 
-import os
 import re
 
 import numpy as np
@@ -148,6 +147,9 @@ def parse_asf(text: str, source: str = "<asf>") -> AsfSkeleton:
             continue
         toks = line.split()
         key = toks[0].lower()
+        if section is None and not key.startswith(":"):  # not quoted: a text file's first words are not shown
+            raise AMCError(source, ln, "not an ASF file: expected a ':version', ':name' or other ':' keyword line "
+                                       "first (the line is not quoted here)")
         if key.startswith(":"):
             if key in (":units", ":root", ":bonedata", ":hierarchy") and key in seen_sections:
                 raise AMCError(source, ln, f"a second {toks[0]!r} section (the first is on line "
@@ -311,6 +313,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
     current = None
     seen: set = set()
     expect_no = None
+    header_seen = False
     ln = 0
     longest = (width + 2) * (MAX_TOKEN + 1)  # characters of a line that can matter: the rest is an error
     for ln, raw in _iter_lines(text, longest):
@@ -318,6 +321,7 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
         if not s or s[0] == "#":
             continue
         if s[0] == ":":
+            header_seen = True
             if current is not None:
                 raise AMCError(source, ln, f"unexpected header {s!r} inside frame data")
             kw = s.upper()
@@ -347,6 +351,9 @@ def parse_amc(text: str, asf: AsfSkeleton, source: str = "<amc>"):
             seen = set()
             continue
         if current is None:
+            if not (rows or header_seen):  # nothing yet says this is an AMC file: its words are not quoted
+                raise AMCError(source, ln, "not an AMC file: expected ':FULLY-SPECIFIED', ':DEGREES' or a frame "
+                                           "number first (the line is not quoted here)")
             raise AMCError(source, ln, f"expected a frame number, found {head!r}")
         n = names.get(head)
         if n is None:

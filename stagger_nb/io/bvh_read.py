@@ -234,6 +234,21 @@ def _parse_hierarchy(tok: _Tokens) -> Skeleton:
 
 
 _FIRST_TOKEN = re.compile(rb"\s*(\S{0,16})")
+#: Words of the format: the only first tokens an error quotes (a file that does not start with HIERARCHY is
+#: not a BVH file, and its content -- a text file's first words, /etc/shadow through a link -- is not repeated)
+_KEYWORDS = {b"ROOT", b"JOINT", b"END", b"SITE", b"OFFSET", b"CHANNELS", b"MOTION", b"FRAMES:", b"FRAME",
+             b"TIME:", b"{", b"}"}
+
+
+def _not_hierarchy(tok: bytes) -> str:
+    """The error for a file whose first token ``tok`` is not ``HIERARCHY``, quoting it only if it is a word
+    of the format."""
+    if not tok:
+        return "expected 'HIERARCHY', found nothing (an empty or blank file)"
+    if tok.upper() in _KEYWORDS:
+        return f"expected 'HIERARCHY', found {decode(tok)!r}"
+    what = "binary data" if any(b < 32 or b == 127 for b in tok) else "other text"
+    return f"expected 'HIERARCHY': not a BVH file (it starts with {what}, not quoted here)"
 _MOTION_LINE = re.compile(rb"^[ \t]*MOTION[ \t\r]*$", re.MULTILINE | re.IGNORECASE)
 
 
@@ -327,8 +342,7 @@ def parse_bvh(text: str | bytes, source: str = "<string>", *, max_samples: int |
     first = _FIRST_TOKEN.match(raw)  # a file that does not start with HIERARCHY is refused before any scan
     if first.group(1).upper() != b"HIERARCHY":  # (a 255 MB file of NULs: 9 s of searching for 'MOTION')
         ln = _normalise_breaks(raw[:first.start(1)]).count(b"\n") + 1
-        raise BVHError(source, ln, f"expected 'HIERARCHY', found {decode(first.group(1))!r}"
-                       + ("" if first.group(1) else " (an empty or blank file)"))
+        raise BVHError(source, ln, _not_hierarchy(first.group(1)))
     raw = _normalise_breaks(raw)
     motion_at = _find_motion_line(raw)
     if motion_at is None:

@@ -18,7 +18,7 @@ from ._common import atomic_write_bytes, euler_deg_to_quat
 from ._numformat import format_table
 from .bvh_read import name_fits_bvh
 
-__all__ = ["write_bvh", "format_bvh"]
+__all__ = ["write_bvh", "format_bvh", "bvh_bytes"]
 
 
 _ROT_DECIMALS = 6  # degrees: 5e-7 deg = 9e-9 rad worst-case rounding
@@ -221,6 +221,12 @@ def _format_bytes(motion: Motion) -> bytes:
             body = "".join(" ".join(f"{v:.9g}" for v in row) + "\n" for row in block).encode()
         parts.append(body)
     return b"".join(parts)
+
+
+def bvh_bytes(motion: Motion) -> bytes:
+    """The UTF-8 bytes :func:`write_bvh` writes (the text of :func:`format_bvh`), for a writer with its own
+    target policy (the batch writes them inside its output folder)."""
+    return _format_bytes(motion)
 
 
 def format_bvh(motion: Motion) -> str:

@@ -65,7 +65,8 @@ def session_bytes(data: Any) -> bytes:
 
 def read_session_json(path) -> Any:
     """The parsed JSON of a session file (regular file within :data:`MAX_SESSION_BYTES`; no NaN/Infinity;
-    UTF-8)."""
+    UTF-8; a JSON object whose ``format`` is :data:`SESSION_FORMAT`, else a ValueError that names the file
+    without quoting it)."""
     try:
         raw = read_regular_file(path, what="session file", max_bytes=MAX_SESSION_BYTES)
     except ValueError as e:
@@ -80,13 +81,17 @@ def read_session_json(path) -> Any:
         raise ValueError(f"session: {c} is not allowed in a session file")
 
     try:
-        return json.loads(text_, parse_constant=no_constants)
+        data = json.loads(text_, parse_constant=no_constants)
     except json.JSONDecodeError as e:
         raise ValueError(f"session: {path} is not valid JSON ({e})") from None
     except ValueError as e:  # an integer of more than 4,300 digits (int()'s limit); NaN is said above
         raise ValueError(str(e) if str(e).startswith("session:") else f"session: {path}: {e}") from None
     except RecursionError:
         raise ValueError(f"session: {path} nests JSON too deeply for a session file") from None
+    if not (isinstance(data, dict) and data.get("format") == SESSION_FORMAT):  # its content is not quoted
+        raise ValueError(f"format: {path} is not a stagger_nb session file (no \"format\": \"{SESSION_FORMAT}\"; "
+                         "its content is not quoted)")
+    return data
 
 
 # --------------------------------------------------------------------------------------------------

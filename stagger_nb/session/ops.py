@@ -18,12 +18,13 @@ Ops (fields; ``?`` optional, ``=`` default):
 ======================  ================================================================================
 extract                 (none)
 cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2), ``keep`` (pose indices)
-succession              root, s, l=1.0, joints?                      (§5.2, succession)
-random_timing           tau >= 0, seed=0, joints?                    (§5.2, random timing)
+succession              root, s, l=1.0, joints?, limit=1.5 (null: raw)   (§5.2, succession)
+random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw) (§5.2, random timing)
 exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
                         mode="staggered"|"unstaggered"               (§5.1, Fig. 6a/6b)
 retime                  pose, time (s)                               (§5.2, Fig. 6c)
+refine                  pose, joint, time (s): one joint's knot at the refined time t_k + r[k, j]   (§3, §5.2)
 insert_pose             time (s)                                     (§5.1)
 delete_pose             pose                                         (§5.1)
 keep_contacts           (none): constraint layer with the source's contacts carried through the timing edits
@@ -49,10 +50,12 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable, ClassVar
 
+from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration of the timing limit
+
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
-           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "InsertPose",
+           "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",
            "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT"]
+           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -394,6 +397,7 @@ class Succession(Op):
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)
@@ -405,6 +409,7 @@ class RandomTiming(Op):
     tau: float = _spec(number(0.0, MAX_SECONDS))
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
+    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
 
 
 @dataclass(frozen=True)
@@ -451,6 +456,18 @@ class Retime(Op):
     name: ClassVar[str] = "retime"
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
+    time: float = _spec(_nonneg)
+
+
+@dataclass(frozen=True)
+class Refine(Op):
+    """Put joint ``joint``'s knot of pose ``pose`` at the refined time ``time`` = t_k + r[k, j] seconds (§3, §5.2;
+    ``staggered.refine``: refused where it would leave that joint's knots out of order)."""
+
+    name: ClassVar[str] = "refine"
+    needs: ClassVar[str] = "staggered"
+    pose: int = _spec(_index)
+    joint: str = _spec(text)
     time: float = _spec(_nonneg)
 
 

@@ -45,14 +45,12 @@ def _share(progress: Callable | None, done: int, total: int, a: float, b: float,
     return lambda f: progress(done + a + (b - a) * min(max(float(f), 0.0), 1.0), total, label)
 
 
-def _timing_summary(found) -> str:
-    """One plain sentence about the timing warnings ``found`` ('' when none), §5.2."""
+def _timing_summary(state, found) -> str:
+    """One plain sentence about the timing edits of the staggered ``state`` ('' when none needs saying):
+    ``staggered.timing_summary`` (a timing edit limited to keep the poses in order, or knots that cross),
+    §5.2; ``found`` (the detailed ``timing_warnings``) is shown beside it on demand."""
     from .. import staggered
-    summarize = getattr(staggered, "summarize_timing_warnings", None)
-    if summarize is not None:
-        return summarize(found)
-    return (f"{len(found)} timing warning(s): refined times cross a neighbouring pose; lower s, l or tau"
-            if found else "")
+    return staggered.timing_summary(state)
 
 
 def _chain(previous: str, op: Op) -> str:
@@ -281,8 +279,9 @@ class Replay:
         inf = self._info[keys[j]]
         if inf.warnings is None:
             from .. import staggered
-            found = tuple(staggered.timing_warnings(self.walk(ops, j + 1)))
-            inf.summary, inf.warnings = _timing_summary(found), found
+            state = self.walk(ops, j + 1)
+            found = tuple(staggered.timing_warnings(state))
+            inf.summary, inf.warnings = _timing_summary(state, found), found
         return inf.summary, inf.warnings
 
     def warp_curve(self, ops: tuple, i: int):

@@ -295,11 +295,11 @@ def _cull(sm, op: O.Cull, run):
 
 
 def _succession(sm, op: O.Succession, run):
-    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints))
+    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints), limit=op.limit)
 
 
 def _random_timing(sm, op: O.RandomTiming, run):
-    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed)
+    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed, limit=op.limit)
 
 
 def _list(x):
@@ -331,6 +331,11 @@ def _edit_pose(sm, op: O.EditPose, run):
 
 def _retime(sm, op: O.Retime, run):
     return _staggered().retime(sm, {_pose(sm, op.pose): op.time})
+
+
+def _refine(sm, op: O.Refine, run):
+    _joint(sm.skeleton, op.joint, "joint")
+    return _needs("refine")(sm, _pose(sm, op.pose), op.joint, op.time)
 
 
 def _insert_pose(sm, op: O.InsertPose, run):
@@ -435,7 +440,8 @@ def _resample(m, op: O.Resample, run):
 #: Runner of each op type. A new op is an :class:`~.ops.Op` subclass plus an entry here.
 RUNNERS: dict[type, Callable] = {
     O.Extract: _extract, O.Cull: _cull, O.Succession: _succession, O.RandomTiming: _random_timing,
-    O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.InsertPose: _insert_pose,
+    O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.Refine: _refine,
+    O.InsertPose: _insert_pose,
     O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose,
     O.EditFrame: _edit_frame, O.Propagate: _propagate, O.GuidedWarp: _guided_warp,
     O.LinearWarp: _linear_warp, O.Resample: _resample,

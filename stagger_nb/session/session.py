@@ -204,16 +204,16 @@ class Session:
 
     def messages(self) -> list[str]:
         """Plain notes from the last replay, for the user: what a runner reported (an unreachable IK target,
-        …) and the summarised timing warnings of the last staggered state (``staggered.timing_warnings``).
-        Empty before the first replay."""
+        …) and the one plain timing sentence of the last staggered state (``staggered.timing_summary``: a
+        timing edit limited to keep the poses in order, or knots that cross). Empty before the first replay."""
         return self._replay.messages(self._history.ops)
 
     def timing_warnings(self) -> tuple[str, tuple]:
         """``(summary, warnings)`` of the last staggered state of the replay (§5.2): the one plain sentence
-        of :meth:`messages` ('' when none) and ``staggered.timing_warnings`` of that state (a tuple of
-        ``TimingWarning``). Both are computed once per state (keyed by the digest of the op prefix that made
-        it: a slider move that leaves that state alone, or returns to it, does not recompute them); empty
-        when no op is staggered."""
+        of :meth:`messages` (``staggered.timing_summary``; '' when none) and ``staggered.timing_warnings`` of
+        that state (a tuple of ``TimingWarning``, the details). Both are computed once per state (keyed by the
+        digest of the op prefix that made it: a slider move that leaves that state alone, or returns to it, does
+        not recompute them); empty when no op is staggered."""
         return self._replay.timing_warnings(self._history.ops)
 
     def warp_curve(self, index: int = -1):

@@ -5,22 +5,25 @@ Public names: :func:`extract`, :func:`evaluate`, :func:`cull`, :func:`detect_con
 
 Modules, one job each (paper sections in brackets):
 
-* ``representation``: :class:`StaggeredMotion` and its knot times (§3); ``evaluation``: the one evaluator,
-  :func:`evaluate` (§3; the C kernel ``_cspline.c`` behind ``_kernels`` where built).
+* ``channel``: one kind of control variable (knots, tangents, refinements, displacement maps) and its algebra
+  (⊕/⊖ and the spline: quaternion product for rotations, + for the root translation), §3;
+  ``representation``: :class:`StaggeredMotion`, which holds a rotation channel and a translation channel;
+  ``evaluation``: the one evaluator of a channel, and :func:`evaluate` (§3; the C kernel ``_cspline.c`` behind
+  ``_kernels`` where built).
 * ``features`` (motion-trail curvature, §4.1), ``contacts`` (detection, Appendix B), ``extraction``
   (:func:`extract`, :func:`cull`, §4.1).
 * fitting (§4.1.1, Appendix A): ``sampling`` (grids), ``rotation_fit`` (C0) and ``rotation_fit_c1`` (C1),
   ``translation_fit``, ``displacement`` (maps and their re-measuring), ``fitting`` (:func:`fit_staggered`).
 * editing (§5): ``geometry`` (:func:`edit_pose`, :func:`exaggerate`, §5.1), ``timing`` (:func:`succession`,
-  :func:`random_timing`, :func:`retime`, the per-joint time warp :func:`warp_times`, §5.2), ``timing_report``
-  (:func:`timing_warnings`, one plain sentence: :func:`summarize_timing_warnings`), ``structure``
-  (:func:`insert_pose`, :func:`delete_pose`).
+  :func:`random_timing`, :func:`retime`, one knot: :func:`refine`, their saturation :func:`saturate_offsets`,
+  the per-joint time warp :func:`warp_times`, §5.2), ``timing_report`` (:func:`timing_warnings`; the one plain
+  sentence of a timing edit: :func:`timing_summary`), ``structure`` (:func:`insert_pose`, :func:`delete_pose`).
 * constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the limbs that hold a contact, on
   any rig), ``plants`` (the contact layer, :func:`keep_contacts` / :func:`hold_plants`: the source's contacts
   carried through the timing edits and held where the source holds them; issue 20).
 
-The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters are JSON-serialisable
-(joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
+The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters
+are JSON-serialisable (joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
 "s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
 
 Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
@@ -41,14 +44,17 @@ from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset
 from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
 from .representation import StaggeredMotion, knot_times
 from .structure import delete_pose, insert_pose
-from .timing import random_timing, retime, source_knot_times, succession, warp_times
-from .timing_report import TimingWarning, summarize_timing_warnings, timing_warnings
+from .timing import (TIMING_LIMIT, random_timing, refine, retime, saturate_offsets, source_knot_times, succession,
+                     warp_times)
+from .timing_report import TimingWarning, body_part, summarize_timing_warnings, timing_summary, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
            "locate_poses", "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered",
            "evaluate_arrays", "knot_times",
-           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "source_knot_times", "warp_times",
-           "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "succession", "random_timing",
+           "TimingWarning", "timing_warnings", "summarize_timing_warnings", "timing_summary", "body_part",
+           "saturate_offsets", "TIMING_LIMIT", "source_knot_times", "warp_times",
+           "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "refine", "succession",
+           "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik",
            "contact_positions", "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts",
            "keep_contacts", "hold_plants", "PlantsResult", "IKPoseResult", "ik_pose", "solve_limb"]

@@ -129,7 +129,8 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
     else:
         arr = np.asarray(spec, dtype=float)
         if arr.ndim != 2 or arr.shape[0] != J or arr.shape[1] not in (3, 4):
-            raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), got {arr.shape}")
+            raise ValueError(f"{name} must be a dict joint -> rotation or an array of shape ({J}, 3|4), "
+                             f"got {arr.shape}")
         items = enumerate(arr)
     for j, v in items:
         try:
@@ -142,7 +143,8 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
         elif v.size == 4 and np.linalg.norm(v) > 0:
             v = v / np.linalg.norm(v)             # quaternion (x, y, z, w)
         else:
-            raise ValueError(f"{name}[{j!r}] must be a rotation vector (3 numbers) or a quaternion (4), got {v.tolist()}")
+            raise ValueError(f"{name}[{j!r}] must be a rotation vector (3 numbers) or a quaternion (4), "
+                             f"got {v.tolist()}")
         if not np.all(np.isfinite(v)):
             raise ValueError(f"{name}[{j!r}] must be finite")
         q[jj] = v

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels as K
-from .evaluation import bezier_cubic
 
 __all__ = ["displacement_rotvecs"]
 
@@ -82,37 +81,38 @@ def _counts_for(a, b, frame_time):
     return np.maximum(np.rint((b - a) / frame_time * per).astype(np.int64) + 1, 2)
 
 
-def _measure_rotations(values, tangents, knots, seg, joint, counts, target_fn, grid=None):
-    """Displacement rows ``(P, max(counts), 3)`` of the pairs ``(seg[p], joint[p])`` so that the spline of
-    ``values``/``tangents`` plus the displacement equals ``target_fn(times, joints, pair, tn)`` on the grid
-    (``grid``: :func:`_grid` of these pairs when the caller has it)."""
+def measure(algebra, values, tangents, knots, seg, col, counts, target_fn, grid=None):
+    """Displacement rows ``(P, max(counts), 3)`` of the pairs ``(seg[p], col[p])`` of a channel of ``algebra``
+    with knots ``values (K, C, D)``, inner controls ``tangents (K - 1, C, 2, D)`` and knot times ``knots (K, C)``,
+    such that ``spline ⊕ displacement`` equals ``target_fn(times, cols, pair, tn) (N, D)`` on each pair's grid
+    (``grid``: :func:`_grid` of these pairs when the caller has it): ``d = target ⊖ spline`` (unwrapped along
+    each grid for rotations, as at extraction)."""
     if grid is None:
         knots = np.maximum.accumulate(knots, axis=0)
-        grid = _grid(knots[seg, joint], knots[seg + 1, joint], counts)
+        grid = _grid(knots[seg, col], knots[seg + 1, col], counts)
     pair, m, tn, t = grid
-    sp, jp = seg[pair], joint[pair]
-    # the new spline on the grid, its control arcs computed once per pair (not per sample: same values)
-    ctrl = [np.ascontiguousarray(x.T) for x in (values[seg, joint], tangents[seg, joint, 0],
-                                                 tangents[seg, joint, 1], values[seg + 1, joint])]
-    s = K.spline_into(*ctrl, pair, tn, K.WORK.get("ms_s", (4, tn.size))).T   # read before the next call
-    v = target_fn(t, jp, pair, tn)
-    d = displacement_rotvecs(s, v, pair)          # unwrapped along each grid, as at extraction
-    rows = np.zeros((counts.size, int(counts.max()), 3))
-    rows[pair, m] = d
-    return rows
+    s = algebra.spline_pairs(values[seg, col], tangents[seg, col, 0], tangents[seg, col, 1], values[seg + 1, col],
+                             pair, tn, K.WORK.get("ms_s", (algebra.dim, tn.size)))   # read before the next call
+    d = algebra.difference(s, target_fn(t, col[pair], pair, tn), pair)
+    return displacement_table(pair, m, d, (counts.size, int(counts.max()), 3))
 
 
-def _measure_root(root_values, root_tangents, root_knots, seg, counts, target_fn):
-    pair, m, tn, t = _grid(root_knots[seg], root_knots[seg + 1], counts)
-    sp = seg[pair]
-    s = bezier_cubic(root_values[sp], root_tangents[sp, 0], root_tangents[sp, 1], root_values[sp + 1], tn)
-    rows = np.zeros((counts.size, int(counts.max()), 3))
-    rows[pair, m] = target_fn(t, pair, tn) - s
-    return rows
+def displacements_of(algebra, c0, c1, c2, c3, idx, tn, targets, pair) -> np.ndarray:
+    """``d = target ⊖ s(t')`` ``(N, 3)``: what the splines of controls ``c0 .. c3 (P, D)`` leave of ``targets
+    (N, D)`` at the samples ``tn (N,)`` of controls ``idx (N,)``, unwrapped along the runs of ``pair (N,)``."""
+    return algebra.difference(algebra.spline_pairs(c0, c1, c2, c3, idx, tn), targets, pair)
+
+
+def displacement_table(pair, m, d, shape) -> np.ndarray:
+    """Zero-padded displacement table of ``shape`` (pairs first, sample index second) holding sample ``m[n]``
+    of pair ``pair[n]``: ``d[n]``."""
+    table = np.zeros(shape)
+    table[pair, m] = d
+    return table
 
 
 def _put_rows(table: np.ndarray, index: tuple, rows: np.ndarray) -> np.ndarray:
-    """Copy of a displacement table (sample axis -2: ``(K-1, J, M, 3)`` or ``(K-1, M, 3)``) with the rows at
+    """Copy of a displacement table (sample axis -2, e.g. ``(K-1, C, M, 3)``) with the rows at
     ``index`` replaced by ``rows (P, M', 3)``; the sample axis grows if ``M' > M``."""
     M = max(table.shape[-2], rows.shape[1])
     out = np.zeros(table.shape[:-2] + (M, 3))

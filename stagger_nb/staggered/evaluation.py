@@ -1,58 +1,50 @@
-"""Evaluation of a staggered-pose motion: ``v_i(t) = s_i(t') ⊕ d_i(t')`` (Coleman et al. 2008, §3).
+"""The one evaluator of a staggered-pose motion: ``v_c(t) = s_c(t') ⊕ d_c(t')`` (Coleman et al. 2008, §3).
 
-The splines (quaternion Bézier by recursive slerp for rotations, cubic Bézier for the root translation), the
-displacement maps' linear interpolation on their normalised-time grids, the segment coordinates of a time in
-each control variable's knots, and :func:`evaluate` (a :class:`~.representation.StaggeredMotion` sampled as a
-:class:`~stagger_nb.core.Motion`). The rotations of many samples go through one kernel (``_kernels``, with the
-C kernel ``_cspline.c`` behind it where built). Notation as in :mod:`.representation`.
+:func:`channel_at` evaluates any :class:`~.channel.Channel` at (segment, column, normalised time) samples: the
+spline of the channel's algebra, the displacement map's linear interpolation on its normalised-time grid, and
+``⊕``. For rotations the three are fused in one kernel (``_kernels``, with the C kernel ``_cspline.c`` behind it
+where built). The segment coordinates of a time come from :func:`segment_coordinates` (every column at the same
+times: a grid of frames) or :func:`pair_coordinates` (one column per sample). Everything else here is that
+evaluator at given times: :func:`evaluate` (a :class:`~.representation.StaggeredMotion` sampled as a
+:class:`~stagger_nb.core.Motion`), :func:`evaluate_arrays`, :func:`evaluate_samples`, :func:`root_positions_at`.
+Notation as in :mod:`.representation`.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_exp, quat_mul
 from . import _kernels as K
+from .channel import ROTATION, TRANSLATION, Channel, bezier_cubic
 from .representation import StaggeredMotion, default_times, knot_times
 
-__all__ = ["evaluate", "segment_coordinates", "rotation_spline", "translation_spline", "displacement_at",
-           "bezier_cubic", "evaluate_samples", "root_positions_at", "evaluate_arrays",
-           "translation_source_times", "static_rotations"]
-
-
-def bezier_cubic(p0, p1, p2, p3, t) -> np.ndarray:
-    """Euclidean cubic Bézier (Bernstein form); points ``(..., D)``, parameter ``t (...,)``."""
-    t = np.asarray(t, dtype=float)[..., None]
-    u = 1.0 - t
-    return (u * u * u) * p0 + (3.0 * u * u * t) * p1 + (3.0 * u * t * t) * p2 + (t * t * t) * p3
+__all__ = ["evaluate", "evaluate_arrays", "evaluate_samples", "root_positions_at", "channel_at", "channel_at_times",
+           "segment_coordinates", "pair_coordinates", "displacement_at", "rotation_spline", "translation_spline",
+           "bezier_cubic", "translation_source_times", "static_rotations"]
 
 
 def rotation_spline(c0, c1, c2, c3, t) -> np.ndarray:
-    """Quaternion Bézier ``s(c0, c1, c2, c3, t)`` by recursive slerp (Appendix A, [Sho85]).
-
-    Same curve as :func:`stagger_nb.core.rotations.quat_bezier` (up to sign), computed component-first.
-    Control quaternions ``(N, 4)`` (x, y, z, w), ``t (N,)`` in [0, 1]; returns unit ``(N, 4)``.
+    """Quaternion Bézier ``s(c0, c1, c2, c3, t)`` by recursive slerp (Appendix A, [Sho85]): the rotation
+    algebra's spline. Same curve as :func:`stagger_nb.core.rotations.quat_bezier` (up to sign), computed
+    component-first. Control quaternions ``(N, 4)`` (x, y, z, w), ``t (N,)`` in [0, 1]; returns unit ``(N, 4)``.
     """
-    c = [np.ascontiguousarray(np.asarray(x, dtype=float).reshape(-1, 4).T) for x in (c0, c1, c2, c3)]
-    t = np.broadcast_to(np.asarray(t, dtype=float).reshape(-1), c[0].shape[1:])
-    return K.bezier(*c, t).T
+    return ROTATION.spline(c0, c1, c2, c3, t)
 
 
 def translation_spline(p0, p1, p2, p3, t) -> np.ndarray:
-    """Cubic Bézier of the root translation (alias of :func:`bezier_cubic`)."""
-    return bezier_cubic(p0, p1, p2, p3, t)
+    """Cubic Bézier of the root translation: the translation algebra's spline (:func:`bezier_cubic`)."""
+    return TRANSLATION.spline(p0, p1, p2, p3, t)
 
 
-def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray, rows: np.ndarray | None = None
-                    ) -> np.ndarray:
+def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray, rows=None) -> np.ndarray:
     """Linear interpolation of displacement maps on their uniform ``t'`` grids.
 
     Parameters
     ----------
-    table : (R, M, D) samples (rows padded past their counts)
+    table : (R, M, D) or (K - 1, C, M, D) samples (rows padded past their counts)
     counts : (N,) valid samples of each sample's row (>= 2)
     t : (N,) normalised times in [0, 1]
-    rows : (N,) int, optional
+    rows : (N,) int, or a tuple of (N,) int arrays (e.g. ``(seg, col)``), optional
         Row of ``table`` of each sample; default ``arange(N)`` (``table`` holds one row per sample). Passing
         the rows gathers only the two table entries each sample reads, instead of a copy ``table[rows]`` of
         whole rows (N x M x D: megabytes on a long segment).
@@ -66,7 +58,8 @@ def displacement_at(table: np.ndarray, counts: np.ndarray, t: np.ndarray, rows: 
     a = (u - m0)[:, None]
     if rows is None:
         rows = np.arange(table.shape[0])
-    return table[rows, m0] * (1.0 - a) + table[rows, m0 + 1] * a
+    index = rows if isinstance(rows, tuple) else (rows,)
+    return table[index + (m0,)] * (1.0 - a) + table[index + (m0 + 1,)] * a
 
 
 #: Knot intervals shorter than this (seconds) are treated as zero-length by :func:`segment_coordinates`:
@@ -105,109 +98,6 @@ def segment_coordinates(knots: np.ndarray, times: np.ndarray):
     return seg, np.clip(tn, 0.0, 1.0, out=tn)
 
 
-def _sample_translations(lt: np.ndarray, frame_time: float, times: np.ndarray) -> np.ndarray:
-    f = np.clip(times / frame_time, 0.0, lt.shape[0] - 1)
-    r = np.rint(f)
-    f = np.where(np.abs(f - r) < 1e-9, r, f)          # frame times read their frame bit-for-bit
-    i0 = np.minimum(np.floor(f).astype(np.int64), lt.shape[0] - 1)
-    i1 = np.minimum(i0 + 1, lt.shape[0] - 1)
-    a = (f - i0)[:, None, None]
-    return lt[i0] * (1.0 - a) + lt[i1] * a
-
-
-def translation_source_times(sm: StaggeredMotion, times) -> np.ndarray:
-    """Source times ``(N,)`` at which ``sm.local_translations`` are read for evaluation ``times (N,)``
-    seconds: piecewise linear from the root-translation knots ``pose_times + root_refinements`` to
-    ``sm.translation_times`` (identity when that is None)."""
-    times = np.asarray(times, dtype=float).reshape(-1)
-    if sm.translation_times is None:
-        return times
-    seg, tn = segment_coordinates((sm.pose_times + sm.root_refinements)[:, None], times)
-    tt = sm.translation_times
-    a, b = tt[seg[:, 0]], tt[seg[:, 0] + 1]
-    return a + tn[:, 0] * (b - a)
-
-
-def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
-    """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds.
-
-    Vectorised over all (time, joint) samples; scratch memory is reused between calls (see ``_kernels``).
-    """
-    q, p = _evaluate_arrays(sm, times)
-    return np.array(q), p
-
-
-def _rotations_at(sm: StaggeredMotion, idx: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Rotations ``s(t') ⊕ d(t')`` of (segment, joint) pairs ``idx (n,)`` (segment-major ``k * J + i``) at
-    normalised times ``t (n,)``, as a (4, n) view of workspace memory (valid until the next call)."""
-    W = K.WORK
-    J = sm.num_joints
-    n = t.size
-    P = sm.tangents.shape[0] * J
-    # per-pair control polygons (4 controls x 4 components, P) and their three fixed first-level arcs
-    ctrl = W.get("ev_ctrl", (16, P))
-    ctrl[0:4] = sm.values[:-1].reshape(P, 4).T
-    ctrl[4:8] = sm.tangents[:, :, 0].reshape(P, 4).T
-    ctrl[8:12] = sm.tangents[:, :, 1].reshape(P, 4).T
-    ctrl[12:16] = sm.values[1:].reshape(P, 4).T
-    arcp = W.get("ev_arcp", (9, P))
-    for j in range(3):
-        K.arc_into(ctrl[4 * j:4 * j + 4], ctrl[4 * j + 4:4 * j + 8], arcp[3 * j:3 * j + 3],
-                   W.get("ev_ptmp", P), W.get("ev_ptmp2", P))
-    M = sm.displacements.shape[2]
-    table = W.get("ev_table", (3, P * M))
-    table[...] = sm.displacements.reshape(P * M, 3).T
-    counts = np.ascontiguousarray(sm.displacement_counts.reshape(-1), dtype=np.int64)
-    out = W.get("ev_q", (4, n))
-    idx = np.ascontiguousarray(idx, dtype=np.int64)
-    t = np.ascontiguousarray(t, dtype=float)
-    block = 4 * K.CHUNK                          # blocks bound the scratch; larger ones make fewer numpy calls
-    for s0 in range(0, n, block):
-        s1 = min(n, s0 + block)
-        # the C kernel where built (same bits, ~?x faster), else (or for a wide-angle displacement) numpy
-        if not K.rotations_block_c(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out, s0, W):
-            _rotations_block(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out[:, s0:s1])
-    return out
-
-
-def _rotations_block(ctrl, arcp, table, counts, M, idx, t, out):
-    """One block of :func:`_rotations_at` into ``out (4, n)``."""
-    W = K.WORK
-    n = t.size
-    c = K.take_cols_into(ctrl, idx, W.get("ev_c", (16, n)))
-    arc = K.take_cols_into(arcp, idx, W.get("ev_arc", (9, n)))
-    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_",
-                      normalize=False)   # unit to ~1e-15; Motion() renormalises what is not unit
-    # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
-    cnt = counts[idx]
-    u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
-    m0 = np.minimum(u.astype(np.int64), cnt - 2)
-    a = u
-    a -= m0                                                         # fractional position
-    row = m0
-    row += idx * M
-    d0 = K.take_cols_into(table, row, W.get("ev_d0", (3, n)))
-    row += 1
-    d1 = K.take_cols_into(table, row, W.get("ev_d1", (3, n)))
-    d1 -= d0
-    d1 *= a
-    d0 += d1
-    d0 *= 0.5                                                       # half rotation vectors for exp
-    e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
-    return K.qmul_into(s, e, out, W.get("ev_tmp", n))
-
-
-def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
-    """Root translation ``s(t') + d(t')`` at ``times (N,)`` seconds, shape (N, 3)."""
-    times = np.asarray(times, dtype=float).reshape(-1)
-    rk = (sm.pose_times + sm.root_refinements)[:, None]
-    rseg, rtn = segment_coordinates(rk, times)
-    rseg, rtn = rseg[:, 0], rtn[:, 0]
-    rt = sm.root_tangents[rseg]
-    p = translation_spline(sm.root_values[rseg], rt[:, 0], rt[:, 1], sm.root_values[rseg + 1], rtn)
-    return p + displacement_at(sm.root_displacements, sm.root_displacement_counts[rseg], rtn, rows=rseg)
-
-
 def _segments_of_pairs(T: np.ndarray, times: np.ndarray, joints: np.ndarray) -> np.ndarray:
     """``searchsorted(T[:, joints[n]], times[n], side="right") - 1`` for every sample n, in one search.
 
@@ -227,31 +117,160 @@ def _segments_of_pairs(T: np.ndarray, times: np.ndarray, joints: np.ndarray) -> 
     return seg
 
 
+
+def pair_coordinates(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
+    """Segment and normalised time ``t'`` of each sample ``(times[n], cols[n])`` in its own column of the knot
+    times ``knots (K, C)`` (made non-decreasing by a running maximum): ``seg (N,)`` in [0, K - 2], ``tn (N,)``
+    in [0, 1] (clamped outside the first/last knot; 1 on zero-length segments)."""
+    T = np.maximum.accumulate(knots, axis=0)
+    seg = _segments_of_pairs(T, times, cols)
+    np.clip(seg, 0, T.shape[0] - 2, out=seg)
+    a, b = T[seg, cols], T[seg + 1, cols]
+    tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
+    return seg, tn
+
+
+def channel_at(ch: Channel, seg: np.ndarray, col: np.ndarray, tn: np.ndarray) -> np.ndarray:
+    """``s(t') ⊕ d(t')`` of channel ``ch`` at samples of segment ``seg (N,)``, column ``col (N,)`` and
+    normalised time ``tn (N,)``: ``(N, D)`` values (quaternions x, y, z, w, or translations)."""
+    seg = np.asarray(seg, dtype=np.int64)
+    col = np.asarray(col, dtype=np.int64)
+    if ch.algebra is ROTATION:          # spline, displacement and product fused in the rotation kernel
+        return np.array(_rotations_at(ch, seg * ch.num_columns + col, tn).T)
+    tg = ch.tangents[seg, col]
+    s = ch.algebra.spline(ch.values[seg, col], tg[:, 0], tg[:, 1], ch.values[seg + 1, col], tn)
+    return ch.algebra.compose(s, displacement_at(ch.displacements, ch.counts[seg, col], tn, (seg, col)))
+
+
+def channel_at_times(ch: Channel, pose_times: np.ndarray, times, cols) -> np.ndarray:
+    """:func:`channel_at` of column ``cols[n]`` at ``times[n]`` seconds (scattered samples, N of each)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    cols = np.broadcast_to(np.asarray(cols, dtype=np.int64).reshape(-1), times.shape)
+    seg, tn = pair_coordinates(ch.knots(pose_times), times, cols)
+    return channel_at(ch, seg, cols, tn)
+
+
+_GATHER_MAX = 4096   # samples up to which the rotation kernel gathers per sample (no per-pair set-up of the table)
+
+
+def _rotations_at(ch: Channel, idx: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rotations ``s(t') ⊕ d(t')`` of (segment, column) pairs ``idx (n,)`` (segment-major ``k * C + c``) of a
+    rotation channel at normalised times ``t (n,)``, as a (4, n) view of workspace memory (valid until the
+    next call). Up to ``_GATHER_MAX`` samples each one's controls and displacement samples are gathered
+    directly (the K x J editing knots of an edit); more go through the per-pair tables (control polygons and
+    their first-level arcs once per pair; the C kernel where built, the same operations as the numpy path)."""
+    W = K.WORK
+    n = t.size
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    t = np.ascontiguousarray(t, dtype=float)
+    out = W.get("ev_q", (4, n))
+    C = ch.num_columns
+    if n <= _GATHER_MAX:
+        seg, col = np.divmod(idx, C)
+        c = W.get("ev_c", (16, n))
+        c[0:4] = ch.values[seg, col].T
+        tg = ch.tangents[seg, col]
+        c[4:8] = tg[:, 0].T
+        c[8:12] = tg[:, 1].T
+        c[12:16] = ch.values[seg + 1, col].T
+        arc = W.get("ev_arc", (9, n))
+        _arcs_into(c, arc, n)
+        d = ch.displacements
+
+        def take(m0, shift, buf):
+            buf[...] = d[seg, col, m0 + shift].T
+            return buf
+        return _rotations_block(c, arc, ch.counts[seg, col], t, take, out)
+    P = ch.tangents.shape[0] * C
+    # per-pair control polygons (4 controls x 4 components, P) and their three fixed first-level arcs
+    ctrl = W.get("ev_ctrl", (16, P))
+    ctrl[0:4] = ch.values[:-1].reshape(P, 4).T
+    ctrl[4:8] = ch.tangents[:, :, 0].reshape(P, 4).T
+    ctrl[8:12] = ch.tangents[:, :, 1].reshape(P, 4).T
+    ctrl[12:16] = ch.values[1:].reshape(P, 4).T
+    arcp = W.get("ev_arcp", (9, P))
+    _arcs_into(ctrl, arcp, P, "ev_p")
+    M = ch.displacements.shape[2]
+    table = W.get("ev_table", (3, P * M))
+    table[...] = ch.displacements.reshape(P * M, 3).T
+    counts = np.ascontiguousarray(ch.counts.reshape(-1), dtype=np.int64)
+    block = 4 * K.CHUNK                          # blocks bound the scratch; larger ones make fewer numpy calls
+    for s0 in range(0, n, block):
+        s1 = min(n, s0 + block)
+        # the C kernel where built (same bits), else (or for a wide-angle displacement) numpy
+        if not K.rotations_block_c(ctrl, arcp, table, counts, M, idx[s0:s1], t[s0:s1], out, s0, W):
+            ib = idx[s0:s1]
+
+            def take(m0, shift, buf, ib=ib):
+                return K.take_cols_into(table, m0 + ib * M + shift, buf)
+            bn = s1 - s0
+            _rotations_block(K.take_cols_into(ctrl, ib, W.get("ev_c", (16, bn))),
+                             K.take_cols_into(arcp, ib, W.get("ev_arc", (9, bn))), counts[ib], t[s0:s1], take,
+                             out[:, s0:s1])
+    return out
+
+
+def _arcs_into(ctrl, arc, n, tag="ev_"):
+    """The three first-level arcs ``arc (9, n)`` of the control polygons ``ctrl (16, n)``."""
+    W = K.WORK
+    for j in range(3):
+        K.arc_into(ctrl[4 * j:4 * j + 4], ctrl[4 * j + 4:4 * j + 8], arc[3 * j:3 * j + 3],
+                   W.get(tag + "tmp", n), W.get(tag + "tmp2", n))
+
+
+def _rotations_block(c, arc, cnt, t, take, out):
+    """``s(t') ⊕ d(t')`` into ``out (4, n)`` from the samples' controls ``c (16, n)``, first-level arcs
+    ``arc (9, n)``, displacement counts ``cnt (n,)`` and normalised times ``t (n,)``; ``take(m0, shift, buf)``
+    writes the displacement samples ``m0 + shift`` of each sample's map into ``buf (3, n)``."""
+    W = K.WORK
+    n = t.size
+    s = K.bezier_into(c[0:4], c[4:8], c[8:12], c[12:16], t, (arc[0:3], arc[3:6], arc[6:9]), tag="ev_",
+                      normalize=False)   # unit to ~1e-15; Motion() renormalises what is not unit
+    # displacement: linear interpolation of rotation vectors on each pair's uniform t' grid
+    u = np.multiply(t, cnt - 1, out=W.get("ev_u", n))
+    m0 = np.minimum(u.astype(np.int64), cnt - 2)
+    a = u
+    a -= m0                                                         # fractional position
+    d0 = take(m0, 0, W.get("ev_d0", (3, n)))
+    d1 = take(m0, 1, W.get("ev_d1", (3, n)))
+    d1 -= d0
+    d1 *= a
+    d0 += d1
+    d0 *= 0.5                                                       # half rotation vectors for exp
+    e = K.qexp_into(d0, W.get("ev_e", (4, n)), W.get("ev_h", n), W.get("ev_tmp", n))
+    return K.qmul_into(s, e, out, W.get("ev_tmp", n))
+
+
+def root_positions_at(sm: StaggeredMotion, times) -> np.ndarray:
+    """Root translation ``s(t') + d(t')`` at ``times (N,)`` seconds, shape (N, 3) (segment coordinates as
+    :func:`evaluate`'s, so a frame reads the same bits here and there)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    seg, tn = segment_coordinates(sm.translation.knots(sm.pose_times), times)
+    return channel_at(sm.translation, seg[:, 0], np.zeros(times.size, np.int64), tn[:, 0])
+
+
 def evaluate_samples(sm: StaggeredMotion, times, joints) -> np.ndarray:
     """Local rotation of joint ``joints[n]`` at ``times[n]`` seconds for every n: ``(N, 4)`` (x, y, z, w).
 
-    The same formula as :func:`evaluate`, for scattered (time, joint) samples (used to refit after edits)."""
-    times = np.asarray(times, dtype=float).reshape(-1)
-    joints = np.asarray(joints, dtype=np.int64).reshape(-1)
-    J, Kp = sm.num_joints, sm.num_poses
-    T = np.maximum.accumulate(knot_times(sm), axis=0)
-    seg = _segments_of_pairs(T, times, joints)
-    np.clip(seg, 0, Kp - 2, out=seg)
-    a, b = T[seg, joints], T[seg + 1, joints]
-    tn = np.clip(np.where(b > a, (times - a) / np.where(b > a, b - a, 1.0), 1.0), 0.0, 1.0)
-    return np.array(_rotations_at(sm, seg * J + joints, tn).T)
+    The same formula as :func:`evaluate`, for scattered (time, joint) samples (the editing knots of an edit,
+    refits after edits)."""
+    return channel_at_times(sm.rotations, sm.pose_times, times, joints)
 
 
 def static_rotations(sm: StaggeredMotion):
     """``(J,) bool, (J, 4)``: joints whose rotation is one quaternion throughout (every knot and control
     equal to the first knot, the displacement map zero: the spline of equal controls is that quaternion),
     and each joint's first knot ``values[0]``."""
-    c = sm.values[0]
-    static = (np.all(sm.values == c, axis=(0, 2))
-              & np.all(sm.tangents == c[None, :, None, :], axis=(0, 2, 3)))
-    if static.any():
-        static[static] = ~np.any(sm.displacements[:, static], axis=(0, 2, 3))
-    return static, c
+    return sm.rotations.static_columns()
+
+
+def evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
+    """Local rotations ``(N, J, 4)`` and root positions ``(N, 3)`` of ``sm`` at ``times (N,)`` seconds.
+
+    Vectorised over all (time, joint) samples; scratch memory is reused between calls (see ``_kernels``).
+    """
+    q, p = _evaluate_arrays(sm, times)
+    return np.array(q), p
 
 
 def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
@@ -264,15 +283,38 @@ def _evaluate_arrays(sm: StaggeredMotion, times: np.ndarray):
     if not static.any():
         seg, tn = segment_coordinates(knot_times(sm), times)          # (N, J)
         idx = seg.reshape(-1) * J + np.tile(np.arange(J), N)         # pair index (segment-major)
-        return _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(N, J, 4), root_positions_at(sm, times)
+        return _rotations_at(sm.rotations, idx, tn.reshape(-1)).T.reshape(N, J, 4), root_positions_at(sm, times)
     mov = np.flatnonzero(~static)
     q = np.empty((N, J, 4))
     q[:, static] = c[static]
     if mov.size:
         seg, tn = segment_coordinates(knot_times(sm)[:, mov], times)  # (N, moving joints)
         idx = seg.reshape(-1) * J + np.tile(mov, N)
-        q[:, mov] = _rotations_at(sm, idx, tn.reshape(-1)).T.reshape(N, mov.size, 4)
+        q[:, mov] = _rotations_at(sm.rotations, idx, tn.reshape(-1)).T.reshape(N, mov.size, 4)
     return q, root_positions_at(sm, times)
+
+
+def _sample_translations(lt: np.ndarray, frame_time: float, times: np.ndarray) -> np.ndarray:
+    f = np.clip(times / frame_time, 0.0, lt.shape[0] - 1)
+    r = np.rint(f)
+    f = np.where(np.abs(f - r) < 1e-9, r, f)          # frame times read their frame bit-for-bit
+    i0 = np.minimum(np.floor(f).astype(np.int64), lt.shape[0] - 1)
+    i1 = np.minimum(i0 + 1, lt.shape[0] - 1)
+    a = (f - i0)[:, None, None]
+    return lt[i0] * (1.0 - a) + lt[i1] * a
+
+
+def translation_source_times(sm: StaggeredMotion, times) -> np.ndarray:
+    """Source times ``(N,)`` at which ``sm.local_translations`` are read for evaluation ``times (N,)``
+    seconds: piecewise linear from the root-translation knots ``pose_times + root_refinements`` to
+    ``sm.translation_times`` (identity when that is None)."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if sm.translation_times is None:
+        return times
+    seg, tn = segment_coordinates(sm.translation.knots(sm.pose_times), times)
+    tt = sm.translation_times
+    a, b = tt[seg[:, 0]], tt[seg[:, 0] + 1]
+    return a + tn[:, 0] * (b - a)
 
 
 _MAX_SAMPLES = 20_000_000    # (time, joint) samples evaluate() accepts (~155 B each while evaluating: ~3 GB)
@@ -321,58 +363,3 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
     # arrays computed here from a valid representation: the trusted constructor (no re-validation); q may
     # be workspace memory, so the Motion gets its own copy
     return Motion._trusted(sm.skeleton, ft, p, np.array(q), lt)
-
-
-def _segments(knots: np.ndarray, times: np.ndarray, cols: np.ndarray):
-    """Segment and normalised time of each ``(times[n], cols[n])`` in the knot columns ``knots (K, C)``."""
-    knots = np.maximum.accumulate(knots, axis=0)
-    K, C = knots.shape
-    # one searchsorted for all columns: shift column c by c * span so the flattened knots stay sorted
-    lo = min(knots.min(), times.min())
-    span = max(knots.max(), times.max()) - lo + 1.0
-    flat = ((knots - lo) + np.arange(C) * span).T.reshape(-1)
-    seg = np.searchsorted(flat, (times - lo) + cols * span, side="right") - 1 - cols * K
-    np.clip(seg, 0, K - 2, out=seg)
-    a, b = knots[seg, cols], knots[seg + 1, cols]
-    L = b - a
-    tn = np.where(L > 0, (times - a) / np.where(L > 0, L, 1.0), 1.0)
-    return seg, np.clip(tn, 0.0, 1.0)
-
-
-_PAIR_KERNEL_MIN = 4096   # samples from which the per-pair kernel pays for its per-pair set-up
-
-
-def _displacement(table: np.ndarray, counts: np.ndarray, index: tuple, tn: np.ndarray) -> np.ndarray:
-    """Same as :func:`~stagger_nb.staggered.evaluation.displacement_at` for the rows ``table[index]``,
-    gathering only the two samples each point needs (not whole rows)."""
-    n = counts[index]
-    u = np.clip(tn, 0.0, 1.0) * (n - 1)
-    m0 = np.minimum(np.floor(u).astype(np.int64), n - 2)
-    a = (u - m0)[:, None]
-    return table[index + (m0,)] * (1.0 - a) + table[index + (m0 + 1,)] * a
-
-
-def _eval_rotations(sm: StaggeredMotion, times: np.ndarray, joints: np.ndarray, seg=None, tn=None) -> np.ndarray:
-    """Local rotation ``(N, 4)`` of joint ``joints[n]`` at time ``times[n]`` (same formula as ``evaluate``);
-    pass ``seg``/``tn`` when the segment and normalised time are already known.
-
-    Many samples (a re-measured displacement grid) go through ``evaluate``'s own kernel, whose
-    control-polygon arcs are computed once per (segment, joint) pair instead of once per sample (the same
-    values to ~1e-16; 2-3x faster); a few (the K x J knots of :func:`_refresh`) through the small
-    evaluator below."""
-    if seg is None:
-        seg, tn = _segments(knot_times(sm), times, joints)
-    if seg.size > _PAIR_KERNEL_MIN:
-        return np.array(_rotations_at(sm, seg * sm.num_joints + joints, np.clip(tn, 0.0, 1.0)).T)
-    tg = sm.tangents[seg, joints]
-    s = rotation_spline(sm.values[seg, joints], tg[:, 0], tg[:, 1], sm.values[seg + 1, joints], tn)
-    d = _displacement(sm.displacements, sm.displacement_counts, (seg, joints), tn)
-    return quat_mul(s, quat_exp(0.5 * d))
-
-
-def _eval_root(sm: StaggeredMotion, times: np.ndarray) -> np.ndarray:
-    """Root translation ``(N, 3)`` at ``times (N,)``."""
-    seg, tn = _segments((sm.pose_times + sm.root_refinements)[:, None], times, np.zeros(times.size, np.int64))
-    rt = sm.root_tangents[seg]
-    p = bezier_cubic(sm.root_values[seg], rt[:, 0], rt[:, 1], sm.root_values[seg + 1], tn)
-    return p + _displacement(sm.root_displacements, sm.root_displacement_counts, (seg,), tn)

@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion
-from . import _kernels
-from .displacement import displacement_rotvecs
+from .channel import ROTATION, Channel
+from .displacement import displacement_table, displacements_of
 from .evaluation import evaluate_samples, root_positions_at, static_rotations, translation_source_times
 from .representation import StaggeredMotion
 from .rotation_fit import _rotvec_between, fit_rotation_tangents
@@ -164,7 +164,8 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     if evaluated is not None and not from_sm:
         raise ValueError("fit_staggered: evaluated applies to a StaggeredMotion source only")
     if from_sm:
-        evaluated = check_evaluated("fit_staggered", source, evaluated)                     # resample the representation itself (exact after any edit), §5.1
+        # resample the representation itself (exact after any edit), §5.1
+        evaluated = check_evaluated("fit_staggered", source, evaluated)
         start_time = 0.0
 
         def rot_at(frames, joints):
@@ -241,22 +242,19 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     tangents = _pin_static(tangents, static, const)
     mov = ~static[joint] if static.any() else slice(None)
     pm = pair[mov]
-    s = _kernels.spline_into(np.ascontiguousarray(v0.T), np.ascontiguousarray(tangents[:, 0].T),
-                             np.ascontiguousarray(tangents[:, 1].T), np.ascontiguousarray(v3.T), pm,
-                             np.ascontiguousarray(tn[mov]), np.empty((4, pm.size))).T
+    moving = displacements_of(ROTATION, v0, tangents[:, 0], tangents[:, 1], v3, pm, tn[mov], targets[mov], pm)
     if static.any():
         disp = np.zeros((N, 3))
-        disp[mov] = displacement_rotvecs(s, targets[mov], pm)
+        disp[mov] = moving
     else:
-        disp = displacement_rotvecs(s, targets, pair)
-    del s, pm
+        disp = moving
+    del moving, pm
     report(0.9)
     M = int(counts.max())
-    table = np.zeros((P, M, 3))
-    table[pair, m] = disp
+    table = displacement_table(pair, m, disp, (P, M, 3))
 
     rk = (pose_times + rr)[:, None]
-    root_values, rtan, rtable, rcounts = _fit_root(root_at, rk[:, 0], ft, start_time, oversample, continuity)
+    translation = _fit_root(root_at, rk[:, 0], rr, ft, start_time, oversample, continuity)
 
     if not from_sm:
         editing = rot_at(edit_frames, edit_joints).reshape(K, J, 4)
@@ -272,12 +270,10 @@ def fit_staggered(source, pose_times, refinements, root_refinements=None, *,
     inner_mask = ~(first | last)
     meta = dict(metadata or {})
     meta["fit"] = _fit_stats(angles, inner_mask, iterations, continuity)
+    rotations = Channel(ROTATION, values, tangents.reshape(K - 1, J, 2, 4), refinements,
+                        table.reshape(K - 1, J, M, 3), counts.reshape(K - 1, J))
     out = StaggeredMotion(
-        skeleton=source.skeleton, frame_time=ft, pose_times=pose_times, refinements=refinements,
-        values=values, tangents=tangents.reshape(K - 1, J, 2, 4),
-        displacements=table.reshape(K - 1, J, M, 3), displacement_counts=counts.reshape(K - 1, J),
-        root_values=root_values, root_refinements=rr, root_tangents=rtan,
-        root_displacements=rtable, root_displacement_counts=rcounts,
+        skeleton=source.skeleton, frame_time=ft, pose_times=pose_times, rotations=rotations, translation=translation,
         editing_knots=editing, pose_probability=np.ones(K) if pose_probability is None else pose_probability,
         contacts=tuple(contacts), local_translations=lt, translation_times=tt, metadata=meta)
     report(1.0)
@@ -305,7 +301,8 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     ``evaluated``: ``evaluate(sm)`` if the caller has it (see :func:`fit_staggered`; validated by the caller).
 
     Returns the new StaggeredMotion, or None when the local refit does not apply or does not pay (the
-    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the frame grid,
+    refitted segments span more than 60 % of the clip: measured as fast as the full refit there; knots off the
+    frame grid,
     ``sm`` fitted with other options or other displacement sampling, a knot value of opposite sign to the
     samples beside it); the caller then refits fully.
     """
@@ -384,10 +381,8 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     # merged segments: new controls and displacement maps
     rs = np.repeat(real, J)[pair]
     rp = pair[rs]
-    s = _kernels.spline_into(np.ascontiguousarray(v0[rp].T), np.ascontiguousarray(tg[rp, 0].T),
-                             np.ascontiguousarray(tg[rp, 1].T), np.ascontiguousarray(v3[rp].T),
-                             np.arange(rp.size), np.ascontiguousarray(tn[rs]), np.empty((4, rp.size))).T
-    disp = displacement_rotvecs(s, targets[rs], rp)
+    disp = displacements_of(ROTATION, v0[rp], tg[rp, 0], tg[rp, 1], v3[rp], np.arange(rp.size), tn[rs], targets[rs],
+                            rp)
     dest = sel[:-1][real]                                               # culled segment of each real one
     tangents[dest] = _pin_static(tg, *_static_joints(sm)).reshape(Ks - 1, J, 2, 4)[real]
     counts[dest] = cnt.reshape(Ks - 1, J)[real]
@@ -407,14 +402,11 @@ def refit_merged(sm: StaggeredMotion, keep, *, iterations: int = 2, continuity: 
     meta["fit"] = _fit_stats(ang[valid], inner_t[valid], iterations, continuity)
     rr = sm.root_refinements[keep]
     rk = tk + rr
-    root_values, rtan, rtable, rcounts = _fit_root(lambda f: root_positions_at(sm, f * ft), rk, ft, 0.0, 1,
-                                                   continuity)
+    translation = _fit_root(lambda f: root_positions_at(sm, f * ft), rk, rr, ft, 0.0, 1, continuity)
     lt = sm.local_translations
     out = StaggeredMotion(
-        skeleton=sm.skeleton, frame_time=ft, pose_times=tk, refinements=sm.refinements[keep], values=values,
-        tangents=tangents, displacements=table, displacement_counts=counts,
-        root_values=root_values, root_refinements=rr, root_tangents=rtan,
-        root_displacements=rtable, root_displacement_counts=rcounts,
+        skeleton=sm.skeleton, frame_time=ft, pose_times=tk,
+        rotations=Channel(ROTATION, values, tangents, sm.refinements[keep], table, counts), translation=translation,
         editing_knots=sm.editing_knots[keep], pose_probability=sm.pose_probability[keep],
         contacts=tuple(sm.contacts), local_translations=lt,
         translation_times=None if lt is None else translation_source_times(sm, rk), metadata=meta)

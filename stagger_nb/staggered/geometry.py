@@ -20,42 +20,25 @@ import numpy as np
 from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul
 from . import _kernels as kern
 from ._checks import _IDENTITY, _check, _finite, _joint_mask, _pose_index, _rotation_table
-from .displacement import _grid, _measure_root, _measure_rotations, _put_rows
-from .evaluation import _eval_root, _rotations_at, static_rotations
+from .channel import ROTATION, Channel
+from .displacement import _grid, _put_rows, measure
+from .evaluation import _rotations_at, channel_at, static_rotations
 from .representation import StaggeredMotion, knot_times
 from .timing import _refresh
 
 __all__ = ["edit_pose", "exaggerate", "mean_pose", "OffsetBasis", "pose_offset_basis"]
 
 
-_TINY_ANGLE = 1e-15  # an offset with |log δ| below this (radians/2) is the identity: nothing to re-measure
-
-
-def _plateau_weights(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.ndarray, t: np.ndarray,
-                     side: np.ndarray) -> np.ndarray:
-    """Weight ``(N,)`` of pose ``k`` at time ``t`` for control variable ``col`` of ``knots (K, C)`` on
-    ``side`` (-1: t is before pose k's knot, in segment k-1; +1: after, in segment k): 1 on the plateau
-    between ``t_k`` and ``T[k, col]``, a raised cosine down to 0 at the neighbouring pose's plateau edge."""
-    T = np.maximum.accumulate(knots, axis=0)
-    lo = np.minimum(tk[:, None], T)          # plateau [lo, hi] of every (pose, column)
-    hi = np.maximum(tk[:, None], T)
-    kn = np.clip(k + side, 0, T.shape[0] - 1)
-    inner = np.where(side < 0, hi[kn, col], lo[kn, col])   # where the ramp reaches 0
-    outer = np.where(side < 0, lo[k, col], hi[k, col])     # where the ramp reaches 1
-    L = outer - inner
-    u = np.where(np.abs(L) > 0, (t - inner) / np.where(np.abs(L) > 0, L, 1.0), 1.0)
-    u = np.clip(u, 0.0, 1.0)
-    w = 0.5 * (1.0 - np.cos(np.pi * u))
-    on_plateau = (t >= lo[k, col]) & (t <= hi[k, col])
-    return np.where(on_plateau, 1.0, w)
 
 
 def _pair_plateau_weights(knots: np.ndarray, tk: np.ndarray, k: np.ndarray, col: np.ndarray, side: int,
                           t: np.ndarray, pair: np.ndarray) -> np.ndarray:
-    """:func:`_plateau_weights` of samples ``t (N,)`` that belong to pairs ``(k[pair], col[pair])`` all on one
-    ``side``: the plateau and ramp ends are found once per pair (P << N) and gathered, and the raised
-    cosine ``(1 - cos(pi u)) / 2`` is taken as ``(1 - sin(pi/2 - pi u)) / 2`` by the kernels' polynomial
-    sine (numpy's cos is scalar libm here; same values to ~1e-16)."""
+    """Weight ``(N,)`` of pose ``k[pair]`` at times ``t (N,)`` for control variable ``col[pair]`` of ``knots (K, C)``
+    on ``side`` (-1: t is before pose k's knot, in segment k-1; +1: after, in segment k): 1 on the plateau
+    between ``t_k`` and ``T[k, col]``, a raised cosine down to 0 at the neighbouring pose's plateau edge. The
+    plateau and ramp ends are found once per pair (P << N) and gathered, and the raised cosine
+    ``(1 - cos(pi u)) / 2`` is taken as ``(1 - sin(pi/2 - pi u)) / 2`` by the kernels' polynomial sine (numpy's
+    cos is scalar libm here; tests/references.py has the per-sample form, the same values to ~1e-16)."""
     T = np.maximum.accumulate(knots, axis=0)
     lo = np.minimum(tk[:, None], T)
     hi = np.maximum(tk[:, None], T)
@@ -135,7 +118,7 @@ def _old_from_frames(sm: StaggeredMotion, reproduced, seg, joint, pair, tn, t) -
     starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
     mid = (starts + np.r_[starts[1:], pair.size]) // 2
     check = np.union1d(mid, np.arange(0, pair.size, 16))
-    true = np.array(_rotations_at(sm, seg[pair[check]] * sm.num_joints + jp[check], tn[check]))
+    true = np.array(_rotations_at(sm.rotations, seg[pair[check]] * sm.num_joints + jp[check], tn[check]))
     r = quat_mul(quat_conj(true.T), old[:, check].T)          # angle by atan2 (a dot product's arccos cannot
     angle = 2.0 * np.arctan2(np.linalg.norm(r[:, :3], axis=1), np.abs(r[:, 3]))   # resolve 1e-9 rad)
     return old if angle.max() <= _READ_TOL else None
@@ -166,7 +149,7 @@ def pose_offset_basis(sm: StaggeredMotion, reproduced=None) -> OffsetBasis:
     pair, _, tn, t = grid
     old = None if reproduced is None else _old_from_frames(sm, reproduced, seg, joint, pair, tn, t)
     if old is None:
-        old = np.array(_rotations_at(sm, seg[pair] * J + joint[pair], tn))
+        old = np.array(_rotations_at(sm.rotations, seg[pair] * J + joint[pair], tn))
     wl = _pair_plateau_weights(knots, sm.pose_times, seg, joint, 1, t, pair)
     wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, joint, -1, t, pair)
     for a in (knots, old, wl, wr) + tuple(grid):
@@ -178,76 +161,65 @@ def _apply_pose_offsets(sm: StaggeredMotion, deltas: np.ndarray, root_deltas: np
                         basis: OffsetBasis | None = None):
     """Apply knot offsets ``deltas (K, J, 4)`` (and root translation offsets ``(K, 3)``): ``v̂ = v ⊕ δ``,
     ``v̂⁰ = v⁰ ⊕ δ``, the adjacent Bézier handles move with their knot, and the displacement maps of the
-    touched segments are re-measured so that ``v̂(t) = v(t) ⊕ w_k(t) δ_k ⊕ w_{k+1}(t) δ_{k+1}``."""
-    K, J = sm.num_poses, sm.num_joints
-    moved = np.linalg.norm(quat_log(quat_hemisphere(deltas)), axis=-1) > _TINY_ANGLE   # (K, J)
-    rmoved = np.zeros(K, bool) if root_deltas is None else np.any(root_deltas != 0, axis=1)
-    if not moved.any() and not rmoved.any():
-        return sm
+    touched segments are re-measured so that ``v̂(t) = v(t) ⊕ w_k(t) δ_k ⊕ w_{k+1}(t) δ_{k+1}`` (the
+    rotation channel with ``basis`` when given)."""
     fields = {}
-    if moved.any():
-        values = quat_mul(sm.values, deltas)
-        tangents = np.array(sm.tangents)
-        tangents[:, :, 0] = quat_mul(tangents[:, :, 0], deltas[:-1])   # handle next to v_k (segment k)
-        tangents[:, :, 1] = quat_mul(tangents[:, :, 1], deltas[1:])    # handle next to v_{k+1}
-        touched = moved[:-1] | moved[1:]                                # (K-1, J) segments to re-measure
-        if basis is not None:
-            covered = np.zeros_like(touched)
-            covered[basis.seg, basis.joint] = True
-            inside = touched[basis.seg, basis.joint]
-            if (touched & ~covered).any() or inside.sum() < 0.5 * inside.size:
-                basis = None              # a static joint moved, or few pairs: re-measure those without it
-            else:
-                basis = basis.restrict(inside)   # the touched pairs (the others keep their maps exactly)
-        if basis is not None:
-            seg, joint, counts, grid = basis.seg, basis.joint, basis.counts, basis.grid
+    rd = None if root_deltas is None else root_deltas[:, None]                # (K, 1, 3): one column
+    for name, ch, d, b in (("rotations", sm.rotations, deltas, basis), ("translation", sm.translation, rd, None)):
+        if d is not None:
+            gen = ch.algebra.generator(d)                          # (K, C, 3)
+            moved = ch.algebra.moves(gen)                          # (K, C)
+            if moved.any():
+                fields[name] = _offset_channel(sm, ch, d, gen, moved, b)
+    return _refresh(sm, **fields) if fields else sm
+
+
+def _offset_channel(sm: StaggeredMotion, ch: Channel, d, gen, moved, basis):
+    """``ch`` with knot offsets ``d (K, C, D)`` (generators ``gen (K, C, 3)``, ``moved (K, C)``) applied and the
+    maps of the touched segments re-measured (:func:`_apply_pose_offsets`)."""
+    alg = ch.algebra
+    values = alg.offset(ch.values, d)
+    tangents = np.array(ch.tangents)
+    tangents[:, :, 0] = alg.offset(tangents[:, :, 0], d[:-1])      # handle next to v_k (segment k)
+    tangents[:, :, 1] = alg.offset(tangents[:, :, 1], d[1:])       # handle next to v_{k+1}
+    touched = moved[:-1] | moved[1:]                                # (K-1, C) segments to re-measure
+    if basis is not None:
+        covered = np.zeros_like(touched)
+        covered[basis.seg, basis.joint] = True
+        inside = touched[basis.seg, basis.joint]
+        if (touched & ~covered).any() or inside.sum() < 0.5 * inside.size:
+            basis = None              # a static joint moved, or few pairs: re-measure those without it
         else:
-            seg, joint = np.nonzero(touched)
-            counts, grid = sm.displacement_counts[seg, joint], None
-        logd = quat_log(quat_hemisphere(deltas))                        # (K, J, 3), half-angle axis
-        knots = knot_times(sm)
+            basis = basis.restrict(inside)   # the touched pairs (the others keep their maps exactly)
+    if basis is not None:
+        seg, col, counts, grid = basis.seg, basis.joint, basis.counts, basis.grid
+    else:
+        seg, col = np.nonzero(touched)
+        counts, grid = ch.counts[seg, col], None
+    knots = ch.knots(sm.pose_times)
+    C = ch.num_columns
 
-        def target(t, jp, pair, tn):
-            # component-first (4, N) arithmetic; the plateau ramps' ends are per (segment, joint) pair
-            if basis is not None:
-                old, wl, wr = basis.old, basis.wl, basis.wr
-            else:
-                old = _rotations_at(sm, seg[pair] * J + jp, tn)             # same knots and grid: no search
-                wl = _pair_plateau_weights(knots, sm.pose_times, seg, joint, 1, t, pair)
-                wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, joint, -1, t, pair)
-            W, N = kern.WORK, t.size            # scratch reused move to move (no fresh page-faulted arrays)
-            e, a, h, tmp = W.get("ex_e", (4, N)), W.get("ex_a", (4, N)), W.get("ex_h", N), W.get("ex_tmp", N)
-            g = W.get("ex_g", (3, N))
-            for end, w in ((seg, wl), (seg + 1, wr)):                  # ⊕ w_k δ_k, then ⊕ w_{k+1} δ_{k+1}
-                kern.take_cols_into(np.ascontiguousarray(logd[end, joint].T), pair, g)
-                g *= w
-                kern.qexp_into(g, e, h, tmp)
-                if end is seg:
-                    kern.qmul_into(old, e, a, tmp)
-            return kern.qmul_into(a, e, W.get("ex_v", (4, N)), tmp).T
+    def target(t, cp, pair, tn):
+        # component-first (D, N) arithmetic; the plateau ramps' ends are per (segment, column) pair
+        if basis is not None:
+            old, wl, wr = basis.old, basis.wl, basis.wr
+        else:                                                       # same knots and grid: no search
+            old = (_rotations_at(ch, seg[pair] * C + cp, tn) if alg is ROTATION
+                   else channel_at(ch, seg[pair], cp, tn).T)
+            wl = _pair_plateau_weights(knots, sm.pose_times, seg, col, 1, t, pair)
+            wr = _pair_plateau_weights(knots, sm.pose_times, seg + 1, col, -1, t, pair)
+        W, N = kern.WORK, t.size            # scratch reused move to move (no fresh page-faulted arrays)
+        g = W.get("ex_g", (3, N))
+        x = old
+        for end, w, tag in ((seg, wl, "ex_a"), (seg + 1, wr, "ex_v")):   # ⊕ w_k δ_k, then ⊕ w_{k+1} δ_{k+1}
+            kern.take_cols_into(np.ascontiguousarray(gen[end, col].T), pair, g)
+            g *= w
+            x = alg.step_rows(x, g, W.get(tag, (alg.dim, N)))
+        return x.T
 
-        rows = _measure_rotations(values, tangents, knots, seg, joint, counts, target, grid)
-        fields.update(values=values, tangents=tangents,
-                      displacements=_put_rows(sm.displacements, (seg, joint), rows))
-    if rmoved.any():
-        rv = sm.root_values + root_deltas
-        rt = np.array(sm.root_tangents)
-        rt[:, 0] += root_deltas[:-1]
-        rt[:, 1] += root_deltas[1:]
-        seg = np.flatnonzero(rmoved[:-1] | rmoved[1:])
-        counts = sm.root_displacement_counts[seg]
-        rk = (sm.pose_times + sm.root_refinements)[:, None]   # the root translation's own knot column
-
-        def rtarget(t, pair, tn):
-            sp = seg[pair]
-            z = np.zeros_like(sp)
-            wl = _plateau_weights(rk, sm.pose_times, sp, z, t, np.ones_like(sp))
-            wr = _plateau_weights(rk, sm.pose_times, sp + 1, z, t, -np.ones_like(sp))
-            return _eval_root(sm, t) + wl[:, None] * root_deltas[sp] + wr[:, None] * root_deltas[sp + 1]
-
-        rows = _measure_root(rv, rt, np.maximum.accumulate(rk[:, 0]), seg, counts, rtarget)
-        fields.update(root_values=rv, root_tangents=rt, root_displacements=_put_rows(sm.root_displacements, (seg,), rows))
-    return _refresh(sm, **fields)
+    rows = measure(alg, values, tangents, knots, seg, col, counts, target, grid)
+    return ch.with_arrays(values=values, tangents=tangents,
+                          displacements=_put_rows(ch.displacements, (seg, col), rows))
 
 
 def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: str = "staggered",
@@ -339,7 +311,8 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
     basis : OffsetBasis, optional
         :func:`pose_offset_basis` of ``sm`` (cache it per ``sm``: it does not depend on ``k``, ``w_r``,
         ``reference``, ``mode`` or ``joints``); used when the edit moves at least half of the (segment, joint)
-        pairs (e.g. every pose), where it saves a quarter to a third of the work; the same result to rounding. A basis of another motion is a ValueError.
+        pairs (e.g. every pose), where it saves a quarter to a third of the work; the same result to rounding.
+        A basis of another motion is a ValueError.
     """
     _check(sm)
     w_r = _finite(w_r, "w_r")
@@ -364,7 +337,8 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
             elif reference == "mean":
                 ref = mean
             else:
-                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, got {reference!r}")
+                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
+                                 f"got {reference!r}")
         elif isinstance(reference, (int, np.integer)):
             ref = vals[_pose_index(sm, reference, "reference")]
         else:

@@ -22,17 +22,36 @@ import numpy as np
 
 from ..core._arrays import readonly
 from ..core.skeleton import Skeleton
+from .channel import ROTATION, TRANSLATION, Channel
 
 __all__ = ["StaggeredMotion", "knot_times", "default_times"]
 
+# the former array fields of StaggeredMotion: (channel, channel field); the constructor accepts them
+_ARRAYS = {"values": ("rotations", "values"), "tangents": ("rotations", "tangents"),
+           "refinements": ("rotations", "refinements"), "displacements": ("rotations", "displacements"),
+           "displacement_counts": ("rotations", "counts"), "root_values": ("translation", "values"),
+           "root_tangents": ("translation", "tangents"), "root_refinements": ("translation", "refinements"),
+           "root_displacements": ("translation", "displacements"),
+           "root_displacement_counts": ("translation", "counts")}
+_LABELS = {w: {f: n for n, (w2, f) in _ARRAYS.items() if w2 == w} for w in ("rotations", "translation")}
 
-@dataclass(frozen=True, eq=False)
+
+def _legacy_shape(name: str, K: int, J: int) -> tuple:
+    return {"values": (K, J, 4), "tangents": (K - 1, J, 2, 4), "refinements": (K, J),
+            "displacement_counts": (K - 1, J), "root_values": (K, 3), "root_tangents": (K - 1, 2, 3),
+            "root_refinements": (K,), "root_displacement_counts": (K - 1,), "root_displacements": None}[name]
+
+
+@dataclass(frozen=True, eq=False, init=False)
 class StaggeredMotion:
     """A motion as a sequence of staggered poses plus splines and displacement maps (§3).
 
-    Every array is a read-only copy. Editing tools build new objects with ``dataclasses.replace``;
-    ``evaluate`` recomputes everything it needs from the fields below (no hidden caches), so any
-    consistent replacement is valid.
+    Every array is a read-only copy. The control variables are two :class:`~.channel.Channel` objects
+    (``rotations``: J joint rotations; ``translation``: the root translation, one column), whose arrays are
+    also read as the attributes below (``values``, ``root_values``, ...); the constructor and
+    ``dataclasses.replace`` accept those names too (e.g. ``dataclasses.replace(sm, displacements=...)``
+    replaces that array of ``sm.rotations``). ``evaluate`` recomputes everything it needs from the fields
+    (no hidden caches), so any consistent replacement is valid.
 
     Attributes
     ----------
@@ -42,6 +61,11 @@ class StaggeredMotion:
         Seconds between frames of the source, and of ``evaluate(sm)``'s default output.
     pose_times : ndarray, shape (K,), seconds
         Staggered pose times ``t_k``, strictly increasing. ``evaluate`` covers ``[t_0, t_{K-1}]`` by default.
+    rotations : Channel (algebra ROTATION, J columns)
+        ``values``, ``tangents``, ``refinements``, ``displacements``, ``displacement_counts`` below.
+    translation : Channel (algebra TRANSLATION, 1 column)
+        ``root_values``, ``root_tangents``, ``root_refinements``, ``root_displacements``,
+        ``root_displacement_counts`` below (the channel's arrays without their column axis).
     refinements : ndarray, shape (K, J), seconds
         Timing refinements ``r_{k,i}`` of each joint rotation. Knot times ``T = pose_times[:, None] +
         refinements`` must be strictly increasing down each column for a meaningful motion (extraction
@@ -103,16 +127,8 @@ class StaggeredMotion:
     skeleton: Skeleton
     frame_time: float
     pose_times: np.ndarray
-    refinements: np.ndarray
-    values: np.ndarray
-    tangents: np.ndarray
-    displacements: np.ndarray
-    displacement_counts: np.ndarray
-    root_values: np.ndarray
-    root_refinements: np.ndarray
-    root_tangents: np.ndarray
-    root_displacements: np.ndarray
-    root_displacement_counts: np.ndarray
+    rotations: Channel
+    translation: Channel
     editing_knots: np.ndarray
     pose_probability: np.ndarray
     contacts: tuple = ()
@@ -120,83 +136,123 @@ class StaggeredMotion:
     metadata: dict = field(default_factory=dict)
     translation_times: np.ndarray | None = None
 
-    def __post_init__(self):
-        J = self.skeleton.num_joints
-        ft = float(self.frame_time)
+    def __init__(self, skeleton, frame_time, pose_times, rotations=None, translation=None, editing_knots=None,
+                 pose_probability=None, contacts=(), local_translations=None, metadata=None, translation_times=None,
+                 **arrays):
+        unknown = set(arrays) - set(_ARRAYS)
+        if unknown:
+            raise TypeError(f"StaggeredMotion: unexpected keyword arguments {sorted(unknown)}")
+        J = skeleton.num_joints
+        ft = float(frame_time)
         if not np.isfinite(ft) or ft <= 0:
-            raise ValueError(f"StaggeredMotion: frame_time must be > 0 seconds, got {self.frame_time!r}")
-        pt = readonly(self.pose_times).reshape(-1)
+            raise ValueError(f"StaggeredMotion: frame_time must be > 0 seconds, got {frame_time!r}")
+        pt = readonly(pose_times).reshape(-1)
         K = pt.size
         if K < 2:
             raise ValueError(f"StaggeredMotion: pose_times needs at least 2 poses, got {K}")
         if not np.all(np.diff(pt) > 0):
             raise ValueError("StaggeredMotion: pose_times must be strictly increasing")
-        expect = {
-            "refinements": (K, J), "values": (K, J, 4), "tangents": (K - 1, J, 2, 4),
-            "displacement_counts": (K - 1, J), "root_values": (K, 3), "root_refinements": (K,),
-            "root_tangents": (K - 1, 2, 3), "root_displacement_counts": (K - 1,),
-            "editing_knots": (K, J, 4), "pose_probability": (K,),
-        }
-        object.__setattr__(self, "frame_time", ft)
-        object.__setattr__(self, "pose_times", pt)
-        for name, shape in expect.items():
-            dtype = int if name.endswith("counts") else float
-            a = readonly(getattr(self, name), dtype)
-            if a.shape != shape:
-                raise ValueError(f"StaggeredMotion: {name} must have shape {shape}, got {a.shape}")
-            object.__setattr__(self, name, a)
-        d = readonly(self.displacements)
-        if d.ndim != 4 or d.shape[:2] != (K - 1, J) or d.shape[3] != 3:
-            raise ValueError(f"StaggeredMotion: displacements must have shape ({K - 1}, {J}, M, 3), got {d.shape}")
-        rd = readonly(self.root_displacements)
-        if rd.ndim != 3 or rd.shape[0] != K - 1 or rd.shape[2] != 3:
-            raise ValueError(f"StaggeredMotion: root_displacements must have shape ({K - 1}, M, 3), got {rd.shape}")
-        if np.any(self.displacement_counts < 2) or np.any(self.displacement_counts > d.shape[2]):
-            raise ValueError("StaggeredMotion: displacement_counts must lie in [2, displacements.shape[2]]")
-        if np.any(self.root_displacement_counts < 2) or np.any(self.root_displacement_counts > rd.shape[1]):
-            raise ValueError("StaggeredMotion: root_displacement_counts must lie in [2, root_displacements.shape[1]]")
-        object.__setattr__(self, "displacements", d)
-        object.__setattr__(self, "root_displacements", rd)
-        if self.local_translations is not None:
-            lt = readonly(self.local_translations)
-            if lt.ndim != 3 or lt.shape[1:] != (J, 3):
-                raise ValueError(f"StaggeredMotion: local_translations must have shape (F, {J}, 3), got {lt.shape}")
-            object.__setattr__(self, "local_translations", lt)
-        if self.translation_times is not None:
-            tt = readonly(self.translation_times).reshape(-1)
-            if tt.shape != (K,) or not np.all(np.isfinite(tt)):
-                raise ValueError(f"StaggeredMotion: translation_times must hold {K} finite seconds, got {tt.shape}")
-            object.__setattr__(self, "translation_times", tt)
-        object.__setattr__(self, "contacts", tuple((str(n), int(a), int(b)) for n, a, b in self.contacts))
+        channels = {"rotations": rotations, "translation": translation}
+        for which, algebra, C in (("rotations", ROTATION, J), ("translation", TRANSLATION, 1)):
+            given = {f: a for name, a in arrays.items() for w, f in [_ARRAYS[name]] if w == which}
+            for name, a in arrays.items():                 # the former field names, checked by those names
+                w, f = _ARRAYS[name]
+                if w == which and f != "displacements":
+                    shape = _legacy_shape(name, K, J)
+                    if np.shape(a) != shape:
+                        raise ValueError(f"StaggeredMotion: {name} must have shape {shape}, got {np.shape(a)}")
+            if which == "translation":
+                given = {f: np.expand_dims(np.asarray(a), 1) for f, a in given.items()}   # the column axis
+            ch = channels[which]
+            if ch is None:
+                missing = [n for n, (w, f) in _ARRAYS.items() if w == which and f not in given]
+                if missing:
+                    raise TypeError(f"StaggeredMotion: give {which}= or every one of {missing}")
+                ch = Channel(algebra, **given)
+            elif not isinstance(ch, Channel) or ch.algebra is not algebra:
+                raise ValueError(f"StaggeredMotion: {which} must be a Channel of the {algebra.name} algebra")
+            elif given:
+                ch = ch.with_arrays(**given)
+            ch.check(lambda f, w=which: _LABELS[w][f])
+            if ch.values.shape[:2] != (K, C):
+                raise ValueError(f"StaggeredMotion: {which} must hold {K} knots of {C} columns, got "
+                                 f"{ch.values.shape[:2]}")
+            channels[which] = ch
+        sets = {"skeleton": skeleton, "frame_time": ft, "pose_times": pt, **channels,
+                "contacts": tuple((str(n), int(a), int(b)) for n, a, b in contacts),
+                "metadata": {} if metadata is None else metadata}
+        for name, shape, value in (("editing_knots", (K, J, 4), editing_knots),
+                                   ("pose_probability", (K,), pose_probability)):
+            v = readonly(value)
+            if v.shape != shape:
+                raise ValueError(f"StaggeredMotion: {name} must have shape {shape}, got {v.shape}")
+            sets[name] = v
+        if local_translations is not None:
+            local_translations = readonly(local_translations)
+            if local_translations.ndim != 3 or local_translations.shape[1:] != (J, 3):
+                raise ValueError(f"StaggeredMotion: local_translations must have shape (F, {J}, 3), got "
+                                 f"{local_translations.shape}")
+        sets["local_translations"] = local_translations
+        if translation_times is not None:
+            translation_times = readonly(translation_times).reshape(-1)
+            if translation_times.shape != (K,) or not np.all(np.isfinite(translation_times)):
+                raise ValueError(f"StaggeredMotion: translation_times must hold {K} finite seconds, got "
+                                 f"{translation_times.shape}")
+        sets["translation_times"] = translation_times
+        for name, v in sets.items():
+            object.__setattr__(self, name, v)
 
     def _with_fields(self, **fields) -> "StaggeredMotion":
-        """``dataclasses.replace(self, **fields)`` for the package's editing tools (``editing._refresh``),
-        without validating and copying every array again: a given array field is copied read-only (as
-        :meth:`__post_init__` does) after a shape check against this motion's (the sample axis of the
-        displacement tables may differ), the others are this motion's own arrays, already checked and
-        read-only (e.g. a succession changes the refinements only: the displacement tables, most of the
-        bytes, are shared, not copied). Fields that change the pose count (or non-array fields) go
-        through ``dataclasses.replace``. The same values as ``dataclasses.replace``."""
+        """``dataclasses.replace(self, **fields)`` for the package's editing tools (``timing._refresh``), without
+        validating and copying every array again: given channels and arrays of this motion's shapes are taken
+        (a given array copied read-only), the others are this motion's own (already checked and read-only; e.g.
+        a succession changes the refinements only: the displacement tables, most of the bytes, are shared).
+        Fields that change the pose count go through ``dataclasses.replace``. The same values either way."""
         import dataclasses
+        K = self.num_poses
         for name, v in fields.items():
-            old = getattr(self, name, None)
-            if not isinstance(old, np.ndarray) or np.ndim(v) != old.ndim:
+            if isinstance(v, Channel):
+                old = getattr(self, name)
+                if v.algebra is not old.algebra or v.values.shape[:2] != old.values.shape[:2]:
+                    return dataclasses.replace(self, **fields)
+            elif name in ("editing_knots", "pose_probability", "pose_times"):
+                if np.shape(v) != getattr(self, name).shape:
+                    return dataclasses.replace(self, **fields)
+            elif name != "metadata" and name != "translation_times":
                 return dataclasses.replace(self, **fields)
-            shape = np.shape(v)
-            if name in ("displacements", "root_displacements"):
-                shape, want = shape[:-2] + shape[-1:], old.shape[:-2] + old.shape[-1:]
-            else:
-                want = old.shape
-            if shape != want:
-                return dataclasses.replace(self, **fields)
+        if "translation_times" in fields and fields["translation_times"] is not None \
+                and np.shape(fields["translation_times"]) != (K,):
+            return dataclasses.replace(self, **fields)
         new = object.__new__(type(self))
         for f in dataclasses.fields(self):
-            if f.name in fields:
-                v = readonly(fields[f.name], int if f.name.endswith("counts") else float)
-            else:
-                v = getattr(self, f.name)
+            v = fields.get(f.name, getattr(self, f.name))
+            if f.name in fields and isinstance(v, np.ndarray | list | tuple) and f.name != "contacts":
+                v = readonly(v)
             object.__setattr__(new, f.name, v)
         return new
+
+    # -- the channels' arrays under their former names (read-only views) -------------------------------
+    values = property(lambda self: self.rotations.values, doc="``rotations.values``, (K, J, 4).")
+    tangents = property(lambda self: self.rotations.tangents, doc="``rotations.tangents``, (K - 1, J, 2, 4).")
+    refinements = property(lambda self: self.rotations.refinements, doc="``rotations.refinements``, (K, J) s.")
+    displacements = property(lambda self: self.rotations.displacements,
+                             doc="``rotations.displacements``, (K - 1, J, M, 3).")
+    displacement_counts = property(lambda self: self.rotations.counts, doc="``rotations.counts``, (K - 1, J).")
+    root_values = property(lambda self: self.translation.values[:, 0], doc="``translation.values[:, 0]``, (K, 3).")
+    root_tangents = property(lambda self: self.translation.tangents[:, 0],
+                             doc="``translation.tangents[:, 0]``, (K - 1, 2, 3).")
+    root_refinements = property(lambda self: self.translation.refinements[:, 0],
+                                doc="``translation.refinements[:, 0]``, (K,) s.")
+    root_displacements = property(lambda self: self.translation.displacements[:, 0],
+                                  doc="``translation.displacements[:, 0]``, (K - 1, M, 3).")
+    root_displacement_counts = property(lambda self: self.translation.counts[:, 0],
+                                        doc="``translation.counts[:, 0]``, (K - 1,).")
+
+    @property
+    def channels(self) -> tuple[Channel, Channel]:
+        """``(rotations, translation)``: every control variable, J + 1 columns in this order (the column
+        layout of :func:`~.timing.source_knot_times`)."""
+        return self.rotations, self.translation
 
     # -- derived, cheap -----------------------------------------------------------------------------
     @property

@@ -1,18 +1,21 @@
 """What a timing edit reports (Coleman et al. 2008, §5.2): refined knot times that reach a neighbouring pose
-(:class:`TimingWarning`, :func:`timing_warnings`), one plain sentence about them
-(:func:`summarize_timing_warnings`), and the metadata dict that computes them on first read (``_LazyWarnings``).
+(:class:`TimingWarning`, :func:`timing_warnings`, the detailed API; :func:`summarize_timing_warnings` counts
+them), the one plain sentence a student reads (:func:`timing_summary`: a timing edit limited to keep the poses
+in order, or knots that cross, by body part: :func:`body_part`), and the metadata dict that computes the
+warnings on first read (``_LazyWarnings``).
 """
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import _finite
-from .representation import StaggeredMotion
+from ._checks import _check, _finite
+from .representation import StaggeredMotion, knot_times
 
-__all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings"]
+__all__ = ["TimingWarning", "timing_warnings", "summarize_timing_warnings", "timing_summary", "body_part"]
 
 
 @dataclass(frozen=True)
@@ -140,6 +143,96 @@ def summarize_timing_warnings(warnings) -> str:
     what = "refined time reaches" if n == 1 else "refined times reach"
     return (f"{n} {what} a neighbouring pose ({jtxt}; {ptxt}), which can make those joints jump or "
             f"speed up suddenly: lower s or l (succession), lower τ (random timing), or stagger fewer joints.")
+
+
+# -- the plain timing sentence -------------------------------------------------------------------------------
+
+_SIDE_TOKENS = {"left": "left", "l": "left", "right": "right", "r": "right"}
+_ASF_LIMB = re.compile(r"^([lr])(hand|wrist|femur|tibia|foot|toes|humerus|radius|clavicle|fingers|thumb|hipjoint)$")
+_PARTS = (   # (pattern on the joint's name without its side, words), first match wins
+    (re.compile(r"toe"), "toes"),
+    (re.compile(r"thumb|index|middle|mid\d|ring\d|ring$|pinky|finger"), "fingers"),
+    (re.compile(r"foot|ankle|heel"), "foot"),
+    (re.compile(r"upleg|thigh|knee|calf|leg|femur|tibia|shin"), "leg"),
+    (re.compile(r"hand|wrist"), "hand"),
+    (re.compile(r"arm|elbow|shoulder|clavicle|collar|humerus|radius"), "arm"),
+    (re.compile(r"head|neck|jaw|eye|teeth|tongue|facial|nose"), "head"),
+    (re.compile(r"spine|chest|back|waist|breast|ribs|abdomen|torso"), "spine"),
+    (re.compile(r"hips|hip|pelvis|root"), "hips"),
+)
+
+
+def body_part(name: str) -> str:
+    """Plain words for the body part a joint belongs to: ``"the left arm"``, ``"the right fingers"``,
+    ``"the spine"``, ``"the head"`` ... (from the joint's name: CMU, Mixamo, Bandai, iClone/CC and ASF
+    spellings); the joint's own name when no word fits."""
+    bare = str(name).split(":")[-1]
+    tokens = [t.lower() for t in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+", bare)]
+    side = next((_SIDE_TOKENS[t] for t in tokens if t in _SIDE_TOKENS), None)
+    rest = "".join(t for t in tokens if t not in _SIDE_TOKENS)
+    asf = _ASF_LIMB.match(bare.lower())
+    if side is None and asf:
+        side, rest = ("left" if asf.group(1) == "l" else "right"), asf.group(2)
+    for pattern, word in _PARTS:
+        if pattern.search(rest):
+            if word == "hips" and side is None or word in ("head", "spine"):
+                return f"the {word}"
+            if word == "hips":           # a hip joint with a side (CMU's LeftHip) is the top of a leg
+                word = "leg"
+            return f"the {side} {word}" if side else f"the {word}"
+    return str(name)
+
+
+def timing_summary(sm: StaggeredMotion) -> str:
+    """One plain sentence about the timing edits of ``sm`` for a student, or ``''``.
+
+    It appears only when a timing edit was limited noticeably to keep a joint's poses in order
+    (:func:`succession` / :func:`random_timing` with a ``limit``: "To keep each joint's poses in order, the
+    delay was limited for the right fingers (to 0.21 s of 3.20 s asked) ...") or when, without the limit,
+    a joint's refined knots now cross (its poses play out of order, so it jumps). The knots themselves are
+    listed by :func:`timing_warnings` (§5.2's warning, the detailed API).
+    """
+    _check(sm)
+    T = knot_times(sm)
+    crossed = np.flatnonzero(~np.all(np.diff(T, axis=0) > 0, axis=0))
+    rk = sm.pose_times + sm.root_refinements
+    parts = list(dict.fromkeys(body_part(sm.skeleton.names[j]) for j in crossed))
+    if not np.all(np.diff(rk) > 0) and "the hips" not in parts:
+        parts.append("the hips")
+    if parts:
+        return (f"The poses of {_enumerate(parts)} now play out of order (a timing offset passes a neighbouring "
+                f"pose), which makes {'it' if len(parts) == 1 else 'them'} jump: lower s, l or τ, or keep the "
+                "timing limit on.")
+    records = sm.metadata.get("timing_limits") or ()
+    if not records:
+        return ""
+    kinds = {r["op"] for r in records}
+    signs = {np.sign(r["asked"]) for r in records}
+    if kinds == {"succession"}:
+        word, pm = ("delay" if signs == {1.0} else "lead" if signs == {-1.0} else "delay or lead"), ""
+    elif kinds == {"random_timing"}:
+        word, pm = "typical random offsets", "±"
+    else:
+        word, pm = "timing offsets", ""
+    groups = {}
+    for r in records:
+        g = groups.setdefault(body_part(r["joint"]), [0.0, 0.0])
+        g[0], g[1] = max(g[0], abs(r["asked"])), max(g[1], abs(r["applied"]))
+    order = sorted(groups, key=lambda p: groups[p][1] - groups[p][0])      # the most limited first
+    shown = [f"{p} (to {pm}{_seconds(groups[p][1])} of {pm}{_seconds(groups[p][0])} asked)" for p in order[:3]]
+    if len(order) > 3:
+        shown.append(f"{len(order) - 3} more body part{'s' if len(order) > 4 else ''}")
+    were = "was" if word in ("delay", "lead", "delay or lead") else "were"
+    return f"To keep each joint's poses in order, the {word} {were} limited for {_enumerate(shown)}."
+
+
+def _seconds(x: float) -> str:
+    return f"{x:.2f} s" if x < 10 else f"{x:.0f} s"
+
+
+def _enumerate(items) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
 class _LazyWarnings(dict):

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .evaluation import bezier_cubic
+from .channel import TRANSLATION, Channel
+from .displacement import displacement_table, displacements_of
 from .sampling import sample_segments
 
 __all__ = ["fit_translation_tangents", "match_translation_tangents"]
@@ -63,10 +64,10 @@ def match_translation_tangents(values, tangents, knots):
     return tangents
 
 
-def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
-    """Root translation of :func:`fit_staggered` (§4.1.1): cubic Béziers through ``root_at`` at the knots
-    ``rk (K,)`` s, inner controls by least squares (C1-matched on "C1"), and the displacement table.
-    Returns ``root_values (K, 3), tangents (K - 1, 2, 3), table (K - 1, M, 3), counts (K - 1,)``."""
+def _fit_root(root_at, rk, refinements, ft, start_time, oversample, continuity) -> Channel:
+    """The root translation channel of :func:`~.fitting.fit_staggered` (§4.1.1): cubic Béziers through
+    ``root_at(frames) (N, 3)`` at the knots ``rk (K,)`` s (``pose_times + refinements``), inner controls by least
+    squares (C1-matched on "C1"), and the displacement table."""
     rk = np.asarray(rk, dtype=float)[:, None]
     rpair, rm, rcounts, rtn, rframes = sample_segments(rk, ft, start_time, oversample)
     ry = root_at(rframes)
@@ -77,7 +78,7 @@ def _fit_root(root_at, rk, ft, start_time, oversample, continuity):
     rtan = fit_translation_tangents(rtn, ry, rpair, p0, p3, rk.shape[0] - 1)
     if continuity == "C1":
         rtan = match_translation_tangents(root_values, rtan, rk[:, 0])
-    rs = bezier_cubic(p0[rpair], rtan[rpair, 0], rtan[rpair, 1], p3[rpair], rtn)
-    rtable = np.zeros((rk.shape[0] - 1, int(rcounts.max()), 3))
-    rtable[rpair, rm] = ry - rs
-    return root_values, rtan, rtable, rcounts
+    d = displacements_of(TRANSLATION, p0, rtan[:, 0], rtan[:, 1], p3, rpair, rtn, ry, rpair)
+    table = displacement_table(rpair, rm, d, (rk.shape[0] - 1, int(rcounts.max()), 3))
+    return Channel(TRANSLATION, root_values[:, None], rtan[:, None], np.asarray(refinements)[:, None], table[:, None],
+                   rcounts[:, None])

@@ -20,15 +20,19 @@ The torso frame of the features is the pelvis (:func:`stagger_nb.core.body.pelvi
 from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
 from .guided import (FREE_K, FREE_UPSAMPLE, WarpSolution, WarpTables, cached_prepare_warp, clear_tables_cache,
-                     guided_warp, prepare_warp, required_upsample, reverse_motion, slice_tables, solve_warp,
-                     warp_memory)
+                     free_length_search, guided_warp, penalty_unit, prepare_warp, required_upsample, reverse_motion,
+                     slice_tables, solve_warp, warp_memory)
 from .linear import linear_warp, linear_warp_curve
-from .objective import knn_scores
-from .postprocess import apply_warp, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps, warp_speed
+from .measures import airborne_frames, airborne_speed, intervals, overall_speed, speed_inside
+from .objective import end_scores, knn_scores
+from .postprocess import (apply_warp, meet_keytimes, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps,
+                          warp_speed)
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
            "unconstrained_dp", "warp_bounds", "path_cost", "pose_features", "reference_features",
            "triple_features", "apply_warp", "smooth_warp", "warp_speed", "speed_at_input_times", "parse_keytimes",
            "speed_jumps", "warp_memory", "mean_cost_dp", "FREE_K", "FREE_UPSAMPLE", "slice_tables",
-           "cached_prepare_warp", "clear_tables_cache", "input_time_dp"]
+           "cached_prepare_warp", "clear_tables_cache", "input_time_dp", "free_length_search", "penalty_unit",
+           "airborne_frames", "airborne_speed", "intervals", "overall_speed", "speed_inside", "end_scores",
+           "meet_keytimes"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion
-from .postprocess import apply_warp, parse_keytimes
+from .postprocess import apply_warp, meet_keytimes, parse_keytimes
 
 __all__ = ["linear_warp", "linear_warp_curve", "validate_num_frames", "check_output_size", "MAX_OUTPUT_BYTES"]
 
@@ -37,7 +37,9 @@ def linear_warp_curve(in_duration: float, num_frames: int, frame_time: float, ke
     out_duration = (num_frames - 1) * frame_time
     keys = parse_keytimes(keytimes, in_duration, out_duration)
     t_out = np.arange(num_frames) * frame_time
-    return np.interp(t_out, keys[:, 1], keys[:, 0])
+    warp = np.interp(t_out, keys[:, 1], keys[:, 0])
+    # keys between output frames: the interpolated warp passes through them exactly (:func:`meet_keytimes`)
+    return meet_keytimes(warp, frame_time, keys) if keys.shape[0] > 2 else warp
 
 
 def linear_warp(m: Motion, num_frames: int, keytimes=None, adaptive: bool = False):

@@ -60,8 +60,8 @@ import scipy.sparse.linalg as spla
 from ..core.digest import content_key
 from ..core.motion import Motion
 from .laplacian import (CHAIN_FLOOR, KernelPattern, KnnGraph, _check_sigma, default_sigma, dense_kernel,
-                        kernel_pattern, knn_graph, normalized_adjacency, normalized_laplacian, pairwise_sq_distances,
-                        sparse_kernel)
+                        distinct_poses, kernel_pattern, knn_graph, normalized_adjacency, normalized_laplacian,
+                        pairwise_sq_distances, quotient_pattern, sparse_kernel)
 from .pose_space import pose_vectors
 
 __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
@@ -184,6 +184,11 @@ class PoseGraph:
     pattern : KernelPattern or None
         Sparse paths: the kernel's CSR structure built from ``knn`` once (:func:`.laplacian.kernel_pattern`),
         so a new sigma only recomputes kernel values (about a fifth of a new sigma's time on CMU 01_01).
+    nodes, counts : ndarray (F,) int and (C,), or None
+        Sparse paths on a clip that repeats poses exactly (:func:`.laplacian.distinct_poses`, e.g. a take
+        concatenated with itself): the graph is on the C distinct poses (:func:`.laplacian.quotient_pattern`),
+        ``nodes[f]`` is frame f's node (-1: between landmarks, interpolated in time) and ``counts`` the frames
+        each node stands for.  None: one node per graph frame, as before.
 
     Immutable, with no hidden state: ``basis(sigma)`` computes a new :class:`GreensBasis` on every call.  A
     caller that revisits sigma values keeps the bases it wants (the session's cache does).
@@ -195,6 +200,8 @@ class PoseGraph:
     method: str
     landmarks: np.ndarray | None = None
     pattern: KernelPattern | None = None
+    nodes: np.ndarray | None = None
+    counts: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -226,11 +233,27 @@ class PoseGraph:
         if lam.size == 0:
             raise ValueError(f"sigma={s!r} leaves no non-null eigenpair (every frame is its own component); "
                              "increase sigma")
+        if self.nodes is not None:
+            # the quotient graph (module docstring of .laplacian.quotient_pattern): a frame of class A has
+            # degree r_A / c_A; psi lifts as it is, phi as phi_A / sqrt(c_A)
+            c = np.asarray(self.counts, dtype=float)
+            vecs = phi / np.sqrt(r)[:, None] if normalization == "random_walk" else phi / np.sqrt(c)[:, None]
+            return GreensBasis(lam, np.ascontiguousarray(_lift(self.nodes, vecs)), _lift(self.nodes, r / c),
+                               float(s), bool(self_term), normalization, self.method, null_dim)
         vecs = phi / np.sqrt(r)[:, None] if normalization == "random_walk" else phi
         if self.landmarks is not None:
             vecs, r = _interpolate_frames(self.landmarks, F, vecs), _interpolate_frames(self.landmarks, F, r)
         return GreensBasis(lam, np.ascontiguousarray(vecs), r, float(s), bool(self_term), normalization,
                            self.method, null_dim)
+
+
+def _lift(nodes: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Node values ``(C, ...)`` -> every frame ``(F, ...)``: ``values[nodes[f]]``, and for frames without a node
+    (``nodes[f] = -1``, between landmarks) linear interpolation in time between the nearest frames with one."""
+    have = np.flatnonzero(nodes >= 0)
+    if have.size == nodes.size:
+        return values[nodes]
+    return _interpolate_frames(have, nodes.size, values[nodes[have]])
 
 
 def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.ndarray:
@@ -346,7 +369,7 @@ def _sparse_eigs(K, N: int):
 
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
-               time_weight: float = 0.0, reference="mean", heading: str = "remove") -> PoseGraph:
+               time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True) -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -366,6 +389,10 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
     joint_weights, time_weight, reference, heading
         See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
+    distinct : bool
+        Poses a clip repeats exactly (a take concatenated with itself) form one node each on the sparse paths,
+        and the default sigma is taken over distinct poses (default; :func:`_quotient_graph`, measured there).
+        ``False``: one node per frame, as Eq. 1 is written (the graphs of such clips then depend on k).
     """
     if method not in ("auto", "dense", "sparse", "landmarks"):
         raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
@@ -376,13 +403,22 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         raise ValueError("the magic wand needs a motion with at least 2 frames")
     if method == "auto":
         method = "dense" if F <= DENSE_MAX_FRAMES else ("sparse" if F <= SPARSE_MAX_FRAMES else "landmarks")
+    if distinct:
+        first, inverse, counts = distinct_poses(X)
+    else:
+        first, inverse, counts = np.arange(F), np.arange(F), np.ones(F, dtype=np.int64)
     if method == "dense":
         D2 = pairwise_sq_distances(X)
-        table = knn_graph(X, min(8, F - 1))
+        # the default sigma from distinct poses: a take repeated 20 times gives every frame 19 equal poses, whose
+        # 8th nearest is at distance 0 (sigma = the 1e-9 floor)
+        U = X if first.size == F else X[first]
+        table = knn_graph(U, min(8, U.shape[0] - 1)) if U.shape[0] > 1 else knn_graph(X, min(8, F - 1))
         return PoseGraph(X, D2, table, "dense")
     k = int(knn)
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
+    if first.size < F and first.size >= 2:
+        return _quotient_graph(X, method, k, first, inverse, counts)
     if method == "sparse":
         table = knn_graph(X, min(k, F - 1))
         return PoseGraph(X, None, table, "sparse", pattern=kernel_pattern(table))
@@ -390,6 +426,38 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
     table = knn_graph(X[frames], min(k, frames.size - 1))
     return PoseGraph(X, None, table, "landmarks", frames, kernel_pattern(table))
+
+
+def _quotient_graph(X: np.ndarray, method: str, k: int, first, inverse, counts) -> PoseGraph:
+    """The sparse / landmark graph of a clip that repeats poses exactly: on its distinct poses (issue 25).
+
+    The frames' kNN graph of a take repeated 60 times links each frame to its 59 equal poses and to few others
+    (k = 64), and the landmark graph, which sees every third frame, to fewer of them: the two disagreed
+    (falloffs mean 0.26-0.34 apart, max 1.0 on 20,000 frames of xia_neutral_walk repeated).  On the distinct
+    poses with their multiplicities (:func:`.laplacian.quotient_pattern`) both are the same graph while the
+    distinct poses fit :data:`MAX_LANDMARKS`; beyond, landmarks every ``ceil(F / MAX_LANDMARKS)``-th frame and
+    the classes they fall in."""
+    F = X.shape[0]
+    if method == "sparse" or first.size <= MAX_LANDMARKS:
+        frames = np.arange(F)
+        landmarks = None
+    else:
+        stride = max(1, -(-F // MAX_LANDMARKS))
+        frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
+        landmarks = frames
+    cls = inverse[frames]
+    node_cls, node_of = np.unique(cls, return_inverse=True)      # graph nodes: the classes the frames fall in
+    node_of = node_of.reshape(-1)
+    ncount = np.bincount(node_of, minlength=node_cls.size).astype(float)
+    reps = first[node_cls]
+    table = knn_graph(X[reps], min(k, reps.size - 1))
+    chain_sq = np.sum((X[frames[1:]] - X[frames[:-1]]) ** 2, axis=1)
+    pattern = quotient_pattern(table, ncount, node_of[:-1], node_of[1:], chain_sq)
+    nodes = np.full(F, -1, dtype=np.int64)
+    lookup = np.full(first.size, -1, dtype=np.int64)
+    lookup[node_cls] = np.arange(node_cls.size)
+    nodes[:] = lookup[inverse]                                     # every frame whose pose is a node's
+    return PoseGraph(X, None, table, method, landmarks, pattern, nodes, ncount)
 
 
 _GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
@@ -434,7 +502,7 @@ def clear_graph_cache() -> None:
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean", heading: str = "remove") -> GreensBasis:
+                 reference="mean", heading: str = "remove", distinct: bool = True) -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
@@ -450,13 +518,13 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference, heading
+    method, knn, joint_weights, time_weight, reference, heading, distinct
         See :func:`pose_graph`.
     """
     if sigma is not None:
         _check_sigma(sigma)
     g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                          reference=reference, heading=heading)
+                          reference=reference, heading=heading, distinct=distinct)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 

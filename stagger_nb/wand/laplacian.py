@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["pairwise_sq_distances", "KnnGraph", "KernelPattern", "kernel_pattern", "knn_graph", "default_sigma", "dense_kernel",
            "sparse_kernel", "normalized_adjacency", "normalized_laplacian", "DEFAULT_SIGMA_NEIGHBOURS",
-           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges"]
+           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges", "quotient_pattern", "distinct_poses"]
 
 # Default sigma = this percentile over frames of the distance to the k-th nearest neighbour (see default_sigma).
 DEFAULT_SIGMA_NEIGHBOURS = 8
@@ -106,6 +106,38 @@ def knn_graph(X: np.ndarray, k: int) -> KnnGraph:
     d = d[keep].reshape(F, k)
     chain = np.sum((X[1:] - X[:-1]) ** 2, axis=1)
     return KnnGraph(idx.astype(np.int64), d * d, chain)
+
+
+DISTINCT_TOL = 1e-6   # poses closer than this times the median step between consecutive frames count as one
+
+
+def distinct_poses(X: np.ndarray, tol: float = DISTINCT_TOL) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Classes of equal poses among the rows of ``X (F, D)``: ``(first (C,), inverse (F,), counts (C,))`` -- the
+    first frame of each class (ascending), each frame's class, the class sizes.
+
+    "Equal" is to ``tol`` times the median distance between consecutive frames (snapped to a grid of that
+    size, so float noise of a repeated take's copies merges and a real pose change never does; a static clip
+    is one class).  A clip without repeated poses has ``C = F`` and ``inverse = arange(F)``."""
+    X = np.asarray(X, dtype=float)
+    F = X.shape[0]
+    if F < 2:
+        return np.arange(F), np.arange(F), np.ones(F, dtype=np.int64)
+    step = float(np.median(np.linalg.norm(np.diff(X, axis=0), axis=1)))
+    scale = float(np.abs(X).max()) if X.size else 0.0
+    q = max(tol * step, 1e-12 * max(scale, 1.0))
+    grid = np.round(X / q).astype(np.int64)
+    # one int64 hash per row (wrapping products: 1-D unique is ~20x faster than rows), checked exactly after
+    coef = np.random.default_rng(0x5EED).integers(1, 2 ** 62, size=grid.shape[1], dtype=np.int64)
+    with np.errstate(over="ignore"):
+        h = grid @ coef
+    _, first, inverse, counts = np.unique(h, return_index=True, return_inverse=True, return_counts=True)
+    if first.size < F and not np.array_equal(grid, grid[first[inverse.reshape(-1)]]):   # a hash collision
+        _, first, inverse, counts = np.unique(grid, axis=0, return_index=True, return_inverse=True,
+                                              return_counts=True)
+    order = np.argsort(first, kind="stable")          # classes in order of first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return first[order], rank[inverse.reshape(-1)], counts[order]
 
 
 def default_sigma(X: np.ndarray | None = None, knn: KnnGraph | None = None,
@@ -199,6 +231,8 @@ class KernelPattern:
     indptr : (F + 1,) int; indices : (E,) int32 column of each entry; rows : (E,) int row of each entry
     sq_distances : (E,) squared pose distance of each entry (0 on the diagonal)
     chain : (E,) bool, ``|row - col| = 1``; diagonal : (E,) bool
+    multiplicity, chain_count : (E,) float or None (:func:`quotient_pattern`, a graph on distinct poses): how
+        many frame pairs each entry stands for, and how many of them are consecutive frames (floored)
     """
 
     indptr: np.ndarray
@@ -207,6 +241,8 @@ class KernelPattern:
     sq_distances: np.ndarray
     chain: np.ndarray
     diagonal: np.ndarray
+    multiplicity: np.ndarray | None = None
+    chain_count: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -231,6 +267,64 @@ def kernel_pattern(knn: KnnGraph) -> KernelPattern:
     return KernelPattern(*arrays)
 
 
+def quotient_pattern(knn: KnnGraph, counts: np.ndarray, chain_rows: np.ndarray, chain_cols: np.ndarray,
+                     chain_sq: np.ndarray) -> KernelPattern:
+    """The sparse kernel's CSR structure on *distinct poses* (nodes), each standing for ``counts[A]`` frames
+    that share its pose: the quotient of the frames' graph (issue 25, repeated takes).
+
+    Frames with the same pose have the same kernel row, so the eigenvectors of the frames' graph that are
+    constant on each class of equal poses are those of the graph on the classes with weights
+    ``W_AB = sum over frame pairs (f in A, f' in B) of K_ff'`` (and their degrees ``sum_B W_AB``): an entry
+    of a kNN pair ``(A, B)`` stands for ``c_A c_B`` frame pairs, the diagonal for ``c_A^2`` (equal poses:
+    K = 1), and the consecutive frames (``chain_rows[i] -> chain_cols[i]``, squared distance ``chain_sq[i]``,
+    node indices, repeats allowed) add their chain floor.  ``knn`` is the kNN table of the distinct poses
+    (itself excluded).  With all counts 1 and the chain the consecutive nodes this is :func:`kernel_pattern`
+    (the same kernel values)."""
+    F = knn.num_frames
+    counts = np.asarray(counts, dtype=float)
+    k = knn.k
+    # pairs: kNN both directions, chain both directions, one entry per unordered pair
+    kr = np.repeat(np.arange(F), k)
+    kc = knn.indices.reshape(-1)
+    kd = knn.sq_distances.reshape(-1)
+    cr, cc = np.asarray(chain_rows, dtype=np.int64), np.asarray(chain_cols, dtype=np.int64)
+    cd = np.asarray(chain_sq, dtype=float)
+    off = cr != cc                                    # consecutive equal poses: inside the diagonal's c^2
+    lo_k, hi_k = np.minimum(kr, kc), np.maximum(kr, kc)
+    lo_c, hi_c = np.minimum(cr[off], cc[off]), np.maximum(cr[off], cc[off])
+    key_k, key_c = lo_k * F + hi_k, lo_c * F + hi_c
+    uk, first = np.unique(key_k, return_index=True)
+    uc, inv_c, n_c = np.unique(key_c, return_inverse=True, return_counts=True)
+    d_c = np.zeros(uc.size)
+    d_c[inv_c] = cd[off]                              # equal pose pairs have equal distances: any of them
+    keys = np.union1d(uk, uc)
+    d2 = np.empty(keys.size)
+    mult = np.zeros(keys.size)
+    chain_n = np.zeros(keys.size)
+    ik = np.searchsorted(keys, uk)
+    ic = np.searchsorted(keys, uc)
+    d2[ic] = d_c
+    d2[ik] = kd[first]
+    a, b = keys // F, keys % F
+    mult[ic] = n_c                                    # chain-only pairs: just the consecutive frames
+    mult[ik] = counts[a[ik]] * counts[b[ik]]          # kNN pairs: every frame pair of the two classes
+    chain_n[ic] = n_c
+    rows = np.concatenate([a, b, np.arange(F)])
+    cols = np.concatenate([b, a, np.arange(F)])
+    d_all = np.concatenate([d2, d2, np.zeros(F)])
+    m_all = np.concatenate([mult, mult, counts * counts])
+    c_all = np.concatenate([chain_n, chain_n, np.zeros(F)])
+    is_diag = np.concatenate([np.zeros(2 * keys.size, dtype=bool), np.ones(F, dtype=bool)])
+    order = np.lexsort((cols, rows))
+    indptr = np.zeros(F + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=F), out=indptr[1:])
+    arrays = (indptr, cols[order].astype(np.int32), rows[order], d_all[order], c_all[order] > 0, is_diag[order],
+              m_all[order], c_all[order])
+    for x in arrays:
+        x.setflags(write=False)
+    return KernelPattern(*arrays)
+
+
 def sparse_kernel(knn, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr_matrix:
     """Eq. 1 on the symmetric kNN + temporal-chain edge set (plus the unit diagonal), ``(F, F)`` CSR.
 
@@ -243,7 +337,13 @@ def sparse_kernel(knn, sigma: float, chain_floor: float = CHAIN_FLOOR) -> sp.csr
     p = knn if isinstance(knn, KernelPattern) else kernel_pattern(knn)
     F = p.num_frames
     vals = np.exp(p.sq_distances * (-0.5 / (s * s)))
-    vals[p.chain] = np.maximum(vals[p.chain], fl)
+    if p.multiplicity is None:
+        vals[p.chain] = np.maximum(vals[p.chain], fl)
+    else:   # a quotient pattern: every frame pair an entry stands for, the consecutive ones floored
+        e = vals
+        vals = p.multiplicity * e
+        low = p.chain & (e < fl)
+        vals[low] = (p.multiplicity[low] - p.chain_count[low]) * e[low] + p.chain_count[low] * fl
     # entries beyond KERNEL_CUTOFF sigmas are dropped (K < 1.6e-8): a sparser L factorises faster
     far = (p.sq_distances > (KERNEL_CUTOFF * s) ** 2) & ~p.chain
     if far.any():

@@ -4,9 +4,9 @@
 // The kernel sends, once per edit, binary buffers: `points` (F, P, 3) float32 world points (joints, then End
 // Sites), `states` (F, J) uint8 joint states (0 plain, 1 staggered pose, 2 contact), `rig_path` (F, 3) float32,
 // and once the ghost is shown `ghost_points`. For each shown frame (fractional: linear between frames) this clock
-// rewrites the vertices of the ONE skeleton mesh (a unit-sphere template per joint, a unit-tube template per bone,
-// mapped exactly as scene3d.skeleton_mesh does in Python), the ghost mesh, the trail segments and the rig
-// position of the pythreejs models it holds, then asks the scene to re-render.
+// rewrites the vertices of the ONE skeleton mesh (a unit-sphere template per joint, a unit-tube template per bone:
+// _skeleton_mesh.js, prepended to this file by skeleton_view.py, the only builder of the mesh), the ghost mesh,
+// the trail segments and the rig position of the pythreejs models it holds, then asks the scene to re-render.
 //   * playing (the ipywidgets Play's `playing`): a requestAnimationFrame loop on performance.now() runs the
 //     clip at its real rate; the Play's coarse ticks (value += step every interval) are kept near the clock:
 //     when the Play lags by a step or more (late timers on a loaded machine) its value is set to the clock's
@@ -75,18 +75,8 @@ function initialize({ model }) {
   const frameTime = () => Math.max(model.get("frame_time") || 1 / 60, 1e-4);
   const maxFrame = () => (st.player ? st.player.get("max") : 0);
 
-  // points of frame f (fractional, clamped to [0, n - 1]) into out
-  function pointsAt(src, n, P, f, out) {
-    if (src.length < n * P * 3 || n < 1) return false;
-    const fc = Math.min(Math.max(f, 0), n - 1);
-    const f0 = Math.floor(fc), f1 = Math.min(f0 + 1, n - 1), u = fc - f0;
-    const a = f0 * P * 3, b = f1 * P * 3;
-    for (let i = 0; i < P * 3; i++) out[i] = src[a + i] + u * (src[b + i] - src[a + i]);
-    return true;
-  }
-
   // The attribute this clock writes: its own copy of the pythreejs one (same class, data, item size), put on the
-  // geometry once; pythreejs keeps its own for the kernel's still pictures.
+  // geometry once; the kernel's holds the constant parts only (the spheres' normals, the bones' colours).
   function own(g, name) {
     const a = g.attributes[name];
     if (!a || a.snOwn) return a;
@@ -97,50 +87,14 @@ function initialize({ model }) {
     return fresh;
   }
 
-  // the merged mesh of one frame: scene3d.skeleton_mesh (spheres, then tubes; same bone frames)
+  // the merged mesh of one frame (_skeleton_mesh.js: spheres, then tubes)
   function writeMesh(obj, pts, selected) {
-    const d = st.data;
     const g = obj && obj.geometry;
     if (!g || !g.attributes.position || !g.attributes.normal) return;
+    const fresh = !g.attributes.normal.snOwn;
     const pa = own(g, "position"), na = own(g, "normal");
-    const pos = pa.array, nrm = na.array, T = d.tpl;
-    const nv = d.J * d.vs + (d.segs.length / 2) * d.vt;
-    if (pos.length < nv * 3 || T.length < (d.vs + d.vt) * 6) return;
-    let v = 0;
-    for (let j = 0; j < d.J; j++) {
-      const r = d.jr * (selected.has(j) ? d.scale : 1);
-      const cx = pts[3 * j], cy = pts[3 * j + 1], cz = pts[3 * j + 2];
-      for (let k = 0; k < d.vs; k++, v++) {
-        pos[3 * v] = cx + r * T[6 * k];
-        pos[3 * v + 1] = cy + r * T[6 * k + 1];
-        pos[3 * v + 2] = cz + r * T[6 * k + 2];
-      }
-    }
-    const t0 = d.vs * 6, br = d.br;
-    for (let i = 0; i < d.segs.length; i += 2) {
-      const a = 3 * d.segs[i], b = 3 * d.segs[i + 1];
-      const ax = pts[a], ay = pts[a + 1], az = pts[a + 2];
-      let dx = pts[b] - ax, dy = pts[b + 1] - ay, dz = pts[b + 2] - az;
-      const L = Math.hypot(dx, dy, dz);
-      if (L > 1e-12) { dx /= L; dy /= L; dz /= L; } else { dx = 0; dy = 1; dz = 0; }
-      // helper +x, or +z when the bone is nearly along x; x = y × helper, z = x × y (scene3d._bone_frames)
-      const hx = Math.abs(dx) < 0.9 ? 1 : 0, hz = 1 - hx;
-      let xx = dy * hz, xy = dz * hx - dx * hz, xz = -dy * hx;
-      const xl = Math.hypot(xx, xy, xz) || 1;
-      xx /= xl; xy /= xl; xz /= xl;
-      const zx = xy * dz - xz * dy, zy = xz * dx - xx * dz, zz = xx * dy - xy * dx;
-      for (let k = 0; k < d.vt; k++, v++) {
-        const o = t0 + 6 * k;
-        const tx = T[o] * br, ty = T[o + 1] * L, tz = T[o + 2] * br;
-        pos[3 * v] = ax + tx * xx + ty * dx + tz * zx;
-        pos[3 * v + 1] = ay + tx * xy + ty * dy + tz * zy;
-        pos[3 * v + 2] = az + tx * xz + ty * dz + tz * zz;
-        const nx = T[o + 3], ny = T[o + 4], nz = T[o + 5];
-        nrm[3 * v] = nx * xx + ny * dx + nz * zx;
-        nrm[3 * v + 1] = nx * xy + ny * dy + nz * zy;
-        nrm[3 * v + 2] = nx * xz + ny * dz + nz * zz;
-      }
-    }
+    if (fresh) snSphereNormals(st.data, na.array);
+    if (!snMeshVertices(st.data, pts, selected, pa.array, na.array)) return;
     pa.needsUpdate = true;
     na.needsUpdate = true;
     g.computeBoundingSphere();   // the Picker's raycast tests it first
@@ -151,18 +105,10 @@ function initialize({ model }) {
     const g = obj && obj.geometry;
     const c = g && own(g, "color");
     if (!c || d.palette.length < 4) return;
-    const row = d.states.length >= d.F * d.J ? Math.min(fi, d.F - 1) * d.J : -1;
-    let key = "";
-    for (let j = 0; j < d.J; j++) key += d.selected.has(j) ? 3 : (row >= 0 ? d.states[row + j] : 0);
+    const row = d.states.length >= d.F * d.J ? d.states.subarray(Math.min(fi, d.F - 1) * d.J) : null;
+    const key = snJointColours(d, row, d.selected, d.palette, c.array, d.colourKey);
     if (key === d.colourKey) return;
     d.colourKey = key;
-    const col = c.array;
-    for (let j = 0; j < d.J; j++) {
-      const rgb = d.palette[+key[j]];
-      for (let k = 0, v = j * d.vs; k < d.vs; k++, v++) {
-        col[3 * v] = rgb[0]; col[3 * v + 1] = rgb[1]; col[3 * v + 2] = rgb[2];
-      }
-    }
     c.needsUpdate = true;
   }
 
@@ -190,12 +136,12 @@ function initialize({ model }) {
     const d = st.data;
     const fi = Math.min(Math.max(Math.round(f), 0), d.F - 1);
     const sk = st.skeleton && st.skeleton.obj;
-    if (sk && pointsAt(d.points, d.F, d.P, f, d.buf)) {
+    if (sk && snPointsAt(d.points, d.F, d.P, f, d.buf)) {
       writeMesh(sk, d.buf, d.selected);
       writeColours(sk, fi);
     }
     const gh = st.ghost && st.ghost.obj;
-    if (gh && gh.visible && d.ghostF > 0 && pointsAt(d.ghost, d.ghostF, d.P, f, d.gbuf)) {
+    if (gh && gh.visible && d.ghostF > 0 && snPointsAt(d.ghost, d.ghostF, d.P, f, d.gbuf)) {
       writeMesh(gh, d.gbuf, new Set());
     }
     const rig = st.rig && st.rig.obj;
@@ -208,7 +154,8 @@ function initialize({ model }) {
     if (st.scene) st.scene.trigger("rerender", st.scene, {});
     // local only (not saved): what is drawn, for checks; the root's drawn position is published on the
     // (hidden) conductor element by render() below
-    model.set("shown", { frame: fi, root: [d.buf[0], d.buf[1], d.buf[2]], frames: d.F });
+    model.set("shown", { frame: fi, root: [d.buf[0], d.buf[1], d.buf[2]], frames: d.F, at: performance.now(),
+                         dataAt: st.dataAt });
     model.set("shown_frame", fi);
   }
 
@@ -329,6 +276,7 @@ function initialize({ model }) {
   // data changes (one message per edit, several traits): decode and redraw once, after the message is applied
   function onData() {
     st.data = null;
+    st.dataAt = performance.now();   // when the kernel's data arrived, page clock (benchmarks read it)
     if (st.pending) return;
     st.pending = setTimeout(() => { st.pending = 0; redraw(); }, 0);
   }
@@ -360,6 +308,8 @@ function render({ model, el }) {
     el.dataset.frame = s.frame;
     el.dataset.frames = s.frames;
     el.dataset.root = s.root.map((x) => x.toFixed(2)).join(",");
+    if (s.at !== undefined) el.dataset.shownAt = s.at.toFixed(1);
+    if (s.dataAt !== undefined) el.dataset.dataAt = s.dataAt.toFixed(1);
   };
   model.on("change:shown", mark);
   mark();

@@ -147,7 +147,9 @@ async function render({ model, el }) {
         dirty = 0;
         if (what === 2) {
           const [data, layout] = figureArgs();
+          const t0 = performance.now();
           await Plotly.react(div, data, layout, config);
+          el.dataset.reactMs = (performance.now() - t0).toFixed(1);   // what a redraw costs (benchmarks read it)
           if (!drawn) {
             drawn = true;
             note.remove();
@@ -175,7 +177,10 @@ async function render({ model, el }) {
     }
   }
 
-  const onFigure = () => { dirty = 2; el.dataset.synced = "0"; pump(); };
+  const onFigure = () => {
+    el.dataset.figureAt = performance.now().toFixed(1);   // when the figure arrived, page clock
+    dirty = 2; el.dataset.synced = "0"; pump();
+  };
   const onPlayhead = () => { dirty = Math.max(dirty, 1); el.dataset.synced = "0"; pump(); };
   // the playhead: the kernel's frame (store) or a browser-side link's (this view's model), latest wins
   const onStoreFrame = () => { frame = store.get("frame"); onPlayhead(); };

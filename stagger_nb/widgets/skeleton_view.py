@@ -7,9 +7,31 @@ joint, material and keyframe track, had ~280, and JupyterLab restored ~1,200 of 
 reload, slowly enough to give up on some: ipywidgets #4026/#4040). The world points of every frame (joints then
 End Sites, :func:`stagger_nb.scene3d.skeleton_points`, float32) go to the browser once per edit as one binary
 buffer on a small anywidget clock (``_conductor.js``), with the per-frame joint states (pose / contact colours)
-and the camera rig path; the clock rebuilds the mesh's vertices for each shown frame with the affine maps of
-:func:`stagger_nb.scene3d.skeleton_mesh` (the kernel computes the same for the frame it last drew, so the
-saved widget state is a correct still picture even before the clock runs).
+and the camera rig path; the clock builds the mesh's vertices for each shown frame (``_skeleton_mesh.js``: the
+only builder of the mesh, also the exported page's). The kernel holds the mesh's constant parts only (the
+index, the spheres' normals, the bones' colours), sent once when the view is made, never per edit.
+
+What the clock relies on in pythreejs 2.4.2 (hence the pin), and why: it writes into the three.js objects of
+the view's pythreejs models in the browser, through three things that are not pythreejs's Python API:
+
+1. ``ThreeModel.obj``, the three.js object a pythreejs model holds, reached with
+   ``widget_manager.get_model(id)`` once the model's ``initPromise`` has resolved. It is declared in the
+   package's type definitions for extension authors (``obj``, ``initPromise``) and is what pythreejs itself
+   uses to resolve an ``IPY_MODEL_`` argument of ``exec_three_obj_method``.
+2. three.js r97 (the version pythreejs bundles) on those objects: ``BufferGeometry.addAttribute`` of the
+   clock's own copy of an attribute, ``needsUpdate``, ``computeBoundingSphere``, ``Object3D.position``.
+3. The ``"rerender"`` event triggered on the Scene model: the event the pythreejs ``RendererView`` listens to
+   for re-rendering after a change of the scene.
+
+No public way does the job: the public routes all go through the kernel (setting ``BufferAttribute.array``
+or calling ``exec_three_obj_method`` from Python is one kernel round trip and ~0.1 MB per shown frame of a
+31-joint rig, so playback would stop whenever the kernel is busy and could not keep a 120 Hz clip's rate),
+``jslink`` can drive a trait from a Play but no trait maps a frame index to vertex arrays, pythreejs's keyframe
+animation needs one Object3D model per bone and per track (~280 models, which JupyterLab restores too slowly
+after a page reload), and the documented extension point (a ``Blackbox`` subclass) needs a JavaScript package built
+against ``jupyter-threejs``, which an anywidget module cannot import. pythreejs has had no release since 2023;
+a new one must be checked against ``tests/test_skeleton_view_js.py`` (the clock run in node against stand-in
+models) and the browser tests before the pin moves.
 
 Playback: the clock sets the shown frame from ``performance.now()`` while the ipywidgets ``Play`` runs, and
 from the Play's value when it is stopped. So Play runs at the clip's real rate with the kernel busy, and the
@@ -48,6 +70,9 @@ _TRAILS = ("#805ad5", "#d69e2e", "#319795", "#d53f8c", "#3182ce", "#718096")
 _TICK_S = 0.1          # the Play's tick: the kernel hears at most ~1 / _TICK_S frame updates a second
 _SELECTED_SCALE = 1.6  # a selected joint's sphere is this much larger (and red)
 _TEMPLATE = scene3d.mesh_template()
+#: The one builder of the skeleton mesh (plain JS functions), prepended to the clock's module and inlined in the
+#: exported page's player.
+MESH_JS = _MESH_JS = (Path(__file__).with_name("_skeleton_mesh.js")).read_text(encoding="utf-8")
 
 
 def _rgb(colour: str) -> list:
@@ -76,7 +101,7 @@ def _ref(cls):
 class _Conductor(anywidget.AnyWidget):
     """The browser-side clock and mesh builder (see ``_conductor.js``): the data of the shown motion as binary
     buffers, and references to the pythreejs models it updates."""
-    _esm = (Path(__file__).with_name("_conductor.js")).read_text(encoding="utf-8")
+    _esm = _MESH_JS + (Path(__file__).with_name("_conductor.js")).read_text(encoding="utf-8")
     player = _ref(widgets.Play)
     scene = _ref(three.Scene)
     rig = _ref(three.Object3D)
@@ -187,7 +212,7 @@ class SkeletonView(widgets.VBox):
         self._bone_colours = np.repeat(np.asarray(bone_rgb, np.float32).reshape(-1, 3), len(_TEMPLATE.tube),
                                        axis=0)
         self._sphere_vertices = vs
-        pos, nrm, col = self._mesh_arrays(self._points, 0, self._selected)
+        pos, nrm, col = self._constant_arrays()
         self._index = _attr(index.reshape(-1))
         self.skeleton_mesh = three.Mesh(
             three.BufferGeometry(attributes={"position": _attr(pos), "normal": _attr(nrm), "color": _attr(col)},
@@ -265,28 +290,16 @@ class SkeletonView(widgets.VBox):
         step = max(1, int(round(_TICK_S / frame_time)))
         return step, max(10, int(round(step * frame_time * 1000)))
 
-    def _mesh_arrays(self, points: np.ndarray, frame: int, selected):
-        """Vertex positions, normals (V, 3) and colours (V, 3) float32 of the merged mesh at ``frame``."""
-        f = min(max(int(frame), 0), len(points) - 1)
-        pos, nrm = scene3d.skeleton_mesh(points[f], self._segs, len(self._names), self._radius,
-                                         self._radius * 0.45, _TEMPLATE, selected, _SELECTED_SCALE)
-        states = getattr(self, "_states", None)
-        row = states[min(f, len(states) - 1)] if states is not None else np.zeros(len(self._names), np.uint8)
-        joint_rgb = np.asarray(_PALETTE, np.float32)[row]
-        joint_rgb[list(selected)] = _PALETTE[3]
-        col = np.concatenate([np.repeat(joint_rgb, self._sphere_vertices, axis=0), self._bone_colours])
-        return pos, nrm, col
-
-    @staticmethod
-    def _assign(geometry, arrays: dict) -> int:
-        """Replace the changed attribute arrays of ``geometry`` (same shapes, binary); returns the bytes sent."""
-        nbytes = 0
-        for name, a in arrays.items():
-            attr = geometry.attributes[name]
-            if not np.array_equal(np.asarray(attr.array), a):
-                attr.array = a
-                nbytes += a.nbytes
-        return nbytes
+    def _constant_arrays(self):
+        """The mesh's attribute arrays as the kernel holds them, (V, 3) float32 each: positions zero (the browser's
+        clock writes every shown frame's, ``_skeleton_mesh.js``), the spheres' normals (the unit sphere's) and the
+        constant colours (joints plain, bones by side). Sent once, with the mesh; never per edit."""
+        J, vs = len(self._names), self._sphere_vertices
+        V = J * vs + len(self._segs) * len(_TEMPLATE.tube)
+        nrm = np.zeros((V, 3), np.float32)
+        nrm[:J * vs] = np.tile(_TEMPLATE.sphere[:, 3:], (J, 1))
+        col = np.concatenate([np.tile(np.asarray(_PALETTE[0], np.float32), (J * vs, 1)), self._bone_colours])
+        return np.zeros((V, 3), np.float32), nrm, np.ascontiguousarray(col, np.float32)
 
     # -- public ------------------------------------------------------------------------------------------
     @property
@@ -381,7 +394,6 @@ class SkeletonView(widgets.VBox):
         if selected != self._selected:   # the same selection (an editor redraw): nothing to rebuild or send
             self._selected = selected
             self.conductor.selected = list(selected)
-            self._push_mesh()
             self._update_legend()
         first = sk.names[self._selected[0]] if self._selected else ""
         if first != self.selected_joint:
@@ -402,12 +414,6 @@ class SkeletonView(widgets.VBox):
     def _contact_list(contacts, motion):
         sk = motion.skeleton
         return [(sk.index(n) if isinstance(n, str) else int(n), int(a), int(b)) for n, a, b in contacts]
-
-    def _push_mesh(self) -> int:
-        """The kernel's still picture: the mesh vertices at the current frame (the browser redraws them for every
-        frame it shows; this keeps the saved widget state right). Returns the bytes sent."""
-        pos, nrm, col = self._mesh_arrays(self._points, self.frame, self._selected)
-        return self._assign(self.skeleton_mesh.geometry, {"position": pos, "normal": nrm, "color": col})
 
     def _states_array(self) -> np.ndarray:
         m = self._motion
@@ -432,7 +438,6 @@ class SkeletonView(widgets.VBox):
                 self.conductor.trail_window = max(1, int(round(self.trail_seconds / motion.frame_time)))
                 nbytes += self._push_camera()
                 nbytes += self._push_ghost()
-            nbytes += self._push_mesh()
             nbytes += self._push_trails()
             self.player.max = self.frame_slider.max = F - 1
             self.player.step, self.player.interval = step, interval
@@ -453,28 +458,20 @@ class SkeletonView(widgets.VBox):
                 self.conductor.ghost_points = gp
                 self.conductor.ghost_frames = len(self._ghost_points)
             nbytes += len(gp)
-        gf = min(self.frame, len(self._ghost_points) - 1)
-        if self.ghost_mesh is not None and nbytes == 0 and getattr(self, "_ghost_frame", None) == gf:
-            self.ghost_mesh.visible = True   # same ghost, same frame: nothing to redraw
-            return 0
-        self._ghost_frame = gf
-        pos, nrm, _ = self._mesh_arrays(self._ghost_points, gf, ())
-        if self.ghost_mesh is None:
+        if self.ghost_mesh is None:   # the same constant arrays; the browser's clock writes its frames
+            pos, nrm, _ = self._constant_arrays()
             geom = three.BufferGeometry(attributes={"position": _attr(pos), "normal": _attr(nrm)}, index=self._index)
             mat = three.MeshLambertMaterial(color=_GHOST, transparent=True, opacity=0.35, depthWrite=False)
             self.ghost_mesh = three.Mesh(geom, mat, name="ghost", frustumCulled=False)
             self.rig.children = tuple(self.rig.children) + (self.ghost_mesh,)
             self.conductor.ghost = self.ghost_mesh
             nbytes += pos.nbytes + nrm.nbytes
-        else:
-            nbytes += self._assign(self.ghost_mesh.geometry, {"position": pos, "normal": nrm})
         self.ghost_mesh.visible = True
         return nbytes
 
     def _push_highlights(self) -> None:
         self._states = self._states_array()
         self.conductor.states = self._states.tobytes()
-        self._push_mesh()
         self._update_legend()
 
     def _push_camera(self) -> int:

@@ -1,5 +1,5 @@
 // Usage: node conductor_frame.mjs STATE.json OUT.f32
-// Runs stagger_nb/widgets/_conductor.js (the real module) against stand-in models: STATE.json holds the conductor's
+// Runs stagger_nb/widgets/_conductor.js (the real module, after _skeleton_mesh.js) against stand-in models: STATE.json holds the conductor's
 // traits (buffers as base64), the sizes of the skeleton mesh's attributes and the frame to show. Writes what the
 // clock wrote into the mesh: positions (V, 3) then normals (V, 3) then colours (V, 3), float32, and prints
 // {"shown_frame", "rig"} (the rig position it set).
@@ -10,7 +10,11 @@ import { fileURLToPath, pathToFileURL } from 'url';
 const [stateFile, out] = process.argv.slice(2);
 const st = JSON.parse(fs.readFileSync(stateFile, 'utf8'));
 const here = path.dirname(fileURLToPath(import.meta.url));
-const mod = await import(pathToFileURL(path.join(here, '..', '..', 'stagger_nb', 'widgets', '_conductor.js')));
+// the module as the kernel sends it: the one mesh builder, then the clock (skeleton_view.py joins them)
+const widgets = path.join(here, '..', '..', 'stagger_nb', 'widgets');
+const src = fs.readFileSync(path.join(widgets, '_skeleton_mesh.js'), 'utf8') +
+  fs.readFileSync(path.join(widgets, '_conductor.js'), 'utf8');
+const mod = await import('data:text/javascript;base64,' + Buffer.from(src).toString('base64'));
 
 function evented(values, obj) {
   const handlers = {};
@@ -26,8 +30,10 @@ function evented(values, obj) {
 }
 const V = st.vertices;
 class Attr { constructor(array, itemSize) { this.array = array; this.itemSize = itemSize; } }
-const attr = (n) => new Attr(new Float32Array(n * 3), 3);
-const geometry = { attributes: { position: attr(V), normal: attr(V), color: attr(V) }, computeBoundingSphere() {},
+const attr = (n, init) => new Attr(init ? Float32Array.from(init) : new Float32Array(n * 3), 3);
+// the kernel's arrays: positions zero, the constant normals and colours (the clock copies them, then writes)
+const geometry = { attributes: { position: attr(V), normal: attr(V, st.normal), color: attr(V, st.color) },
+  computeBoundingSphere() {},
   addAttribute(name, a) { this.attributes[name] = a; } };
 const position = { x: 0, y: 0, z: 0, set(x, y, z) { Object.assign(this, { x, y, z }); } };
 const models = {

@@ -1,0 +1,295 @@
+"""The papers' claims (issue 25) on every clip at hand, each row against its goal, today's defaults beside the
+previous ones (the papers' and issue 13's forms, reached by flags), printed as tables.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_claims.py            # everything, ~10-15 min
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_claims.py --quick    # no 20,000-frame takes
+
+Clips: the set-up clips (``data/``: procedural walk, run, jump; CMU 01_01 hops; MocapBank get-down; FreeBVH
+step) and every ``../shared/mocap`` clip, plus built cases: *standing jumps* (the procedural jump's crouch ..
+landing with its first and last pose held, 1.25-2 s), *single hops* (CMU 01_01 hops cut with a standing hold
+either side) and a *hop clip with few airborne frames* (five of those hops in a row).  Guided time warping
+runs at 30 Hz, as the paper does (§4).
+
+Rows and goals
+  GTW §4.1   compressing a clip with jumps or hops to 65 %, guided by itself: airborne speed (input seconds
+             while both feet are off the ground / output seconds showing them,
+             ``stagger_nb.timewarp.measures.airborne_speed``; the linear warp plays them at 1 / 0.65 = 1.54)
+             within 0.85-1.15 and at least twice as close to 1 as the linear warp's.
+  free       free length (``num_frames=None``) against a copy of the clip played 1.5x faster / slower:
+             0.667 / 1.5 of the length, +-10 %.
+  backward   free-length backward warp against the clip itself: 1.0x the length, +-10 %.
+  Dean hops  the falloff of a flight apex at the other apexes >= 0.7 and at the crouches <= 0.3
+             (``stagger_nb.wand.measures.hop_falloffs``: medians per apex; the worst apex is printed).
+  Dean walk  the falloff of a mid-walk frame one and two strides away >= 0.7, half a stride away <= 0.3
+             (``walk_falloffs``: eight frames over the middle stride, the worst printed).
+  long takes 20,000 frames, the landmark graph against the sparse graph of every frame, |w - w_full| over
+             20 edited frames: mean <= 0.02, 99th percentile <= 0.1, for a take repeated and for varied copies.
+  keytimes   a keytime between frames is met exactly (|warp(t_out) - t_in| of the interpolated warp);
+             a keytime inside the clip gives a warp (CMU 01_01 to 22.83 s with 2 s -> 1.5 s).
+  cost       CPU of the cheap tail (tables made beforehand, as the editor's background warm-up does) of a first
+             free-length and a first backward warp on CMU 01_01 (2,751 frames, 120 Hz).
+"Before" runs the previous defaults: timewarp frame="pelvis", weighting="output", end_terms=False,
+penalty_scale="median", penalty_free_ratio=1, free_objective="mean", upsample=4 (out_step 1),
+reverse_reference=False; wand distinct=False; keytimes snapped to frames.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
+
+import stagger_nb as sn  # noqa: E402
+from stagger_nb import timewarp, wand  # noqa: E402
+from stagger_nb.core.body import airborne_frames  # noqa: E402
+from stagger_nb.core.motion import Motion  # noqa: E402
+from stagger_nb.data.procedural import JUMP_TIMES  # noqa: E402
+from stagger_nb.timewarp.measures import airborne_speed, intervals  # noqa: E402
+from stagger_nb.wand.measures import hop_falloffs, walk_falloffs  # noqa: E402
+
+RATE = 1.0 / 30.0
+OLD_WARP = dict(frame="pelvis", weighting="output", end_terms=False, penalty_scale="median", penalty_free_ratio=1.0)
+OLD_FREE = dict(OLD_WARP, free_objective="mean", upsample=4, reverse_reference=False)
+STRAIGHT_WALKS = ["walk", "xia_neutral_walk", "xia_sexy_walk", "bandai_walk", "iclone_cmu_07_01_walk",
+                  "cmu_131_01_walk_startstop"]
+
+
+# ------------------------------------------------------------------------------------------------ clips
+def clips() -> dict:
+    out = {}
+    for name in sn.data.available():
+        out[name] = sn.data.load(name)
+    for p in sorted(SHARED.glob("*.bvh")):
+        out[p.stem] = sn.read_bvh(p)
+    return out
+
+
+def held(m: Motion, t0: float, t1: float, duration: float) -> Motion:
+    """``m``'s ``[t0, t1]`` s with its first and last pose held evenly before and after: ``duration`` s."""
+    pad = max(0.0, duration - (t1 - t0)) / 2
+    ft = m.frame_time
+    t = np.arange(int(round(duration / ft)) + 1) * ft - pad + t0
+    return m.sample(np.clip(t, t0, t1) / ft, ft)
+
+
+def built_cases(jump: Motion, cmu: Motion) -> dict:
+    """Standing jumps, single hops with a hold either side, and five such hops in a row (few airborne frames)."""
+    J = JUMP_TIMES
+    out = {f"standing jump {d} s": held(jump, J["crouch"] - 0.15, J["absorb"] + 0.1, d) for d in (1.25, 1.5, 2.0)}
+    hops = []
+    for i, (a, b) in enumerate(intervals(airborne_frames(cmu))[:10:2]):
+        h = held(cmu, (a - 9) * cmu.frame_time, (b + 8) * cmu.frame_time, 1.6)
+        out[f"CMU 01_01 hop {2 * i + 1}, 1.6 s"] = h
+        hops.append(h)
+    out["five hops, 1.6 s each"] = sn.concatenate(hops)
+    return out
+
+
+def has_hops(m: Motion) -> bool:
+    """A clip with a jump or hop: a flight of >= 0.2 s, and no more than 40 % of it airborne (not a run)."""
+    air = airborne_frames(m)
+    return air.mean() <= 0.4 and any((b - a) * m.frame_time >= 0.2 for a, b in intervals(air))
+
+
+def copy_at(m: Motion, factor: float) -> Motion:
+    """``m`` played ``factor`` times faster, resampled to its frame time."""
+    return Motion(m.skeleton, m.frame_time / factor, m.root_positions, m.local_quats,
+                  m.local_translations).resample(m.frame_time)
+
+
+# ------------------------------------------------------------------------------------------------ rows
+def ok(flag: bool) -> str:
+    return "ok" if flag else "MISSED"
+
+
+def row_compress(cases: dict) -> None:
+    print("\nGTW §4.1: compress to 65 %, self reference, 30 Hz; airborne speed (goal 0.85-1.15, >= 2x closer to 1 "
+          "than linear)")
+    print(f"{'clip':38s} {'frames':>6s} {'air %':>6s} {'linear':>7s} {'before':>7s} {'now':>7s}  goal")
+    for name, m in cases.items():
+        n = int(round(0.65 * (m.num_frames - 1))) + 1
+        air = airborne_frames(m)
+        lin = airborne_speed(timewarp.linear_warp(m, n)[1], m.frame_time, m, air)
+        old = airborne_speed(timewarp.guided_warp(m, m, n, **OLD_WARP)[1], m.frame_time, m, air)
+        new = airborne_speed(timewarp.guided_warp(m, m, n)[1], m.frame_time, m, air)
+        good = abs(new - 1) <= 0.15 and abs(new - 1) <= 0.5 * abs(lin - 1)
+        print(f"{name:38s} {m.num_frames:6d} {100 * air.mean():6.1f} {lin:7.2f} {old:7.2f} {new:7.2f}  {ok(good)}")
+
+
+def row_free(all30: dict) -> None:
+    print("\nfree length against a 1.5x faster / 1.5x slower copy (goal 0.667 / 1.5 +-10 %) and backward against "
+          "itself (goal 1.0 +-10 %), 30 Hz; length / input length, before -> now")
+    print(f"{'clip':30s} {'frames':>6s} {'faster':>15s} {'slower':>15s} {'backward':>15s}  goal")
+    for name, m in all30.items():
+        if m.num_frames < 20:
+            continue
+        res = []
+        for ref, kw in ((copy_at(m, 1.5), {}), (copy_at(m, 1 / 1.5), {}), (m, dict(backward=True))):
+            old = timewarp.guided_warp(m, ref, None, **OLD_FREE, **kw)[0].num_frames / m.num_frames
+            new = timewarp.guided_warp(m, ref, None, **kw)[0].num_frames / m.num_frames
+            res.append((old, new))
+        good = (abs(res[0][1] / 0.6667 - 1) <= 0.1 and abs(res[1][1] / 1.5 - 1) <= 0.1 and abs(res[2][1] - 1) <= 0.1)
+        cells = " ".join(f"{o:6.2f} -> {n:5.2f}" for o, n in res)
+        print(f"{name:30s} {m.num_frames:6d} {cells}  {ok(good)}")
+
+
+def row_hops(cases: dict) -> None:
+    print("\nDean: falloff of a flight apex at the other apexes (goal >= 0.7) and at the crouches (goal <= 0.3); "
+          "per apex the median over the others, worst apex shown (and the share of apexes meeting both)")
+    print(f"{'clip':38s} {'rate':>5s} {'apexes':>6s} {'before':>18s} {'now':>18s}  goal")
+    for name, m in cases.items():
+        for label, mm in (("30", m.resample(RATE)), ("file", m)):
+            res = {}
+            for key, kw in (("before", dict(distinct=False)), ("now", {})):
+                rows = hop_falloffs(mm, **kw)
+                if not rows:
+                    break
+                hi = min(r[1] for r in rows)
+                lo = max(r[2] for r in rows)
+                share = np.mean([r[1] >= 0.7 and r[2] <= 0.3 for r in rows])
+                res[key] = (hi, lo, share, len(rows))
+            if "now" not in res:
+                continue
+            cell = {k: f"{v[0]:.2f}/{v[1]:.2f} ({100 * v[2]:3.0f}%)" for k, v in res.items()}
+            print(f"{name:38s} {label:>5s} {res['now'][3]:6d} {cell['before']:>18s} {cell['now']:>18s}  "
+                  f"{ok(res['now'][0] >= 0.7 and res['now'][1] <= 0.3)}")
+
+
+def row_walks(walks: dict) -> None:
+    print("\nDean: falloff of a mid-walk frame one and two strides away (goal >= 0.7), half a stride away "
+          "(goal <= 0.3); the worst of eight frames over the middle stride")
+    print(f"{'clip':30s} {'rate':>5s} {'stride s':>8s} {'high':>6s} {'low':>6s}  goal")
+    for name, m in walks.items():
+        for label, mm in (("30", m.resample(RATE)), ("file", m)):
+            rows, T = walk_falloffs(mm)
+            hi = np.nanmin([r[1] for r in rows])
+            lo = max(r[2] for r in rows)
+            print(f"{name:30s} {label:>5s} {T * mm.frame_time:8.2f} {hi:6.2f} {lo:6.2f}  {ok(hi >= 0.7 and lo <= 0.3)}")
+
+
+def long_clip(kind: str, F: int = 20000) -> Motion:
+    a = sn.read_bvh(SHARED / "xia_neutral_walk.bvh")
+    if kind == "repeated":
+        return sn.concatenate([a] * int(np.ceil(F / a.num_frames))).slice(0, F)
+    b = sn.read_bvh(SHARED / "xia_angry_run.bvh")
+    parts, n, i = [], 0, 0
+    while n < F:
+        src = (a, b)[i % 2]
+        p = src.sample(np.arange(0, src.num_frames - 1, 0.8 + 0.4 * ((i * 0.618) % 1.0)))
+        parts.append(p)
+        n += p.num_frames
+        i += 1
+    return sn.concatenate(parts).slice(0, F)
+
+
+def row_long() -> None:
+    print("\nlong takes, 20,000 frames: landmark graph vs the sparse graph of every frame, |w - w_full| over 20 "
+          "edited frames (goal mean <= 0.02, p99 <= 0.1)")
+    print(f"{'take':12s} {'landmarks':>9s} {'before mean/p99/max':>22s} {'now mean/p99/max':>22s}  goal")
+    for kind in ("repeated", "varied"):
+        m = long_clip(kind)
+        full = {d: wand.pose_graph(m, method="sparse", distinct=d).basis() for d in (False, True)}
+        for L in (10000, wand.greens.MAX_LANDMARKS, 5000):
+            cells = {}
+            for key, distinct in (("before", False), ("now", True)):
+                old = wand.greens.MAX_LANDMARKS
+                wand.greens.MAX_LANDMARKS = L          # the stride: ceil(20,000 / L)
+                try:
+                    lm = wand.pose_graph(m, method="landmarks", distinct=distinct).basis(full[distinct].sigma)
+                finally:
+                    wand.greens.MAX_LANDMARKS = old
+                e = np.concatenate([np.abs(wand.greens_falloff(lm, f) - wand.greens_falloff(full[distinct], f))
+                                    for f in range(0, m.num_frames, 1000)])
+                cells[key] = (e.mean(), np.percentile(e, 99), e.max())
+            c = {k: "{:.3f}/{:.3f}/{:.3f}".format(*v) for k, v in cells.items()}
+            print(f"{kind:12s} {L:9d} {c['before']:>22s} {c['now']:>22s}  "
+                  f"{ok(cells['now'][0] <= 0.02 and cells['now'][1] <= 0.1)}")
+
+
+def row_keytimes(cmu: Motion) -> None:
+    print("\nkeytimes on CMU 01_01 (120 Hz): between frames, |warp(t_out) - t_in| of the interpolated warp (goal "
+          "round-off); inside the clip, a warp")
+    ft = cmu.frame_time
+    n = 2000
+    t_out = np.arange(n) * ft
+    key = (5.0037, 3.50123)                              # 0.44 / 0.15 frames off the grid
+    snapped = [(round(key[0] / ft) * ft, round(key[1] / ft) * ft)]
+    for label, fn in (("guided", lambda k: timewarp.guided_warp(cmu, cmu, n, keytimes=k)[1]),
+                      ("linear", lambda k: timewarp.linear_warp(cmu, n, keytimes=k)[1])):
+        before = abs(np.interp(key[1], t_out, fn(snapped)) - key[0])
+        now = abs(np.interp(key[1], t_out, fn([key])) - key[0])
+        print(f"  {label} warp, keytime {key[0]} s -> {key[1]} s: before {1e3 * before:.2f} ms, now {1e3 * now:.2e} ms"
+              f"  {ok(now < 1e-9)}")
+    n = int(round(22.83 / ft)) + 1
+    keys = [(2.0, 1.5)]
+    try:
+        timewarp.guided_warp(cmu, cmu, n, keytimes=keys, upsample=1)
+        before = "a warp"
+    except ValueError as e:
+        before = f"ValueError: {str(e)[:90]}"
+    c0 = time.process_time()
+    out, w = timewarp.guided_warp(cmu, cmu, n, keytimes=keys)
+    cpu = time.process_time() - c0
+    err = abs(np.interp(1.5, np.arange(n) * ft, w) - 2.0)
+    u = timewarp.required_upsample(cmu.num_frames, n, keytimes=keys, frame_time=ft, skip=8)
+    print(f"  22.83 s with 2 s -> 1.5 s: before (upsample 1) {before}\n    now: upsample {u}, {out.num_frames} frames, "
+          f"key met to {err:.1e} s, {cpu:.1f} s CPU (tables included)  {ok(out.num_frames == n and err < 1e-9)}")
+
+
+def row_cost(cmu: Motion) -> None:
+    print("\ncost of the tail (tables made beforehand) on CMU 01_01, 2,751 frames at 120 Hz, CPU seconds (goal: the "
+          "editor's first change <= 0.3 s)")
+    for label, rev in (("first free length", False), ("first backward (free length)", True)):
+        t_old = timewarp.prepare_warp(cmu, cmu, 8, 4, reverse=rev, k=timewarp.FREE_K, frame="pelvis",
+                                      end_terms=False, reverse_reference=False)
+        c0 = time.process_time()
+        timewarp.guided_warp(cmu, cmu, None, tables=t_old, reverse=rev, free_objective="mean",
+                             penalty_scale="median", penalty_free_ratio=1.0, weighting="output")
+        before = time.process_time() - c0
+        u, r = timewarp.free_length_search(cmu.frame_time)
+        c0 = time.process_time()
+        t_new = timewarp.prepare_warp(cmu, cmu, 8, u, reverse=rev, k=timewarp.FREE_K, out_step=r)
+        head = time.process_time() - c0
+        c0 = time.process_time()
+        out, _ = timewarp.guided_warp(cmu, cmu, None, tables=t_new, reverse=rev)
+        now = time.process_time() - c0
+        print(f"  {label:30s} before {before:.2f} s (tables u=4: {t_old.n_up} searched frames), now {now:.3f} s "
+              f"(u={u}, out_step={r}: {t_new.n_up} frames; making the tables {head:.1f} s)  {ok(now <= 0.3)}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true", help="skip the 20,000-frame long takes")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    every = clips()
+    all30 = {k: m.resample(RATE) for k, m in every.items()}
+    built = built_cases(all30["jump"], all30["cmu_01_01"])
+    print(f"{len(every)} clips ({', '.join(every)}); {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")
+    jumps = {k: m for k, m in all30.items() if has_hops(m)}
+    jumps.update(built)
+    row_compress(jumps)
+    row_free(all30)
+    hop_clips = {k: m for k, m in every.items() if has_hops(m) and len(hop_falloffs(m.resample(RATE))) >= 2}
+    # (the built hop clips are not used here: their held, static crouches are clusters of equal poses)
+    row_hops(hop_clips)
+    row_walks({k: every[k] for k in STRAIGHT_WALKS if k in every})
+    if not args.quick and SHARED.is_dir():
+        row_long()
+    row_keytimes(every["cmu_01_01"])
+    row_cost(every["cmu_01_01"])
+    print(f"\n({time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,27 @@
+"""Small hand-built motions shared by several test modules (tests import them from here, not from each other)."""
+from __future__ import annotations
+
+import numpy as np
+
+from stagger_nb.core.motion import Motion
+from stagger_nb.core.rotations import rotvec_to_quat
+from stagger_nb.core.skeleton import Skeleton
+
+__all__ = ["chain_motion"]
+
+
+def chain_motion(reverse_times, duration=2.0, fps=120.0, amplitude=1.0, span=1.0):
+    """Root + len-1 joints in a chain along +y (offset 1 each, End Site on the last); joint i rotates about
+    z by ``amplitude * (1 - ((t - t_i) / span)^2)``, which reverses direction exactly at ``t_i``. The root
+    does not translate."""
+    J = len(reverse_times)
+    names = ["Root"] + [f"J{i}" for i in range(1, J)]
+    parents = np.arange(-1, J - 1)
+    offsets = np.zeros((J, 3))
+    offsets[1:, 1] = 1.0
+    sk = Skeleton(names, parents, offsets, end_sites={J - 1: np.array([0.0, 1.0, 0.0])})
+    t = np.arange(int(round(duration * fps)) + 1) / fps
+    ang = amplitude * (1.0 - ((t[:, None] - np.asarray(reverse_times)[None]) / span) ** 2)
+    rv = np.zeros(ang.shape + (3,))
+    rv[..., 2] = ang
+    return Motion(sk, 1.0 / fps, np.zeros((t.size, 3)), rotvec_to_quat(rv))
