@@ -69,6 +69,9 @@ _MAX_DROP = 0.028     # the root is lowered by at most this share of a leg (~2.5
 _SHIFT_STEPS = np.linspace(-0.25, 0.25, 21)
 _SEGMENT = np.linspace(0.0, 1.0, 21)     # from where the edit puts the foot to the centre of the hip's path
 _ID = np.array([0.0, 0.0, 0.0, 1.0])
+_MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
+_MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel lift) beyond the source's
+_MIN_SWING = 0.1      # seconds: plants of one limb closer than this are held as one
 _COVER = 0.1          # seconds: plants also cover the source's own contact frames, less this at each end
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
@@ -147,12 +150,16 @@ def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=N
         e0, e1 = (times - t0) / ft
         start = max(int(np.ceil(e0 - 1e-6)), 0)
         stop = min(int(np.floor(e1 + 1e-6)) + 1, F)
-        if cover is not None and tables is not None:     # also the source's own frames, less ``cover`` s each end
+        if cover is not None and tables is not None:
+            # also the source's own frames less ``cover`` s at each end, where they are near (the edit moved the
+            # contact by less than 2 ``cover``): a foot lands no more than that before its own timing says
             c0 = (a * source_frame_time + cover - t0) / ft
             c1 = ((b - 1) * source_frame_time - cover - t0) / ft
-            if c1 >= c0:
-                start = max(min(start, int(np.ceil(c0 - 1e-6))), 0)
-                stop = min(max(stop, int(np.floor(c1 + 1e-6)) + 1), F)
+            near = 2 * cover / ft
+            if c1 >= c0 and 0 < start - c0 <= near:
+                start = max(int(np.ceil(c0 - 1e-6)), 0)
+            if c1 >= c0 and 0 < c1 - (stop - 1) <= near:
+                stop = min(int(np.floor(c1 + 1e-6)) + 1, F)
         if stop > start:
             out.append((j, float(e0), float(e1), start, stop, a, b, i if index is None else index[i]))
     return out
@@ -180,9 +187,10 @@ def carry_contacts(edited, contacts, source_frame_time: float, *,
 
 # -- plants -----------------------------------------------------------------------------------------------
 
-def _plants(carried, limb_of) -> list[dict]:
+def _plants(carried, limb_of, gap: int = 0) -> list[dict]:
     """The carried contacts grouped into plants: one limb's contacts whose edited frames overlap or touch, or
-    whose source frames overlap (a foot's heel and toe contacts of one step). Each plant: ``eff`` (its limb's
+    whose source frames overlap (a foot's heel and toe contacts of one step), or less than ``gap`` frames apart.
+    Each plant: ``eff`` (its limb's
     effector), edited frames ``[start, stop)`` and source frames ``[s_lo, s_hi]`` (first and last held)."""
     by: dict[int, list] = {}
     for c in carried:
@@ -193,7 +201,7 @@ def _plants(carried, limb_of) -> list[dict]:
         groups: list[list] = []
         for c in items:
             g = groups[-1] if groups else None
-            if g is not None and (c[3] <= max(x[4] for x in g) or c[5] < max(x[6] for x in g)):
+            if g is not None and (c[3] <= max(x[4] for x in g) + gap or c[5] < max(x[6] for x in g)):
                 g.append(c)
             else:
                 groups.append([c])
@@ -352,6 +360,13 @@ def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
     return r_up, r_mid
 
 
+def _capped(q: np.ndarray, limit: float) -> np.ndarray:
+    """Rotations ``q (n, 4)`` with their angle cut to ``limit`` radians (the axis kept)."""
+    v = quat_to_rotvec(q)
+    a = np.linalg.norm(v, axis=-1, keepdims=True)
+    return rotvec_to_quat(v * np.minimum(1.0, limit / np.maximum(a, 1e-300)))
+
+
 def _pivot(off: np.ndarray, to_hip: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """Toe -> ankle vectors ``off (n, 3)`` turned (length kept) towards ``to_hip (n, 3)`` (toe -> hip) by the
     least angle that brings the ankle within ``reach (n,)`` of the hip (fully towards it if even that is not
@@ -486,7 +501,8 @@ def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, b
                        cover=_COVER)
     if not carried:
         return PlantsResult(motion, tuple(notes))
-    plants = _plants(carried, limb_of)
+    # a foot cannot swing between two plants in less than _MIN_SWING: such plants are one
+    plants = _plants(carried, limb_of, gap=int(np.ceil(_MIN_SWING / motion.frame_time)))
     limbs = {lim.eff: lim for lim in limb_of.values()}
     carried = [c[:7] + (limb_of[c[0]].eff, c[7]) for c in carried]
     motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share, max_drop, reach,
@@ -503,7 +519,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     ft, ft_s = motion.frame_time, source.frame_time
     t0, tables = timeline[0], timeline[3]
     nb = int(round(blend / ft))
-    nc = max(1, nb // 2)                                    # fade of one contact's correction inside a plant
+    nc = max(1, nb)                                         # fade of one contact's correction inside a plant
     legs = [lim for lim in limbs.values() if lim.leg]
     joints = set()
     for lim in limbs.values():
@@ -602,7 +618,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             foot = np.linalg.norm(pt[both] - p_ref[both], axis=-1)
             gap = (np.linalg.norm(v, axis=-1) - foot) * 0.5 * (wa * wt)[both]
             ankle[both] += gap[:, None] * _unit(v)
-            turn = quat_between_vectors(pt[both] - p_ref[both], toe_t - ankle[both])
+            turn = _capped(quat_between_vectors(pt[both] - p_ref[both], toe_t - ankle[both]), _MAX_AIM)
             q_ref[both] = quat_mul(slerp(np.broadcast_to(_ID, turn.shape), turn, (wa * wt)[both]), q_ref[both])
         e_cur = pos[fr, eff]
         h = pos[fr, lim.upper]
@@ -614,7 +630,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             k = np.flatnonzero(toe_only)
             toe_t = pt[k] + dt[k]
             off = ankle[k] - toe_t
-            turn = quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k]))
+            turn = _capped(quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k])), _MAX_PIVOT)
             turn = slerp(np.broadcast_to(_ID, turn.shape), turn, (wt * (1 - wa))[k])
             ankle[k] = toe_t + quat_rotate(turn, off)
             q_ref[k] = quat_mul(turn, q_ref[k])
@@ -692,7 +708,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         tau_r = np.maximum(w_start[ri_[win]], 1) / 3.0
         s_l = (tau_l * -np.expm1(-dl[win] / tau_l))[:, None]          # ~ frames out, levelling off
         s_r = (tau_r * -np.expm1(-dr[win] / tau_r))[:, None]
-        # the carried-on rate turns the displacement by at most its own size
+        # the carried-on rate turns the displacement by at most its own size, and never past 0.9 pi (a turn
+        # beyond half a revolution would flip to the other way round)
+        size = np.minimum(size, np.maximum(0.9 * np.pi - size, 0.0))
         r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
         r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None],
                                                           1e-300))[..., None]
@@ -728,7 +746,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             if above_floor and np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
                 lift = _envelope(deficit, nb) * (1.0 - wf)
                 lift[~free] = 0.0
-            fr = np.flatnonzero(free & ((drop > 0) | (lift > 0)))
+            tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
+            fr = np.flatnonzero(free & ((drop > tiny) | (lift > tiny)))
             if not fr.size:
                 continue
             p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
