@@ -11,7 +11,7 @@ ROOTFLAG := $(if $(filter 0,$(shell id -u)),--allow-root)
 
 .PHONY: setup data lab test bench clean
 
-$(STAMP): pyproject.toml setup.py stagger_nb/io/_cparse.c stagger_nb/staggered/_cspline.c
+$(STAMP): pyproject.toml setup.py stagger_nb/io/_cparse.c stagger_nb/staggered/_cspline.c stagger_nb/_carray.h
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --disable-pip-version-check -q -e '.[test,notebooks,bench]'
 	touch $(STAMP)

@@ -7,6 +7,8 @@ from setuptools import Extension, setup
 _FLAGS = ["-O2", "-fno-fast-math", "-ffp-contract=off"]   # IEEE arithmetic as written: the numpy paths' bits
 
 setup(ext_modules=[Extension("stagger_nb.io._cparse", ["stagger_nb/io/_cparse.c"], optional=True,
+                             depends=["stagger_nb/_carray.h"],
                              extra_compile_args=_FLAGS),
                    Extension("stagger_nb.staggered._cspline", ["stagger_nb/staggered/_cspline.c"], optional=True,
+                             depends=["stagger_nb/_carray.h"],
                              extra_compile_args=_FLAGS)])

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import select
 from pathlib import Path
 
 import numpy as np
@@ -52,3 +53,32 @@ def shared_motion():
         return cache[name]
 
     return load
+
+
+def run_forked(body, timeout: float = 60) -> tuple[str, int]:
+    """Run ``body(send)`` in a forked child, ``send(text)`` passing text to the parent at once: ``(all text,
+    waitpid status)``. A child silent for ``timeout`` s (a blocking read of a FIFO) is killed and fails the
+    test with what it sent last; a crash (SIGSEGV) shows in the status."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        try:
+            body(lambda text: os.write(w, text.encode("utf-8", "backslashreplace")))
+        finally:
+            os._exit(0)
+    os.close(w)
+    chunks = []
+    try:
+        while True:
+            ready, _, _ = select.select([r], [], [], timeout)
+            if not ready:
+                os.kill(pid, 9)
+                os.waitpid(pid, 0)
+                pytest.fail(f"the child sent nothing for {timeout} s after {b''.join(chunks)[-300:]!r}")
+            chunk = os.read(r, 1 << 16)
+            if not chunk:
+                break
+            chunks.append(chunk)
+    finally:
+        os.close(r)
+    return b"".join(chunks).decode("utf-8"), os.waitpid(pid, 0)[1]

@@ -119,7 +119,9 @@ def test_wand_and_warp_every_trait_changes_ops_and_motion_and_keeps_foreign_ops(
     try:
         assert not type(ed.model).__module__.startswith("stagger_nb.widgets")
         assert ed.model.duration == pytest.approx(round(0.8 * m.duration, 3))
-        for name, value in (("duration", round(0.6 * m.duration, 3)), ("skip", 3)):
+        # skip 2: the 0.6x warp plays 1.67x on average; its steps stay within 1..3 since issue 25's speed penalty,
+        # so skip 3 would not bind (eq. 1's bursts of 8 made it bind)
+        for name, value in (("duration", round(0.6 * m.duration, 3)), ("skip", 2)):
             ops0, (q0, n0) = s.ops, _edited_q(s)
             setattr(ed.model, name, value)
             ops1, (q1, n1) = s.ops, _edited_q(s)
@@ -245,8 +247,9 @@ def test_model_frame_moves_the_view_in_every_editor():
 # ----------------------------------------------------------------------------------------------------------
 # odd sequences a user makes
 # ----------------------------------------------------------------------------------------------------------
-BAD = {"percent": [0.0, -5.0, 101.0, float("nan")], "s": [float("inf")],   # s < 0: the extremities lead "l": [0.0, -1.0, float("nan")],
-       "tau": [-0.01, float("nan")], "w_r": [float("nan"), float("inf")], "seed": [-1]}
+BAD = {"percent": [0.0, -5.0, 101.0, float("nan")], "s": [float("inf"), 61.0],   # s < 0: the extremities lead
+       "l": [0.0, -1.0, float("nan"), 11.0], "tau": [-0.01, float("nan"), 61.0], "w_r": [float("nan"), float("inf")],
+       "seed": [-1]}
 
 
 def test_invalid_trait_values_raise_clearly_and_commit_nothing():
@@ -334,8 +337,9 @@ def test_undo_past_the_editors_own_ops():
 
 
 def test_editor_on_ops_naming_poses_that_a_later_cull_removes():
-    """A session edits pose 20 (edit_pose, retime, ik_pose) and a later move culls to a few poses: the edited
-    motion is still computed (or a readable error is shown), and no op is dropped or rewritten silently."""
+    """A session edits pose 20 (edit_pose, retime, ik_pose) and a later move culls to a few poses: the cull is
+    refused in one plain sentence naming the edit it would break (no op index, no exception name), no op is
+    dropped or rewritten, and the editor follows the next valid move."""
     m = sn.data.load("walk")
     sm = staggered.extract(m)
     k = sm.num_poses - 2
@@ -346,18 +350,15 @@ def test_editor_on_ops_naming_poses_that_a_later_cull_removes():
     s = Session(m, ops=ops)
     ed = _stagger(s)
     try:
-        ed.model.percent = 10.0
-        kinds = [o["op"] for o in s.ops]
-        for o in ops:
-            assert o["op"] in kinds
-        assert _same([o for o in s.ops if o["op"] in ("propagate", "guided_warp")],
-                     Session(m, ops=_foreign_ops(m)).ops)
-        try:
-            s.edited()
-        except ValueError as e:          # acceptable only with a clear message, shown by the editor
-            assert "pose" in str(e)
-            assert ed.error or ed.model.message
-        ed.model.percent = 100.0
+        ops0 = s.ops
+        with pytest.raises(traitlets.TraitError) as refused:
+            ed.model.percent = 10.0
+        why = str(refused.value)
+        assert f"pose {k}" in why and "ops[" not in why and "Error" not in why, why
+        assert why in ed.message.value and ed.model.percent == 100.0 and _same(s.ops, ops0)
+        assert ed.model.set_control("percent", 10.0) == why and ed.model.notes["percent"] == why
+        ed.model.s = 0.03                  # the next valid move applies
+        assert s.ops[2]["s"] == 0.03 and why not in ed.message.value
         s.edited()
     finally:
         ed.close()
@@ -467,7 +468,8 @@ def _rich_ops(m, sm):
     tk = float(sm.pose_times[k])
     pos = sn.forward_kinematics(staggered.evaluate(sm, [tk]))[0][0, names.index(hand)]
     return [{"op": "cull", "count": max(4, sm.num_poses - 2)},
-            {"op": "ik_pose", "pose": 2, "joint": hand, "target": (pos * 1.0 + [0.0, 0.05 * abs(pos[1]), 0.0]).tolist()},
+            {"op": "ik_pose", "pose": 2, "joint": hand,
+             "target": (pos * 1.0 + [0.0, 0.05 * abs(pos[1]), 0.0]).tolist()},
             {"op": "succession", "root": _root(m), "s": 0.02, "l": 1.0},
             {"op": "random_timing", "tau": 0.02, "seed": 4},
             {"op": "keep_contacts"},

@@ -374,3 +374,57 @@ def test_a_continuity_summing_in_another_order_is_not_used(monkeypatch):
     monkeypatch.setattr(bvh, "_C_CONTINUITY", [])
     monkeypatch.setattr(bvh, "_cparse", cparse)
     assert bvh._c_continuity()
+
+
+# -- the sign of zero (issue 21): "bit-identical" includes np.signbit of every component -------------------
+def _same_bits(a, b) -> bool:
+    """Every component the same float64 bits, and (said apart, since it is what once differed) the same
+    sign of zero."""
+    return all(np.array_equal(x.view(np.int64), y.view(np.int64)) and np.array_equal(np.signbit(x), np.signbit(y))
+               for x, y in ((a.local_quats, b.local_quats), (a.root_positions, b.root_positions)))
+
+
+def _cut_small(monkeypatch, cpus=4):
+    """The fallback's block cut into many small pieces over ``cpus`` threads (another machine's cut)."""
+    monkeypatch.setattr(bvh, "_cpus", lambda: cpus)
+    monkeypatch.setattr(bvh, "_MIN_PIECE_BYTES", 512)
+    monkeypatch.setattr(bvh, "_PIECE_BYTES", 2000)
+
+
+@pytest.mark.parametrize("cpus", [1, 2, 4])
+def test_the_sign_of_zero_does_not_depend_on_how_the_block_is_cut(monkeypatch, cpus):
+    """An angle of -0 in a piece that holds an angle beyond 180 degrees: that piece was wrapped to [-180, 180]
+    (a - rint(a / 360) 360, and -0 - -0 is +0), a piece without one was not, so the C path (its pieces) and
+    the fallback (pieces cut by bytes and CPUs) gave quaternions differing in the sign of zero (960 of 2,000
+    components here before; 24 and 5,099 on two real clips on a 4-CPU machine)."""
+    head = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+            "Yrotation\nJOINT b\n{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 1 0"
+            "\n}\n}\n}\n")
+    rows = [f"0 0 0 {200 if f == 0 else 10} -0 -0.0 -0 5 -0" for f in range(250)]
+    text = (head + "MOTION\nFrames: 250\nFrame Time: 0.01\n" + "\n".join(rows) + "\n").encode()
+    whole = bvh.parse_bvh(text, "zero.bvh")       # one piece (the C path where built)
+    assert np.count_nonzero(whole.local_quats == 0) >= 250    # zeros whose sign could differ
+    _cut_small(monkeypatch, cpus)
+    monkeypatch.setenv(bvh.NO_ACCEL_ENV, "1")
+    assert _same_bits(bvh.parse_bvh(text, "zero.bvh"), whole)
+
+
+@needs_c
+def test_every_real_clip_reads_the_same_bits_signs_of_zero_included_however_it_is_cut(monkeypatch):
+    clips = _clips()
+    if not clips:
+        pytest.skip(f"no clips in {DATA} or {SHARED_MOCAP} (make data writes data/*.bvh)")
+    zeros = 0
+    for p in clips:
+        monkeypatch.delenv(bvh.NO_ACCEL_ENV, raising=False)
+        accel = sn.read_bvh(p)
+        q = accel.local_quats
+        zeros += int(np.count_nonzero(q == 0))
+        assert not np.any((q == 0) & np.signbit(q)), p        # no negative zeros: -0 components read as +0
+        monkeypatch.setenv(bvh.NO_ACCEL_ENV, "1")
+        assert _same_bits(sn.read_bvh(p), accel), p            # this machine's cut
+        with monkeypatch.context() as m:
+            _cut_small(m)
+            assert _same_bits(sn.read_bvh(p), accel), p        # many small pieces on 4 threads
+    if SHARED_MOCAP.is_dir() and any(SHARED_MOCAP.glob("*.bvh")):
+        assert zeros > 0  # the real clips hold zero components (from -0 angles too): the comparison can fail

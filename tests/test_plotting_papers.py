@@ -144,3 +144,16 @@ def test_table_is_as_tall_as_its_rows():
     h = [plotting.table_figure(["a"], [[i] for i in range(n)])["layout"]["height"] for n in (1, 3, 10)]
     assert h[1] - h[0] == 2 * (h[2] - h[1]) / 7 > 0 and h[1] < 200
     assert plotting.table_figure(["a"], [[1]], height=500)["layout"]["height"] == 500
+
+
+def test_speeds_figure_of_six_warps_fits_a_screen():
+    """Notebook 03's Fig. 5 (six warps) was 960 px tall at 150 px a row; it fits 620 px now, the rows keep
+    readable ticks (0.1x, 1x, 10x) and their names, x ticks on the bottom row only."""
+    t = np.arange(30) / 30
+    g = _valid(plotting.speeds_figure({f"V{i}": (t, np.full(30, 1.0 + i)) for i in range(6)}))
+    assert g.layout.height <= 640
+    assert list(g.layout.yaxis.ticktext) == ["0.1×", "1×", "10×"]
+    assert [a.text for a in g.layout.annotations] == [f"V{i}" for i in range(6)]
+    assert g.layout.xaxis.showticklabels is False and g.layout.xaxis6.showticklabels is True
+    doms = [g.layout[f"yaxis{'' if i == 0 else i + 1}"].domain for i in range(6)]
+    assert all(a[0] > b[1] for a, b in zip(doms[:-1], doms[1:]))     # rows do not overlap

@@ -44,6 +44,19 @@ EXAMPLES = [
      "backward": False, "free_length": False, "upsample": 3},
     {"op": "linear_warp", "duration": 0.8, "keytimes": [[0.2, 0.3]]},
     {"op": "resample", "frame_time": 1 / 30},
+    # issue 24: pose edits propagated by the magic wand, timing edits in a region, pose times guided
+    {"op": "edit_pose", "pose": 2, "deltas": D, "mode": "staggered", "propagate": True, "sigma": 0.4,
+     "frame_range": [0, 60]},
+    {"op": "exaggerate", "w_r": 0.5, "poses": [2, 5], "reference": "previous", "mode": "staggered", "joints": None,
+     "propagate": True},
+    {"op": "ik_pose", "pose": 1, "joint": "LeftHand", "target": [0.1, 1.2, -3.0], "propagate": True},
+    {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0, "joints": None, "limit": 1.5,
+     "falloff": {"frame": 30, "sigma": None}},
+    {"op": "random_timing", "tau": 0.05, "seed": 7, "joints": None, "limit": None,
+     "falloff": {"frame": 3, "sigma": 0.5, "frame_range": [0, 40]}},
+    {"op": "guide_poses", "reference": {"path": "<memory:slow>"}, "keytimes": None, "skip": 8},
+    {"op": "guide_poses", "reference": "self", "keytimes": [[1.0, 1.5]], "duration": 3.0, "skip": 4, "upsample": 3},
+    {"op": "guide_poses", "reference": {"segment": [0.0, 1.0]}, "keytimes": None, "free_length": True, "skip": 8},
 ]
 
 
@@ -154,6 +167,22 @@ HOSTILE = [
     ({"op": "guided_warp", "duration": 1, "keytimes": [[0.1]]}, r"keytimes\[0\]"),
     ({"op": "linear_warp", "duration": -1}, "duration"),
     ({"op": "resample", "frame_time": 0}, "frame_time"),
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "propagate": 1}, "propagate"),
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "sigma": 0.5}, "sigma"),             # without propagate
+    ({"op": "edit_pose", "pose": 1, "deltas": D, "propagate": True, "sigma": 0}, "sigma"),
+    ({"op": "ik_pose", "pose": 1, "joint": "LeftHand", "target": [1, 2, 3], "frame_range": [0, 9]}, "frame_range"),
+    ({"op": "exaggerate", "w_r": 1, "propagate": True}, "poses"),                       # every pose: nothing to spread
+    ({"op": "exaggerate", "w_r": 1, "poses": [2, 2], "propagate": True}, "poses"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": 30}, "falloff"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": {"sigma": 1.0}}, "falloff.frame"),
+    ({"op": "succession", "root": "Hips", "s": 0.1, "falloff": {"frame": 3, "width": 1}}, "falloff.width"),
+    ({"op": "random_timing", "tau": 0.1, "falloff": {"frame": 3, "sigma": -1}}, "falloff.sigma"),
+    ({"op": "random_timing", "tau": 0.1, "falloff": {"frame": 30, "frame_range": [0, 9]}}, "falloff.frame"),
+    ({"op": "guide_poses", "free_length": True, "duration": 2.0}, "duration"),
+    ({"op": "guide_poses", "free_length": True, "keytimes": [[0.1, 0.1]]}, "keytimes"),
+    ({"op": "guide_poses", "reference": {"segment": [2, 1]}}, "reference.segment"),
+    ({"op": "guide_poses", "backward": True}, "backward"),                              # pose times keep their order
+    ({"op": "guide_poses", "skip": 0}, "skip"),
 ]
 
 

@@ -25,8 +25,8 @@ def test_warm_fills_the_caches_the_replay_uses(session):
     fut = session.warm("extract", ("cull", [40, 60]), ("wand_basis", [0.3]),
                        progress=lambda d, t, label: seen.append((d, t, label)))
     assert fut.result(120) == 5
-    assert [label for label, _ in itertools.groupby(lb for _, _, lb in seen)] == ["extract", "cull 40 %", "cull 60 %", "pose graph",
-                                               "basis sigma=0.3", "done"]
+    assert [label for label, _ in itertools.groupby(lb for _, _, lb in seen)] == [
+        "extract", "cull 40 %", "cull 60 %", "pose graph", "basis sigma=0.3", "done"]
     assert all(name.startswith("stagger_nb-warm") for _, _, name in busy)
     kinds = [k for k, started, _ in busy if started]
     assert kinds == ["extract", "cull", "cull", "graph", "basis"]
@@ -139,24 +139,21 @@ def test_warm_error_reaches_the_future(session, monkeypatch):
 
 
 def test_interpreter_exit_does_not_wait_for_the_whole_warm_up(tmp_path):
-    """The worker stops before its next item once the main thread has finished: of 30 queued items (each
-    sleeping 0.5 s in its progress callback, so a plain executor's exit would wait for all of them) only the
-    one or two running at exit report progress. Counted, not timed, so a loaded machine cannot fail it."""
+    """The worker stops before its next item once the main thread has finished: of 30 items of >= 0.5 s each
+    (a plain executor's exit would wait for all of them) only the one or two started before the exit run."""
     import subprocess
     import sys
     from pathlib import Path
-    log = tmp_path / "progress.txt"
+    log = tmp_path / "items.txt"
     code = ("import time, stagger_nb as sn; from stagger_nb.session import Session\n"
             "s = Session(sn.data.load('walk').slice(0, 60)); s.extraction()\n"
             f"log = open({str(log)!r}, 'a', buffering=1)\n"
-            "def note(d, t, l):\n"
-            "    log.write(f'{d} {t}\\n'); time.sleep(0.5)\n"
-            "s.warm(('cull', [100 - i for i in range(30)]), progress=note)\n"
+            "s.warm(('cull', [100 - i for i in range(30)]), progress=lambda d, t, l: (log.write(l + '\\n'), "
+            "time.sleep(0.5)))\n"
             "time.sleep(0.2)\n")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120, cwd=Path(__file__).resolve().parents[1])
-    done = [float(line.split()[0]) for line in log.read_text().splitlines()]
-    assert done, "the warm-up never started"
-    assert max(done) < 5, f"the worker kept going after the interpreter finished: progress reached {max(done)} of 30"
+    started = [ln for ln in log.read_text().splitlines() if ln.startswith("cull")]
+    assert 1 <= len(started) <= 3, started
 
 
 def test_the_warm_up_gives_way_to_a_foreground_replay():

@@ -11,6 +11,8 @@ import stagger_nb as sn
 from stagger_nb import staggered, timewarp, wand
 from stagger_nb.session import Session, apply_pose_deltas, joint_rotation_degrees
 
+from editor_helpers import from_browser
+
 
 @pytest.fixture(scope="module")
 def walk():
@@ -28,7 +30,7 @@ def _quickstart(m):
             {"op": "guided_warp", "duration": round(0.8 * m.duration, 3)}]
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def stagger_editor(walk):
     from stagger_nb.widgets import StaggerEditor
     e = StaggerEditor(walk, precompute=False)
@@ -217,12 +219,15 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.model.compare = ["isomap", "spline"]
         names = [d["name"] for d in e.falloff_plot.figure["data"]]
         assert len(names) >= 3 and all(names)   # a legend entry on every curve
-        e.model.frame_range = [0, 10]           # a range without the edited frame: said, then cleared
-        assert "frame_range" in e.message.value
+        ops0 = e.session.ops
+        with pytest.raises(traitlets.TraitError, match="frame_range"):   # a range without the edited frame:
+            e.model.frame_range = [0, 10]                                # refused, said, the session as it was
+        assert "frame_range" in e.message.value and e.model.frame_range == [] and e.session.ops == ops0
         e.limit_range.value = False
-        assert e.model.frame_range == [] and "frame_range" not in e.message.value and e.range.disabled
-        e.model.propagate = False
+        assert e.model.frame_range == [] and e.range.disabled
+        e.model.propagate = False                                        # the next change applies, the note goes
         assert e.session.ops[1]["op"] == "edit_frame" and e.controls["sigma"].disabled
+        assert "frame_range" not in e.message.value
     finally:
         e.close()
 
@@ -367,7 +372,7 @@ def test_stagger_first_paint_then_warm_up(walk):
     e = StaggerEditor(walk)                 # precompute: the extraction is warmed after first paint
     try:
         assert "extracting" in str(e.probability.figure["layout"]["title"])   # drawn at once, filled later
-        e._first_future.result(timeout=120)
+        e.warm_futures[0].result(timeout=120)
         e.warm_future.cancel()
         import time
         for _ in range(100):                # the redraw runs in the future's done-callback
@@ -387,7 +392,7 @@ def test_stagger_warm_up_makes_first_cull_visits_hits(walk, monkeypatch):
     m = walk.slice(0, 240)
     e = StaggerEditor(m)
     try:
-        for f in e._futures():
+        for f in e.warm_futures:
             f.result(timeout=300)
         calls = []
         for name in ("cull", "keep_contacts", "evaluate", "extract", "succession"):
@@ -458,7 +463,7 @@ def test_closing_an_editor_cancels_every_warm_up_it_submitted(walk):
 
     e = StaggerEditor(Spy(walk.slice(0, 120)))
     e.close()
-    assert seen and e._futures() == seen   # close() cancelled each of them
+    assert seen and e.warm_futures == seen   # close() cancelled each of them
     assert all(f.cancelled() or f.done() for f in seen)
 
 
@@ -524,18 +529,12 @@ def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk)
             start = e.model.frame
             for f in range(start + 1, start + 6):
                 for p in e.plots:
-                    _from_browser(p, frame=f)
-                _from_browser(slider, value=f)
-                _from_browser(play, value=f)
+                    from_browser(p, frame=f)
+                from_browser(slider, value=f)
+                from_browser(play, value=f)
             assert [m for log in logs for m in log if "value" in m.get("state", {})] == [], type(e).__name__
             assert e.model.frame == e.view.frame == start + 5
             e.plots[0].click(2 * walk.frame_time)   # a click seeks (kernel-side, as the store's message does)
             assert e.model.frame == 2 and play.value == 2
         finally:
             e.close()
-
-
-def _from_browser(widget, **state):
-    """Apply ``state`` as an update message from the browser (ipywidgets' comm message handler)."""
-    widget._handle_msg({"content": {"data": {"method": "update", "state": state, "buffer_paths": []}}, "buffers": []})
-

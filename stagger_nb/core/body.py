@@ -130,13 +130,14 @@ def remove_heading(world_quats: np.ndarray, up: np.ndarray) -> np.ndarray:
     return quat_normalize(quat_mul(quat_conj(heading_quats(q, up)), q))
 
 
-def positions_in_pelvis_frame(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+def positions_in_pelvis_frame(motion: Motion, fk=None) -> tuple[np.ndarray, np.ndarray]:
     """Positions of the pelvis's subtree in the pelvis's moving frame: ``R_p(t)^-1 (x_j(t) - x_p(t))``.
 
     Returns ``(positions (F, n, 3), joints (n,))`` with ``joints`` the subtree's indices (the pelvis first,
     its row zero).  Joints above the pelvis (a static root) are left out: they carry the global travel.
+    ``fk`` = ``forward_kinematics(motion)`` may be given to reuse it.
     """
-    pos, wq = forward_kinematics(motion)
+    pos, wq = forward_kinematics(motion) if fk is None else fk
     pelvis = pelvis_joint(motion.skeleton)
     joints = subtree(motion.skeleton, pelvis)
     rel = pos[:, joints] - pos[:, pelvis:pelvis + 1]
@@ -146,7 +147,7 @@ def positions_in_pelvis_frame(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
 FLOOR_PERCENTILE = 5.0   # the floor: this percentile over frames of the lowest joint's height
 
 
-def positions_in_heading_frame(motion: Motion, up=None) -> tuple[np.ndarray, np.ndarray]:
+def positions_in_heading_frame(motion: Motion, up=None, fk=None) -> tuple[np.ndarray, np.ndarray]:
     """Positions of the pelvis's subtree in its *heading* frame, with heights above the clip's floor.
 
     ``H(t)^-1 (x_j(t) - g(t))`` where ``H(t)`` is the pelvis's heading (its world rotation's twist about the
@@ -158,9 +159,9 @@ def positions_in_heading_frame(motion: Motion, up=None) -> tuple[np.ndarray, np.
     to turning about the vertical and to a constant vertical offset of the whole clip; not to a tilt of the
     world (gravity defines the vertical).
 
-    Returns ``(positions (F, n, 3), joints (n,))`` like :func:`positions_in_pelvis_frame`.
+    Returns ``(positions (F, n, 3), joints (n,))`` like :func:`positions_in_pelvis_frame` (``fk`` likewise).
     """
-    pos, wq = forward_kinematics(motion)
+    pos, wq = forward_kinematics(motion) if fk is None else fk
     pelvis = pelvis_joint(motion.skeleton)
     joints = subtree(motion.skeleton, pelvis)
     u = up_axis(motion, pos) if up is None else np.asarray(up, dtype=float)

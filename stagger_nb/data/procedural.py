@@ -26,7 +26,7 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
-from ..core.rotations import quat_conj, quat_mul, quat_rotate
+from ..core.rotations import euler_to_quat, quat_conj, quat_mul, quat_rotate
 from ..core.skeleton import Skeleton
 
 __all__ = ["cmu_skeleton", "walk", "run", "jump", "generate", "CLIPS", "FPS", "GRAVITY",
@@ -95,13 +95,13 @@ def cmu_skeleton() -> Skeleton:
 # small helpers
 
 def _euler(order: str, deg: np.ndarray) -> np.ndarray:
-    """Intrinsic Euler angles in degrees (F, 3) -> quaternions (F, 4)."""
-    return Rotation.from_euler(order, np.asarray(deg, dtype=float), degrees=True).as_quat()
+    """Intrinsic Euler angles in degrees (F, 3) -> quaternions (F, 4) (the package's one conversion)."""
+    return euler_to_quat(np.asarray(deg, dtype=float), order)
 
 
 def _axis_quat(axis: str, deg: np.ndarray) -> np.ndarray:
     """Rotation about one axis by ``deg (F,)`` degrees -> (F, 4)."""
-    return Rotation.from_euler(axis, np.asarray(deg, dtype=float).reshape(-1, 1), degrees=True).as_quat()
+    return euler_to_quat(np.asarray(deg, dtype=float).reshape(-1, 1), axis)
 
 
 def _min_jerk(s: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """What every file format shares: the one input policy (:func:`read_regular_file`: what may be read, and how),
 the one output policy (:func:`atomic_write_bytes`, and :func:`write_confined` for a folder the package owns,
-such as a batch's OUT), the error base class and text decoding. Checked numbers and the euler -> quaternion
-conversion are in :mod:`._values` (re-exported here)."""
+such as a batch's OUT), the error base class and text decoding. Checked numbers are in :mod:`._values`, the
+euler -> quaternion conversion in :mod:`stagger_nb.core.rotations` (both re-exported here)."""
 from __future__ import annotations
 
 import os

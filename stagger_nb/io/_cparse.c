@@ -26,6 +26,8 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "../_carray.h" /* get_array: buffers checked for dtype, contiguity and writability */
+
 /* Eight digits at a time (SWAR) read bytes as a little-endian word; the SSE2 path needs x86. Either can be
    turned off (-DCPARSE_SCALAR) to test the portable scalar path, which every other machine uses. */
 #if !defined(CPARSE_SCALAR) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
@@ -249,10 +251,14 @@ static Py_ssize_t parse_block(const char *buf, Py_ssize_t start, Py_ssize_t stop
 
 static PyObject *parse_rows(PyObject *Py_UNUSED(self), PyObject *args)
 {
-    Py_buffer buf, out, base, stride;
+    Py_buffer buf, out = {0}, base = {0}, stride = {0};
+    PyObject *oo, *ob, *os_;
     Py_ssize_t start, stop, rows, res = -1;
     PyObject *result = NULL;
-    if (!PyArg_ParseTuple(args, "y*nnnw*y*y*", &buf, &start, &stop, &rows, &out, &base, &stride)) return NULL;
+    if (!PyArg_ParseTuple(args, "y*nnnOOO", &buf, &start, &stop, &rows, &oo, &ob, &os_)) return NULL;
+    if (get_array(oo, &out, 1, 'f', "parse_rows: out") < 0 || get_array(ob, &base, 0, 'i', "parse_rows: base") < 0 ||
+        get_array(os_, &stride, 0, 'i', "parse_rows: stride") < 0)
+        goto done;
     Py_ssize_t cols = base.len / (Py_ssize_t)sizeof(int64_t);
     Py_ssize_t n_out = out.len / (Py_ssize_t)sizeof(double);
     if (start < 0 || stop < start || stop > buf.len) {
@@ -310,13 +316,20 @@ static void continuity(double *q, Py_ssize_t frames, Py_ssize_t joints, double *
 static PyObject *make_continuous(PyObject *Py_UNUSED(self), PyObject *args)
 {
     Py_buffer q;
+    PyObject *oq;
     Py_ssize_t joints;
-    if (!PyArg_ParseTuple(args, "w*n", &q, &joints)) return NULL;
+    if (!PyArg_ParseTuple(args, "On", &oq, &joints) || get_array(oq, &q, 1, 'f', "make_continuous: q") < 0)
+        return NULL;
     Py_ssize_t n = q.len / (Py_ssize_t)sizeof(double);
-    if (joints < 1 || q.len % (Py_ssize_t)sizeof(double) || n % (4 * joints)) {
+    /* joints <= n / 4 before 4 * joints is formed: it cannot overflow (2**62 joints once wrapped it to 0) */
+    if (joints < 1 || q.len % (Py_ssize_t)sizeof(double) || (n && (joints > n / 4 || n % (4 * joints)))) {
         PyErr_SetString(PyExc_ValueError, "make_continuous: q must be a float64 buffer of frames x joints x 4 values");
         PyBuffer_Release(&q);
         return NULL;
+    }
+    if (n == 0) {
+        PyBuffer_Release(&q);
+        Py_RETURN_NONE;
     }
     double *prev = PyMem_Malloc((size_t)joints * 4 * sizeof(double));
     unsigned char *parity = PyMem_Malloc((size_t)joints);
@@ -366,10 +379,17 @@ static void quats_from_tan(const double *t, Py_ssize_t n, int i, int j, int k, i
 static PyObject *quats_from_tangents(PyObject *Py_UNUSED(self), PyObject *args)
 {
     Py_buffer t, out;
+    PyObject *ot, *oo;
     const char *axes;
     Py_ssize_t axes_len;
     int idx[3];
-    if (!PyArg_ParseTuple(args, "y*s#w*", &t, &axes, &axes_len, &out)) return NULL;
+    if (!PyArg_ParseTuple(args, "Os#O", &ot, &axes, &axes_len, &oo) ||
+        get_array(ot, &t, 0, 'f', "quats_from_tangents: t") < 0)
+        return NULL;
+    if (get_array(oo, &out, 1, 'f', "quats_from_tangents: out") < 0) {
+        PyBuffer_Release(&t);
+        return NULL;
+    }
     Py_ssize_t n = out.len / (Py_ssize_t)(4 * sizeof(double));
     int ok = axes_len == 3 && out.len % (Py_ssize_t)(4 * sizeof(double)) == 0 &&
              t.len == 3 * n * (Py_ssize_t)sizeof(double);

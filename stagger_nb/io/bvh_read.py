@@ -19,7 +19,8 @@ When a piece cannot be certified, a line-by-line parser (bounded memory) finds t
 raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
 :data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
 :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
-are refused.
+are refused. Both paths give the same bits, the sign of zero included: no quaternion component is -0, and an
+angle's quaternion does not depend on the other angles of its piece.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import threading
 import numpy as np
 
 from ..core.accel import NO_ACCEL_ENV, accel_allowed
-from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion, _continuous_inplace
 from ..core.rotations import quat_continuous
 from ..core.skeleton import Skeleton
 from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, decode, euler_components, euler_deg_to_quat,
@@ -405,7 +406,12 @@ def parse_bvh(text: str | bytes, source: str = "<string>", *, max_samples: int |
             out = layout.empty(nf)
         layout.fill(data.T, done, out)
     root_pos, quats, trans = out
-    return Motion._from_owned(skel, float(ft), root_pos, quats, trans, continuous=continuous)
+    if not continuous:
+        _continuous_inplace(quats)
+    # no negative zeros: every -0 component becomes +0 (nothing else changes), after the sign flips of
+    # continuity, so the two paths (and any cut of the block) agree on the sign of zero by construction
+    quats += 0.0
+    return Motion._from_owned(skel, float(ft), root_pos, quats, trans, continuous=True)
 
 
 _ACCEL_VALUES = 1 << 16  # values per piece of the C parser's read (a 512 KB scratch buffer, reused)

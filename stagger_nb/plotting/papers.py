@@ -92,8 +92,12 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
     scene = dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
                                                  projection=dict(type="orthographic")))
     scene[depth] = dict(showticklabels=False, title=dict(text=""), showspikes=False)
+    # the axis letters ("x", "y", "z") say nothing here and the vertical one is drawn on top of its middle tick
+    # label (notebook 02, Fig. 4: "1y0"): the scene goes without axis titles (units are the clip's, in the text)
+    for ax in ("xaxis", "yaxis", "zaxis"):
+        scene.setdefault(ax, {}).setdefault("title", dict(text=""))
     if view != "top":
-        scene["yaxis"] = dict(nticks=4)
+        scene["yaxis"]["nticks"] = 4
     layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)),
                   height=scene_px + _STROBE_TITLE, margin=dict(l=0, r=0, t=_STROBE_TITLE, b=0),
                   template="plotly_white", showlegend=True, scene=scene)
@@ -303,11 +307,16 @@ def distance_figure(x, curves: Mapping[str, Sequence[float]], control: int, *, z
     return dict(data=data, layout=layout)
 
 
-def speeds_figure(warps: Mapping[str, tuple], *, title: str = "", row_height: int = 150) -> dict:
+def speeds_figure(warps: Mapping[str, tuple], *, title: str = "", row_height: int | None = None,
+                  height: int = 620) -> dict:
     """Warp speeds ``d(input)/d(output)`` on a log axis, one row per warp (Hsu et al. 2007, Fig. 5).
 
     warps : ``name -> (out_times (N,), speed (N,))``, seconds and dimensionless (1 = real time); speeds are
         clipped to [0.1, 10] and the axis is labelled 0.1×, 0.25×, 0.5×, 1×, 2×, 4×, 10×.
+
+    row_height : px per row; default ``(height - 60) / rows`` capped at 150, so six warps take 620 px (it was
+        150 px a row: 960 px, more than a 1280 x 800 screen shows).  Rows under 110 px get the ticks 0.1×, 1×,
+        10× and their names as horizontal labels beside the row (a vertical axis title no longer fits).
 
     Traces: one line per warp, on axes x/y, x2/y2, ... (row i uses ``xaxis{i}``/``yaxis{i}``); the real-time
     line (1×) is a shape in each row.
@@ -315,6 +324,11 @@ def speeds_figure(warps: Mapping[str, tuple], *, title: str = "", row_height: in
     n = len(warps)
     if n == 0:
         raise ValueError("warps: give at least one warp")
+    if row_height is None:
+        row_height = int(min(150, max(60, (int(height) - 60) / n)))
+    small = row_height < 110
+    ticks = (0.1, 1, 10) if small else SPEED_TICKS
+    annotations = []
     lo, hi = SPEED_LIMITS
     gap = 0.08
     h = (1 - gap * (n - 1)) / n
@@ -327,14 +341,21 @@ def speeds_figure(warps: Mapping[str, tuple], *, title: str = "", row_height: in
                          xaxis=f"x{k}", yaxis=f"y{k}", line=dict(width=2, color=_colour(i))))
         top = 1 - i * (h + gap)
         axes[f"xaxis{k}"] = dict(domain=[0, 1], anchor=f"y{k}", automargin=True,
-                                 title=dict(text="output time (s)" if i == n - 1 else ""))
+                                 title=dict(text="output time (s)" if i == n - 1 else ""),
+                                 showticklabels=not small or i == n - 1)
         axes[f"yaxis{k}"] = dict(domain=[max(0.0, top - h), top], anchor=f"x{k}", type="log",
-                                 range=[np.log10(lo), np.log10(hi)], tickvals=list(SPEED_TICKS),
-                                 ticktext=[f"{v:g}×" for v in SPEED_TICKS], title=dict(text=str(name)),
+                                 range=[np.log10(lo), np.log10(hi)], tickvals=list(ticks),
+                                 ticktext=[f"{v:g}×" for v in ticks], title=dict(text="" if small else str(name)),
                                  automargin=True)
+        if small:   # the row's name at its top left, inside the plot (a rotated title would not fit the row)
+            annotations.append(dict(xref=f"x{k} domain", yref=f"y{k} domain", x=0.005, y=0.98, xanchor="left",
+                                    yanchor="top", showarrow=False, text=str(name), font=dict(size=12),
+                                    bgcolor="rgba(255,255,255,0.8)"))
         shapes.append(dict(type="line", xref=f"x{k} domain", yref=f"y{k}", x0=0, x1=1, y0=1, y1=1,
                            line=dict(color="#a0aec0", width=1), layer="below"))
     layout = base_layout(title, row_height * n + 60, x_title="", shapes=shapes, showlegend=False, **axes)
+    if annotations:
+        layout["annotations"] = annotations
     return dict(data=data, layout=layout)
 
 

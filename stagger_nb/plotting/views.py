@@ -24,11 +24,13 @@ from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, LEGEND_ROW, METHOD_COLOURS,
 __all__ = ["pose_probability_figure", "joint_curves_figure", "falloff_figure", "warp_figure",
            "SPEED_LIMITS"]
 
+REGION_COLOUR = METHOD_COLOURS["green"]   # a magic-wand region: the Green's falloff's colour
 SPEED_LIMITS = (0.1, 10.0)   # speed axis range: tenfold slow motion to tenfold fast forward (Hsu et al. 2007, §4.3)
 
 
 def pose_probability_figure(times, probability, candidate_times, candidate_values, kept_times, kept_values, *,
-                            title: str | None = None, height: int = 240 + LEGEND_ROW, x_range=None) -> dict:
+                            title: str | None = None, height: int = 240 + LEGEND_ROW, x_range=None,
+                            region=None) -> dict:
     """Pose probability ``P(t)`` with the candidate poses and the staggered poses kept after culling.
 
     Parameters
@@ -40,8 +42,13 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
     x_range : (2,) seconds or None (the span of ``times``, else of the candidates); an editor gives all
         its time plots the same range so their playheads line up
 
+    region : (K,) in [0, 1] or None
+        The magic-wand region of a timing edit: the falloff at each kept pose (the scale of its timing offsets,
+        Dean et al. 2018 §3.3 on Coleman et al. §5.2), drawn as trace 3, a shaded step line on the same [0, 1]
+        axis.
+
     Traces: 0 ``P(t)`` line, 1 candidates (hollow circles), 2 kept poses (filled diamonds, also drawn as
-    dotted vertical lines of the same colour).
+    dotted vertical lines of the same colour), 3 the region (when given).
     """
     ct, cv = floats(candidate_times, "candidate_times"), floats(candidate_values, "candidate_values")
     kt, kv = floats(kept_times, "kept_times"), floats(kept_values, "kept_values")
@@ -61,6 +68,12 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
         dict(type="scatter", x=kt, y=kv, mode="markers", name=f"staggered poses ({len(kt)})",
              marker=dict(size=10, color=POSE_COLOUR, symbol="diamond"), cliponaxis=False),
     ]
+    if region is not None:
+        rw = floats(region, "region")
+        same_length(kept_times=kt, region=rw)
+        data.append(dict(type="scatter", x=kt, y=rw, mode="lines+markers", name="region (timing edits × weight)",
+                         line=dict(color=REGION_COLOUR, width=1.5, shape="spline"), fill="tozeroy",
+                         fillcolor="rgba(27,120,55,0.15)", marker=dict(size=5, color=REGION_COLOUR)))
     if title is None:
         title = f"pose probability P(t): {len(kt)} of {len(ct)} candidate poses kept"
     layout = base_layout(title, height, y_title="P(t)", x_range=x_range if x_range is not None else data_span(t, ct),

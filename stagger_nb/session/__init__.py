@@ -31,10 +31,12 @@ from .files import SESSION_FORMAT, SESSION_VERSION
 from .ops import OPS, Op, validate_op
 from .progress import ProgressBar, progress_bar
 from .runners import apply_pose_deltas, warp_table_key
+from .replay import ReplayError
 from .session import Session, joint_rotation_degrees
 
 __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_rotation_degrees",
-           "SESSION_FORMAT", "SESSION_VERSION", "progress_bar", "ProgressBar", "register_op", "warp_table_key"]
+           "SESSION_FORMAT", "SESSION_VERSION", "progress_bar", "ProgressBar", "register_op", "warp_table_key",
+           "ReplayError"]
 
 
 def __getattr__(attr):  # deprecated module attributes

@@ -35,6 +35,7 @@ BOUNDS = {
     "warp": 8,        # guided-warp kNN tables
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
+    "falloff": 64,    # Green's falloffs (F floats) of the pose edits and timing regions that propagate
     "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
     "positions": 4,   # forward kinematics of a source motion (keep_contacts' targets)
     "step": 512,      # (state content name, op) -> the op-prefix digest of the state it gave (strings)
@@ -46,8 +47,8 @@ BOUNDS = {
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
 BUDGETS = {"state": 384 * 2**20}
 
-QUIET = {"state", "step", "offset_basis", "positions"}  # not reported to ``busy`` (replay steps and a head about one
-# evaluate long: the replay reports its own progress)
+QUIET = {"state", "step", "offset_basis", "positions", "falloff"}  # not reported to ``busy`` (replay steps and a head about one
+# evaluate long, a falloff one row product: the replay reports its own progress)
 
 
 class Cache:

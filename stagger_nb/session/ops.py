@@ -18,17 +18,22 @@ Ops (fields; ``?`` optional, ``=`` default):
 ======================  ================================================================================
 extract                 (none)
 cull                    exactly one of ``percent`` (0, 100], ``count`` (int >= 2), ``keep`` (pose indices)
-succession              root, s, l=1.0, joints?, limit=1.5 (null: raw)   (§5.2, succession)
-random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw) (§5.2, random timing)
-exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?
+succession              root, s, l=1.0, joints?, limit=1.5 (null: raw), falloff? {frame, sigma?, frame_range?}
+                        (§5.2, succession)
+random_timing           tau >= 0, seed=0, joints?, limit=1.5 (null: raw), falloff?   (§5.2, random timing)
+exaggerate              w_r, poses?, reference="previous" (|"next"|"mean"|pose), mode="staggered", joints?,
+                        propagate=false, sigma?, frame_range?
 edit_pose               pose, deltas {joint: [rx, ry, rz] deg} | targets {joint: [x, y, z, w]},
-                        mode="staggered"|"unstaggered"               (§5.1, Fig. 6a/6b)
+                        mode="staggered"|"unstaggered", propagate=false, sigma?, frame_range?   (§5.1, Fig. 6a/6b)
 retime                  pose, time (s)                               (§5.2, Fig. 6c)
 refine                  pose, joint, time (s): one joint's knot at the refined time t_k + r[k, j]   (§3, §5.2)
 insert_pose             time (s)                                     (§5.1)
 delete_pose             pose                                         (§5.1)
 keep_contacts           (none): constraint layer with the source's contacts carried through the timing edits
-ik_pose                 pose, joint, target [x, y, z] (world units, at the pose's time)
+ik_pose                 pose, joint, target [x, y, z] (world units, at the pose's time), propagate=false,
+                        sigma?, frame_range?
+guide_poses             reference="self", keytimes?, duration? (s; default the reference's) | free_length=true,
+                        skip=8, upsample?        (pose times by the guided warp, Hsu et al. 2007 on §5.2)
 edit_frame              frame, deltas
 propagate               frame | frames, deltas (one object, or a list with one per frame), sigma?,
                         frame_range? [start, stop), repetitions="keep"|"discard"   (Dean et al. 2018)
@@ -37,6 +42,11 @@ guided_warp             duration (s) | free_length=true, skip=8, keytimes?, refe
 linear_warp             duration (s), keytimes?
 resample                frame_time (s)
 ======================  ================================================================================
+
+``propagate: true`` on a pose edit (edit_pose, exaggerate, ik_pose) spreads its change to every pose with the
+magic wand's falloff (Dean et al. 2018, §3.3) of the edited pose's source frame (``sigma``, ``frame_range`` its
+width and half-open source-frame range); ``falloff`` on a timing edit (succession, random_timing) scales each
+pose's offsets by the falloff around source frame ``frame``.
 
 This module imports no technique package: ops are plain data.
 """
@@ -54,8 +64,9 @@ from ..core.limits import MAX_TIMING_LIMIT, TIMING_LIMIT   # the one declaration
 
 __all__ = ["Op", "OPS", "op_from_json", "validate_op", "canonical", "check_extract_options", "EXTRACT_OPTIONS",
            "Extract", "Cull", "Succession", "RandomTiming", "Exaggerate", "EditPose", "Retime", "Refine", "InsertPose",
-           "DeletePose", "KeepContacts", "IKPose", "EditFrame", "Propagate", "GuidedWarp", "LinearWarp",
-           "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT", "TIMING_LIMIT"]
+           "DeletePose", "KeepContacts", "IKPose", "GuidePoses", "EditFrame", "Propagate", "GuidedWarp",
+           "LinearWarp", "Resample", "MAX_SKIP", "MAX_ITEMS", "MAX_SECONDS", "MAX_EXPONENT", "MAX_WEIGHT",
+           "MAX_DEGREES", "MAX_WORLD", "TIMING_LIMIT", "limits"]
 
 #: Every op class by its ``"op"`` name (filled by :class:`Op` subclasses as they are defined).
 OPS: dict[str, type["Op"]] = {}
@@ -70,6 +81,12 @@ MAX_ITEMS = 100_000
 MAX_SECONDS = 60.0
 MAX_EXPONENT = 10.0
 MAX_WEIGHT = 100.0
+#: Largest component of a joint rotation edit (rotation vector, degrees): one full turn about an axis; a
+#: larger value means the same rotations again, and 1e308 would overflow to NaN inside the technique.
+MAX_DEGREES = 360.0
+#: Largest coordinate of an IK target (world units of the clip: 10 km in centimetres): a target further away
+#: is no pose, and 1e308 would overflow inside the solver.
+MAX_WORLD = 1e6
 
 
 def canonical(value) -> str:
@@ -115,6 +132,7 @@ def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = 
                 hi is not None and v > hi):
             _fail(name, expected, value)
         return v
+    check.lo, check.hi, check.open_lo = lo, hi, open_lo   # read by limits()
     return check
 
 
@@ -134,6 +152,7 @@ def integer(lo: int | None = 0, hi: int | None = None) -> Callable:
                 hi is not None and value > hi):
             _fail(name, expected, value)
         return int(value)  # numpy integers become ints (JSON-serialisable)
+    check.lo, check.hi, check.open_lo = lo, hi, False
     return check
 
 
@@ -160,6 +179,7 @@ def choice(*options) -> Callable:
 def optional(inner: Callable) -> Callable:
     def check(value, name):
         return None if value is None else inner(value, name)
+    check.inner = inner
     return check
 
 
@@ -179,7 +199,6 @@ _positive = number(0.0, open_lo=True)
 _index = integer(0)
 _joints = optional(tuple_of(text, "a list of joint names"))
 _mode = choice("staggered", "unstaggered")
-_vec3 = tuple_of(_finite, "a list of 3 numbers", 3)
 
 
 def joint_map(inner: Callable, what: str) -> Callable:
@@ -202,8 +221,10 @@ def _quaternion(value, name) -> tuple:
     return q
 
 
-#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame.
-deltas = joint_map(tuple_of(_finite, "a list of 3 numbers (rotation vector, degrees)", 3), "[rx, ry, rz] degrees")
+#: ``{joint name: [rx, ry, rz]}`` rotation vectors in degrees, in each joint's local frame (each component
+#: within +-MAX_DEGREES).
+deltas = joint_map(tuple_of(number(-MAX_DEGREES, MAX_DEGREES), f"a list of 3 numbers (rotation vector, degrees, "
+                            f"each within +-{MAX_DEGREES:g})", 3), "[rx, ry, rz] degrees")
 #: ``{joint name: [x, y, z, w]}`` local rotations (non-zero quaternions).
 quaternions = joint_map(_quaternion, "[x, y, z, w]")
 
@@ -262,11 +283,56 @@ def pose_reference(value, name):
         name, '"previous", "next", "mean" or a pose index', value)
 
 
-def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None = None, omit_none: bool = False):
+def falloff_region(value, name) -> tuple:
+    """A magic-wand region ``{"frame": f, "sigma": σ (optional, > 0), "frame_range": [start, stop) (optional)}``
+    (Dean et al. 2018, §3.3: the falloff around source frame ``f``) -> ``(("frame", f), ("sigma", σ | None),
+    ("frame_range", (start, stop) | None))`` (the stored, hashable form, which is accepted again)."""
+    if isinstance(value, tuple) and all(isinstance(p, tuple) and len(p) == 2 for p in value):
+        value = dict(value)  # the stored form
+    if not isinstance(value, dict):
+        _fail(name, '{"frame": f, "sigma": s} (a source frame, an optional falloff width)', value)
+    for k in value:
+        if k not in ("frame", "sigma", "frame_range"):
+            raise ValueError(f"{name}.{k}: unknown field of a falloff region; fields are frame, sigma, frame_range")
+    if "frame" not in value:
+        raise ValueError(f"{name}.frame: required field of a falloff region is missing")
+    fr = value.get("frame_range")
+    fr = None if fr is None else frame_range(fr, f"{name}.frame_range")
+    f = _index(value["frame"], f"{name}.frame")
+    if fr is not None and not fr[0] <= f < fr[1]:
+        _fail(f"{name}.frame", f"a frame inside frame_range [{fr[0]}, {fr[1]})", value["frame"])
+    return (("frame", f), ("sigma", optional(_positive)(value.get("sigma"), f"{name}.sigma")), ("frame_range", fr))
+
+
+def _region_json(r: tuple) -> dict:
+    d = dict(r)
+    out = {"frame": d["frame"], "sigma": d["sigma"]}
+    if d["frame_range"] is not None:
+        out["frame_range"] = list(d["frame_range"])
+    return out
+
+
+def _spec(check: Callable, default=dataclasses.MISSING, to_json: Callable | None = None, omit_none: bool = False,
+          omit_default: bool = False):
     """A dataclass field checked by ``check``; ``to_json`` turns the stored value back into JSON;
     ``omit_none`` leaves the field out of :meth:`Op.to_json` while it is None (alternatives such as cull's
-    ``count``/``keep``; other optional fields are written as ``null``)."""
-    return field(default=default, metadata={"check": check, "to_json": to_json, "omit_none": omit_none})
+    ``count``/``keep``; other optional fields are written as ``null``); ``omit_default`` while it equals its
+    default (a field added to an op later, e.g. ``edit_pose.propagate``: older ops keep their JSON, their key)."""
+    return field(default=default, metadata={"check": check, "to_json": to_json, "omit_none": omit_none,
+                                            "omit_default": omit_default})
+
+
+def limits(op, field_name: str) -> tuple:
+    """``(lo, hi, open_lo)`` of the numeric field ``field_name`` of the op class ``op`` (or its name): the
+    bounds its check accepts, None where unbounded. The one definition editors and models read (e.g.
+    ``limits("random_timing", "tau")`` -> ``(0.0, 60.0, False)``)."""
+    cls = OPS[op] if isinstance(op, str) else op
+    f = {x.name: x for x in dataclasses.fields(cls)}.get(field_name)
+    check = None if f is None else f.metadata.get("check")
+    check = getattr(check, "inner", check)
+    if check is None or not hasattr(check, "lo"):
+        raise ValueError(f"field_name: {cls.name}.{field_name} is not a numeric field")
+    return check.lo, check.hi, check.open_lo
 
 
 # --------------------------------------------------------------------------------------------------
@@ -331,6 +397,8 @@ class Op:
             v = getattr(self, f.name)
             if v is None and f.metadata.get("omit_none"):
                 continue
+            if f.metadata.get("omit_default") and v == f.default:
+                continue
             conv = f.metadata.get("to_json")
             out[f.name] = conv(v) if conv is not None and v is not None else _plain(v)
         return out
@@ -361,6 +429,18 @@ def validate_op(op: Any, where: str = "op") -> dict:
 # --------------------------------------------------------------------------------------------------
 # staggered ops (Coleman et al. 2008)
 # --------------------------------------------------------------------------------------------------
+def _propagate_spec():
+    """The fields ``propagate`` (bool), ``sigma`` and ``frame_range`` of a pose edit that the magic wand
+    spreads to every similar pose (Dean et al. 2018, §3.3, on the staggered poses; issue 24)."""
+    return (_spec(boolean, False, omit_default=True), _spec(optional(_positive), None, omit_none=True),
+            _spec(optional(frame_range), None, omit_none=True))
+
+
+def _check_propagate(op) -> None:
+    if not op.propagate:
+        for f in ("sigma", "frame_range"):
+            if getattr(op, f) is not None:
+                raise ValueError(f"{f}: the falloff's {f} is read only with propagate: true")
 @dataclass(frozen=True)
 class Extract(Op):
     """The staggered-pose extraction of the current motion (§4), with the session's extract options."""
@@ -398,6 +478,7 @@ class Succession(Op):
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)  # noqa: E741 (the paper's name)
     joints: tuple | None = _spec(_joints, None)
     limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
+    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
 
 
 @dataclass(frozen=True)
@@ -410,6 +491,7 @@ class RandomTiming(Op):
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
     joints: tuple | None = _spec(_joints, None)
     limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
+    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
 
 
 @dataclass(frozen=True)
@@ -423,6 +505,18 @@ class Exaggerate(Op):
     reference: Any = _spec(pose_reference, "previous")
     mode: str = _spec(_mode, "staggered")
     joints: tuple | None = _spec(_joints, None)
+    propagate: bool
+    sigma: float | None
+    frame_range: tuple | None
+    propagate, sigma, frame_range = _propagate_spec()
+
+    def _validate(self):
+        _check_propagate(self)
+        if self.propagate and self.poses is None:
+            raise ValueError("poses: propagate spreads the exaggeration of the given poses to the similar ones; "
+                             "give poses (without them every pose is exaggerated already)")
+        if self.propagate and len(set(self.poses)) != len(self.poses):
+            raise ValueError(f"poses: a pose is repeated in {list(self.poses)}")
 
 
 @dataclass(frozen=True)
@@ -442,8 +536,13 @@ class EditPose(Op):
     deltas: tuple | None = _spec(optional(deltas), None, to_json=_deltas_json, omit_none=True)
     mode: str = _spec(_mode, "staggered")
     targets: tuple | None = _spec(optional(quaternions), None, to_json=_deltas_json, omit_none=True)
+    propagate: bool
+    sigma: float | None
+    frame_range: tuple | None
+    propagate, sigma, frame_range = _propagate_spec()
 
     def _validate(self):
+        _check_propagate(self)
         if (self.deltas is None) == (self.targets is None):
             raise ValueError(f"{'deltas' if self.deltas is None else 'targets'}: give exactly one of deltas "
                              "or targets")
@@ -507,7 +606,52 @@ class IKPose(Op):
     needs: ClassVar[str] = "staggered"
     pose: int = _spec(_index)
     joint: str = _spec(text)
-    target: tuple = _spec(_vec3)
+    target: tuple = _spec(tuple_of(number(-MAX_WORLD, MAX_WORLD), f"a list of 3 numbers (world units, each "
+                                                                 f"within +-{MAX_WORLD:g})", 3))
+    propagate: bool
+    sigma: float | None
+    frame_range: tuple | None
+    propagate, sigma, frame_range = _propagate_spec()
+
+    def _validate(self):
+        _check_propagate(self)
+
+
+def _check_free_length(op) -> None:
+    """A warp op's ``free_length`` excludes a ``duration`` and ``keytimes`` (the warp chooses its length)."""
+    if op.free_length:
+        if op.duration is not None:
+            raise ValueError("duration: free_length chooses the duration itself; leave duration out")
+        if op.keytimes:
+            raise ValueError("keytimes: need a duration (free_length chooses the output length itself)")
+
+
+@dataclass(frozen=True)
+class GuidePoses(Op):
+    """Staggered poses timed like a reference (Hsu et al. 2007 on Coleman et al. 2008): the guided time warp of
+    the motion the poses were extracted from to ``reference`` maps every pose time ``t_k``; refinements, splines
+    and displacement maps follow the poses (§5.2 retiming), so the staggering is kept and later timing edits
+    still apply. ``duration`` (seconds) is the warp's length, by default the reference's (a retimed take of the
+    same action); ``free_length`` lets the warp choose it; ``keytimes`` ``[[input_s, output_s], ...]``, ``skip``
+    and ``upsample`` as in ``guided_warp``; ``reference`` as in ``guided_warp``."""
+
+    name: ClassVar[str] = "guide_poses"
+    needs: ClassVar[str] = "staggered"
+    reference: Any = _spec(warp_reference, "self", to_json=_reference_json)
+    keytimes: tuple | None = _spec(optional(keytimes), None)
+    duration: float | None = _spec(optional(_positive), None, omit_none=True)
+    free_length: bool = _spec(boolean, False, omit_default=True)
+    skip: int = _spec(integer(1, MAX_SKIP), 8)
+    upsample: int | None = _spec(optional(integer(1, 16)), None, omit_none=True)
+
+    def _validate(self):
+        _check_free_length(self)
+
+    def warp_op(self, duration: float) -> "GuidedWarp":
+        """The ``guided_warp`` op this retiming reads its warp from (``duration``: this op's, or the default)."""
+        return GuidedWarp(duration=None if self.free_length else float(self.duration or duration),
+                          free_length=self.free_length, skip=self.skip, keytimes=self.keytimes,
+                          reference=self.reference, upsample=self.upsample)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -584,12 +728,8 @@ class GuidedWarp(Op):
     upsample: int | None = _spec(optional(integer(1, 16)), None, omit_none=True)
 
     def _validate(self):
-        if self.free_length:
-            if self.duration is not None:
-                raise ValueError("duration: free_length chooses the duration itself; leave duration out")
-            if self.keytimes:
-                raise ValueError("keytimes: need a duration (free_length chooses the output length itself)")
-        elif self.duration is None:
+        _check_free_length(self)
+        if not self.free_length and self.duration is None:
             raise ValueError("duration: required unless free_length is true")
 
 

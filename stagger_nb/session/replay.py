@@ -20,9 +20,18 @@ from typing import Any, Callable
 
 from ..core.motion import Motion
 from .ops import Op
-from .runners import RUNNERS, Heads, Run, convert
+from .runners import BATCHED, RUNNERS, Heads, Run, convert
 
-__all__ = ["Replay", "chain_keys"]
+__all__ = ["Replay", "ReplayError", "chain_keys"]
+
+
+class ReplayError(ValueError):
+    """An op that failed while replaying: ``str()`` is ``"ops[i] (name): cause"``; ``index`` is ``i``,
+    ``op`` the typed op, ``cause`` the technique's own sentence (no op index)."""
+
+    def __init__(self, index: int, op: Op, cause: str):
+        super().__init__(f"ops[{index}] ({op.name}): {cause}")
+        self.index, self.op, self.cause = index, op, cause
 
 
 class _Info:
@@ -141,13 +150,30 @@ class Replay:
             state = self.source if r == 0 else states[r - 1]
             origin = (lambda r=r, st=list(states[:r]): self._origin(ops, keys[:r], st))  # noqa: E731 (lazy)
             done = 0
-            for i in range(r, upto):
+            i = r - 1
+            while i + 1 < upto:
+                i += 1
                 if states[i] is not None:  # keep_all: a cached step past a missing one
                     state = states[i]
                     continue
                 op = ops[i]
                 if progress is not None:
                     progress(done, total, op.name)
+                # a run of ops one batched runner applies in one pass (10^5 edit_frame ops), but its last op:
+                # that one runs alone, so a change of the last op (a slider) replays one op
+                j = (self._batch_end(ops, i, upto, state) if not keep_all else i + 1) - 1
+                if j > i + 1:
+                    try:
+                        state = BATCHED[type(op)](state, ops[i:j])
+                    except ValueError as e:
+                        k = i + getattr(e, "offset", 0)
+                        raise ReplayError(k, ops[k], str(e)) from None
+                    for k in range(i, j):   # the steps are known; only the run's last state is cached
+                        info[keys[k]] = _Info(None, (), False)
+                    i, done = j - 1, done + (j - i)
+                    cache.name(state, keys[i])
+                    cache.put("state", keys[i], None, state)
+                    continue
                 # the same op on the same state (another prefix reached it: two cull percents keeping the same
                 # poses, an undo to an equal edit) is the state computed then: found by the state's content
                 # name and the op, not recomputed
@@ -167,9 +193,9 @@ class Replay:
                         run.progress = _share(progress, done, total, split, 1.0, op.name)
                         state = RUNNERS[type(op)](state, op, run)
                     except ValueError as e:
-                        raise ValueError(f"ops[{i}] ({op.name}): {e}") from None
+                        raise ReplayError(i, op, str(e)) from None
                     except ArithmeticError as e:  # e.g. a parameter so extreme that the technique divides by 0
-                        raise ValueError(f"ops[{i}] ({op.name}): {type(e).__name__}: {e}") from None
+                        raise ReplayError(i, op, f"{type(e).__name__}: {e}") from None
                     origin = run.origin_or_lazy()
                     step_info = _Info(run.warp, run.notes, not isinstance(state, Motion))
                     cache.put("step", src, op.key, keys[i])
@@ -187,6 +213,18 @@ class Replay:
             while len(info) > max(4096, 2 * len(keys)):
                 info.popitem(last=False)
             return states if keep_all else (state if upto else self.source)
+
+    @staticmethod
+    def _batch_end(ops: tuple, i: int, upto: int, state) -> int:
+        """End (exclusive) of the run of ops from ``i`` that one batched runner applies together: consecutive
+        ops of the same batchable kind on a Motion (``i + 1`` when there is no such run)."""
+        kind = type(ops[i])
+        if kind not in BATCHED or not isinstance(state, Motion):
+            return i + 1
+        j = i + 1
+        while j < upto and type(ops[j]) is kind:
+            j += 1
+        return j
 
     def _origin(self, ops, keys, states) -> Motion:
         """The Motion the staggered state after ``keys`` (prefixes of ``ops``) was extracted from (the source
@@ -212,19 +250,27 @@ class Replay:
             cache = self.heads.cache   # keyed by the state's content name: every prefix reaching it shares it
             return cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
         except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
-            raise ValueError(f"ops[{n - 1}] ({ops[n - 1].name}): evaluating the result: {e}") from None
+            raise ReplayError(n - 1, ops[n - 1], f"evaluating the result: {e}") from None
 
-    def into_cache(self, ops: tuple, report: Callable | None = None) -> None:
+    def check(self, ops: tuple, report: Callable | None = None) -> None:
         """Replay ``ops`` into the cache (each step under its op-prefix digest, and the evaluated result),
-        holding nothing. An op list that fails is skipped: the same failure is reported when a user's replay
-        reaches it."""
+        holding nothing: a later replay of ``ops`` (or of a list sharing a prefix) finds every state.
+        Raises :class:`ReplayError` naming the op that fails."""
         keys = chain_keys(ops)
         progress = None if report is None else (lambda d, t, label: report(d / t if t else 1.0))
-        try:
-            last = self.run(ops, keys, len(ops), progress=progress)
-            if keys and not isinstance(last, Motion):
-                cache = self.heads.cache
+        last = self.run(ops, keys, len(ops), progress=progress)
+        if keys and not isinstance(last, Motion):
+            cache = self.heads.cache
+            try:
                 cache.get("state", cache.token(last), "motion", lambda: convert(last, "motion", None))
+            except (ValueError, ArithmeticError) as e:
+                raise ReplayError(len(ops) - 1, ops[-1], f"evaluating the result: {e}") from None
+
+    def into_cache(self, ops: tuple, report: Callable | None = None) -> None:
+        """:meth:`check` that skips an op list that fails: the same failure is reported when a user's replay
+        reaches it."""
+        try:
+            self.check(ops, report)
         except (ValueError, ArithmeticError):
             pass
 
@@ -247,6 +293,14 @@ class Replay:
         st = self.walk(ops, j + 1)
         self._held[self._keys[j]] = st
         return st
+
+    def origin(self, ops: tuple) -> Motion:
+        """The Motion the last staggered state of the replay of ``ops`` was extracted from (the source when no
+        state is staggered)."""
+        j = self.last_staggered_index(ops)
+        if j is None:
+            return self.source
+        return self._origin(ops, self._keys[:j + 1], [None] * (j + 1))
 
     def messages(self, ops: tuple) -> list[str]:
         """The runners' notes and the timing summary of the last replay of ``ops`` ([] when the op list

@@ -15,15 +15,15 @@ from typing import Callable
 import numpy as np
 
 from ..core.kinematics import forward_kinematics
-from ..core.motion import Motion
-from ..core.rotations import quat_mul, rotvec_to_quat
+from ..core.motion import _UNIT_TOL, Motion
+from ..core.rotations import quat_mul, quat_normalize, rotvec_to_quat
 from ..core.skeleton import Skeleton
 from ..io.bvh import read_bvh
 from . import ops as O
 from .cache import Cache
 
-__all__ = ["RUNNERS", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k", "warp_table_key",
-           "MAX_WARP_RATIO"]
+__all__ = ["RUNNERS", "BATCHED", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k",
+           "warp_table_key", "pose_spread", "falloff_at_poses", "even_upsample", "MAX_WARP_RATIO"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -122,6 +122,19 @@ class Heads:
         sigma = None if sigma is None else float(sigma)
         return self.cache.get("basis", self.key(motion), sigma,
                               lambda: self.wand_graph(motion).basis(sigma))
+
+    def falloff(self, motion: Motion, frame: int, sigma: float | None, frame_range=None):
+        """The magic wand's falloff ``(F,)`` of ``motion`` around ``frame`` (Dean et al. 2018, §3.3), from the
+        cached basis of ``sigma``, once per (motion, frame, sigma, frame range): a slider that replays a
+        propagated pose edit or a timing region reads it, it does not recompute it."""
+        sigma = None if sigma is None else float(sigma)
+        fr = None if frame_range is None else (int(frame_range[0]), int(frame_range[1]))
+
+        def make():
+            w = _wand().greens_falloff(self.wand_basis(motion, sigma), int(frame), fr)
+            w.setflags(write=False)
+            return w
+        return self.cache.get("falloff", self.key(motion), (int(frame), sigma, fr), make)
 
     def reference(self, ref) -> Motion:
         """The warp reference ``ref`` (``"self"``, ``("segment", a, b)`` or ``("path", p)``) as a Motion."""
@@ -294,12 +307,71 @@ def _cull(sm, op: O.Cull, run):
     return sm
 
 
+# -- the magic wand's falloff on the staggered poses (issue 24) ---------------------------------------
+def _pose_source_frames(sm, origin: Motion) -> np.ndarray:
+    """Source frame (fractional) of every pose of ``sm``: its time in ``origin`` (the motion it was extracted
+    from, frame f at ``f * frame_time``), before any retiming (``staggered.source_pose_times``)."""
+    st = _staggered()
+    times = st.source_pose_times(sm) if hasattr(st, "source_pose_times") else np.asarray(sm.pose_times)
+    return np.asarray(times, dtype=float) / origin.frame_time
+
+
+def falloff_at_poses(sm, run, frame: int, sigma, frame_range, field: str) -> np.ndarray:
+    """The falloff of ``run.origin`` around source ``frame`` read at every pose's source time (linear between
+    frames; 0 outside ``frame_range``), shape (K,)."""
+    origin = run.origin
+    F = origin.num_frames
+    if frame_range is not None and frame_range[1] > F:
+        raise ValueError(f"{field}frame_range: [{frame_range[0]}, {frame_range[1]}) runs past the "
+                         f"{F} frames of the motion the poses were extracted from")
+    if not 0 <= frame < F:
+        raise ValueError(f"{field}frame: {frame} is outside the {F} frames of the motion the poses were "
+                         "extracted from")
+    if frame_range is not None and not frame_range[0] <= frame < frame_range[1]:
+        raise ValueError(f"{field}frame_range: the edited pose's source frame {frame} is outside "
+                         f"[{frame_range[0]}, {frame_range[1]})")
+    w = run.heads.falloff(origin, frame, sigma, frame_range)
+    return np.interp(_pose_source_frames(sm, origin), np.arange(F), w, left=0.0, right=0.0)
+
+
+def pose_spread(sm, poses, run, sigma, frame_range) -> np.ndarray:
+    """Weights ``(E, K)`` spreading the edits of ``poses`` (E pose indices) to every pose: each edited pose's
+    falloff (Dean et al. 2018, §3.3) at the poses' source times, combined as the wand combines several edits
+    (``wand.propagate_logs``, ``combine="interpolate"``): each edited pose gets exactly its own change (1 on its
+    own column, 0 on the other edited poses'), the others the falloff-weighted sum (Eq. 5 in the log map)."""
+    poses = [int(k) for k in poses]
+    frames = np.rint(_pose_source_frames(sm, run.origin)[poses]).astype(int)
+    F = run.origin.num_frames
+    frames = np.clip(frames, 0, F - 1)
+    W = np.stack([falloff_at_poses(sm, run, int(f), sigma, frame_range, "") for f in frames])
+    W[np.arange(len(poses)), poses] = 1.0          # the edited pose itself (its own frame: 1, §3.3)
+    if len(poses) > 1:
+        M = W[:, poses].T                          # M[a, e] = w_e(pose a)
+        W = np.linalg.lstsq(M, np.eye(len(poses)), rcond=1e-10)[0].T @ W
+        W[:, poses] = np.eye(len(poses))           # exactly (rounding of the solve)
+    return W
+
+
+def _timing_weights(sm, op, run):
+    """``op.falloff``'s weights at the poses, (K,), or None without a region."""
+    if op.falloff is None:
+        return None
+    r = dict(op.falloff)
+    return falloff_at_poses(sm, run, r["frame"], r["sigma"], r["frame_range"], "falloff.")
+
+
+def _weights_kw(weights) -> dict:
+    return {} if weights is None else {"weights": weights}
+
+
 def _succession(sm, op: O.Succession, run):
-    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints), limit=op.limit)
+    return _staggered().succession(sm, root=op.root, s=op.s, l=op.l, joints=_list(op.joints), limit=op.limit,
+                                   **_weights_kw(_timing_weights(sm, op, run)))
 
 
 def _random_timing(sm, op: O.RandomTiming, run):
-    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed, limit=op.limit)
+    return _staggered().random_timing(sm, joints=_list(op.joints), tau=op.tau, seed=op.seed, limit=op.limit,
+                                      **_weights_kw(_timing_weights(sm, op, run)))
 
 
 def _list(x):
@@ -311,8 +383,10 @@ def _exaggerate(sm, op: O.Exaggerate, run):
     if isinstance(op.reference, int):
         _pose(sm, op.reference, "reference")
     basis = run.heads.offset_basis(sm, run.origin)
+    spread = pose_spread(sm, poses, run, op.sigma, op.frame_range) if op.propagate else None
     return _staggered().exaggerate(sm, poses, op.w_r, reference=op.reference, mode=op.mode,
-                                   joints=_list(op.joints), **({} if basis is None else {"basis": basis}))
+                                   joints=_list(op.joints), **({} if basis is None else {"basis": basis}),
+                                   **_weights_kw(spread))
 
 
 def _radians(deltas) -> dict:
@@ -321,12 +395,13 @@ def _radians(deltas) -> dict:
 
 def _edit_pose(sm, op: O.EditPose, run):
     k = _pose(sm, op.pose)
+    kw = _weights_kw(pose_spread(sm, [k], run, op.sigma, op.frame_range)[0] if op.propagate else None)
     if op.targets is not None:
         for name, _ in op.targets:
             _joint(sm.skeleton, name, f"targets.{name}")
         return _staggered().edit_pose(sm, k, target={n: np.asarray(q, dtype=float) for n, q in op.targets},
-                                      mode=op.mode)
-    return _staggered().edit_pose(sm, k, deltas=_radians(op.deltas), mode=op.mode)
+                                      mode=op.mode, **kw)
+    return _staggered().edit_pose(sm, k, deltas=_radians(op.deltas), mode=op.mode, **kw)
 
 
 def _retime(sm, op: O.Retime, run):
@@ -358,7 +433,9 @@ def _keep_contacts(state, op: O.KeepContacts, run):
 
 
 def _ik_pose(sm, op: O.IKPose, run):
-    res = _needs("ik_pose")(sm, _pose(sm, op.pose), op.joint, np.asarray(op.target, dtype=float))
+    k = _pose(sm, op.pose)
+    kw = _weights_kw(pose_spread(sm, [k], run, op.sigma, op.frame_range)[0] if op.propagate else None)
+    res = _needs("ik_pose")(sm, k, op.joint, np.asarray(op.target, dtype=float), **kw)
     run.note(getattr(res, "message", ""))
     return res.staggered
 
@@ -367,6 +444,45 @@ def _edit_frame(m, op: O.EditFrame, run):
     f = _frame(m, op.frame)
     q = np.array(m.local_quats)
     q[f] = apply_pose_deltas(q[f], m.skeleton, op.deltas)
+    return m.replace(local_quats=q)
+
+
+def _edit_frames(m: Motion, ops) -> Motion:
+    """A run of ``edit_frame`` ops in one pass, O(F J + n) instead of O(n F J): the deltas of every op are
+    turned into quaternions at once, then applied in layers (the t-th rotation of each (frame, joint) in
+    layer t, so each joint's rotations compose in op order), each product renormalised as a Motion
+    renormalises (only what is off unit); one Motion at the end. A failing op raises ValueError with
+    ``offset``, its place in ``ops``."""
+    sk, F = m.skeleton, m.num_frames
+    rows_f, rows_j, rows_r = [], [], []
+    for k, op in enumerate(ops):
+        try:
+            f = _frame(m, op.frame)
+            for name, rv in op.deltas:
+                rows_j.append(_joint(sk, name, f"deltas.{name}"))
+                rows_f.append(f)
+                rows_r.append(rv)
+        except ValueError as e:
+            e.offset = k
+            raise
+    q = np.array(m.local_quats)
+    if not rows_f:
+        return m
+    fj = np.asarray(rows_f) * sk.num_joints + np.asarray(rows_j)
+    e = rotvec_to_quat(np.radians(np.asarray(rows_r, dtype=float)))
+    order = np.argsort(fj, kind="stable")                 # each (frame, joint)'s rows, in op order
+    sorted_fj = fj[order]
+    start = np.r_[0, np.flatnonzero(np.diff(sorted_fj)) + 1]
+    rank = np.empty(len(fj), dtype=int)
+    rank[order] = np.arange(len(fj)) - np.repeat(start, np.diff(np.r_[start, len(fj)]))
+    flat = q.reshape(F * sk.num_joints, 4)
+    for t in range(int(rank.max()) + 1):
+        idx = np.flatnonzero(rank == t)
+        row = quat_mul(flat[fj[idx]], e[idx])
+        off = np.abs(np.sqrt(np.einsum("ji,ji->j", row, row)) - 1.0) > _UNIT_TOL
+        if off.any():
+            row[off] = quat_normalize(row[off])
+        flat[fj[idx]] = row
     return m.replace(local_quats=q)
 
 
@@ -420,6 +536,58 @@ def _guided_warp(m, op: O.GuidedWarp, run):
     return out
 
 
+def even_upsample(n: int, num_frames: int, u: int, most: int = 16) -> int:
+    """The upsampling factor of a guided warp of ``n`` input frames to ``num_frames`` near the default ``u``
+    (``u - 1 .. u + 1``, at least what the length needs) whose mean step ``(n - 1) u' / (num_frames - 1)``
+    upsampled frames per output frame is nearest a whole number: the search's speeds are multiples of ``1 / u'``,
+    so a reference timed uniformly (a take played 1.5x slower) is followed at one speed instead of alternating
+    two (measured on CMU 131_01, 994 frames to 1491: ``u = 4`` plays 0.75x for 18 s, then 0.25x; ``u = 3``
+    plays 0.667x throughout, pose spacings 1.49-1.56x). Ties go to the default."""
+    need = max(1, -(-(num_frames - 1) // (n - 1)))
+
+    def off(c):  # distance of the mean step from a whole number of upsampled frames
+        step = (n - 1) * c / (num_frames - 1)
+        return abs(step - round(step))
+    best = min(range(max(need, u - 1), min(most, u + 1) + 1), key=lambda c: (round(off(c), 9), c != u, c))
+    if num_frames == n:
+        best = max(best, 2)        # same duration: without upsampling the only warp is the identity (§3.1)
+    return best
+
+
+def _guide_poses(sm, op: O.GuidePoses, run):
+    """The pose times ``t_k`` of ``sm`` mapped through the guided warp of ``run.origin`` (the motion the poses
+    were extracted from) to the reference: ``t̂_k = W⁻¹(t_k)`` with ``W`` the warp (output time -> input time,
+    Hsu et al. 2007), then ``staggered.retime`` (§5.2): refinements, splines and displacement maps follow."""
+    tw = _timewarp()
+    origin = run.origin
+    reference = run.heads.reference(op.reference)
+    wop = op.warp_op(reference.duration)
+    n, u = warp_size(origin, wop)
+    if n is not None and op.upsample is None:
+        u = even_upsample(origin.num_frames, n, u)
+    k = warp_k(n)
+    p = run.progress
+    tables = run.heads.warp_tables(origin, wop.reference, wop.skip, u, False, k,
+                                   None if p is None else (lambda f: p(0.9 * f)))
+    _, warp = tw.guided_warp(origin, tables.reference, n, skip=wop.skip, keytimes=_pairs(wop.keytimes),
+                             upsample=u, k=k, tables=tables, progress=p)
+    run.warp = warp
+    t = np.asarray(sm.pose_times, dtype=float)
+    end = origin.duration
+    if t[-1] > end + 1e-9 or t[0] < -1e-9:
+        raise ValueError(f"the pose times run over [{t[0]:g}, {t[-1]:g}] s, outside the {end:g} s the warp maps "
+                         "(an op before this one stretched them; guide the poses before retiming them)")
+    xs, inverse = np.unique(np.maximum.accumulate(warp), return_inverse=True)
+    out_times = np.arange(warp.size) * origin.frame_time
+    ys = np.bincount(inverse, out_times) / np.bincount(inverse)   # a pause in the warp: its middle
+    new = np.interp(t, xs, ys)
+    if not np.all(np.diff(new) > 0):
+        bad = int(np.argmin(np.diff(new)))
+        raise ValueError(f"the warp plays poses {bad} and {bad + 1} at the same time ({new[bad]:.4f} s); "
+                         "a smaller skip or more keytimes keep them apart")
+    return _staggered().retime(sm, new)
+
+
 def _pairs(keytimes):
     return None if keytimes is None else [list(p) for p in keytimes]
 
@@ -441,8 +609,12 @@ def _resample(m, op: O.Resample, run):
 RUNNERS: dict[type, Callable] = {
     O.Extract: _extract, O.Cull: _cull, O.Succession: _succession, O.RandomTiming: _random_timing,
     O.Exaggerate: _exaggerate, O.EditPose: _edit_pose, O.Retime: _retime, O.Refine: _refine,
-    O.InsertPose: _insert_pose,
-    O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose,
+    O.InsertPose: _insert_pose, O.DeletePose: _delete_pose, O.KeepContacts: _keep_contacts, O.IKPose: _ik_pose,
+    O.GuidePoses: _guide_poses,
     O.EditFrame: _edit_frame, O.Propagate: _propagate, O.GuidedWarp: _guided_warp,
     O.LinearWarp: _linear_warp, O.Resample: _resample,
 }
+
+#: Runners over a run of consecutive ops of one kind on a Motion, ``(motion, ops) -> motion``: the replay uses
+#: them for runs of two or more (a session of 10^5 ``edit_frame`` ops replays in seconds, not a minute).
+BATCHED: dict[type, Callable] = {O.EditFrame: _edit_frames}

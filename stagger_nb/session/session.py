@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import weakref
 from concurrent.futures import Future
 from typing import Any, Callable
 
@@ -76,6 +77,7 @@ class Session:
         self._history = History(self._typed_list(ops or [], "ops"), owner=self)
         self._replay = Replay(self._ctx, source)
         self._worker = Worker()
+        weakref.finalize(self, self._worker.stop)   # a dropped session leaves no thread behind
 
     @classmethod
     def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
@@ -111,6 +113,15 @@ class Session:
     def set_ops(self, ops) -> bool:
         """Replace the whole op list (one undo step); returns False when nothing changed."""
         return self._history.commit(self._typed_list(ops, "ops"))
+
+    def check_ops(self, ops) -> None:
+        """Replay the op list ``ops`` without changing the session (op list, history, observers): ValueError
+        naming the field of a malformed op, :class:`~.replay.ReplayError` (a ValueError with ``index``,
+        ``op`` and ``cause``) naming the op that fails at replay. What it computes is cached, so
+        ``set_ops(ops)`` then ``edited()`` replays nothing (an editor tries a change this way first)."""
+        typed = self._typed_list(ops, "ops")
+        with self._worker.foreground():   # the warm-up gives way (session/warm.py)
+            self._replay.check(typed)
 
     def add(self, op) -> bool:
         """Append one op."""
@@ -167,6 +178,9 @@ class Session:
         ``"graph"``, ``"basis"``, ``"warp"``, ``"reference"``), e.g. to show a progress bar. Called from the
         computing thread (the :meth:`warm` worker included)."""
         self._busy_listeners.append(listener)
+
+    def unobserve_busy(self, listener: Callable) -> None:
+        self._busy_listeners = [f for f in self._busy_listeners if f != listener]
 
     def _busy(self, kind: str, started: bool) -> None:
         for f in list(self._busy_listeners):
@@ -259,6 +273,11 @@ class Session:
         """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
         return self._ctx.wand_basis(self.source if motion is None else motion, sigma)
 
+    def positions(self, motion: Motion | None = None) -> np.ndarray:
+        """World joint positions ``(F, J, 3)`` of ``motion`` (default: the source), ``forward_kinematics``
+        computed once per motion and kept in the session's cache (read-only)."""
+        return self._ctx.positions(self.source if motion is None else motion)
+
     def wand_graph(self, motion: Motion | None = None):
         """The (cached) sigma-independent pose graph of ``motion`` (default: the source)."""
         return self._ctx.wand_graph(self.source if motion is None else motion)
@@ -290,6 +309,18 @@ class Session:
             key = (name, f, sg, fr, spline_extent if name == "spline" else None)
             out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
         return out
+
+    def pose_falloff(self, frame: int, sigma: float | None = None, frame_range=None):
+        """The magic wand's falloff around source ``frame`` (Dean et al. 2018, §3.3; the cached basis of ``sigma``)
+        read at every pose of :meth:`staggered` at its source time, shape (K,): the weight a timing edit with
+        ``"falloff": {"frame": frame, "sigma": sigma}`` gives each pose's offsets (a region of the clip), and the
+        share a propagated pose edit at that frame's pose gives it. ``frame`` indexes the motion the poses were
+        extracted from (the source, unless a motion op comes first)."""
+        from .runners import Run, falloff_at_poses
+        sm = self.staggered()
+        fr = None if frame_range is None else tuple(int(x) for x in frame_range)
+        run = Run(self._ctx, self._replay.origin(self._history.ops))
+        return falloff_at_poses(sm, run, int(frame), None if sigma is None else float(sigma), fr, "")
 
     # -- background cache fills --------------------------------------------------------------------
     def warm(self, *jobs, progress: Callable | None = None) -> Future:
@@ -324,12 +355,13 @@ class Session:
         return self._worker.submit(warm_items(self, jobs), progress)
 
     def close(self, wait: bool = False) -> None:
-        """Cancel pending warm-ups (each stops before its next item); with ``wait``, also wait until the
-        item running now has finished (the worker is then idle: e.g. before timing something else in this
-        process, whose CPU time would otherwise include it)."""
-        self._worker.cancel_all()
+        """Cancel pending warm-ups (each stops before its next item) and end the warm-up thread after the item
+        running now; with ``wait``, also wait until it has ended (e.g. before timing something else in this
+        process, whose CPU time would otherwise include it). The session stays usable: a later :meth:`warm`
+        starts a new thread. A session that is garbage-collected is closed the same way."""
+        self._worker.stop()
         if wait:
-            self._worker.submit([]).result()   # runs after the cancelled lists have stopped
+            self._worker.join()
 
     # -- files -------------------------------------------------------------------------------------
     def to_json(self, embed_source: bool | None = None) -> dict:

@@ -21,15 +21,19 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["Worker", "IDLE_S", "warm_items"]
+__all__ = ["Worker", "IDLE_S", "LINGER_S", "warm_items"]
 
 #: Seconds the warm-up waits after the last foreground replay before its next item (a slider being dragged
 #: sends a value every ~50-100 ms: the warm-up resumes when the user pauses).
 IDLE_S = 0.15
+#: Seconds the worker thread waits for more work once its queue is empty before it ends (the next
+#: :meth:`Worker.submit` starts a new one): a session nobody warms any more holds no thread.
+LINGER_S = 2.0
 
 
 class Worker:
-    """One daemon thread running job lists in submission order (started on first use)."""
+    """One daemon thread running job lists in submission order, started on first use and ended when it has
+    had nothing to do for :data:`LINGER_S` or when :meth:`stop` is called."""
 
     def __init__(self, name: str = "stagger_nb-warm"):
         self._name = name
@@ -79,10 +83,10 @@ class Worker:
         fut: Future = Future()
         with self._lock:
             self._futures = [f for f in self._futures if not f.done()] + [fut]
+            self._queue.put((fut, list(items), progress))
             if self._thread is None:
                 self._thread = threading.Thread(target=self._loop, name=self._name, daemon=True)
                 self._thread.start()
-        self._queue.put((fut, list(items), progress))
         return fut
 
     def cancel_all(self) -> None:
@@ -92,9 +96,41 @@ class Worker:
         for f in futures:
             f.cancel()
 
+    def stop(self) -> None:
+        """Cancel everything and let the thread end after the item running now (a later :meth:`submit`
+        starts a new thread)."""
+        self.cancel_all()
+        with self._lock:
+            if self._thread is not None:
+                self._queue.put(None)
+        with self._gate:
+            self._gate.notify_all()   # a thread waiting for the user to pause sees its future cancelled
+
+    def join(self, timeout: float | None = None) -> None:
+        """Wait until the thread has ended (after :meth:`stop`; not from the worker's own thread)."""
+        t = self._thread
+        if t is not None and t is not threading.current_thread():
+            t.join(timeout)
+
+    @property
+    def alive(self) -> bool:
+        """Whether the worker's thread is running now."""
+        t = self._thread
+        return t is not None and t.is_alive()
+
     def _loop(self) -> None:
         while True:
-            fut, items, progress = self._queue.get()
+            try:
+                job = self._queue.get(timeout=LINGER_S)
+            except queue.Empty:
+                job = None
+            if job is None:
+                with self._lock:   # submit() puts under this lock: nothing can slip in between
+                    if self._queue.empty():
+                        self._thread = None
+                        return
+                continue
+            fut, items, progress = job
             _run(fut, items, progress, self._wait_for_idle)
 
 

@@ -40,19 +40,19 @@ from .evaluation import evaluate, evaluate_arrays
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
 from .features import motion_trail_curvature
 from .fitting import fit_staggered
-from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset_basis
+from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset_basis, spread_offsets
 from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
 from .representation import StaggeredMotion, knot_times
 from .structure import delete_pose, insert_pose
-from .timing import (TIMING_LIMIT, random_timing, refine, retime, saturate_offsets, source_knot_times, succession,
-                     warp_times)
+from .timing import (TIMING_LIMIT, random_timing, refine, retime, saturate_offsets, source_knot_times,
+                     source_pose_times, succession, warp_times)
 from .timing_report import TimingWarning, body_part, summarize_timing_warnings, timing_summary, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",
            "locate_poses", "PoseEvidence", "pose_priorities", "motion_trail_curvature", "fit_staggered",
            "evaluate_arrays", "knot_times",
            "TimingWarning", "timing_warnings", "summarize_timing_warnings", "timing_summary", "body_part",
-           "saturate_offsets", "TIMING_LIMIT", "source_knot_times", "warp_times",
+           "saturate_offsets", "TIMING_LIMIT", "source_knot_times", "source_pose_times", "warp_times", "spread_offsets",
            "edit_pose", "exaggerate", "OffsetBasis", "pose_offset_basis", "retime", "refine", "succession",
            "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik",

@@ -150,3 +150,23 @@ def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, n
         q[jj] = v
         given |= jj
     return q, given
+
+
+def _pose_weights(sm: StaggeredMotion, weights, name: str = "weights", rows: int | None = None) -> np.ndarray | None:
+    """Per-pose weights as a float array: shape (K,) (``rows`` None) or (rows, K) (a (K,) array is accepted for
+    one row), every entry finite; None passes through."""
+    if weights is None:
+        return None
+    K = sm.num_poses
+    try:
+        w = np.array(weights, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of numbers, one per pose, got {type(weights).__name__}") from None
+    want = (K,) if rows is None else (rows, K)
+    if rows is not None and w.shape == (K,) and rows == 1:
+        w = w[None]
+    if w.shape != want:
+        raise ValueError(f"{name} must have shape {want} (one weight per pose), got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError(f"{name} must be finite")
+    return w

@@ -15,6 +15,8 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "../_carray.h" /* get_array, mul_ok: arguments checked before they are indexed */
+
 #define MIN_ARC 1e-8
 
 typedef struct {
@@ -229,27 +231,50 @@ static void block(int stage, const poly_t *P, const double *ctrl, const double *
 
 static PyObject *rotations_block(PyObject *Py_UNUSED(self), PyObject *args)
 {
-    Py_buffer ctrl, arcp, table, counts, idx, t, out, work, taylor, limits;
+    Py_buffer ctrl = {0}, arcp = {0}, table = {0}, counts = {0}, idx = {0}, t = {0}, out = {0}, work = {0},
+              taylor = {0}, limits = {0};
+    PyObject *o[10];
     Py_ssize_t M, so;
     int stage;
     PyObject *result = NULL;
-    if (!PyArg_ParseTuple(args, "iy*y*y*y*ny*y*w*nw*y*y*", &stage, &ctrl, &arcp, &table, &counts, &M, &idx, &t,
-                          &out, &so, &work, &taylor, &limits))
+    if (!PyArg_ParseTuple(args, "iOOOOnOOOnOOO", &stage, &o[0], &o[1], &o[2], &o[3], &M, &o[4], &o[5], &o[6], &so,
+                          &o[7], &o[8], &o[9]))
         return NULL;
-    Py_ssize_t np_ = ctrl.len / 128, n = t.len / 8;
-    if (ctrl.len != 16 * 8 * np_ || counts.len != 8 * np_ || arcp.len != 9 * 8 * np_ || table.len != 3 * 8 * np_ * M ||
-        idx.len != n * 8 || work.len < SCRATCH_ROWS * 8 * n || taylor.len != 80 || limits.len != 72 ||
-        (M < 2 && M != 0) || so < n || (n && out.len < (3 * so + n) * 8)) {
-        PyErr_SetString(PyExc_ValueError, "rotations_block: buffer sizes do not match (16, P), (9, P), (3, P * M), "
-                                          "P counts, n idx / t, out rows of stride so, 56 n of scratch (M = 0: "
-                                          "no displacement, the spline renormalised)");
+    Py_buffer *views[10] = {&ctrl, &arcp, &table, &counts, &idx, &t, &out, &work, &taylor, &limits};
+    static const char *names[10] = {"rotations_block: ctrl", "rotations_block: arcp", "rotations_block: table",
+                                    "rotations_block: counts", "rotations_block: idx", "rotations_block: t",
+                                    "rotations_block: out", "rotations_block: work", "rotations_block: taylor",
+                                    "rotations_block: limits"};
+    for (int k = 0; k < 10; ++k)
+        if (get_array(o[k], views[k], k == 6 || k == 7, (k == 3 || k == 4) ? 'i' : 'f', names[k]) < 0) goto done;
+    Py_ssize_t np_ = ctrl.len / 128, n = t.len / 8, table_len = 0, work_len = 0, out_len = 0;
+    /* every size the kernel indexes, computed without overflow: (3, P * M) table, 56 n scratch, 4 out rows of
+       stride so (the last sample at 3 so + n - 1) */
+    int ok = stage >= 0 && stage <= 3 && (M == 0 || M >= 2) && ctrl.len == 128 * np_ && counts.len == 8 * np_ &&
+             arcp.len == 72 * np_ && mul_ok(np_, M, &table_len) && mul_ok(table_len, 24, &table_len) &&
+             table.len == table_len && t.len == 8 * n && idx.len == t.len && mul_ok(n, 8 * SCRATCH_ROWS, &work_len) &&
+             work.len >= work_len && taylor.len == 80 && limits.len == 72 && so >= n;
+    if (ok && n) ok = mul_ok(so, 3, &out_len) && out_len <= PY_SSIZE_T_MAX - n && mul_ok(out_len + n, 8, &out_len) &&
+                      out.len >= out_len;
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "rotations_block: stage 0..3, and buffer sizes (16, P), (9, P), (3, P * M), "
+                                          "P counts, n idx / t, out rows of stride so >= n, 56 n of scratch (M = 0: "
+                                          "no displacement, the spline renormalised; else M >= 2)");
         goto done;
     }
     const int64_t *ix = (const int64_t *)idx.buf, *cn = (const int64_t *)counts.buf;
+    const double *tt = (const double *)t.buf;
     for (Py_ssize_t i = 0; i < n; ++i) {
         if (ix[i] < 0 || ix[i] >= np_ || (M && (cn[ix[i]] < 2 || cn[ix[i]] > M))) {
             PyErr_Format(PyExc_ValueError, "rotations_block: sample %zd: pair %lld outside [0, %zd) or its "
                                            "count outside [2, M]", i, (long long)ix[i], np_);
+            goto done;
+        }
+        /* the displacement row index: (int64)(t (count - 1)) must be a valid, non-negative conversion (the
+           kernel clamps it above at count - 2); NaN fails both tests */
+        double u = tt[i] * (double)(cn[ix[i]] - 1);
+        if (M && !(u > -1.0 && u < 4611686018427387904.0)) {
+            PyErr_Format(PyExc_ValueError, "rotations_block: sample %zd: t outside the segment (or not finite)", i);
             goto done;
         }
     }
@@ -276,7 +301,7 @@ done:
 static PyMethodDef methods[] = {
     {"rotations_block", rotations_block, METH_VARARGS,
      "rotations_block(stage, ctrl, arcp, table, counts, M, idx, t, out, so, work, taylor, limits)\n\n"
-     "Stage 0..3 of representation._rotations_block into out (4 rows of stride so); between stages the\n"
+     "Stage 0..3 of evaluation._rotations_block into out (4 rows of stride so); between stages the\n"
      "caller writes work row 46 (theta) = numpy.arccos(work row 47) (see _kernels.rotations_block_c)."},
     {NULL, NULL, 0, NULL}};
 

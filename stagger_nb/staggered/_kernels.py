@@ -75,7 +75,7 @@ def accelerated() -> bool:
 
 
 def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, work: "Workspace") -> bool:
-    """``representation._rotations_block`` in C (``_cspline.c``: the same operations in the same order, so
+    """``evaluation._rotations_block`` in C (``_cspline.c``: the same operations in the same order, so
     the same bits, in one loop per level instead of one numpy pass per operation) into ``out[:, s0:s0 + n]``
     of a C-contiguous ``out (4, N)``. ``ctrl (16, P)``, ``arcp (9, P)``, ``table (3, P * M)`` float64 and
     ``counts (P,)``, ``idx (n,)`` int64 contiguous, ``t (n,)``; ``M = 0`` (``table`` empty, ``counts`` any

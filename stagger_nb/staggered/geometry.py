@@ -19,14 +19,14 @@ import numpy as np
 
 from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul
 from . import _kernels as kern
-from ._checks import _IDENTITY, _check, _finite, _joint_mask, _pose_index, _rotation_table
+from ._checks import _IDENTITY, _check, _finite, _joint_mask, _pose_index, _pose_weights, _rotation_table
 from .channel import ROTATION, Channel
 from .displacement import _grid, _put_rows, measure
 from .evaluation import _rotations_at, channel_at, static_rotations
 from .representation import StaggeredMotion, knot_times
 from .timing import _refresh
 
-__all__ = ["edit_pose", "exaggerate", "mean_pose", "OffsetBasis", "pose_offset_basis"]
+__all__ = ["edit_pose", "exaggerate", "mean_pose", "OffsetBasis", "pose_offset_basis", "spread_offsets"]
 
 
 
@@ -128,7 +128,7 @@ def pose_offset_basis(sm: StaggeredMotion, reproduced=None) -> OffsetBasis:
     """The offset-independent half of re-measuring every displacement map of ``sm`` (see
     :class:`OffsetBasis`): ``exaggerate(sm, ..., basis=pose_offset_basis(sm))`` equals ``exaggerate(sm, ...)``
     to rounding (~1e-16 rad). Cost: about one :func:`evaluate`; memory ~100 bytes
-    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.representation.
+    per grid sample (``(F + K) J`` samples at extraction). Static joints (:func:`~.evaluation.
     static_rotations`) are left out: an edit that moves one re-measures without the basis.
 
     ``reproduced``: a Motion ``sm`` reproduces at its frames (frame f at ``f * frame_time`` seconds), e.g. the
@@ -222,8 +222,29 @@ def _offset_channel(sm: StaggeredMotion, ch: Channel, d, gen, moved, basis):
                           displacements=_put_rows(ch.displacements, (seg, col), rows))
 
 
+def spread_offsets(offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Knot offsets of every pose from the offsets of E edited poses spread by per-pose weights.
+
+    ``offsets (E, J, 4)`` quaternions ``δ_e``, ``weights (E, K)``; pose ``j`` gets ``exp(Σ_e w[e, j] log δ_e)``
+    (log maps in each joint's local frame, hemisphere-canonical: Eq. 5 of Dean et al. 2018, §3.3, on the
+    staggered knots instead of the frames). A pose whose column is one edit's weight exactly 1 and the others' 0
+    gets that ``δ_e`` itself (bit-identical to the edit without spreading); a column of zeros, the identity.
+    Returns ``(K, J, 4)``."""
+    offsets = np.asarray(offsets, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    logs = quat_log(quat_hemisphere(offsets))                         # (E, J, 3)
+    table = quat_exp(np.einsum("ek,ejc->kjc", w, logs))
+    nz = w != 0
+    one = (nz.sum(axis=0) == 1) & np.any(w == 1.0, axis=0)            # poses that get one δ_e exactly
+    if one.any():
+        e = np.argmax(w == 1.0, axis=0)
+        table[one] = offsets[e[one]]
+    table[~nz.any(axis=0)] = _IDENTITY
+    return table
+
+
 def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: str = "staggered",
-              joints=None, root_offset=None) -> StaggeredMotion:
+              joints=None, root_offset=None, weights=None) -> StaggeredMotion:
     """Geometric pose edit of pose ``k`` (§5.1, Figure 6a/b).
 
     Parameters
@@ -245,10 +266,18 @@ def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: st
         Partial pose: only these joints are edited (default: every joint named in ``deltas``/``target``).
     root_offset : [dx, dy, dz], optional
         Change of the root translation knot (file units), with the same plateau treatment.
+    weights : array_like (K,), optional
+        Propagate the same change to every pose ``j`` with weight ``weights[j]``: ``v̂_j = v_j ⊕ exp(w_j log δ)``
+        (and ``v̂⁰_j`` alike; the root offset scaled by ``w_j``), each in that pose's own knots, so every pose keeps
+        its staggering and detail. E.g. the magic-wand falloff of pose ``k`` read at the pose times (Dean et al.
+        2018, §3.3: one nudge of one step of a walk changes every step); ``weights[k] = 1`` gives pose ``k`` the
+        edit itself (bit-identical to the edit without ``weights`` when every other weight is 0). ``δ`` is found
+        at pose ``k`` (``target`` is pose ``k``'s new value).
 
     Returns
     -------
-    StaggeredMotion; motion outside ``(T[k-1, i], T[k+1, i])`` is unchanged for every joint ``i``.
+    StaggeredMotion; without ``weights``, motion outside ``(T[k-1, i], T[k+1, i])`` is unchanged for every
+    joint ``i``.
     """
     _check(sm)
     k = _pose_index(sm, k)
@@ -268,15 +297,17 @@ def edit_pose(sm: StaggeredMotion, k: int, deltas=None, *, target=None, mode: st
         d = np.where(given[:, None], quat_mul(quat_conj(base), tq), _IDENTITY)
     mask = _joint_mask(sm, joints)
     d = np.where(mask[:, None], d, _IDENTITY)
-    full = np.tile(_IDENTITY, (sm.num_poses, J, 1))
-    full[k] = d
+    w = _pose_weights(sm, weights)
+    if w is None:
+        w = np.zeros(sm.num_poses)
+        w[k] = 1.0
+    full = spread_offsets(d[None], w[None])
     rd = None
     if root_offset is not None:
         ro = np.asarray(root_offset, dtype=float).reshape(-1)
         if ro.shape != (3,) or not np.all(np.isfinite(ro)):
             raise ValueError(f"root_offset must be 3 finite numbers, got {root_offset!r}")
-        rd = np.zeros((sm.num_poses, 3))
-        rd[k] = ro
+        rd = w[:, None] * ro[None]
     return _apply_pose_offsets(sm, full, rd)
 
 
@@ -290,7 +321,7 @@ def mean_pose(quats: np.ndarray) -> np.ndarray:
 
 
 def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode: str = "staggered",
-               joints=None, basis: OffsetBasis | None = None) -> StaggeredMotion:
+               joints=None, basis: OffsetBasis | None = None, weights=None) -> StaggeredMotion:
     """Relative exaggeration ``v̂ = v ⊕ w_r (v ⊖ vʳ)`` of pose(s) ``k`` (§5.1).
 
     Parameters
@@ -313,6 +344,10 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
         ``reference``, ``mode`` or ``joints``); used when the edit moves at least half of the (segment, joint)
         pairs (e.g. every pose), where it saves a quarter to a third of the work; the same result to rounding.
         A basis of another motion is a ValueError.
+    weights : array_like (E, K) (or (K,) for one pose), optional
+        Propagate the offsets ``δ_e`` of the E poses ``k`` to every pose: pose ``j`` gets
+        ``exp(Σ_e weights[e, j] log δ_e)`` (:func:`spread_offsets`), e.g. each pose's magic-wand falloff read at
+        the pose times (Dean et al. 2018, §3.3). Without it each pose in ``k`` gets its own offset, the others none.
     """
     _check(sm)
     w_r = _finite(w_r, "w_r")
@@ -323,6 +358,7 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
         raise ValueError(f"mode must be 'staggered' or 'unstaggered', got {mode!r}")
     ks = [k] if isinstance(k, (int, np.integer)) else list(k)
     ks = [_pose_index(sm, kk) for kk in ks]
+    spread = _pose_weights(sm, weights, rows=len(ks))
     vals = sm.editing_knots if mode == "staggered" else sm.values
     K, J = sm.num_poses, sm.num_joints
     mask = _joint_mask(sm, joints)
@@ -347,4 +383,6 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
         off = quat_hemisphere(quat_mul(quat_conj(ref), vals[kk]))           # v ⊖ vʳ
         delta = quat_exp(w_r * quat_log(off))                                # rotation scale
         full[kk] = np.where(mask[:, None], delta, _IDENTITY)
+    if spread is not None:
+        full = spread_offsets(full[ks], spread)
     return _apply_pose_offsets(sm, full, basis=basis)

@@ -19,9 +19,9 @@ import numpy as np
 
 from ..core.kinematics import forward_kinematics, skeleton_height
 from ..core.rotations import quat_conj, quat_exp, quat_mul, quat_rotate, rotvec_to_quat
-from ._checks import _finite, _pose_index
+from ._checks import _finite, _pose_index, _pose_weights
 from .evaluation import evaluate
-from .geometry import edit_pose
+from .geometry import _apply_pose_offsets, edit_pose, spread_offsets
 from .limbs import _limb
 from .representation import StaggeredMotion
 
@@ -263,7 +263,7 @@ def _parse_chain(sm: StaggeredMotion, joint, chain):
 
 
 def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: float | None = None,
-            damping: float | None = None) -> IKPoseResult:
+            damping: float | None = None, weights=None) -> IKPoseResult:
     """Move an end effector to a world ``target`` at pose ``pose``'s time and record it as a pose edit.
 
     Parameters
@@ -284,6 +284,11 @@ def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: 
         1.7 m body in cm, 0.14 mm on a CMU skeleton).
     damping : float, optional
         Damped least squares λ as a fraction of the chain length (default 0.05); unused by two-bone.
+    weights : array_like (K,), optional
+        Propagate the limb's change to the other poses: pose ``j != k`` gets ``exp(weights[j] log δ)`` of the
+        offset ``δ = v_k⁻¹ v̂_k`` the solve gave each limb joint at pose ``k``, in its own knots (as
+        :func:`~.geometry.edit_pose` with ``weights``; ``weights[k]`` is not read: pose ``k`` keeps its solve). The
+        effectors of the other poses move with their limbs, they are not solved for the target.
 
     Returns
     -------
@@ -294,6 +299,7 @@ def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: 
     if not isinstance(sm, StaggeredMotion):
         raise ValueError(f"sm must be a StaggeredMotion, got {type(sm).__name__}")
     k = _pose_index(sm, pose, "pose")
+    spread = _pose_weights(sm, weights)
     tgt = np.asarray(target, dtype=float).reshape(-1)
     if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
         raise ValueError(f"target must be 3 finite numbers (world x, y, z), got {target!r}")
@@ -326,6 +332,12 @@ def ik_pose(sm: StaggeredMotion, pose, joint, target, *, chain=None, tolerance: 
                 out, error = trial, e
             break
         out, error = trial, e
+    if spread is not None and out is not sm:
+        rest = np.array(spread)
+        rest[k] = 0.0                  # pose k keeps its solve; the others get their share of its change
+        delta = quat_mul(quat_conj(sm.values[k]), out.values[k])
+        out = _apply_pose_offsets(out, spread_offsets(delta[None], rest[None]))
+        error = miss(out)              # (the neighbours' ramps end at pose k's plateau: t_k keeps the solve)
     pos = forward_kinematics(evaluate(out, [tk]))[0][0]
     reached = error <= tol
     message = ""

@@ -12,7 +12,7 @@ from .channel import Channel
 from .displacement import _counts_for, _put_rows, measure
 from .evaluation import channel_at_times, evaluate_samples, translation_source_times
 from .representation import StaggeredMotion
-from .timing import _refresh, source_knot_times, warp_times
+from .timing import _refresh, source_knot_times, source_pose_times, warp_times
 
 __all__ = ["insert_pose", "delete_pose"]
 
@@ -76,7 +76,9 @@ def insert_pose(sm: StaggeredMotion, t: float) -> StaggeredMotion:
         tt = np.insert(tt, k + 1, translation_source_times(sm, new_knots[1])[0])
     src = source_knot_times(sm)          # the new knots' source times: through each variable's warp
     new_src = [warp_times(sm, [x], c, inverse=True)[0] for c, x in enumerate(np.concatenate(new_knots))]
-    return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), translation_times=tt,
+    sp = source_pose_times(sm)           # the new pose's source time: linear between its neighbours'
+    sp = np.insert(sp, k + 1, np.interp(t, sm.pose_times, sp))
+    return _refresh(sm, source_knots=np.insert(src, k + 1, new_src, axis=0), source_poses=sp, translation_times=tt,
                     pose_times=pose_times, rotations=channels[0], translation=channels[1],
                     editing_knots=np.insert(sm.editing_knots, k + 1, v0_t, axis=0),
                     pose_probability=np.insert(sm.pose_probability, k + 1, 0.0))
@@ -113,7 +115,8 @@ def delete_pose(sm: StaggeredMotion, k: int) -> StaggeredMotion:
         disp = _put_rows(np.delete(ch.displacements, k, axis=0), (seg, cols), rows)
         channels.append(Channel(ch.algebra, values, tangents, refinements, disp, dcounts))
     tt = None if sm.translation_times is None else np.delete(sm.translation_times, k)
-    return _refresh(sm, source_knots=np.delete(source_knot_times(sm), k, axis=0), pose_times=pose_times,
+    return _refresh(sm, source_knots=np.delete(source_knot_times(sm), k, axis=0),
+                    source_poses=np.delete(source_pose_times(sm), k), pose_times=pose_times,
                     rotations=channels[0], translation=channels[1],
                     editing_knots=np.delete(sm.editing_knots, k, axis=0), translation_times=tt,
                     pose_probability=np.delete(sm.pose_probability, k))

@@ -20,14 +20,14 @@ import weakref
 import numpy as np
 
 from ..core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT
-from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask
+from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask, _pose_weights
 from .evaluation import evaluate_samples
 from .representation import StaggeredMotion
 from . import timing_report
 from .timing_report import _LazyWarnings
 
-__all__ = ["succession", "random_timing", "retime", "refine", "source_knot_times", "warp_times", "inside_ends",
-           "MAX_TAU", "TIMING_LIMIT", "saturate_offsets"]
+__all__ = ["succession", "random_timing", "retime", "refine", "source_knot_times", "source_pose_times", "warp_times",
+           "inside_ends", "MAX_TAU", "TIMING_LIMIT", "saturate_offsets"]
 
 
 def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
@@ -57,6 +57,36 @@ def source_knot_times(sm: StaggeredMotion) -> np.ndarray:
             if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
                 return rec[row]
     return np.concatenate([ch.knots(sm.pose_times) for ch in sm.channels], axis=1)
+
+
+def _recorded_rows(sm: StaggeredMotion, rec: np.ndarray) -> np.ndarray | None:
+    """The rows of a per-pose record ``rec (K0, ...)`` that belong to ``sm``'s poses (the record's own poses
+    are ``metadata["source_knots_pose_times"]``; a cull since keeps a subset of them at their times), or None
+    when the record does not fit ``sm``'s poses."""
+    K = sm.num_poses
+    at = np.asarray(sm.metadata.get("source_knots_pose_times", ()), dtype=float)
+    if rec.shape[0] == K and (at.shape != (K,) or np.allclose(at, sm.pose_times, rtol=0, atol=1e-9)):
+        return rec
+    if at.shape == (rec.shape[0],) and at.size:
+        row = np.clip(np.searchsorted(at, sm.pose_times), 0, at.size - 1)
+        if np.allclose(at[row], sm.pose_times, rtol=0, atol=1e-9):
+            return rec[row]
+    return None
+
+
+def source_pose_times(sm: StaggeredMotion) -> np.ndarray:
+    """Source time of every staggered pose, shape (K,), seconds: the time ``t_k`` had in the motion the
+    representation was extracted from, before the temporal edits (§5.2) that moved the poses (:func:`retime`,
+    a guided retiming of the poses). Recorded by the editing tools in ``sm.metadata["source_pose_times"]``
+    beside :func:`source_knot_times` and carried the same way (an inserted pose gets the source time its place
+    between its neighbours maps to, linearly); an ``sm`` without the record is taken as unedited: its own
+    ``pose_times``. E.g. a magic-wand falloff over the source's frames is read at these times."""
+    rec = sm.metadata.get("source_pose_times")
+    if rec is not None:
+        rows = _recorded_rows(sm, np.asarray(rec, dtype=float).reshape(-1))
+        if rows is not None:
+            return rows
+    return np.array(sm.pose_times)
 
 
 def _current_knots(sm: StaggeredMotion) -> np.ndarray:
@@ -105,14 +135,17 @@ def _warp_column(S: np.ndarray, T: np.ndarray, c: int, times, inverse: bool = Fa
     return np.where(x > a[-1], b[-1] + (x - a[-1]), y)
 
 
-def _refresh(sm: StaggeredMotion, source_knots=None, extra=None, **fields) -> StaggeredMotion:
+def _refresh(sm: StaggeredMotion, source_knots=None, extra=None, source_poses=None, **fields) -> StaggeredMotion:
     """New StaggeredMotion with ``fields`` replaced, editing knots re-created at ``t_k`` by evaluation
     (Figure 6c; kept equal to the extreme knots where the refinement is 0), timing warnings attached
-    as ``metadata["warnings"]`` and the source knot times (:func:`source_knot_times`) carried as
-    ``metadata["source_knots"]`` (``source_knots`` overrides them when the poses change); ``extra``: more
-    metadata entries (the timing limits a saturated edit records)."""
+    as ``metadata["warnings"]`` and the source knot and pose times (:func:`source_knot_times`,
+    :func:`source_pose_times`) carried as ``metadata["source_knots"]`` and ``["source_pose_times"]``
+    (``source_knots`` / ``source_poses`` override them when the poses change); ``extra``: more metadata entries
+    (the timing limits a saturated edit records)."""
     if source_knots is None:
         source_knots = source_knot_times(sm)
+    if source_poses is None:
+        source_poses = source_pose_times(sm)
     new = sm._with_fields(**fields)          # (arrays the edit did not change are shared, not copied)
     K, J = new.num_poses, new.num_joints
     q = evaluate_samples(new, np.repeat(new.pose_times, J), np.tile(np.arange(J), K)).reshape(K, J, 4)
@@ -122,6 +155,9 @@ def _refresh(sm: StaggeredMotion, source_knots=None, extra=None, **fields) -> St
     sk = np.array(source_knots, dtype=float)
     sk.setflags(write=False)
     meta["source_knots"] = sk
+    sp = np.array(source_poses, dtype=float)
+    sp.setflags(write=False)
+    meta["source_pose_times"] = sp
     meta["source_knots_pose_times"] = new.pose_times        # the rows' poses (a later cull keeps a subset)
     if extra:
         meta.update(extra)
@@ -380,7 +416,8 @@ def _eased(r: np.ndarray, t: np.ndarray, moved: np.ndarray) -> np.ndarray:
 
 
 def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: float = 2.0, *, joints=None,
-               poses=None, ease_ends: bool = False, limit: float | None = TIMING_LIMIT) -> StaggeredMotion:
+               poses=None, ease_ends: bool = False, limit: float | None = TIMING_LIMIT,
+               weights=None) -> StaggeredMotion:
     """Succession timing (§5.2, after Neff & Fiume 2003): ``r̂[k, i] = r[k, i] + s d(i)^l``.
 
     By default the offsets ``s d(i)^l`` are saturated smoothly against the neighbouring knots
@@ -409,6 +446,10 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
         Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact formula there.
     limit : float > 1 or None
         Largest speed-up of any segment of a joint's curve (default :data:`TIMING_LIMIT`); None: raw offsets.
+    weights : array_like (K,), optional
+        Scale of each pose's offsets, ``weights[k] s d(i)^l``: a region of the clip, e.g. a magic-wand falloff
+        (Dean et al. 2018, §3.3) read at the pose times, so that the poses it selects get the succession and the
+        others keep their timing (0). The offsets are scaled before the saturation (``limit``) and the easing.
     """
     _check(sm)
     limit = _check_limit(limit)
@@ -431,11 +472,18 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     jm = _joint_mask(sm, joints, default=sub)
     pm = _pose_mask(sm, poses, interior_default=True)
     dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
-    return _with_timing(sm, dr, jm, bool(ease_ends), limit, "succession")
+    return _with_timing(sm, _scaled(sm, dr, weights), jm, bool(ease_ends), limit, "succession")
+
+
+def _scaled(sm: StaggeredMotion, dr: np.ndarray, weights) -> np.ndarray:
+    """Refinement offsets ``dr (K, J)`` scaled per pose by ``weights (K,)`` (None: as they are)."""
+    w = _pose_weights(sm, weights)
+    return dr if w is None else dr * w[:, None]
 
 
 def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int = 0, *,
-                  poses=None, ease_ends: bool = False, limit: float | None = TIMING_LIMIT) -> StaggeredMotion:
+                  poses=None, ease_ends: bool = False, limit: float | None = TIMING_LIMIT,
+                  weights=None) -> StaggeredMotion:
     """Random timing offsets (§5.2): ``r̂[k, i] = r[k, i] + U(-τ, τ)`` for the chosen joints (``ease_ends``
     and ``limit``: as in :func:`succession`; by default the offsets are saturated against the neighbouring
     knots, ``limit=None`` adds them exactly).
@@ -454,6 +502,8 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
         Ease knots near the clip's ends (:func:`inside_ends`) instead of the exact offsets there.
     limit : float > 1 or None
         Largest speed-up of any segment of a joint's curve (default :data:`TIMING_LIMIT`); None: raw offsets.
+    weights : array_like (K,), optional
+        Scale of each pose's offsets (``weights[k] U(-τ, τ)``) before the saturation, as in :func:`succession`.
     """
     _check(sm)
     limit = _check_limit(limit)
@@ -465,7 +515,8 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     jm = _joint_mask(sm, joints)
     pm = _pose_mask(sm, poses, interior_default=True)
     u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))
-    return _with_timing(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), jm, bool(ease_ends), limit, "random_timing")
+    dr = _scaled(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), weights)
+    return _with_timing(sm, dr, jm, bool(ease_ends), limit, "random_timing")
 
 
 def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:

@@ -16,6 +16,16 @@ Long takes: ``knn="auto"`` switches to an approximate kNN (:func:`.objective.can
 coarse-to-fine search; beyond ``MAX_SEARCH_FRAMES`` or ``MAX_WARP_BYTES`` (:func:`warp_memory`) a ValueError
 names the parameter and the remedy before anything is allocated.  :func:`speed_jumps` measures playback pops.
 The torso frame of the features is the pelvis (:func:`stagger_nb.core.body.pelvis_joint`), not joint 0.
+
+Issue 25 (the papers' claims on real clips): the defaults deviate from the paper where its form failed §4.1
+(features with the pelvis's height, input-time weighting, end terms, the speed penalty's unit and free ratio;
+the flags and measurements are in :func:`guided_warp`, :func:`solve_warp` and :mod:`.features`); free length
+integrates the score over input time; backward warps reverse the reference too; keytimes are met exactly and
+anywhere inside the clip (:func:`required_upsample` with ``keytimes=``).  Measures of the claims:
+:func:`airborne_speed` (:mod:`.measures`).  An editor that precomputes tables: duration changes use
+``prepare_warp(m, ref, skip, required_upsample(n, num_frames, keytimes=..., frame_time=..., skip=...))``;
+free length and backward use ``u, r = free_length_search(m.frame_time)`` and
+``prepare_warp(m, ref, skip, u, k=FREE_K, out_step=r, reverse=...)``.
 """
 from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features

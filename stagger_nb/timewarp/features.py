@@ -44,7 +44,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from ..core.body import positions_in_heading_frame, positions_in_pelvis_frame, up_axis
+from ..core.body import FLOOR_PERCENTILE, positions_in_heading_frame, positions_in_pelvis_frame, up_axis
+from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 
 __all__ = ["pose_features", "prefilter_frames", "feature_weights", "triple_features", "reference_blocks",
@@ -95,14 +96,19 @@ def pose_features(motion: Motion, joint_weights=None, prefilter: float = 0.1,
         if w.shape != (J,) or not np.all(np.isfinite(w)) or np.any(w < 0):
             raise ValueError(f"joint_weights must be {J} non-negative finite numbers, got shape {w.shape}")
     frame = check_frame(frame)
-    p, joints = (positions_in_heading_frame if frame == "heading" else positions_in_pelvis_frame)(motion)  # (F, n, 3)
+    fk = forward_kinematics(motion)                       # once: both frames and the vertical axis use it
+    up = up_axis(motion, fk[0])
+    if frame == "heading":
+        p, joints = positions_in_heading_frame(motion, up, fk)       # (F, n, 3)
+    else:
+        p, joints = positions_in_pelvis_frame(motion, fk)
     wj = np.ones(joints.size) if joint_weights is None else w[joints]
     if joint_weights is not None:
         p = p * np.sqrt(wj)[None, :, None]
     X = p.reshape(motion.num_frames, -1)
     if frame == "pelvis_height":
-        hp, _ = positions_in_heading_frame(motion)
-        height = hp[:, 0] @ up_axis(motion)                     # the pelvis is the subtree's first joint
+        h = fk[0][:, joints] @ up                                # (F, n) heights; the pelvis is joints[0]
+        height = h[:, 0] - np.percentile(h.min(axis=1), FLOOR_PERCENTILE)   # as positions_in_heading_frame
         X = np.concatenate([X, np.sqrt(wj.sum()) * height[:, None]], axis=1)
     width = prefilter_frames(prefilter, motion.frame_time)
     if width > 1 and motion.num_frames > 1:

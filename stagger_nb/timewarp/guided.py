@@ -15,8 +15,9 @@ frame rate); the reference is resampled to that frame time so velocities per out
 (``num_frames > n``) upsamples the input by an integer factor first and compresses that (§3.1, §4.3); a backward
 warp reverses the input (``reverse=True``).
 
-Keytimes: a list of ``(input_time_s, output_time_s)`` pairs, end points implied; each is rounded to the
-nearest (upsampled) input frame and output frame. See :mod:`.postprocess`.
+Keytimes: a list of ``(input_time_s, output_time_s)`` pairs, end points implied; the search pins each at the
+nearest (upsampled) input frame and output frame, and the final warp meets them exactly
+(:func:`.postprocess.meet_keytimes`). See :mod:`.postprocess`.
 """
 from __future__ import annotations
 
@@ -670,19 +671,30 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
       With ``m`` itself as reference it is the identity (the only complete subsequence, §3.1), unless an
       explicit ``upsample > 1`` is given;
     * **free length**: ``num_frames=None`` (§3.3, V8) and the output is as long as the reference's timing
-      makes it, upsampled by :data:`FREE_UPSAMPLE` so it can be slower than ``m``; no keytimes. Two objectives,
-      neither right for every reference (measured at 30 Hz):
-      ``free_objective="mean"`` (default), the least mean score per output frame (:func:`.dp.mean_cost_dp`),
-      reproduces V8 (CMU 01_01 guided by one hop with its flight in 0.4x slow motion: flights 0.32x, the rest
-      1.00x) but lingers when the reference is another performer's motion (the xia neutral walk guided by the
-      angry run: median 6.1 cm/s, slower than the walk's 10.2, not nearer the run's 19.8);
-      ``"input_time"``, the local score integrated over input time (:func:`.dp.input_time_dp`, each stretch of
-      input played at the speed whose velocities best match the reference at that pose), gives that pair
-      18.1 cm/s but slows V8's unmatched ground frames too (flights 0.53x, the rest 0.37x): use it when the
-      reference covers the input's activity;
+      makes it (speeds 1/4 .. skip/4 x: :func:`free_length_search`, the input upsampled 4x at 30 Hz, searched
+      every 1/30 s at 120 Hz); no keytimes. Two objectives (measured at 30 Hz, ``benchmarks/bench_claims.py``):
+      ``free_objective="input_time"`` (default, issue 25), the local score integrated over input time
+      (:func:`.dp.input_time_dp`: each stretch of input played at the speed whose velocities best match the
+      reference at that pose, whatever the number of frames): against a 1.5x faster / slower copy of the clip
+      0.667-0.70 / 1.35-1.45 of the length on all 17 clips; ``"mean"`` (the previous default), the least mean
+      score per output frame (:func:`.dp.mean_cost_dp`), lingers where the score is low -- still poses:
+      0.82-0.89 / 1.89-2.05 on CMU 131_01, bandai_kick, MocapBank get-down.  Neither times poses the reference
+      lacks: V8 (one hop with its flight in 0.4x slow motion as the reference of all of CMU 01_01) plays the
+      flights at 0.33x with ``"input_time"`` but the turn-around and standing, which the hop does not have,
+      slow down too (0.41x; ``"mean"`` 0.45 / 0.83); at a chosen length V8 holds with either;
     * **backward**: ``backward=True`` (alias ``reverse=True``) plays ``m`` backwards, timed like the
-      reference; keytimes stay on the original input clock;
-    * **keytimes**: ``[(input_time_s, output_time_s), ...]``, end points implied.
+      reference played backwards (``reverse_reference``, see :func:`prepare_warp`); keytimes stay on the
+      original input clock;
+    * **keytimes**: ``[(input_time_s, output_time_s), ...]``, end points implied, met exactly by the
+      interpolated warp also between output frames (:func:`.postprocess.meet_keytimes`); a keytime anywhere
+      inside the clip gives a warp: where a segment between keys plays slower than real time the input is
+      upsampled (:func:`required_upsample`), as the paper's expansions are.
+
+    The defaults deviate from the paper where its form failed the §4.1 claims on real clips (issue 25; each is
+    a flag, measured where it is defined): ``frame="pelvis_height"`` (:mod:`.features`),
+    ``weighting="input_time"``, ``end_terms=True``, ``penalty_scale="doubling"``, ``penalty_free_ratio=1.5``
+    (:func:`solve_warp`, :func:`speed_change_penalty`).  The paper's objective: ``frame="pelvis",
+    weighting="output", end_terms=False, speed_penalty=0``.
 
     Parameters
     ----------
@@ -698,7 +710,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         at 30 Hz, FREE_UPSAMPLE = 4, free length / n for a self / 1.5x slower / 1.5x faster reference: k=1
         1.000 / 1.69 / 0.669 (``free_objective="input_time"``: 1.000 / 1.40 / 0.669); with k=3 1.39 / 1.87 /
         1.11: averaging three neighbours favours slow paths whose poses fall between reference frames)
-    free_objective : "mean" (default) or "input_time", the free-length objective (see above)
+    free_objective : "input_time" (default) or "mean", the free-length objective (see above)
+    frame, end_terms, reverse_reference : objective options, see :func:`prepare_warp`
+    penalty_scale, weighting, penalty_free_ratio : search options, see :func:`solve_warp`
     weights, joint_weights, prefilter, time_unit, knn, candidates : objective options, see
         :func:`prepare_warp` (long takes: ``knn="auto"`` switches to the approximate kNN beyond ~3,000 x 3,000
         frames and the search to the coarse-to-fine heuristic beyond 6,000; 20,000 frames take ~20-30 s)

@@ -11,13 +11,14 @@ and the session (a new op list redraws them in place). No math and no threads he
 from __future__ import annotations
 
 import html
+import math
+import weakref
 
 import ipywidgets as widgets
-import numpy as np
 
 from ..core.motion import Motion
 from ..session import Session, joint_rotation_degrees
-from ..session.models import ModelBinding
+from ..session.models import ModelBinding, plain_message
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -27,13 +28,17 @@ _STYLE = {"description_width": "120px"}
 _WIDE = widgets.Layout(width="340px")
 
 
-def _session_for(motion, session: Session | None, source_path=None) -> Session:
+def _session_for(editor, motion, session: Session | None, source_path=None) -> Session:
+    """The session an editor edits: ``session``, ``motion`` when it is one, else a new Session of ``motion``
+    (which the editor then owns: closing the editor closes it)."""
+    editor._owns_session = False
     if session is not None:
         return session
     if isinstance(motion, Session):
         return motion
     if not isinstance(motion, Motion):
         raise ValueError(f"motion: expected a Motion or a Session, got {type(motion).__name__}")
+    editor._owns_session = True
     return Session(motion, source_path=source_path)
 
 
@@ -63,7 +68,7 @@ def _grow_range(model, name, control, log=False):
         v = getattr(model, name)
         if not isinstance(v, (int, float)) or isinstance(v, bool):
             return
-        x = float(np.log10(v)) if log else v
+        x = math.log10(v) if log and v > 0 else v
         if x > control.max:
             control.max = x
         if x < control.min:
@@ -72,10 +77,93 @@ def _grow_range(model, name, control, log=False):
     model.observe(grow, names=name)
 
 
-def _link(model, name, control, log=False):
+class _ControlLink:
+    """``model.name`` <-> ``control.value``, both ways, like ``traitlets.link``, except that a value the model
+    refuses (``model.set_control``: a TraitError, the reason in ``model.notes[name]``) puts the control back to
+    the model's value, and a value the model rounds is shown rounded. ``transform``: ``(to_control, to_model)``."""
+
+    def __init__(self, model, name: str, control, transform=(None, None)):
+        self.model, self.name, self.control = model, name, control
+        self._to_c = transform[0] or (lambda v: v)
+        self._to_m = transform[1] or (lambda v: v)
+        self._busy = False
+        control.value = self._to_c(getattr(model, name))
+        model.observe(self._to_control, names=name)
+        control.observe(self._to_model, names="value")
+
+    def _to_control(self, change) -> None:
+        if not self._busy:
+            self._busy = True
+            try:
+                self.control.value = self._to_c(change["new"])
+            finally:
+                self._busy = False
+
+    def _to_model(self, change) -> None:
+        if self._busy:
+            return
+        self._busy = True
+        try:
+            self.model.set_control(self.name, self._to_m(change["new"]))
+            shown = self._to_c(getattr(self.model, self.name))   # refused: back to the model's value
+            if shown != self.control.value:
+                self.control.value = shown
+        finally:
+            self._busy = False
+
+    def unlink(self) -> None:
+        self.model.unobserve(self._to_control, names=self.name)
+        self.control.unobserve(self._to_model, names="value")
+
+
+def _link(model, name, control, log=False, transform=(None, None)):
     if hasattr(control, "max") and hasattr(control, "min") and not isinstance(control, widgets.IntRangeSlider):
         _grow_range(model, name, control, log=log)
-    return widgets.link((model, name), (control, "value"))
+    return _ControlLink(model, name, control, transform)
+
+
+def _weakly(method):
+    """``method`` (bound) called through a weak reference: a listener a session keeps does not keep the editor
+    alive (a dead editor's listener does nothing)."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args):
+        m = ref()
+        if m is not None:
+            m(*args)
+    return call
+
+
+def _widgets_under(root: widgets.Widget, keep=()) -> list:
+    """Every widget reachable from ``root`` through its traits and attributes (a 3D view's pythreejs scene,
+    camera, picker, meshes, geometries and links; in lists, tuples and dicts too), ``root`` included, those in
+    ``keep`` left out:
+    what closing an editor closes, so none stays registered with ipywidgets (which would keep the editor
+    alive through their observers)."""
+    out, stack, seen = [], [root], {id(k) for k in keep}
+    while stack:
+        w = stack.pop()
+        if id(w) in seen:
+            continue
+        seen.add(id(w))
+        out.append(w)
+        values = [w._trait_values.get(name) for name in w.trait_names()] + list(vars(w).values())
+        for v in values:   # traits, and attributes (the links a view keeps for itself)
+            for x in (v if isinstance(v, (list, tuple)) else v.values() if isinstance(v, dict) else (v,)):
+                if isinstance(x, widgets.Widget):
+                    stack.append(x)
+                elif isinstance(x, tuple) and x and isinstance(x[0], widgets.Widget):   # a link's (widget, name)
+                    stack.append(x[0])
+    return out
+
+
+def _stop_work(futures: list, session) -> None:
+    """What closing (or collecting) an editor stops: its warm-ups, and the session's worker when the editor made
+    the session itself."""
+    for f in futures:
+        f.cancel()
+    if session is not None:
+        session.close()
 
 
 def _on_kernel_thread(fn, *args) -> None:
@@ -144,8 +232,10 @@ class _Editor(widgets.VBox):
                 return controls[key]
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
-    def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls: list,
+    def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls,
                references: dict | None = None):
+        """Bind ``model`` to ``session`` and lay out the editor: ``controls`` is the list of control rows, or a
+        callable ``controls(model)`` giving it once the binding has set the model from the session."""
         self.model = model
         self.session = session
         self.view = view
@@ -164,17 +254,23 @@ class _Editor(widgets.VBox):
         self.player = getattr(view, "player", None) or view.play
         self.frame_slider.add_class("sn-frame")
         self._links = [widgets.link((model, "frame"), (view, "frame"))]
+        self._js_links: list = []   # jsdlink widgets: closed with the editor
         for p in plots:
             self._links.append(widgets.dlink((model, "frame"), (p, "frame")))
             p.observe(self._plot_seeks, names="frame")   # a click on a plot seeks
-            if hasattr(view, "link_frame"):
-                view.link_frame(p, "frame")   # during browser playback the playheads move without the kernel
+            if hasattr(view, "link_frame"):   # during browser playback the playheads move without the kernel
+                self._js_links.append(view.link_frame(p, "frame"))
+        if callable(controls):
+            controls = controls(model)
         if model.has_trait("joint") and view.has_trait("selected_joint"):
             view.observe(self._on_picked, names="selected_joint")
-        model.observe(self._show_message, names="message")
-        session.observe(self._on_session)
-        if hasattr(session, "observe_busy"):
-            session.observe_busy(self._on_busy)
+        model.observe(self._show_message, names=["message", "notes"])
+        self._session_listener, self._busy_listener = _weakly(self._on_session), _weakly(self._on_busy)
+        session.observe(self._session_listener)
+        session.observe_busy(self._busy_listener)
+        self._warm_futures: list = []
+        owned = session if getattr(self, "_owns_session", False) else None
+        self._finalizer = weakref.finalize(self, _stop_work, self._warm_futures, owned)
         for row in controls:   # a row that does not fit wraps (shrunk sliders lose their track at 1280 px)
             if isinstance(row, widgets.HBox):
                 row.layout.flex_flow = "row wrap"
@@ -220,7 +316,7 @@ class _Editor(widgets.VBox):
             return
         self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
 
-    def _source_degrees(self, j: int) -> np.ndarray:
+    def _source_degrees(self, j: int):
         """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""
         src, cache = self.__dict__.get("_source_deg", (None, None))
         if src is not self.session.source:
@@ -271,7 +367,7 @@ class _Editor(widgets.VBox):
             self._update_views(edited)
             self.error = ""
         except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
-            self.error = f"{type(e).__name__}: {e}"
+            self.error = plain_message(e)
         self._show_message()
 
     def _redraw(self, draw) -> None:
@@ -280,7 +376,7 @@ class _Editor(widgets.VBox):
         try:
             draw(self.session.edited())
         except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
-            self.error = f"{type(e).__name__}: {e}"
+            self.error = plain_message(e)
             self._show_message()
 
     def _notes(self) -> list:
@@ -292,10 +388,14 @@ class _Editor(widgets.VBox):
         return ""
 
     def _show_message(self, change=None) -> None:
+        """The message line: a replay error, the model's message, each refused control's note (why its last
+        value was refused), the runners' notes and the timing warnings."""
         parts = []
-        for text, colour in ((self.error, "#c53030"), (self.model.message, "#c53030")):
-            if text:
-                parts.append(f'<div style="color:{colour}">&#9888; {html.escape(text)}</div>')
+        shown = set()
+        for text in (self.error, self.model.message, *self.model.notes.values()):
+            if text and text not in shown:
+                shown.add(text)
+                parts.append(f'<div class="sn-refused" style="color:#c53030">&#9888; {html.escape(text)}</div>')
         for text in self._notes():
             parts.append(f'<div style="color:#b7791f">{html.escape(text)}</div>')
         w = self._warnings_html()
@@ -309,33 +409,52 @@ class _Editor(widgets.VBox):
     def _warm(self, *jobs, then=None):
         """Fill the session's caches after first paint (``Session.warm``: a cancellable future on the session's
         executor, never a thread of ours); ``then()`` runs when it is done (e.g. draw what needed it). The
-        progress bar shows meanwhile. Returns the future (also ``editor.warm_future``), None without warm."""
-        warm = getattr(self.session, "warm", None)
-        if warm is None:
-            return None
+        progress bar shows meanwhile. Returns the future (also ``editor.warm_future``)."""
         self.progress.layout.visibility = "visible"
-        fut = warm(*jobs, progress=self._on_progress)
+        fut = self.session.warm(*jobs, progress=_weakly(self._on_progress))
         self.warm_future = fut
-        self.__dict__.setdefault("_warm_futures", []).append(fut)   # every one: close() cancels them all
+        self._warm_futures.append(fut)   # every one: close() cancels them all
+        me = weakref.ref(self)
+        if then is not None and hasattr(then, "__self__"):
+            then = _weakly(then)   # the future (kept by the finalizer) must not keep the editor alive
 
         def done(f):
-            if f is self.warm_future:
-                self.progress.layout.visibility = "hidden"
+            ed = me()
+            if ed is None or ed._finalizer.alive is False:   # closed meanwhile: nothing to draw
+                return
+            if f is ed.warm_future:
+                ed.progress.layout.visibility = "hidden"
             if not f.cancelled() and f.exception() is None and then is not None:
                 then()
         fut.add_done_callback(lambda f: _on_kernel_thread(done, f))
         return fut
 
-    def _futures(self):
-        """Every warm-up future this editor submitted (in order)."""
-        return list(self.__dict__.get("_warm_futures", ()))
+    @property
+    def warm_futures(self) -> list:
+        """Every warm-up future this editor submitted, in order (the first of a StaggerEditor is its
+        extraction, which draws the staggered plots when done)."""
+        return list(self._warm_futures)
+
+    def _futures(self):   # former name
+        return self.warm_futures
+
+    @property
+    def warming(self) -> bool:
+        """Whether a warm-up this editor started is still pending or running."""
+        return any(not f.done() for f in self._warm_futures)
 
     def close(self):
-        """Cancel this editor's warm-ups and close every widget it made (controls, the 3D view, the plots and
-        the layout boxes), so none stays registered with ipywidgets after the editor is gone."""
-        for fut in self._futures():
-            fut.cancel()
-        owned = [*getattr(self, "controls", {}).values(), getattr(self, "view", None), *getattr(self, "plots", [])]
+        """Stop this editor's work (its warm-ups are cancelled; a session the editor made itself ends its
+        worker thread), stop following the session, and close every widget it made (controls, the 3D view,
+        the plots and the layout boxes), so none stays registered with ipywidgets after the editor is gone."""
+        if "binding" in self.__dict__:   # set up (a second close, e.g. from Widget.__del__, does nothing more)
+            self._finalizer()
+            self.binding.close()
+            self.session.unobserve(self._session_listener)
+            self.session.unobserve_busy(self._busy_listener)
+        view = getattr(self, "view", None)
+        owned = [*getattr(self, "controls", {}).values(), *getattr(self, "plots", []), *getattr(self, "_js_links", []),
+                 *(_widgets_under(view, keep=(_WIDE,)) if isinstance(view, widgets.Widget) else ())]
         stack = list(self.children)
         while stack:
             w = stack.pop()

@@ -3,39 +3,33 @@ retime, insert/delete, foot contacts and IK posing over a :class:`~stagger_nb.se
 from __future__ import annotations
 
 import html
-import re
 
 import ipywidgets as widgets
-import numpy as np
-import traitlets
 
-from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
-from ..session import Session, joint_rotation_degrees
-from ..session.models import STAGGER_OPS, StaggerModel
-from ..staggered import end_effectors
+from ..session import Session
+from ..session.models import STAGGER_OPS, StaggerModel, plain_message
+from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
 from ..plotting import joint_curves_figure, pose_probability_figure
-from ._editor import (_STYLE, _Editor, _default_joint, _inert, _link, _session_for, _slider,
-                      _x_span)
+from ._editor import _STYLE, _Editor, _default_joint, _inert, _link, _session_for, _slider, _x_span
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
 __all__ = ["StaggerEditor"]
 
 
-_TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
-
-
-def _controls(m: Motion, names: list, effectors: list) -> dict:
-    """The StaggerEditor's controls by model trait name (each is linked to that trait)."""
+def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
+    """The StaggerEditor's controls by model trait name (each is linked to that trait; steps from the model)."""
     wide = {"style": _STYLE}
+    st = model.step
     c = {}
     c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"), ("picked", "keep")],
                                          description="cull poses", style={**_STYLE, "button_width": "90px"},
                                          tooltips=["keep a percentage of the poses, by priority",
                                                    "keep a number of poses, by priority",
                                                    "keep the poses you pick (click the probability plot)"])
-    c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=5.0, readout_format=".0f")
+    c["percent"] = _slider(widgets.FloatSlider, "keep poses %", min=5.0, max=100.0, step=st("percent"),
+                           readout_format=".0f")
     c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep (0 = all)", **wide,
                                         layout=widgets.Layout(width="230px"))
     c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", **wide,
@@ -43,14 +37,14 @@ def _controls(m: Motion, names: list, effectors: list) -> dict:
     c["root"] = widgets.Dropdown(options=names, description="succession root", **wide)
     c["joints"] = widgets.SelectMultiple(options=names, rows=4, description="delayed joints", **wide,
                                          layout=widgets.Layout(width="280px"))
-    c["s"] = _slider(widgets.FloatSlider, "s (s/bone)", min=-0.1, max=0.1, step=0.005, readout_format=".3f")
-    c["l"] = _slider(widgets.FloatSlider, "exponent l", min=0.25, max=4.0, step=0.05)
-    c["tau"] = _slider(widgets.FloatSlider, "random τ (s)", min=0.0, max=0.15, step=0.005, readout_format=".3f")
+    c["s"] = _slider(widgets.FloatSlider, "s (s/bone)", min=-0.1, max=0.1, step=st("s"), readout_format=".3f")
+    c["l"] = _slider(widgets.FloatSlider, "exponent l", min=0.25, max=4.0, step=st("l"))
+    c["tau"] = _slider(widgets.FloatSlider, "random τ (s)", min=0.0, max=0.15, step=st("tau"), readout_format=".3f")
     c["seed"] = widgets.BoundedIntText(min=0, max=2**31 - 1, description="seed", **wide,
                                        layout=widgets.Layout(width="200px"))
     c["tau_joints"] = widgets.SelectMultiple(options=names, rows=4, description="τ joints", **wide,
                                              layout=widgets.Layout(width="280px"))
-    c["w_r"] = _slider(widgets.FloatSlider, "exaggerate w_r", min=-1.0, max=2.0, step=0.05)
+    c["w_r"] = _slider(widgets.FloatSlider, "exaggerate w_r", min=-1.0, max=2.0, step=st("w_r"))
     c["w_r_reference"] = widgets.Dropdown(options=[("previous", "previous"), ("next", "next"), ("mean", "mean")],
                                           description="against", **wide)
     c["pose"] = _slider(widgets.IntSlider, "pose k", min=0, max=1)
@@ -60,16 +54,29 @@ def _controls(m: Motion, names: list, effectors: list) -> dict:
                                            tooltips=["the edit follows each joint's own timing (Fig. 6a)",
                                                      "the edit lands at the pose time for every joint (Fig. 6b)"])
     for a in "xyz":
-        c["r" + a] = _slider(widgets.FloatSlider, f"nudge {a} (°)", min=-90.0, max=90.0, step=1.0)
-    c["pose_time"] = widgets.BoundedFloatText(min=0.0, max=m.duration, step=m.frame_time, description="pose time (s)",
-                                              **wide, layout=widgets.Layout(width="230px"))
+        c["r" + a] = _slider(widgets.FloatSlider, f"nudge {a} (°)", min=-90.0, max=90.0, step=st("r" + a))
+    # a plain FloatText: a typed value outside the neighbours' times is refused by the model with a sentence
+    # saying where it may lie (a bounded text box would clamp it silently)
+    c["pose_time"] = widgets.FloatText(step=st("pose_time"), description="pose time (s)", **wide,
+                                       layout=widgets.Layout(width="230px"))
     c["keep_contacts"] = widgets.Checkbox(description="keep foot contacts", indent=False)
-    c["ik_joint"] = widgets.Dropdown(options=[("(none)", "")] + [(n, n) for n in effectors],
+    c["ik_joint"] = widgets.Dropdown(options=[("(none)", "")] + [(n, n) for n in model.ik_effectors],
                                      description="IK effector", **wide)
     for a in "xyz":
-        c["ik_" + a] = _slider(widgets.FloatSlider, f"target {a}", min=-1.0, max=1.0, step=0.005,
+        c["ik_" + a] = _slider(widgets.FloatSlider, f"target {a}", min=-1.0, max=1.0, step=st("ik_" + a),
                                readout_format=".3f")
-    for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts"):
+    c["propagate"] = widgets.Checkbox(description="propagate pose edits to similar poses", indent=False,
+                                      tooltip="the magic wand (Dean et al. 2018 §3.3): each nudge and IK target "
+                                              "changes every similar pose, weighted by the Green's falloff")
+    c["region"] = widgets.Checkbox(description="timing edits in a region", indent=False,
+                                   tooltip="s and τ scaled by the magic-wand falloff around the region frame "
+                                           "(turning it on centres it on the selected pose)")
+    c["region_frame"] = widgets.BoundedIntText(min=0, max=max(m.num_frames - 1, 0), description="region frame",
+                                               **wide, layout=widgets.Layout(width="230px"))
+    c["sigma"] = widgets.BoundedFloatText(min=0.0, max=1e6, step=0.05, description="wand σ (0 = auto)", **wide,
+                                          layout=widgets.Layout(width="230px"))
+    for k in ("cull_by", "percent", "count", "s", "l", "tau", "w_r", "keep_contacts", "propagate", "region",
+              "region_frame", "sigma"):
         c[k].add_class(f"sn-{k.replace('_', '-')}")
     c["percent"].add_class("sn-cull")   # its former name (browser checks)
     return c
@@ -82,6 +89,7 @@ def _rows(c: dict, insert: widgets.Button, delete: widgets.Button) -> list:
             widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
             widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
             widgets.HBox([c["w_r"], c["w_r_reference"]]),
+            widgets.HBox([c["propagate"], c["region"], c["region_frame"], c["sigma"]]),
             widgets.HBox([c["pose"], c["joint"]]),
             widgets.HBox([c["edit_mode"]]),
             widgets.HBox([c["rx"], c["ry"], c["rz"]]),
@@ -106,14 +114,12 @@ class StaggerEditor(_Editor):
     def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
                  show_ghost: bool = False, **kwargs):
         super().__init__(**kwargs)
-        session = _session_for(motion, session, source_path)
+        session = _session_for(self, motion, session, source_path)
         m = session.source
         names = list(m.skeleton.names)
         model = StaggerModel(root=_default_joint(names, "Hips", "LeftShoulder", "LeftArm", "lShldr"),
                              joint=_default_joint(names, "LeftForeArm", "LeftElbow", "lForeArm"),
                              frame_time=m.frame_time)
-        effectors = [names[j] for j in end_effectors(m.skeleton) if not _TOE.search(names[j])]   # Hand_L too
-        c = self.controls = _controls(m, names, effectors)
         self.insert_button = widgets.Button(description="insert pose at playhead", layout=widgets.Layout(width="200px"))
         self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
         self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
@@ -123,30 +129,42 @@ class StaggerEditor(_Editor):
         self.probability = PlotView(frame_time=m.frame_time)
         self.probability.on_click(self._on_probability_click)
         self._defer = precompute   # first paint without the staggered plots; the warm-up's extraction draws them
-        self._fk_cache = (None, None)
-        self._setup(model, session, view, [self.curves, self.probability], _rows(c, self.insert_button,
-                                                                                 self.delete_button))
+        self.controls = {}
+        self._setup(model, session, view, [self.curves, self.probability], self._make_controls)
+        c = self.controls
         # the model first (the binding set it from the session's ops), then the controls attached to it
         for k, w in c.items():
-            if k in ("keep", "w_r_reference"):
-                continue
-            self._links.append(traitlets.link((model, k), (w, "value"), transform=(tuple, list))
-                               if isinstance(w, widgets.SelectMultiple) else _link(model, k, w))
-        self._links.append(traitlets.link((model, "keep"), (c["keep"], "value"), transform=(tuple, list)))
-        self._links.append(traitlets.link((model, "w_r_reference"), (c["w_r_reference"], "value")))
-        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint"])
+            if k not in ("keep", "w_r_reference"):
+                self._links.append(_link(model, k, w, transform=(tuple, list) if isinstance(
+                    w, widgets.SelectMultiple) else (None, None)))
+        self._links.append(_link(model, "keep", c["keep"], transform=(tuple, list)))
+        self._links.append(_link(model, "w_r_reference", c["w_r_reference"]))
+        for a in "xyz":   # the IK target sliders reach where the model says (around the effector)
+            model.observe(lambda ch, a=a: self._ik_reach(a), names="ik_range")
+        model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint", "region", "propagate"])
         model.observe(self._on_selection, names=["joint"])
+        model.observe(self._show_region, names=["region_weights"])
         model.observe(self._on_pose, names=["pose", "ik_joint"])
         self._on_inert()
         self._on_pose()
         if precompute:
             self._warm_positions()
 
+    def _make_controls(self, model: StaggerModel) -> list:
+        """The controls (``self.controls``) and their rows, once the binding has set the model up."""
+        self.controls = _controls(self.session.source, list(self.session.source.skeleton.names), model)
+        return _rows(self.controls, self.insert_button, self.delete_button)
+
+    def _ik_reach(self, axis: str) -> None:
+        lo, hi = self.model.ik_range["xyz".index(axis)]
+        w = self.controls["ik_" + axis]
+        w.min, w.max = min(w.min, lo), max(w.max, hi)
+
     def _warm_positions(self) -> None:
         """After first paint: the extraction (then the plots that need it), then every cull position's refit and
         the whole replay of the current edit at that position (a first visit of a position is then a hit)."""
         self._first_future = self._warm("extract", then=self._refresh)
-        pcs = [float(p) for p in np.arange(95.0, 4.0, -5.0)]
+        pcs = [float(p) for p in range(95, 4, -5)]
         self._warm(("cull", pcs), ("replay", [self._own_prefix(self.binding.ops_for(cull_by="percent", percent=p))
                                               for p in pcs]))
 
@@ -166,9 +184,9 @@ class StaggerEditor(_Editor):
                 pos = i + 1
         ops.insert(pos, op)
         try:
-            self.session.set_ops(ops)
+            self.binding.commit(ops)   # replayed first: an insert or delete that cannot apply is not recorded
         except ValueError as e:
-            self.error = str(e)
+            self.error = plain_message(e)
             self._show_message()
 
     def insert_pose(self, time: float) -> None:
@@ -181,13 +199,9 @@ class StaggerEditor(_Editor):
 
     def _on_probability_click(self, x, y, frame) -> None:
         """With cull = "picked", a click on the probability plot toggles the nearest candidate pose (§4.3)."""
-        if self.model.cull_by != "keep":
-            return
-        times = np.asarray(self.session.extraction().pose_times)
-        k = int(np.argmin(np.abs(times - float(x))))
-        keep = set(self.model.keep)
-        keep.symmetric_difference_update({k})
-        self.model.keep = sorted(keep)
+        k = self.model.candidate_near(x)
+        if self.model.cull_by == "keep" and k is not None:
+            self.model.set_control("keep", sorted(set(self.model.keep) ^ {k}))
 
     # -- view state ------------------------------------------------------------------------------------
     def _on_inert(self, change=None) -> None:
@@ -203,32 +217,26 @@ class StaggerEditor(_Editor):
         _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
         for a in "xyz":
             _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+        _inert(c["region_frame"], not m.region, "the region's centre: inert while the region is off")
+        _inert(c["sigma"], not (m.region or m.propagate), "the falloff width: inert while neither the region nor "
+                                                          "propagation is on")
+
+    def _show_region(self, change=None) -> None:
+        """The timing edits' region (``model.region_weights``, a weight per pose) on the dope sheet, when the editor
+        has one (``editor.timeline``); the pose-probability plot draws it too."""
+        timeline = self.__dict__.get("timeline")
+        if timeline is not None and hasattr(timeline, "region"):
+            timeline.region = [float(w) for w in self.model.region_weights]
 
     def _on_selection(self, change=None) -> None:
         self._redraw(self._draw_curves)
 
-    def _effector_positions(self, edited: Motion):
-        if self._fk_cache[0] is not edited:
-            self._fk_cache = (edited, forward_kinematics(edited)[0])
-        return self._fk_cache[1]
-
     def _on_pose(self, change=None) -> None:
         """The IK target sliders start at the effector's place at the selected pose (no edit recorded)."""
-        m = self.model
-        if not m.ik_joint or not m.pose_times or m._ik_entry() is not None:
-            return
         try:
-            edited = self.session.edited()
-        except Exception:  # noqa: BLE001 - the message line already shows it
-            return
-        pos = self._effector_positions(edited)
-        f = min(m.pose_frame(min(m.pose, len(m.pose_times) - 1)), len(pos) - 1)
-        p = pos[f, edited.skeleton.index(m.ik_joint)]
-        ext = float(np.ptp(pos[f], axis=0).max()) or 1.0
-        for a, v in zip("xyz", p):
-            w = self.controls["ik_" + a]
-            w.min, w.max = min(w.min, float(v) - ext), max(w.max, float(v) + ext)
-        m.show_ik_target(p)
+            place_ik_target(self.model, self.session)
+        except ValueError:   # a replay error: the message line already shows it
+            pass
 
     def _timing_summary(self):
         """(summary sentence, warnings) of the current staggered state: ``Session.timing_warnings`` (computed
@@ -263,7 +271,6 @@ class StaggerEditor(_Editor):
         return any(o.name in STAGGER_OPS + ("insert_pose", "delete_pose", "extract") for o in self.session.typed_ops)
 
     def _update_views(self, edited: Motion) -> None:
-        m = self.session.source
         if not self._needs_staggered() and not self._extraction_ready():
             self._last_staggered = None
             self._draw_curves(edited)
@@ -273,15 +280,13 @@ class StaggerEditor(_Editor):
                                                                   x_range=_x_span(edited))
             self._show_motion(edited)
             return   # first paint: the extraction is computed after it (warm), then this draws the rest
-        sm = self.session.staggered()
+        sm, full = stagger_state(self.model, self.session)
         self._last_staggered = sm
-        full = self.session.extraction()
         K = sm.num_poses
-        with self.model.loading():
-            self.model.pose_times = [float(t) for t in sm.pose_times]
+        self.binding.show_staggered(sm)   # pose times, their source frames, the region's weights
         c = self.controls
         c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
-        opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(full.pose_times)]
+        opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(self.model.candidate_times)]
         # new options reset a selection control's value (ipywidgets selects the first option), which the link
         # would write to the model and the session as a user's choice: put the model's value back, unrecorded
         if [o[1] for o in c["keep"].options] != [o[1] for o in opts]:
@@ -298,11 +303,9 @@ class StaggerEditor(_Editor):
             with self.binding.paused():
                 c["w_r_reference"].options = refs
                 c["w_r_reference"].value = ref
-        ft = m.frame_time
-        kept = np.asarray(sm.pose_times)
-        self._draw_probability(full, sm, kept, _x_span(edited))
+        self._draw_probability(full, sm, _x_span(edited))
         self._draw_curves(edited, sm)
-        self._show_motion(edited, pose_frames=np.round(kept / ft).astype(int),
+        self._show_motion(edited, pose_frames=self.model.pose_frames(),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
 
     def _extraction_ready(self) -> bool:
@@ -313,31 +316,28 @@ class StaggerEditor(_Editor):
         fut = getattr(self, "_first_future", None)
         return fut is not None and fut.done()
 
-    def _draw_probability(self, full, sm, kept: np.ndarray, x_range) -> None:
+    def _draw_probability(self, full, sm, x_range) -> None:
         """The pose-probability plot: rebuilt only when the extraction or the kept poses changed (a timing or
         exaggeration slider leaves it as it is: no figure rebuilt, nothing sent)."""
-        key = (full, kept.tobytes(), None if sm.pose_probability is None else np.asarray(sm.pose_probability).tobytes(),
-               tuple(x_range))
+        region = list(self.model.region_weights)
+        region = region if len(region) == len(self.model.pose_times) else None
+        key = (full, tuple(self.model.pose_times), tuple(x_range), None if region is None else tuple(region))
         last = getattr(self, "_probability_key", None)
         if last is not None and last[0] is full and last[1:] == key[1:] and self.probability.figure:
             return
-        m = self.session.source
-        prob = full.metadata.get("probability")
-        times = np.arange(m.num_frames) * m.frame_time
+        v = probability_view(self.session, sm, full)
         self.probability.figure = pose_probability_figure(
-            times if prob is not None else None, prob, np.asarray(full.pose_times), full.pose_probability, kept,
-            np.interp(kept, times, prob) if prob is not None else sm.pose_probability, x_range=x_range)
+            v["times"], v["probability"], v["candidate_times"], v["candidate_values"], v["kept_times"],
+            v["kept_values"], x_range=x_range, region=region)
         self._probability_key = key
 
     def _draw_curves(self, edited: Motion, sm=None) -> None:
-        m = self.session.source
         name = self.model.joint
-        j = m.skeleton.index(name)
         sm = sm if sm is not None else getattr(self, "_last_staggered", None)
-        kept = None if sm is None else np.asarray(sm.pose_times)
-        knots = None if sm is None else kept + np.asarray(sm.refinements)[:, j]
+        v = joint_curves_view(self.session, edited, name, sm,
+                              self._source_degrees(self.session.source.skeleton.index(name)))
         self.curves.figure = joint_curves_figure(
-            edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
-            pose_times=() if kept is None else kept, knot_times=() if knots is None else knots,
-            title=f"{name}: rotation vector (°), edited vs original", x_range=_x_span(edited))
+            v["times"], v["degrees"], v["source_degrees"], v["source_times"], pose_times=v["pose_times"],
+            knot_times=v["knot_times"], title=f"{name}: rotation vector (°), edited vs original",
+            x_range=_x_span(edited))
         self.view.highlight_joints([name])

@@ -123,8 +123,13 @@ async function render({ model, el }) {
     }
     // pose columns: a line down the sheet and a draggable tab
     const times = tb.pose_times || [];
+    const region = store.get("region") || [];   // the timing edits' magic-wand region: a weight per pose
     for (let k = 0; k < K; k++) {
       const x = xOf(times[k]);
+      if (region.length === K && region[k] > 0) {
+        node("rect", { x: x - 8, y: 27, width: 16, height: 3, fill: "#1b7837", opacity: Math.min(1, region[k]),
+                       class: "sn-region", "pointer-events": "none" }, s);
+      }
       node("line", { x1: x, x2: x, y1: HEAD - 4, y2: height, stroke: k === selK ? COLOURS.pose : "#fbd38d",
                      "stroke-width": k === selK ? 1.5 : 1, "pointer-events": "none" }, s);
       const g = node("g", { class: "sn-pose-col", cursor: k === 0 || k === K - 1 ? "pointer" : "ew-resize" }, s);
@@ -273,7 +278,7 @@ async function render({ model, el }) {
   const onStoreFrame = () => { frame = store.get("frame"); movePlayhead(); };
   const onViewFrame = () => { frame = model.get("frame"); movePlayhead(); };
   const onMessage = () => { el.dataset.pending = "0"; draw(); };
-  const KEYS = ["x_range", "selected_pose", "selected_joint", "collapsed"];
+  const KEYS = ["x_range", "selected_pose", "selected_joint", "collapsed", "region"];
   model.on("change:frame", onViewFrame);
   let lastWidth = 0;
   const ro = new ResizeObserver(() => {

@@ -41,9 +41,11 @@ class TimelineState(widgets.Widget):
     selected_joint = t.Unicode("").tag(sync=True)
     collapsed = t.List(t.Unicode(), help="labels of the closed limb groups").tag(sync=True)
     message = t.Unicode("", help="a plain sentence under the sheet (a refused drag)").tag(sync=True)
+    region = t.List(t.Float(), help="the magic-wand region of the timing edits: a weight in [0, 1] per pose ([] none)"
+                    ).tag(sync=True)
 
 
-_MIRRORED = ("table", "x_range", "selected_pose", "selected_joint", "collapsed", "message")
+_MIRRORED = ("table", "x_range", "selected_pose", "selected_joint", "collapsed", "message", "region")
 
 
 class Timeline(anywidget.AnyWidget):
@@ -58,6 +60,8 @@ class Timeline(anywidget.AnyWidget):
     selected_pose : int (-1 none), selected_joint : str ('' none): drawn highlighted
     collapsed : list of limb-group labels drawn as one row; a click on a group's header toggles it
     message : str, shown under the sheet in red ('' hides it)
+    region : list of K weights in [0, 1] ([] none): the region of a timing edit (``StaggerModel.region_weights``),
+        drawn as a green mark under each pose's tab, as opaque as the pose's weight
     """
 
     _esm = (Path(__file__).with_name("timeline.js")).read_text(encoding="utf-8")
@@ -70,6 +74,7 @@ class Timeline(anywidget.AnyWidget):
     selected_joint = t.Unicode("")
     collapsed = t.List(t.Unicode())
     message = t.Unicode("")
+    region = t.List(t.Float())
 
     def __init__(self, table=None, **kwargs):
         if table is not None:

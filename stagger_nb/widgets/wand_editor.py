@@ -1,16 +1,16 @@
 """The magic-wand editor (Dean et al. 2018) over a :class:`~stagger_nb.session.models.WandModel`."""
 from __future__ import annotations
 
+import math
+
 import ipywidgets as widgets
-import numpy as np
-import traitlets
 
 from ..core.motion import Motion
-from ..session import Session, joint_rotation_degrees
+from ..session import Session
 from ..session.models import WandModel
+from ..session.models.views import joint_curves_view
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
-from ._editor import (_STYLE, _WIDE, _Editor, _default_joint, _grow_range, _inert, _link, _session_for, _slider,
-                      _x_span)
+from ._editor import _STYLE, _WIDE, _Editor, _default_joint, _inert, _link, _session_for, _slider, _x_span
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -35,29 +35,26 @@ class WandEditor(_Editor):
 
     _css = "sn-wand-editor"
     _ALIASES = {"rotation": ("rx", "ry", "rz")}
-    _SIGMA_STEP = 0.04   # log10 units between slider positions
-    _SIGMA_STEPS = 15    # positions each side of the default sigma (x 0.25 .. x 4)
 
     def __init__(self, motion, session: Session | None = None, frame: int | None = None, joint: str | None = None,
                  rotation=(0.0, 0.0, 0.0), source_path=None, precompute: bool = True, show_ghost: bool = False,
                  **kwargs):
         super().__init__(**kwargs)
-        session = _session_for(motion, session, source_path)
+        session = _session_for(self, motion, session, source_path)
         m = session.source
         F = m.num_frames
         names = list(m.skeleton.names)
         s0 = float(session.wand_graph().default_sigma)
-        self._sigma_grid = s0 * 10.0 ** (self._SIGMA_STEP * np.arange(-self._SIGMA_STEPS, self._SIGMA_STEPS + 1))
         f0 = F // 2 if frame is None else int(frame)
         joint = joint or _default_joint(names, "LeftUpLeg", "LeftHip", "LeftFemur", "lThigh")
-        model = WandModel(sigma=s0, default_sigma=s0, joint=joint, frame=f0)
+        model = WandModel(sigma=s0, default_sigma=s0, joint=joint, frame=f0, frame_time=m.frame_time)
         with model.loading():
             model.edit_frame = f0
         c = {}
-        c["sigma"] = widgets.FloatLogSlider(base=10, min=np.log10(self._sigma_grid[0]),
-                                            max=np.log10(self._sigma_grid[-1]), step=self._SIGMA_STEP,
-                                            description="σ", readout_format=".3g", continuous_update=True,
-                                            style=_STYLE, layout=_WIDE)
+        grid = model.sigma_grid   # FloatLogSlider's min, max and step are base-10 exponents
+        c["sigma"] = widgets.FloatLogSlider(base=10, min=math.log10(grid[0]), max=math.log10(grid[-1]),
+                                            step=model.SIGMA_STEP, description="σ", readout_format=".3g",
+                                            continuous_update=True, style=_STYLE, layout=_WIDE)
         c["edit_frame"] = _slider(widgets.IntSlider, "edited frame", min=0, max=F - 1)
         c["propagate"] = widgets.Checkbox(description="propagate (off: edit the frames only)", indent=False)
         c["repetitions"] = widgets.ToggleButtons(options=["keep", "discard"], description="repetitions",
@@ -65,7 +62,7 @@ class WandEditor(_Editor):
                                                                          "edit only the neighbourhood (§3.3)"])
         c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
         for a in "xyz":
-            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-90.0, max=90.0, step=1.0)
+            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-90.0, max=90.0, step=model.step("r" + a))
         c["compare"] = widgets.SelectMultiple(options=["isomap", "diffusion", "spline"], rows=3,
                                               description="compare with", style=_STYLE)
         self.controls = c
@@ -90,14 +87,13 @@ class WandEditor(_Editor):
         self._setup(model, session, view, [self.falloff_plot, self.curves], layout)
         if not model.edits and any(rotation):   # an initial rotation becomes the first edit
             model.rx, model.ry, model.rz = (float(r) for r in rotation)
-        _grow_range(model, "sigma", c["sigma"], log=True)   # slider positions snap to the warmed sigma grid
-        self._links.append(traitlets.link((model, "sigma"), (c["sigma"], "value"),
-                                          transform=(float, self._snapped_sigma)))
+        # slider positions snap to the warmed sigma grid
+        self._links.append(_link(model, "sigma", c["sigma"], log=True, transform=(float, model.snap_sigma)))
         for k in ("edit_frame", "propagate", "repetitions", "joint", "rx", "ry", "rz"):
             self._links.append(_link(model, k, c[k]))
-        self._links.append(traitlets.link((model, "compare"), (c["compare"], "value"), transform=(tuple, list)))
-        self._links.append(traitlets.link((model, "frame_range"), (self.range, "value"),
-                                          transform=(lambda v: tuple(v) if v else (0, F), list)))
+        self._links.append(_link(model, "compare", c["compare"], transform=(tuple, list)))
+        self._links.append(_link(model, "frame_range", self.range,
+                                 transform=(lambda v: tuple(v) if v else (0, F), list)))
         self.limit_range.value = bool(model.frame_range)
         self.limit_range.observe(self._on_limit, names="value")
         self._range_link_paused = False
@@ -108,11 +104,7 @@ class WandEditor(_Editor):
         self._on_edits()
         self._on_inert()
         if precompute:
-            order = np.argsort(np.abs(np.log(self._sigma_grid) - np.log(model.sigma)), kind="stable")
-            self._warm(("wand_basis", [float(self._sigma_grid[i]) for i in order]))
-
-    def _snapped_sigma(self, value: float) -> float:
-        return float(self._sigma_grid[np.argmin(np.abs(np.log(self._sigma_grid) - np.log(value)))])
+            self._warm(("wand_basis", model.sigmas_nearest_first()))
 
     def _on_limit(self, change) -> None:
         self.model.frame_range = list(self.range.value) if change["new"] else []
@@ -149,14 +141,14 @@ class WandEditor(_Editor):
         if f < m.num_frames and (key != getattr(self, "_falloff_key", None) or not self.falloff_plot.figure):
             curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
             self.falloff_plot.figure = falloff_figure(
-                m.times, curves, edited_times=[g * m.frame_time for g in (mod.edited_frames or [f])],
+                m.times, curves, edited_times=mod.edited_times() or [mod.time_of(f)],
                 title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited))
             self._falloff_key = key
-        j = m.skeleton.index(mod.joint)
+        v = joint_curves_view(self.session, edited, mod.joint,
+                              source_degrees=self._source_degrees(m.skeleton.index(mod.joint)))
         self.curves.figure = joint_curves_figure(
-            edited.times, joint_rotation_degrees(edited, j), self._source_degrees(j), m.times,
-            pose_times=[g * m.frame_time for g in mod.edited_frames], pose_label="edited frames",
-            pose_colour=EDIT_COLOUR,
+            v["times"], v["degrees"], v["source_degrees"], v["source_times"], pose_times=mod.edited_times(),
+            pose_label="edited frames", pose_colour=EDIT_COLOUR,
             title=f"{mod.joint}: rotation vector (°), edited vs original", x_range=_x_span(edited))
         self._show_motion(edited, pose_frames=mod.edited_frames or [f])
         self.view.highlight_joints([mod.joint])

@@ -11,29 +11,65 @@ import math
 
 import traitlets as T
 
-__all__ = ["_Model"]
+from ..ops import MAX_DEGREES
+
+__all__ = ["_Model", "snap"]
 
 
 def _canon(x) -> str:
     return json.dumps(x, sort_keys=True, separators=(",", ":"), default=str)
 
 
+def _g(v: float) -> str:
+    """A number as a person writes it (``0.35``, ``1e+308``, ``100``)."""
+    return f"{v:.6g}"
+
+
 def _finite(name: str, v) -> float:
-    v = float(v)
+    try:
+        v = float(v)
+    except (TypeError, ValueError, OverflowError):
+        raise T.TraitError(f"{name} must be a number, got {v!r}") from None
     if not math.isfinite(v):
-        raise T.TraitError(f"{name}: expected a finite number, got {v!r}")
+        raise T.TraitError(f"{name} must be a finite number, got {v!r}")
     return v
 
 
-def _deltas3(name: str, d) -> dict:
+def _within(name: str, v, lo=None, hi=None, open_lo: bool = False, unit: str = "") -> float:
+    """``v`` as a finite float inside the bounds (None: unbounded; ``open_lo``: ``lo`` itself excluded), else a
+    TraitError saying in one sentence where it must lie, e.g. "tau must lie between 0 and 60 s, got -0.1"."""
+    v = _finite(name, v)
+    below = lo is not None and (v <= lo if open_lo else v < lo)
+    if below or (hi is not None and v > hi):
+        if lo is not None and hi is not None and not open_lo:
+            where = f"lie between {_g(lo)}{unit} and {_g(hi)}{unit}"
+        else:
+            parts = ([f"more than {_g(lo)}{unit}" if open_lo else f"at least {_g(lo)}{unit}"] if lo is not None
+                     else []) + ([f"at most {_g(hi)}{unit}"] if hi is not None else [])
+            where = "be " + " and ".join(parts)
+        raise T.TraitError(f"{name} must {where}, got {_g(v)}{unit}")
+    return v
+
+
+def _deltas3(name: str, d, limit: float) -> dict:
+    """``{joint: [rx, ry, rz]}`` degrees, each component within ``+-limit``."""
     if not isinstance(d, dict):
         raise T.TraitError(f"{name}: expected {{joint: [rx, ry, rz] degrees}}, got {d!r}")
     out = {}
     for j, v in d.items():
         if not isinstance(j, str) or not isinstance(v, (list, tuple)) or len(v) != 3:
             raise T.TraitError(f"{name}.{j}: expected [rx, ry, rz] degrees, got {v!r}")
-        out[j] = [_finite(f"{name}.{j}", x) for x in v]
+        out[j] = [_within(f"{name}.{j}", x, -limit, limit, unit="°") for x in v]
     return out
+
+
+def snap(value: float, step: float | None) -> float:
+    """``value`` rounded to one decimal finer than ``step`` (a control's step: 0.05 -> 3 decimals, 1/120 s -> 4),
+    so a slider's ``min + n * step`` (0.3500000000000001) is shown and saved as 0.35 while a value typed between
+    two steps keeps its meaning. ``step`` None or <= 0: unchanged."""
+    if not step or step <= 0 or not math.isfinite(value):
+        return value
+    return round(value, max(0, math.ceil(-math.log10(step) - 1e-9)) + 1) + 0.0
 
 
 class _Model(T.HasTraits):
@@ -46,6 +82,9 @@ class _Model(T.HasTraits):
 
     num_frames = T.Int(0, help="frames of the edited motion the playhead moves over (set by the editor when "
                                "it shows a new edit; 0 = unknown)")
+    notes = T.Dict(help="{trait: plain sentence}: why the last value given to that trait through "
+                        ":meth:`set_control` was refused (the control shows it beside itself); cleared when the "
+                        "trait takes a value")
 
     @T.validate("frame")
     def _v_frame(self, proposal):
@@ -76,7 +115,7 @@ class _Model(T.HasTraits):
         out = {}
         for k, v in value.items():
             k = int(k) if int(k) in held else self._index_below(field, k, n, what)
-            out[k] = _deltas3(f"{field}[{k}]", v)
+            out[k] = _deltas3(f"{field}[{k}]", v, MAX_DEGREES)
             for j in out[k]:
                 self._known_joint(f"{field}[{k}]", j)
         return out
@@ -102,6 +141,39 @@ class _Model(T.HasTraits):
             yield self
         finally:
             self._loading = old
+
+    # -- controls ------------------------------------------------------------------------------------
+    def step(self, name: str) -> float | None:
+        """The step of the control of trait ``name`` (its ``step`` metadata; ``"frame_time"`` means the clip's
+        seconds per frame): the one place a slider's step is defined, and what values are rounded to."""
+        st = self.trait_metadata(name, "step")
+        if st == "frame_time":
+            return float(getattr(self, "frame_time", 0.0) or 0.0) or None
+        return st
+
+    def _number(self, proposal, lo=None, hi=None, open_lo: bool = False, unit: str = "") -> float:
+        """A validator's number: finite, inside the bounds (a TraitError in one plain sentence naming the
+        trait's label), rounded to its control's step (:func:`snap`) unless loaded from the session."""
+        name = proposal["trait"].name
+        v = _within(self.label(name), proposal["value"], lo, hi, open_lo, unit)
+        return v if self._loading else snap(v, self.step(name))
+
+    def label(self, name: str) -> str:
+        """The words a message uses for trait ``name`` (its ``label`` metadata, else the name)."""
+        return self.trait_metadata(name, "label") or name
+
+    def set_control(self, name: str, value) -> str:
+        """Set trait ``name`` to ``value`` as a control does: '' when it took the value; otherwise the model
+        is left as it was, ``notes[name]`` holds the plain sentence saying why and it is returned."""
+        try:
+            setattr(self, name, value)
+        except T.TraitError as e:
+            why = str(e)
+            self.notes = {**self.notes, name: why}
+            return why
+        if name in self.notes:
+            self.notes = {k: v for k, v in self.notes.items() if k != name}
+        return ""
 
     def params(self) -> dict:
         """The op parameters (traits tagged ``op=True``) as a plain dict (deep copy)."""

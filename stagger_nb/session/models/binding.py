@@ -11,12 +11,17 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import inspect
 import json
+import weakref
 from typing import Callable
 
 import traitlets as T
 
+from ..replay import ReplayError
+from ..ops import OPS
 from ._base import _canon, _Model
+from .messages import plain_message
 from .stagger import STAGGER_OPS, StaggerModel, stagger_ops_to_params, stagger_params_to_ops
 from .wand import WAND_OPS, WandModel, wand_ops_to_params, wand_params_to_ops
 from .warp import WARP_OPS, WarpModel, warp_ops_to_params, warp_params_to_ops
@@ -26,16 +31,17 @@ __all__ = ["ModelBinding", "merge_ops"]
 # fields of each owned op the editor controls (others, e.g. exaggerate.poses, are kept as they are)
 _CONTROLLED = {
     "cull": ("percent", "count", "keep"),
-    "succession": ("root", "s", "l", "joints"),
-    "random_timing": ("tau", "seed", "joints"),
+    "succession": ("root", "s", "l", "joints", "falloff"),
+    "random_timing": ("tau", "seed", "joints", "falloff"),
     "exaggerate": ("w_r", "reference"),
-    "edit_pose": ("pose", "deltas", "targets", "mode"),
+    "edit_pose": ("pose", "deltas", "targets", "mode", "propagate", "sigma", "frame_range"),
     "retime": ("pose", "time"),
-    "ik_pose": ("pose", "joint", "target"),
+    "ik_pose": ("pose", "joint", "target", "propagate", "sigma", "frame_range"),
     "keep_contacts": (),
     "propagate": ("frame", "frames", "deltas", "sigma", "frame_range", "repetitions"),
     "edit_frame": ("frame", "deltas"),
     "guided_warp": ("duration", "free_length", "skip", "reference", "keytimes", "backward"),
+    "guide_poses": ("duration", "free_length", "skip", "reference", "keytimes"),
     "linear_warp": ("duration", "keytimes"),
 }
 
@@ -58,6 +64,8 @@ def _key(op: dict):
         return (name, op["pose"], op["joint"])
     if name == "edit_frame":
         return (name, op["frame"])
+    if name == "guide_poses":
+        return (name,)     # a warp of the pose times sits among the staggered ops, not at the end
     if name in WARP_OPS:
         return ("warp",)
     return (name,)
@@ -75,7 +83,7 @@ def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
     Only instances (see ``_key``) whose op differs between ``old_owned`` and ``new_owned`` are touched; each is
     replaced in place (its last occurrence in ``current``; fields the editor does not control are kept),
     removed, or inserted next to the owned ops of neighbouring rank (``owned`` gives the order), or at
-    ``home(ops)`` when the list holds none of them (default: the end). Every other op keeps its place.
+    ``home(ops, op)`` when the list holds none of them (default: the end). Every other op keeps its place.
     """
     old = {_key(o): o for o in old_owned}
     new = {_key(o): o for o in new_owned}
@@ -108,16 +116,40 @@ def merge_ops(current: list, old_owned: list, new_owned: list, owned: tuple,
         elif after:
             pos = after[0]
         else:
-            pos = len(out) if home is None else home(out)
+            pos = len(out) if home is None else _at_home(home, out, b)
         out.insert(pos, copy.deepcopy(b))
     return out
 
 
-def _stagger_home(ops):
+def _at_home(home: Callable, ops: list, op: dict) -> int:
+    """``home(ops, op)``, or ``home(ops)`` for a home that takes only the list."""
+    try:
+        takes_op = len(inspect.signature(home).parameters) >= 2
+    except (TypeError, ValueError):
+        takes_op = False
+    return home(ops, op) if takes_op else home(ops)
+
+
+def _stagger_home(ops, op=None):
     return 0
 
 
-def _wand_home(ops):
+def _warp_home(ops, op=None):
+    """Where a warp op goes in a list without one: a warp of the motion at the end; ``guide_poses`` (the pose
+    times, a staggered op) after the staggered ops, before the contact layer and the motion ops."""
+    if op is None or op["op"] != "guide_poses":
+        return len(ops)
+    pos = 0
+    for i, o in enumerate(ops):
+        if o["op"] == "keep_contacts":
+            return i
+        cls = OPS.get(o["op"])
+        if cls is not None and cls.needs == "staggered":
+            pos = i + 1
+    return pos
+
+
+def _wand_home(ops, op=None):
     for i, o in enumerate(ops):
         if o["op"] in ("guided_warp", "linear_warp", "resample"):
             return i
@@ -136,8 +168,11 @@ class ModelBinding:
     """Keeps ``model`` and ``session`` in step, both ways.
 
     - A change of an op trait (``op=True``) writes the session's op list (:func:`merge_ops`, one undo step via
-      ``session.set_ops``); a refused op list (ValueError) leaves the session as it was and puts the reason in
-      ``model.message``.
+      ``session.set_ops``) once its replay has succeeded (``session.check_ops``: the states it computes are
+      the ones the views then read). A list that would not replay, or that the session refuses, is not
+      written: the model's op traits go back to what they were, ``model.message`` holds the plain sentence
+      (:func:`~.messages.plain_message`) and the trait assignment raises ``traitlets.TraitError`` with it. An
+      op list that fails already, at the same op, before the change is not this change's doing: it is written.
     - A change of the session's op list (undo/redo, load, code) sets the model's op traits from it; the model
       then equals what the ops say (undo restores every parameter).
 
@@ -155,11 +190,16 @@ class ModelBinding:
         self.references = dict(references or {})
         if isinstance(model, StaggerModel):
             self.owned, self._home = STAGGER_OPS, _stagger_home
+            from .views import ik_effectors
+            model.source_duration = float(session.source.duration)
+            model.ik_effectors = ik_effectors(session.source.skeleton)
         elif isinstance(model, WandModel):
             self.owned, self._home = WAND_OPS, _wand_home
+            model.frame_time = float(session.source.frame_time)
         elif isinstance(model, WarpModel):
-            self.owned, self._home = WARP_OPS, None
+            self.owned, self._home = WARP_OPS, _warp_home
             model.source_duration = float(session.source.duration)
+            model.frame_time = float(session.source.frame_time)
             model.reference_options = ["self", "segment"] + [n for n in self.references if n not in ("self", "segment")]
         else:
             raise ValueError(f"model: expected a StaggerModel, WandModel or WarpModel, got {type(model).__name__}")
@@ -171,7 +211,16 @@ class ModelBinding:
         self._last = model.params()
         self.pull()
         model.observe(self._on_model, names=model.trait_names(op=True))
-        session.observe(self._on_session)
+        self._listener = _weak_listener(self._on_session, session)   # the session does not keep us alive
+        session.observe(self._listener)
+
+    def close(self) -> None:
+        """Stop following: the model and the session no longer write to each other (again: nothing)."""
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
+        self.model.unobserve(self._on_model, names=self.model.trait_names(op=True))
+        self.session.unobserve(self._listener)
 
     # -- pure parts, per model ------------------------------------------------------------------------
     def to_ops(self, params: dict) -> list:
@@ -213,11 +262,69 @@ class ModelBinding:
 
     # -- directions -----------------------------------------------------------------------------------
     def _on_model(self, change) -> None:
-        if not self._loading:
-            self.push()
+        if self._loading:
+            return
+        if change["name"] == "cull_by" and isinstance(self.model, StaggerModel):
+            self._same_poses(change["new"])
+        if not self.push() and self._error:   # refused: the model goes back to what the session holds
+            self._revert()
+            raise T.TraitError(self._error)
+
+    def _same_poses(self, cull_by: str) -> None:
+        """Switching the cull to "count" or "picked" starts from the poses the current cull keeps (its count,
+        or its indices), so the pose edits, retimes and IK targets keep meaning the poses they meant."""
+        m, cull = self.model, next((o for o in self.session.ops if o["op"] == "cull"), None)
+        if cull is None or (cull_by == "keep" and m.keep) or (cull_by == "count" and m.count) or cull_by == "percent":
+            return
+        from ... import staggered
+        try:
+            kept = ([int(k) for k in cull["keep"]] if cull.get("keep") is not None else
+                    [int(k) for k in staggered.cull_keep(self.session.extraction(), cull.get("percent"),
+                                                         count=cull.get("count"))])
+        except ValueError:
+            return
+        with self.paused():
+            if cull_by == "keep":
+                m.keep = kept
+            else:
+                m.count = len(kept)
+
+    def _revert(self) -> None:
+        m = self.model
+        self._loading = True
+        try:
+            with m.loading(), m.hold_trait_notifications():
+                for k, v in self._last.items():
+                    if _canon(getattr(m, k)) != _canon(v):
+                        setattr(m, k, copy.deepcopy(v))
+        finally:
+            self._loading = False
+
+    def commit(self, ops: list) -> bool:
+        """Write ``ops`` as the session's op list (one undo step) if it replays; returns whether the list
+        changed. Raises ValueError (:class:`~stagger_nb.session.ReplayError` for a replay failure) and leaves
+        the session as it was otherwise."""
+        if _canon(ops) == _canon(self.session.ops):
+            return False
+        try:
+            self.session.check_ops(ops)
+        except ReplayError as e:
+            if not self._fails_already(e):
+                raise
+        return self.session.set_ops(ops)
+
+    def _fails_already(self, error: ReplayError) -> bool:
+        """Whether the session's own op list fails at the same op as ``error`` (replayed states are cached:
+        only the failing op runs again)."""
+        try:
+            self.session.check_ops(self.session.ops)
+        except ReplayError as e:
+            return e.op.key == error.op.key
+        return False
 
     def push(self) -> bool:
-        """Model -> session. Returns True when the op list changed."""
+        """Model -> session. Returns True when the op list changed; False when nothing changed or the change
+        was refused (then ``model.message`` says why and the session is as it was)."""
         new = self.model.params()
         old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
         if isinstance(self.model, StaggerModel):
@@ -235,13 +342,15 @@ class ModelBinding:
                                    if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
         ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
-            changed = self.session.set_ops(ops)
+            changed = self.commit(ops)
         except ValueError as e:
-            self._error = str(e)
+            self._error = plain_message(e)
             self._show()
             return False
         self._error = ""
         self._last = new
+        if changed and self.model.notes:   # a change went through: the notes of earlier refusals are history
+            self.model.notes = {}
         if not changed:
             self._show()
         return changed
@@ -259,6 +368,10 @@ class ModelBinding:
         if isinstance(self.model, WandModel):
             with self.model.loading():
                 self.model.input_frames = _wand_input_frames(self.session)
+        if isinstance(self.model, WarpModel):
+            with self.model.loading():
+                self.model.has_staggered = any(getattr(OPS.get(o["op"]), "needs", "") == "staggered"
+                                               for o in self.session.ops if o["op"] != "guide_poses")
         params, notes = self.from_ops(self.session.ops, self.model.params())
         self._loading = True
         try:
@@ -278,6 +391,25 @@ class ModelBinding:
         self._notes = notes
         self._error = ""
         self._show()
+
+    def show_staggered(self, sm) -> None:
+        """StaggerModel: show the staggered state ``sm`` (the session's last, drawn by the editor): its pose times,
+        each pose's source frame (``staggered.source_pose_times``) and, while the region is on, the region's
+        falloff at each pose (``Session.pose_falloff``: the scale of the timing edits there)."""
+        from ... import staggered
+        m = self.model
+        ft = self.session.source.frame_time
+        weights = []
+        if m.region:
+            try:
+                weights = [float(w) for w in self.session.pose_falloff(m.region_frame, m.sigma or None)]
+            except ValueError as e:     # a region frame past the clip: said in the message line
+                self._notes = [n for n in self._notes if not n.startswith("region")] + [f"region: {e}"]
+                self._show()
+        with m.loading(), m.hold_trait_notifications():
+            m.pose_times = [float(t) for t in sm.pose_times]
+            m.pose_source_frames = [int(round(float(t) / ft)) for t in staggered.source_pose_times(sm)]
+            m.region_weights = weights
 
     def _clear_bases(self) -> None:
         if self.model.edit_bases:
@@ -317,3 +449,17 @@ class ModelBinding:
 
     def _show(self) -> None:
         self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)
+
+
+def _weak_listener(method, session) -> Callable:
+    """A ``session.observe`` listener calling the bound ``method`` while its object lives (a dropped editor's
+    binding is not kept alive by the session it watched), then removing itself."""
+    ref = weakref.WeakMethod(method)
+
+    def listener(s):
+        m = ref()
+        if m is None:
+            s.unobserve(listener)
+        else:
+            m(s)
+    return listener

@@ -8,7 +8,8 @@ import numpy as np
 import traitlets as T
 
 from ...core.rotations import quat_conj, quat_mul, quat_to_rotvec, rotvec_to_quat
-from ._base import _Model, _finite
+from ..ops import MAX_DEGREES, MAX_WORLD, Cull, Exaggerate, RandomTiming, Retime, Succession, limits
+from ._base import _finite, _g, _Model, _within, snap
 
 __all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
 
@@ -25,27 +26,37 @@ class StaggerModel(_Model):
     """
 
     cull_by = T.Enum(["percent", "count", "keep"], "percent", help="how poses are culled (§4.3)").tag(op=True)
-    percent = T.Float(100.0, help="keep this % of the candidate poses (cull by percent; 100 = all)").tag(op=True)
+    percent = T.Float(100.0, help="keep this % of the candidate poses (cull by percent; 100 = all)").tag(
+        op=True, step=5.0)
     count = T.Int(0, help="keep this many poses (cull by count; 0 = all)").tag(op=True)
     keep = T.List(T.Int(), help="indices of the candidate poses to keep (cull by picking; [] = all)").tag(op=True)
     root = T.Unicode("", help="succession root joint (§5.2)").tag(op=True)
     joints = T.List(T.Unicode(), help="joints the succession delays ([] = all)").tag(op=True)
-    s = T.Float(0.0, help="succession delay per bone (seconds; 0 = off)").tag(op=True)
-    l = T.Float(1.0, help="succession exponent l (> 0; inert when s = 0)").tag(op=True)
-    tau = T.Float(0.0, help="random timing spread τ (seconds; 0 = off)").tag(op=True)
+    s = T.Float(0.0, help="succession delay per bone (seconds; 0 = off)").tag(op=True, step=0.005)
+    l = T.Float(1.0, help="succession exponent l (> 0; inert when s = 0)").tag(op=True, step=0.05)
+    tau = T.Float(0.0, help="random timing spread τ (seconds; 0 = off)").tag(op=True, step=0.005)
     tau_joints = T.List(T.Unicode(), help="joints τ applies to ([] = all)").tag(op=True)
     seed = T.Int(0, help="random seed of τ").tag(op=True)
-    w_r = T.Float(0.0, help="exaggeration weight w_r (§5.3; 0 = off)").tag(op=True)
+    w_r = T.Float(0.0, help="exaggeration weight w_r (§5.3; 0 = off)").tag(op=True, step=0.05)
     w_r_reference = T.Union([T.Enum(["previous", "next", "mean"]), T.Int()], default_value="previous",
                             help="exaggerate against the previous / next / mean pose or a pose index").tag(op=True)
-    pose_edits = T.Dict(help="{pose index: {joint: [rx, ry, rz] degrees}} geometric pose edits (§5.1)").tag(op=True)
+    pose_edits = T.Dict(help="{pose index: {joint: [rx, ry, rz] degrees}} geometric pose edits (§5.1)").tag(
+        op=True, label="the nudge")
     edit_mode = T.Enum(["staggered", "unstaggered"], "staggered",
                        help="pose edits in staggered (Fig. 6a) or non-staggered (Fig. 6b) mode").tag(op=True)
-    retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True)
-    ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(op=True)
+    retimes = T.Dict(help="{pose index: new time (s)} (Fig. 6c)").tag(op=True, label="the pose time")
+    ik_targets = T.List(T.Dict(), help="[{pose, joint, target: [x, y, z]}] IK pose edits").tag(
+        op=True, label="the IK target")
     # off by default (issue 20 item 4): the contact layer does not yet meet the issue's figures on every clip
-    # (hops and jumps at the mild edit, most clips at moderate); a user turns it on with the checkbox
     keep_contacts = T.Bool(False, help="hold the source's foot contacts through the timing edits").tag(op=True)
+    propagate = T.Bool(False, help="spread each pose edit (nudge, IK target) to every similar pose, weighted by the "
+                                   "magic wand's falloff of the edited pose (Dean et al. 2018, §3.3)").tag(op=True)
+    sigma = T.Float(0.0, help="falloff width σ of the propagation and of the region (pose-space units; 0 = the "
+                              "clip's default)").tag(op=True)
+    region = T.Bool(False, help="limit the timing edits (s, τ) to the magic-wand region around region_frame: each "
+                                "pose's offsets scaled by the falloff at its time").tag(op=True)
+    region_frame = T.Int(0, help="source frame the region is centred on (turning the region on puts it at the "
+                                 "selected pose)").tag(op=True)
 
     # view state
     edit_bases = T.Dict(help="{pose index: {joint: [x, y, z, w]}} the true pose value (editing knot at t_k) each "
@@ -53,47 +64,128 @@ class StaggerModel(_Model):
                              "base ⊕ nudge, so edit_mode chooses the knot that reaches them (§5.1, Fig. 6a/6b)")
     pose = T.Int(0, help="selected pose index (the nudge, retime and IK controls act on it)")
     joint = T.Unicode("", help="selected joint (curves, nudge)")
-    rx = T.Float(0.0, help="nudge of the selected joint at the selected pose, x (degrees)")
-    ry = T.Float(0.0, help="nudge, y (degrees)")
-    rz = T.Float(0.0, help="nudge, z (degrees)")
-    pose_times = T.List(T.Float(), help="times (s) of the current poses (set by the binding)")
-    pose_time = T.Float(0.0, help="time (s) of the selected pose; a user change retimes it (Fig. 6c)")
+    rx = T.Float(0.0, help="nudge of the selected joint at the selected pose, x (degrees)").tag(
+        step=1.0, label="nudge x")
+    ry = T.Float(0.0, help="nudge, y (degrees)").tag(step=1.0, label="nudge y")
+    rz = T.Float(0.0, help="nudge, z (degrees)").tag(step=1.0, label="nudge z")
+    pose_times = T.List(T.Float(), help="times (s) of the current poses (set from the replay)")
+    candidate_times = T.List(T.Float(), help="times (s) of the poses extracted before any cull, which "
+                                             "cull.keep and cull.count choose from (set from the replay)")
+    pose_time = T.Float(0.0, help="time (s) of the selected pose; a user change retimes it (Fig. 6c)").tag(
+        step="frame_time", label="pose time")
     frame_time = T.Float(1.0, help="seconds per frame of the source (set by the binding)")
+    source_duration = T.Float(0.0, help="duration of the source (seconds; set by the binding; 0 = unknown)")
     ik_joint = T.Unicode("", help="IK end effector ('' = none)")
-    ik_x = T.Float(0.0, help="IK target x (world units)")
-    ik_y = T.Float(0.0, help="IK target y")
-    ik_z = T.Float(0.0, help="IK target z")
+    ik_effectors = T.List(T.Unicode(), help="end effectors IK can move (hands and feet; set by the binding)")
+    ik_x = T.Float(0.0, help="IK target x (world units)").tag(step=0.005, label="IK target x")
+    ik_y = T.Float(0.0, help="IK target y").tag(step=0.005, label="IK target y")
+    ik_z = T.Float(0.0, help="IK target z").tag(step=0.005, label="IK target z")
+    ik_range = T.List(T.List(T.Float()), [[-1.0, 1.0]] * 3,
+                      help="[[lo, hi]] * 3: where the IK target sliders reach, x, y, z (world units): the effector's "
+                           "place at the selected pose +- the pose's extent, widened to show any target held")
+    quality = T.Dict(help="read-only summary of the edit's quality (sn.quality.compare), updated after each replay")
+    pose_source_frames = T.List(T.Int(), help="source frame of each current pose, before any retiming (set by "
+                                              "the binding)")
+    region_weights = T.List(T.Float(), help="the region's falloff at each current pose, in [0, 1] (set by the "
+                                            "binding; [] while the region is off): what the timeline shows")
 
     @T.validate("percent")
     def _v_percent(self, p):
-        v = _finite("percent", p["value"])
-        if not 0.0 < v <= 100.0:
-            raise T.TraitError(f"percent: expected a percentage in (0, 100], got {v}")
-        return v
+        lo, hi, open_lo = limits(Cull, "percent")
+        return self._number(p, lo, hi, open_lo, unit=" %")
 
-    @T.validate("count", "seed")
-    def _v_nonneg_int(self, p):
-        if p["value"] < 0:
-            raise T.TraitError(f"{p['trait'].name}: expected an integer >= 0, got {p['value']}")
+    @T.validate("count")
+    def _v_count(self, p):
+        n, lo = p["value"], limits(Cull, "count")[0]
+        K = len(self.candidate_times)
+        if n != 0 and (n < lo or (not self._loading and K and n > K)):
+            top = f" and {K} (the poses extracted)" if K else ""
+            raise T.TraitError(f"count must be 0 (all poses) or between {lo}{top}, got {n}" if K else
+                               f"count must be 0 (all poses) or at least {lo}, got {n}")
+        return n
+
+    @T.validate("seed")
+    def _v_seed(self, p):
+        lo, hi, _ = limits(RandomTiming, "seed")
+        if not lo <= p["value"] <= hi:
+            raise T.TraitError(f"seed must lie between {lo} and {hi}, got {p['value']}")
         return p["value"]
+
+    @T.validate("keep")
+    def _v_keep(self, p):
+        K = len(self.candidate_times)
+        bad = [k for k in p["value"] if k < 0 or (K and k >= K)]
+        if bad and not self._loading:
+            raise T.TraitError(f"keep: pose {bad[0]} is not one of the {K} poses extracted")
+        return sorted(set(int(k) for k in p["value"]))
 
     @T.validate("l")
     def _v_l(self, p):
-        v = _finite("l", p["value"])
-        if v <= 0:
-            raise T.TraitError(f"l: expected a number > 0, got {v}")
-        return v
+        lo, hi, open_lo = limits(Succession, "l")
+        return self._number(p, lo, hi, open_lo)
+
+    @T.validate("s")
+    def _v_s(self, p):
+        lo, hi, open_lo = limits(Succession, "s")
+        return self._number(p, lo, hi, open_lo, unit=" s")
 
     @T.validate("tau")
     def _v_tau(self, p):
-        v = _finite("tau", p["value"])
+        lo, hi, open_lo = limits(RandomTiming, "tau")
+        return self._number(p, lo, hi, open_lo, unit=" s")
+
+    @T.validate("w_r")
+    def _v_w_r(self, p):
+        lo, hi, open_lo = limits(Exaggerate, "w_r")
+        return self._number(p, lo, hi, open_lo)
+
+    @T.validate("rx", "ry", "rz")
+    def _v_nudge(self, p):
+        return self._number(p, -MAX_DEGREES, MAX_DEGREES, unit="°")
+
+    @T.validate("ik_x", "ik_y", "ik_z")
+    def _v_ik(self, p):
+        return self._number(p, -MAX_WORLD, MAX_WORLD)
+
+    @T.validate("pose_time")
+    def _v_pose_time(self, p):
+        if self._loading or not 0 <= self.pose < len(self.pose_times):
+            return _finite("pose time", p["value"])
+        lo, hi = self.pose_time_range()
+        v = _finite("pose time", p["value"])
+        if not lo < v < hi and not (self.pose == 0 and v == lo) and not (
+                self.pose == len(self.pose_times) - 1 and v == hi):
+            raise T.TraitError(f"pose time must lie between {lo:.3f} s and {hi:.3f} s (the poses beside pose "
+                               f"{self.pose}), got {_g(v)} s")
+        return snap(v, self.step("pose_time"))
+
+    def pose_time_range(self, k: int | None = None) -> tuple:
+        """``(lo, hi)`` seconds pose ``k`` (default: the selected pose) may be retimed to: strictly between the
+        poses beside it as they are now; the first pose from 0 s, the last up to the source's end."""
+        k = self.pose if k is None else int(k)
+        t = self.pose_times
+        lo = t[k - 1] if k > 0 else limits(Retime, "time")[0]
+        hi = t[k + 1] if k + 1 < len(t) else max(self.source_duration, t[k]) if self.source_duration else t[k]
+        return float(lo), float(hi)
+
+    @T.validate("sigma")
+    def _v_sigma(self, p):
+        v = _finite("sigma", p["value"])
         if v < 0:
-            raise T.TraitError(f"tau: expected a number >= 0 (seconds), got {v}")
+            raise T.TraitError(f"sigma: expected a number >= 0 (0 = the clip's default), got {v}")
         return v
 
-    @T.validate("s", "w_r", "rx", "ry", "rz", "ik_x", "ik_y", "ik_z")
-    def _v_finite(self, p):
-        return _finite(p["trait"].name, p["value"])
+    @T.validate("region_frame")
+    def _v_region_frame(self, p):
+        if p["value"] < 0:
+            raise T.TraitError(f"region_frame: expected a source frame index >= 0, got {p['value']}")
+        return p["value"]
+
+    @T.observe("region")
+    def _region_at_pose(self, change):
+        """Turning the region on (a user's move) centres it on the selected pose's source frame."""
+        if change["new"] and not self._loading and 0 <= self.pose < len(self.pose_source_frames):
+            self.region_frame = int(self.pose_source_frames[self.pose])
 
     @T.validate("w_r_reference")
     def _v_ref(self, p):
@@ -122,11 +214,9 @@ class StaggerModel(_Model):
 
     @T.validate("retimes")
     def _v_retimes(self, p):
+        lo = limits(Retime, "time")[0]
         out = {(int(k) if int(k) in self.retimes else self._index_below("retimes", k, len(self.pose_times), "poses")):
-               _finite(f"retimes[{k}]", v) for k, v in p["value"].items()}
-        bad = {k: v for k, v in out.items() if v < 0}
-        if bad:
-            raise T.TraitError(f"retimes: expected times >= 0 (seconds), got {bad}")
+               _within(f"retimes[{k}]", v, lo, unit=" s") for k, v in p["value"].items()}
         return out
 
     @T.validate("pose")
@@ -141,7 +231,7 @@ class StaggerModel(_Model):
             if e["pose"] not in [x["pose"] for x in self.ik_targets]:
                 self._index_below(f"ik_targets[{i}].pose", e["pose"], len(self.pose_times), "poses")
             self._known_joint(f"ik_targets[{i}].joint", e["joint"])
-            [_finite(f"ik_targets[{i}].target", x) for x in e["target"]]
+            [_within(f"ik_targets[{i}].target", x, -MAX_WORLD, MAX_WORLD) for x in e["target"]]
         return p["value"]
 
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
@@ -170,15 +260,18 @@ class StaggerModel(_Model):
 
     @T.observe("pose", "pose_times", "retimes")
     def _show_pose_time(self, change):
+        """The selected pose's time, shown rounded to the control's step."""
         if 0 <= self.pose < len(self.pose_times):
             with self.loading():
-                self.pose_time = float(self.retimes.get(self.pose, self.pose_times[self.pose]))
+                self.pose_time = snap(float(self.retimes.get(self.pose, self.pose_times[self.pose])),
+                                      self.step("pose_time"))
 
     @T.observe("pose_time")
     def _retime(self, change):
         if self._loading or not 0 <= self.pose < len(self.pose_times):
             return
-        if abs(self.pose_time - self.retimes.get(self.pose, self.pose_times[self.pose])) > 1e-12:
+        now = float(self.retimes.get(self.pose, self.pose_times[self.pose]))
+        if abs(self.pose_time - snap(now, self.step("pose_time"))) > 1e-12:   # not the time as shown
             self.retimes = {**self.retimes, self.pose: float(self.pose_time)}
 
     def _selected_nudge(self):
@@ -205,7 +298,8 @@ class StaggerModel(_Model):
                 del edits[self.pose]
         self.pose_edits = edits
 
-    def _ik_entry(self):
+    def ik_entry(self) -> dict | None:
+        """The IK edit of the selected pose and effector (``{pose, joint, target}``), None when there is none."""
         for e in self.ik_targets:
             if e.get("pose") == self.pose and e.get("joint") == self.ik_joint:
                 return e
@@ -216,7 +310,7 @@ class StaggerModel(_Model):
         self._show_ik()
 
     def _show_ik(self):
-        e = self._ik_entry()
+        e = self.ik_entry()
         if e is not None:
             with self.hold_trait_notifications():
                 self.ik_x, self.ik_y, self.ik_z = (float(x) for x in e["target"])
@@ -227,16 +321,29 @@ class StaggerModel(_Model):
         if self._loading or not self.ik_joint:
             return
         target = [self.ik_x, self.ik_y, self.ik_z]
-        e = self._ik_entry()
+        e = self.ik_entry()
         if e is not None and list(e["target"]) == target:
             return
         rest = [x for x in self.ik_targets if x is not e]
         self.ik_targets = rest + [{"pose": int(self.pose), "joint": self.ik_joint, "target": target}]
 
-    def show_ik_target(self, position) -> None:
-        """Place the target sliders at ``position`` (the effector's current place) without recording an edit."""
+    def show_ik_target(self, position, extent: float | None = None) -> None:
+        """Place the target sliders at ``position`` (the effector's current place) without recording an edit;
+        with ``extent``, let :attr:`ik_range` reach ``position +- extent`` on each axis (it only grows)."""
+        p = [float(x) for x in position]
         with self.loading(), self.hold_trait_notifications():
-            self.ik_x, self.ik_y, self.ik_z = (float(x) for x in position)
+            if extent is not None:
+                self.ik_range = [[min(lo, v - extent), max(hi, v + extent)] for (lo, hi), v in zip(self.ik_range, p)]
+            self.ik_x, self.ik_y, self.ik_z = p
+
+    def pose_frames(self) -> list:
+        """The frame of each current pose (nearest to its time): where the 3D view marks the poses."""
+        return [self.pose_frame(k) for k in range(len(self.pose_times))]
+
+    def candidate_near(self, time: float) -> int | None:
+        """Index of the extracted pose nearest to ``time`` seconds (None before the extraction is known)."""
+        t = self.candidate_times
+        return min(range(len(t)), key=lambda k: abs(t[k] - float(time))) if t else None
 
 
 def _names_note(names, field, value, known) -> str | None:
@@ -267,6 +374,9 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
     knot that takes that value: the true pose at ``t_k`` (staggered, Fig. 6a) or the extreme value (Fig. 6b).
     Without a base a nudge is written as ``deltas`` (the same change to both knots: the modes then agree).
 
+    ``propagate`` adds ``"propagate": true`` (and ``sigma`` when not 0) to the pose edits and IK targets, ``region``
+    a ``"falloff": {"frame": region_frame, "sigma": ...}`` to the succession and the random timing (issue 24).
+
     Identity values write no op (percent = 100, s = 0, τ = 0, w_r = 0, an all-zero nudge); ``keep_contacts``
     writes ``{"op": "keep_contacts"}`` when on and any other staggered op is written. Optional fields are
     written only when they differ from the op's default (so the op list stays short and readable).
@@ -278,6 +388,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         ops.append({"op": "cull", "count": int(p["count"])})
     elif p["cull_by"] == "keep" and p["keep"]:
         ops.append({"op": "cull", "keep": sorted(int(k) for k in p["keep"])})
+    spread = {}
+    if p.get("propagate"):      # the pose edits spread to every similar pose (Dean et al. 2018, §3.3)
+        spread = {"propagate": True, **({"sigma": float(p["sigma"])} if p.get("sigma") else {})}
+    region = {}
+    if p.get("region"):         # the timing edits inside the region only
+        region = {"falloff": {"frame": int(p["region_frame"]), "sigma": float(p["sigma"]) if p.get("sigma") else None}}
     for k in sorted(p["pose_edits"]):
         nudges = {j: [float(x) for x in v] for j, v in p["pose_edits"][k].items() if any(v)}
         known = (bases or {}).get(k, {})
@@ -288,12 +404,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
                 op = {"op": "edit_pose", "pose": int(k), field: value}
                 if p["edit_mode"] != "staggered":
                     op["mode"] = p["edit_mode"]
-                ops.append(op)
+                ops.append({**op, **spread})
     for k in sorted(p["retimes"]):
         ops.append({"op": "retime", "pose": int(k), "time": float(p["retimes"][k])})
     for e in p["ik_targets"]:
         ops.append({"op": "ik_pose", "pose": int(e["pose"]), "joint": e["joint"],
-                    "target": [float(x) for x in e["target"]]})
+                    "target": [float(x) for x in e["target"]], **spread})
     if p["w_r"] != 0.0:
         op = {"op": "exaggerate", "w_r": float(p["w_r"])}
         if p["w_r_reference"] != "previous":
@@ -303,12 +419,12 @@ def stagger_params_to_ops(p: dict, bases: dict | None = None) -> list:
         op = {"op": "succession", "root": p["root"], "s": float(p["s"]), "l": float(p["l"])}
         if p["joints"]:
             op["joints"] = list(p["joints"])
-        ops.append(op)
+        ops.append({**op, **region})
     if p["tau"] > 0.0:
         op = {"op": "random_timing", "tau": float(p["tau"]), "seed": int(p["seed"])}
         if p["tau_joints"]:
             op["joints"] = list(p["tau_joints"])
-        ops.append(op)
+        ops.append({**op, **region})
     if p["keep_contacts"] and ops:
         ops.append({"op": "keep_contacts"})
     return ops
@@ -324,9 +440,9 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | N
     known = set(joint_names)
     by = {o["op"]: o for o in ops if o["op"] in STAGGER_OPS}
     c = by.get("cull")
-    p["percent"] = 100.0
+    p["percent"], p["count"], p["keep"] = 100.0, 0, []   # the fields of the other cull modes: their identity
     if c is None:
-        p["count"], p["keep"] = 0, []
+        pass
     elif c.get("percent") is not None:
         p["cull_by"], p["percent"] = "percent", float(c["percent"])
     elif c.get("count") is not None:
@@ -390,6 +506,18 @@ def stagger_ops_to_params(ops: list, base: dict, joint_names=(), bases: dict | N
     p["retimes"] = {int(o["pose"]): float(o["time"]) for o in ops if o["op"] == "retime"}
     p["ik_targets"] = [{"pose": int(o["pose"]), "joint": o["joint"], "target": [float(x) for x in o["target"]]}
                        for o in ops if o["op"] == "ik_pose"]
+    edits = [o for o in ops if o["op"] in ("edit_pose", "ik_pose")]
+    if edits:
+        p["propagate"] = bool(edits[-1].get("propagate", False))
+        if p["propagate"]:
+            p["sigma"] = float(edits[-1].get("sigma") or 0.0)
+    timed = [o for o in ops if o["op"] in ("succession", "random_timing")]
+    if timed:
+        r = timed[-1].get("falloff")
+        p["region"] = r is not None
+        if r is not None:
+            p["region_frame"] = int(r["frame"])
+            p["sigma"] = float(r.get("sigma") or 0.0)
     others = [o for o in ops if o["op"] in STAGGER_OPS and o["op"] != "keep_contacts"]
     if "keep_contacts" in by:
         p["keep_contacts"] = True

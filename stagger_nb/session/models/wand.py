@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import copy
+import math
 
 import traitlets as T
 
-from ._base import _Model, _finite
+from ..ops import MAX_DEGREES, Propagate, limits
+from ._base import _Model
 
 __all__ = ["WandModel", "WAND_OPS", "wand_params_to_ops", "wand_ops_to_params"]
 
@@ -20,20 +22,24 @@ class WandModel(_Model):
     sigma = T.Float(1.0, help="falloff width σ of the pose-space kernel (§3.3; > 0)").tag(op=True)
     default_sigma = T.Float(0.0, help="the σ a propagate op without one uses (the clip's default σ, set by the "
                                       "editor; 0 = unknown): undoing back to such an op shows it")
+    sigma_grid = T.List(T.Float(), help="the σ positions of the editor's slider: the default σ times "
+                                        "10^(SIGMA_STEP * n), n = -SIGMA_STEPS..SIGMA_STEPS (x 0.25 .. x 4); set "
+                                        "with default_sigma")
     edits = T.Dict(help="{edited frame: {joint: [rx, ry, rz] degrees}}").tag(op=True)
     propagate = T.Bool(True, help="propagate the edits (off: edit only the edited frames)").tag(op=True)
     frame_range = T.List(T.Int(), help="[start, stop) frames the propagation may change ([] = all)").tag(op=True)
     repetitions = T.Enum(["keep", "discard"], "keep",
                          help="propagate to repetitions of the edited pose (keep) or not (discard), §3.3").tag(op=True)
 
+    frame_time = T.Float(0.0, help="seconds per frame of the source (0 = unknown)")
     input_frames = T.Int(0, help="frames of the motion the edited frames index (the wand ops' input; set by "
                                  "the binding; 0 = unknown)")
     edit_frame = T.Int(0, help="the selected edited frame; changing it moves that frame's edit there (an edit "
                                "already at the new frame is selected instead)")
     joint = T.Unicode("", help="joint the rotation controls act on")
-    rx = T.Float(0.0, help="rotation of the joint at the edited frame, x (degrees)")
-    ry = T.Float(0.0, help="rotation, y (degrees)")
-    rz = T.Float(0.0, help="rotation, z (degrees)")
+    rx = T.Float(0.0, help="rotation of the joint at the edited frame, x (degrees)").tag(step=1.0, label="rotate x")
+    ry = T.Float(0.0, help="rotation, y (degrees)").tag(step=1.0, label="rotate y")
+    rz = T.Float(0.0, help="rotation, z (degrees)").tag(step=1.0, label="rotate z")
     compare = T.List(T.Enum(["isomap", "diffusion", "spline"]), help="comparison falloffs drawn beside Green's")
 
     @property
@@ -41,12 +47,38 @@ class WandModel(_Model):
         """The frames holding an edit, sorted."""
         return sorted(self.edits)
 
+    def time_of(self, frame: int) -> float:
+        """Seconds of source frame ``frame``."""
+        return frame * self.frame_time
+
+    def edited_times(self) -> list:
+        """Seconds of each edited frame (sorted)."""
+        return [self.time_of(f) for f in self.edited_frames]
+
+    SIGMA_STEP = 0.04   # log10 units between the slider's positions
+    SIGMA_STEPS = 15    # positions each side of the default sigma
+
     @T.validate("sigma")
     def _v_sigma(self, p):
-        v = _finite("sigma", p["value"])
-        if v <= 0:
-            raise T.TraitError(f"sigma: expected a number > 0, got {v}")
-        return v
+        lo, hi, open_lo = limits(Propagate, "sigma")
+        return self._number(p, lo, hi, open_lo)
+
+    @T.observe("default_sigma")
+    def _grid(self, change):
+        s0 = self.default_sigma
+        self.sigma_grid = [] if s0 <= 0 else [s0 * 10.0 ** (self.SIGMA_STEP * n)
+                                               for n in range(-self.SIGMA_STEPS, self.SIGMA_STEPS + 1)]
+
+    def snap_sigma(self, value: float) -> float:
+        """The position of :attr:`sigma_grid` nearest to ``value`` on a log scale (``value`` when there is no
+        grid): where the slider lands, so a move hits a warmed eigenbasis."""
+        if not self.sigma_grid or not value > 0:
+            return float(value)
+        return float(min(self.sigma_grid, key=lambda g: abs(math.log(g) - math.log(value))))
+
+    def sigmas_nearest_first(self) -> list:
+        """:attr:`sigma_grid` ordered by distance from the current σ (log scale): the order to warm them in."""
+        return sorted(self.sigma_grid, key=lambda g: abs(math.log(g) - math.log(self.sigma)))
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
@@ -72,8 +104,8 @@ class WandModel(_Model):
         return v
 
     @T.validate("rx", "ry", "rz")
-    def _v_finite(self, p):
-        return _finite(p["trait"].name, p["value"])
+    def _v_rotation(self, p):
+        return self._number(p, -MAX_DEGREES, MAX_DEGREES, unit="°")
 
     def _selected(self):
         return self.edits.get(self.edit_frame, {}).get(self.joint, [0.0, 0.0, 0.0])

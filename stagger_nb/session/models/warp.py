@@ -7,50 +7,57 @@ from typing import Any
 
 import traitlets as T
 
+from ..ops import GuidedWarp, LinearWarp, limits
 from ..runners import MAX_WARP_RATIO
-from ._base import _canon, _finite, _Model
+from ._base import _canon, _finite, _Model, snap
 
 __all__ = ["WarpModel", "WARP_OPS", "warp_params_to_ops", "warp_ops_to_params"]
 
-WARP_OPS = ("guided_warp", "linear_warp")
-"""Ops the WarpEditor writes."""
+WARP_OPS = ("guided_warp", "linear_warp", "guide_poses")
+"""Ops the WarpEditor writes (``guide_poses``: the guided warp applied to the staggered pose times, issue 24)."""
 
 
 class WarpModel(_Model):
     """Parameters of the guided time-warping editor (Hsu et al. 2007)."""
 
     mode = T.Enum(["guided", "linear"], "guided", help="guided (DP, §4) or linear time warp").tag(op=True)
-    duration = T.Float(1.0, help="output duration (seconds; > 0)").tag(op=True)
+    duration = T.Float(1.0, help="output duration (seconds; > 0)").tag(op=True, step="frame_time")
     free_length = T.Bool(False, help="let the warp choose its length (unconstrained end)").tag(op=True)
-    skip = T.Int(8, help="skip limit: input frames one output frame may advance (§4; >= 0)").tag(op=True)
+    skip = T.Int(8, help="skip limit: input frames one output frame may advance (§4; 1 .. 127)").tag(op=True)
     reference = T.Unicode("self", help="'self', 'segment' or the name of a reference clip").tag(op=True)
     segment = T.List(T.Float(), [0.0, 1.0], help="[start, stop] seconds of the source used as reference when "
-                                                  "reference = 'segment'").tag(op=True)
+                                                  "reference = 'segment'").tag(op=True, step="frame_time")
     keytimes = T.List(T.List(T.Float()), help="[[input_s, output_s], ...] keytime constraints (§4.2)").tag(op=True)
     backward = T.Bool(False, help="allow the warp to run backward in time").tag(op=True)
+    keytimes_text = T.Unicode("", help="the keytimes as typed, 'in:out, in:out' (seconds): setting it sets "
+                                       "keytimes (a malformed entry is refused)").tag(label="keytimes")
+    target = T.Enum(["motion", "poses"], "motion",
+                    help="what the guided warp retimes: the edited motion (guided_warp) or the staggered pose times "
+                         "(guide_poses: refinements and the staggered edits kept and editable; needs a session "
+                         "with staggered edits, guided mode, forward)").tag(op=True)
+    has_staggered = T.Bool(False, help="the session holds staggered edits (set by the binding): 'poses' applies")
 
     source_duration = T.Float(0.0, help="duration of the source (seconds; set by the binding)")
+    frame_time = T.Float(0.0, help="seconds per frame of the source (set by the binding; 0 = unknown)")
     reference_options = T.List(T.Unicode(), ["self", "segment"], help="names the reference can take")
 
     @T.validate("duration")
     def _v_duration(self, p):
-        v = _finite("duration", p["value"])
-        if v <= 0:
-            raise T.TraitError(f"duration: expected seconds > 0, got {v}")
-        if self.source_duration > 0 and v > MAX_WARP_RATIO * self.source_duration:   # the runner's limit,
-            raise T.TraitError(f"duration: expected at most {MAX_WARP_RATIO} times the source's "   # said before
-                               f"{self.source_duration:g} s, got {v:g}")                         # an op is written
-        return v
+        lo, _, open_lo = limits(LinearWarp, "duration")
+        hi = MAX_WARP_RATIO * self.source_duration if self.source_duration > 0 else None   # the runner's limit
+        return self._number(p, lo, hi, open_lo, unit=" s")
 
     @T.validate("skip")
     def _v_skip(self, p):
-        if p["value"] < 0:
-            raise T.TraitError(f"skip: expected an integer >= 0, got {p['value']}")
+        lo, hi, _ = limits(GuidedWarp, "skip")
+        if not lo <= p["value"] <= hi:
+            raise T.TraitError(f"skip must lie between {lo} and {hi} input frames per output frame, got {p['value']}")
         return p["value"]
 
     @T.validate("segment")
     def _v_segment(self, p):
-        v = [_finite("segment", x) for x in p["value"]]
+        v = [_finite("segment", x) if self._loading else snap(_finite("segment", x), self.step("segment"))
+             for x in p["value"]]
         if len(v) != 2 or v[1] < v[0] or v[0] < 0 or 0 < self.source_duration < v[1]:
             top = f" <= {self.source_duration:g}" if self.source_duration > 0 else ""
             raise T.TraitError(f"segment: expected [start, stop] seconds with 0 <= start <= stop{top}, got {v}")
@@ -70,6 +77,52 @@ class WarpModel(_Model):
                 raise T.TraitError(f"keytimes[{i}]: input and output times must both increase, got {out[-2]} "
                                    f"then {out[-1]}")
         return out
+
+    @staticmethod
+    def format_keytimes(kt) -> str:
+        return ", ".join(f"{a:g}:{b:g}" for a, b in kt)
+
+    @T.validate("keytimes_text")
+    def _v_keytimes_text(self, p):
+        self._parse_keytimes(p["value"])
+        return p["value"]
+
+    @staticmethod
+    def _parse_keytimes(text: str) -> list:
+        pairs = []
+        for item in text.replace(";", ",").split(","):
+            if not item.strip():
+                continue
+            a, sep, b = item.partition(":")
+            try:
+                if not sep:
+                    raise ValueError
+                pairs.append([float(a), float(b)])
+            except ValueError:
+                raise T.TraitError(f"keytimes: {item.strip()!r} is not 'input_time:output_time' (seconds)") from None
+        return pairs
+
+    @T.observe("keytimes_text")
+    def _typed_keytimes(self, change):
+        if self._loading:
+            return
+        try:
+            self.keytimes = self._parse_keytimes(change["new"])
+        except T.TraitError:   # refused (out of order, past the clip...): the text shows the keytimes again
+            with self.loading():
+                self.keytimes_text = self.format_keytimes(self.keytimes)
+            raise
+
+    @T.observe("keytimes")
+    def _show_keytimes(self, change):
+        text = self.format_keytimes(self.keytimes)
+        if self._parse_keytimes(self.keytimes_text) != self.keytimes:
+            with self.loading():
+                self.keytimes_text = text
+
+    def with_keytime(self, input_s: float, output_s: float) -> list:
+        """The keytimes with ``[input_s, output_s]`` added, in output-time order (a click on the warp plot)."""
+        return sorted(self.keytimes + [[float(input_s), float(output_s)]], key=lambda p: p[1])
 
     @T.validate("reference")
     def _v_reference(self, p):
@@ -100,14 +153,15 @@ def warp_params_to_ops(p: dict, references: dict | None = None, source_duration:
         ref = {"segment": [float(x) for x in p["segment"]]}
     else:
         ref = copy.deepcopy((references or {}).get(r, {"path": r}))
-    op = {"op": "guided_warp", "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
+    name = "guide_poses" if p.get("target") == "poses" else "guided_warp"
+    op = {"op": name, "duration": float(p["duration"]), "skip": int(p["skip"]), "reference": ref}
     if kt:
         op["keytimes"] = kt
     if p["free_length"]:   # the warp chooses its length: no duration, no keytimes (they need one)
         op["free_length"] = True
         del op["duration"]
         op.pop("keytimes", None)
-    if p["backward"]:
+    if p["backward"] and name == "guided_warp":   # (the pose times keep their order: no backward guide_poses)
         op["backward"] = True
     return [op]
 
@@ -127,10 +181,11 @@ def warp_ops_to_params(ops: list, base: dict, references: dict | None = None,
         return p, notes, new_refs
     o = mine[-1]
     p["mode"] = "linear" if o["op"] == "linear_warp" else "guided"
+    p["target"] = "poses" if o["op"] == "guide_poses" else "motion"
     if o.get("duration") is not None:
         p["duration"] = float(o["duration"])
     p["keytimes"] = [[float(a), float(b)] for a, b in (o.get("keytimes") or [])]
-    if o["op"] == "guided_warp":
+    if o["op"] in ("guided_warp", "guide_poses"):
         p["skip"] = int(o.get("skip", 8))
         p["free_length"] = bool(o.get("free_length", False))
         p["backward"] = bool(o.get("backward", False))

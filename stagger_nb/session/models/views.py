@@ -1,0 +1,118 @@
+"""What the editors' views show, computed from a session and its model: the numbers behind every plot and
+the ranges of the controls that depend on the clip, so ``widgets/`` only draws (no maths, no technique import).
+
+Each function takes the session (and the model it updates or reads) and returns plain arrays for the
+``stagger_nb.plotting`` figures; those that set model traits do so as a load (``model.loading()``), never as
+a user's edit.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ...core.motion import Motion
+from ..session import joint_rotation_degrees
+
+__all__ = ["ik_effectors", "stagger_state", "probability_view", "joint_curves_view", "place_ik_target",
+           "warp_view", "warp_tables_to_warm"]
+
+_TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
+
+
+def ik_effectors(skeleton) -> list:
+    """Names of the end effectors IK can move: every leaf of ``skeleton`` (``staggered.end_effectors``) but
+    toes and heels (their foot is there)."""
+    from ... import staggered
+    names = list(skeleton.names)
+    return [names[j] for j in staggered.end_effectors(skeleton) if not _TOE.search(names[j])]
+
+
+def stagger_state(model, session):
+    """``(sm, full)``: the last staggered state of the session's replay and the source's extraction; sets
+    ``model.pose_times`` (the current poses) and ``model.candidate_times`` (the extracted ones) from them."""
+    sm, full = session.staggered(), session.extraction()
+    with model.loading(), model.hold_trait_notifications():
+        model.candidate_times = [float(t) for t in full.pose_times]
+        model.pose_times = [float(t) for t in sm.pose_times]
+    return sm, full
+
+
+def probability_view(session, sm, full) -> dict:
+    """The pose-probability plot's data (Coleman et al. 2008, §4.1): ``times``/``probability`` (the signal over
+    the source's frames, None when the extraction kept none), ``candidate_times``/``candidate_values`` (every
+    extracted pose) and ``kept_times``/``kept_values`` (the poses after the cull; P interpolated at their
+    times, which retimes may have moved off a frame)."""
+    m = session.source
+    prob = full.metadata.get("probability")
+    times = None if prob is None else np.arange(m.num_frames) * m.frame_time
+    kept = np.asarray(sm.pose_times, dtype=float)
+    kept_values = np.interp(kept, times, prob) if prob is not None else sm.pose_probability
+    return {"times": times, "probability": prob, "candidate_times": np.asarray(full.pose_times),
+            "candidate_values": full.pose_probability, "kept_times": kept, "kept_values": kept_values}
+
+
+def joint_curves_view(session, edited: Motion, joint: str, sm=None, source_degrees=None) -> dict:
+    """One joint's curves: ``times`` and ``degrees`` (its rotation vector in the edited motion, (F, 3)),
+    ``source_times`` and ``source_degrees`` (the source's; pass ``source_degrees`` to reuse them), and with a
+    staggered state ``sm`` the ``pose_times`` t_k and this joint's refined ``knot_times`` t_k + r_kj (§4.2)."""
+    m = session.source
+    j = m.skeleton.index(joint)
+    out = {"times": edited.times, "degrees": joint_rotation_degrees(edited, j), "source_times": m.times,
+           "source_degrees": joint_rotation_degrees(m, j) if source_degrees is None else source_degrees,
+           "pose_times": (), "knot_times": ()}
+    if sm is not None:
+        kept = np.asarray(sm.pose_times, dtype=float)
+        out["pose_times"], out["knot_times"] = kept, kept + np.asarray(sm.refinements)[:, j]
+    return out
+
+
+def place_ik_target(model, session, edited: Motion | None = None) -> None:
+    """Put the IK target sliders at the effector's place at the selected pose, without recording an edit (only
+    when that pose and effector hold no IK edit yet), and let ``model.ik_range`` reach +- the pose's extent
+    around it. Forward kinematics of the edited motion is computed once per motion (the session's cache)."""
+    if not model.ik_joint or not model.pose_times or model.ik_entry() is not None:
+        return
+    edited = session.edited() if edited is None else edited
+    pos = session.positions(edited)
+    f = min(model.pose_frame(min(model.pose, len(model.pose_times) - 1)), len(pos) - 1)
+    p = pos[f, edited.skeleton.index(model.ik_joint)]
+    extent = float(np.ptp(pos[f], axis=0).max()) or 1.0
+    model.show_ik_target(p, extent)
+
+
+def warp_view(session) -> dict:
+    """The warp plot's data (Hsu et al. 2007, Fig. 5): ``out_times`` (seconds of each output frame), ``warp``
+    (input seconds shown at each, from the last warp op; the identity without one) and ``speed`` (its
+    derivative, 1 = the original speed)."""
+    from ... import timewarp
+    edited = session.edited()
+    ft = edited.frame_time
+    warp = None
+    names = [op.name for op in session.typed_ops]
+    for i in range(len(names) - 1, -1, -1):
+        if names[i] in ("guided_warp", "linear_warp", "guide_poses"):
+            warp = session.warp_curve(i)
+            break
+    if warp is None:
+        warp = edited.times
+    return {"out_times": np.arange(len(warp)) * ft, "warp": warp, "speed": timewarp.warp_speed(warp, ft)}
+
+
+def warp_tables_to_warm(binding, max_skip: int) -> dict | None:
+    """The ``guided_warp`` op whose kNN tables a WarpEditor warms (``Session.warm(("warp_tables", [op]))``):
+    the current warp at the skip slider's largest value ``max_skip`` (every smaller skip is sliced from its
+    tables), or with no warp yet a compression to 0.9 of the source's duration (the first duration move's).
+    None for a linear warp and for clips long enough to use approximate kNN (their tables are not sliced)."""
+    from ...timewarp.guided import AUTO_APPROX_PAIRS
+    session, model = binding.session, binding.model
+    if session.source.num_frames ** 2 > AUTO_APPROX_PAIRS:
+        return None
+    ops = [o for o in binding.to_ops(model.params()) if o["op"] == "guided_warp"]
+    if not ops and model.mode == "guided":
+        ops = [o for o in binding.to_ops(dict(model.params(), reference="self", free_length=False,
+                                              duration=0.9 * session.source.duration))
+               if o["op"] == "guided_warp"]
+    if not ops:
+        return None
+    return dict(ops[-1], skip=max(int(max_skip), int(ops[-1].get("skip", 8))))
