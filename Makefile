@@ -1,6 +1,9 @@
 # The two commands the README promises. Both set everything up first (idempotent):
 #   make lab   -> .venv + package + notebook deps + sample data, then JupyterLab on notebooks/
 #   make test  -> the same set-up, then every unit test and every notebook under nbval
+# The developer's fast loop (CONTRIBUTING.md):
+#   make lint  -> ruff check (rules in pyproject.toml [tool.ruff])
+#   make check -> lint + the unit tests without the browser tests and the notebooks (<= 3 min)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -9,7 +12,7 @@ PORT   ?= 8888
 # JupyterLab refuses to run as root unless told; containers and CI machines often are root
 ROOTFLAG := $(if $(filter 0,$(shell id -u)),--allow-root)
 
-.PHONY: setup data lab test bench clean
+.PHONY: setup data lab test bench clean lint check
 
 $(STAMP): pyproject.toml setup.py stagger_nb/io/_cparse.c stagger_nb/staggered/_cspline.c stagger_nb/_carray.h
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -27,6 +30,16 @@ lab: setup
 
 test: setup
 	$(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env -p no:cacheprovider
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+# the fast loop leaves out the browser tests, the real-clip sweeps (marker "shared") and the slow end-to-end files;
+# `make test` (and .ci/run) runs them all
+SLOW_TESTS := hostile_corpus hostile_batch hostile_heldout batch acceptance_editors acceptance_rigs compose_heldout io_gltf
+check: lint
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest tests -m "not browser and not shared" -q -p no:cacheprovider \
+	  $(foreach t,$(SLOW_TESTS),--ignore=tests/test_$(t).py)
 
 bench: setup
 	for f in benchmarks/bench_*.py; do echo "== $$f"; $(PY) $$f || exit 1; done

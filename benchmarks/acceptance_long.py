@@ -24,22 +24,22 @@ import os
 for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 MOCAP = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import staggered, timewarp, wand  # noqa: E402
-from stagger_nb.core.rotations import quat_mul, rotvec_to_quat  # noqa: E402
+import stagger_nb as sn
+from stagger_nb import staggered, timewarp, wand
+from stagger_nb.core.rotations import quat_mul, rotvec_to_quat
 
 GOALS = {"extract": 10.0, "falloff": 10.0, "falloff new sigma": 2.0}
 RSS_GOAL_MB = 2048
@@ -95,7 +95,7 @@ def child_techniques(F: int) -> dict:
     rows["K culled"] = cu.num_poses
     out, *rows["evaluate"] = timed(lambda: staggered.evaluate(cu))
     rows["evaluate frames"] = out.num_frames
-    del out, cu
+    out = cu = None   # free them before the next step (no `del`: a timed lambda above names them)
     f = F // 3
     w, *rows["falloff"] = timed(lambda: wand.falloff(m, f))
     rows["w[f]"] = float(w[f])

@@ -29,9 +29,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 os.environ["PYTHONPATH"] = str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")  # workers import this tree
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import batch  # noqa: E402
-from stagger_nb.session import Session  # noqa: E402
+import stagger_nb as sn
+from stagger_nb import batch
+from stagger_nb.session import Session
 
 OPS = [{"op": "cull", "percent": 50}, {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0}]
 SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")

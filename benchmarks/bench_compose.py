@@ -23,10 +23,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import timewarp  # noqa: E402
-from stagger_nb.session import Session  # noqa: E402
+from stagger_nb import timewarp
+from stagger_nb.session import Session
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_staggered_interactive import clip  # noqa: E402  (CMU 01_01's first 900 frames, or the walk looped)
+from bench_staggered_interactive import clip
 
 N = 12   # slider positions per path
 

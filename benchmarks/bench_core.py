@@ -1,6 +1,7 @@
 """Forward-kinematics speed on a CMU 01_01-sized motion (2752 frames, 31 joints), and ``import stagger_nb`` time.
 
-Targets (issue 13): ``forward_kinematics`` <= 8 ms; ``import stagger_nb`` <= 0.25 s. FK baselines measured in the same process:
+Targets (issue 13): ``forward_kinematics`` <= 8 ms; ``import stagger_nb`` <= 0.25 s.
+FK baselines measured in the same process:
 the straightforward per-joint quaternion loop (the package's first implementation) and the
 per-joint 4x4 homogeneous-matrix composition with scipy rotations (the test reference).
 
@@ -22,10 +23,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from stagger_nb import data, forward_kinematics  # noqa: E402
-from stagger_nb.core.rotations import quat_mul, quat_rotate  # noqa: E402
+from stagger_nb import data, forward_kinematics
+from stagger_nb.core.rotations import quat_mul, quat_rotate
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
-from references import forward_kinematics_reference  # noqa: E402
+from references import forward_kinematics_reference
 
 FRAMES = 2752
 TARGET_MS = 8.0

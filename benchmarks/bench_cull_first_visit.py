@@ -86,8 +86,8 @@ print(f"  given evaluated=evaluate(sm) (what the editor holds): median {1e3 * np
 # evaluate_samples, the refit's source reads: one lexicographic search over all joints (now) against the
 # previous per-joint np.unique / mask / searchsorted loop, on the scattered (time, joint) pairs of a refit
 # (every frame of every joint, shuffled), same kernels after the segment search; CPU, least of 7
-from stagger_nb.staggered.evaluation import _rotations_at, evaluate_samples  # noqa: E402
-from stagger_nb.staggered.representation import knot_times  # noqa: E402
+from stagger_nb.staggered.evaluation import _rotations_at, evaluate_samples
+from stagger_nb.staggered.representation import knot_times
 
 
 def evaluate_samples_per_joint_loop(sm, times, joints):

@@ -192,7 +192,7 @@ def main():
             t = time.process_time()
             sm = staggered.extract(m)
             t_extract = time.process_time() - t
-        except Exception as exc:  # noqa: BLE001 - a row, not a crash
+        except Exception as exc:
             print(f"{name[:28]:28s} {'-':9s} {'-':5s}  ERROR loading/extracting: {type(exc).__name__}: {exc}")
             rows.append({"clip": name, "error": f"{type(exc).__name__}: {exc}"})
             continue
@@ -203,7 +203,7 @@ def main():
                 e = edit(sm, m.skeleton, spec, a.raw)
                 off = staggered.evaluate(e)
                 t_off = time.process_time() - t
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 print(f"{name[:28]:28s} {ename:9s} {'-':5s}  ERROR in the edit: {type(exc).__name__}: {exc}")
                 rows.append({"clip": name, "edit": ename, "error": f"{type(exc).__name__}: {exc}"})
                 continue
@@ -214,7 +214,7 @@ def main():
                     out = staggered.keep_contacts(e, m) if on else off
                     cpu = t_off + (time.process_time() - t if on else 0.0)
                     r = sn.quality.compare(m, out, staggered=e, baseline=off if on else None, bounds=spec[4])
-                except Exception as exc:  # noqa: BLE001
+                except Exception as exc:
                     msg = f"{type(exc).__name__}: {exc}"
                     print(f"{name[:28]:28s} {ename:9s} {label:5s}  ERROR: {msg[:160]}")
                     rows.append({"clip": name, "edit": ename, "layer": label, "error": msg,

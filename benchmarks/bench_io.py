@@ -36,9 +36,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb.io._numparse import parse_table  # noqa: E402
-from stagger_nb.io.bvh_read import _parse_motion_lines  # noqa: E402
+import stagger_nb as sn
+from stagger_nb.io._numparse import parse_table
+from stagger_nb.io.bvh_read import _parse_motion_lines
 
 
 def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
@@ -109,7 +109,8 @@ def _memory(small: Path, tiled: Path) -> None:
         best = res.get(which, (np.inf, np.inf))
         res[which] = (min(best[0], rss), min(best[1], traced))
     (r_ours, t_ours), (r_ref, t_ref) = res["stagger_nb"], res["pybvh"]
-    print(f"reading the {tiled.stat().st_size / 1e6:.1f} MB tiled clip: peak RSS +{r_ours:.0f} MB (pybvh +{r_ref:.0f} MB, "
+    print(f"reading the {tiled.stat().st_size / 1e6:.1f} MB tiled clip: peak RSS +{r_ours:.0f} MB "
+          f"(pybvh +{r_ref:.0f} MB, "
           f"ratio {r_ours / r_ref:.2f}), tracemalloc peak {t_ours:.0f} MB (pybvh {t_ref:.0f} MB, ratio "
           f"{t_ours / t_ref:.2f}); target ratio <= 1: {'met' if r_ours <= r_ref and t_ours <= t_ref else 'NOT met'}")
 
@@ -215,7 +216,8 @@ def _run(args) -> None:
             print(f"ratio read_bvh, fallback path (STAGGER_NB_NO_ACCEL=1) / pybvh: best {ours[0] / theirs[0]:.2f}, "
                   f"median {ours[1] / theirs[1]:.2f}, CPU {ours[2] / theirs[2]:.2f}")
             ours = res["read_bvh, one thread"]
-            print(f"ratio read_bvh on one thread / pybvh: best {ours[0] / theirs[0]:.2f}, median {ours[1] / theirs[1]:.2f}, "
+            print(f"ratio read_bvh on one thread / pybvh: best {ours[0] / theirs[0]:.2f}, "
+                  f"median {ours[1] / theirs[1]:.2f}, "
                   f"CPU {ours[2] / theirs[2]:.2f}")
             ours = res["read_bvh, tab-separated copy"]
             print(f"ratio read_bvh on the tab-separated copy / pybvh on the original: best {ours[0] / theirs[0]:.2f}, "

@@ -19,10 +19,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb.widgets import SkeletonView  # noqa: E402
+import stagger_nb as sn
+from stagger_nb.widgets import SkeletonView
 
 
 def cpu(fn) -> float:
@@ -49,7 +49,9 @@ def main() -> None:
     print(f"set_motion (edit)  cpu min {min(edit):6.1f} median {s:6.1f} ms   edit/new x {s / b:.2f}   "
           f"bytes {v.edit_bytes:,}")
     import warnings
+
     import ipywidgets
+
     from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
     warnings.simplefilter("ignore", DeprecationWarning)   # Widget.widgets: the public registry, deprecated name
     counts = {}

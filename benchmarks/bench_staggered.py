@@ -9,7 +9,8 @@ report). Prints, against baselines run in this process:
 * the paper's Nelder–Mead fitting (Appendix A, straight port) timed on a seeded subset of (segment, joint)
   pairs, extrapolated to the whole clip, as a ratio, with its accuracy next to ours on the same pairs;
 * per clip (the shared clips, CMU 01_01, the procedural walk and run): mean and max angular residual of the
-  spline before displacement, reconstruction error, tangent jumps at segment joins; on the walks: median distance (frames) from pose times to foot contact/release events.
+  spline before displacement, reconstruction error, tangent jumps at segment joins; on the walks: median distance
+  (frames) from pose times to foot contact/release events.
 """
 from __future__ import annotations
 
@@ -23,18 +24,21 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import read_bvh  # noqa: E402
-from stagger_nb.core.motion import concatenate  # noqa: E402
-from stagger_nb.core.kinematics import skeleton_height  # noqa: E402
-from stagger_nb.core.rotations import quat_angle, quat_bezier  # noqa: E402
-from stagger_nb import staggered  # noqa: E402
-from stagger_nb.staggered.extraction import locate_poses  # noqa: E402
-from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
-from stagger_nb.staggered.representation import knot_times  # noqa: E402
-from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps  # noqa: E402
-from stagger_nb.staggered.sampling import sample_segments  # noqa: E402
+from stagger_nb import (
+    read_bvh,
+    staggered,
+)
+from stagger_nb.core.kinematics import skeleton_height
+from stagger_nb.core.motion import concatenate
+from stagger_nb.core.rotations import quat_angle, quat_bezier
+from stagger_nb.staggered.extraction import locate_poses
+from stagger_nb.staggered.fitting import fit_staggered
+from stagger_nb.staggered.representation import knot_times
+from stagger_nb.staggered.rotation_fit_c1 import velocity_jumps
+from stagger_nb.staggered.sampling import sample_segments
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
-from references import evaluate_reference, fit_rotation_tangents_nelder_mead  # noqa: E402
+from references import evaluate_reference, fit_rotation_tangents_nelder_mead
 
 # ../shared/mocap and data/ beside/in the repository; STAGGER_NB_SHARED_MOCAP and STAGGER_NB_DATA point
 # elsewhere (as tests/conftest.py and stagger_nb.data), e.g. from a git worktree
@@ -89,7 +93,6 @@ def main(quick=False):
 
     # -- extraction + fitting --------------------------------------------------------------------
     t_ext, t_ext_med = best(lambda: staggered.extract(m), 3)
-    loc = locate_poses(m)
     t_loc, _ = best(lambda: locate_poses(m), 3)
     sm = staggered.extract(m)
     print(f"extract (locate + fit), all candidates: {t_ext:.3f} s (median {t_ext_med:.3f} s) "
@@ -127,10 +130,12 @@ def main(quick=False):
           f"{sm.metadata['fit']['mean_residual_rad']:.4f} rad; C0 per-segment {t_fit0:.3f} s, mean residual "
           f"{c0.metadata['fit']['mean_residual_rad']:.4f} rad")
     print(f"Nelder-Mead port (App. A, w_f = 1000 w_c, scipy defaults): {nm_time / subset.size:.3f} s per pair on "
-          f"{subset.size} pairs -> {nm_total:.0f} s extrapolated to {P} pairs; ratio NM / ours(C0) = {nm_total / t_fit0:.0f}x, "
+          f"{subset.size} pairs -> {nm_total:.0f} s extrapolated to {P} pairs; "
+          f"ratio NM / ours(C0) = {nm_total / t_fit0:.0f}x, "
           f"NM / ours(C1) = {nm_total / t_fit:.0f}x")
     a, b = np.concatenate(nm_res), np.concatenate(our_res)
-    print(f"  same pairs, same per-segment problem, mean residual angle: NM {a.mean():.5f} rad, ours (C0) {b.mean():.5f} rad "
+    print(f"  same pairs, same per-segment problem, mean residual angle: NM {a.mean():.5f} rad, "
+          f"ours (C0) {b.mean():.5f} rad "
           f"(RMS {np.sqrt((a ** 2).mean()):.5f} vs {np.sqrt((b ** 2).mean()):.5f})")
 
     # -- evaluate() of a 900-frame clip ---------------------------------------------------------------
@@ -162,7 +167,8 @@ def main(quick=False):
         j1, j0 = tangent_jumps(s), tangent_jumps(s0)
         jj = f"{np.median(j1):.1e} | {np.median(j0):.2f}" if j1.size else "n/a"
         print(f"{name[:32]:32s} {mo.num_frames:5d} {s.num_poses:4d} {staggered.cull(s, 50).num_poses:6d}   "
-              f"{s.metadata['fit']['mean_residual_rad']:.4f} / {s0.metadata['fit']['mean_residual_rad']:.4f}        {e:.1e}    {np.abs(s.refinements).max():.3f}"
+              f"{s.metadata['fit']['mean_residual_rad']:.4f} / {s0.metadata['fit']['mean_residual_rad']:.4f}        "
+              f"{e:.1e}    {np.abs(s.refinements).max():.3f}"
               f"      {jj:24s}  {np.degrees(s.metadata['fit']['max_residual_rad']):5.1f} / "
               f"{np.degrees(s0.metadata['fit']['max_residual_rad']):5.1f}")
 

@@ -29,10 +29,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import read_bvh, staggered  # noqa: E402
-from stagger_nb.core.motion import concatenate  # noqa: E402
+from stagger_nb import read_bvh, staggered
+from stagger_nb.core.motion import concatenate
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
-from references import evaluate_reference  # noqa: E402
+from references import evaluate_reference
 
 
 def clip():
@@ -76,7 +77,8 @@ def cull_local_vs_full(sm):
             walls.append(time.perf_counter() - t)
         out[local] = (np.array(walls), (time.process_time() - c0) / len(pcs))
     (wl, cl), (wf, cf) = out[True], out[False]
-    print(f"cull refits of {len(pcs)} kept sets [goal 100 ms, aim 50 ms cpu]: local median {1e3 * np.median(wl):.1f} ms "
+    print(f"cull refits of {len(pcs)} kept sets [goal 100 ms, aim 50 ms cpu]: "
+          f"local median {1e3 * np.median(wl):.1f} ms "
           f"(max {1e3 * wl.max():.1f}, cpu {1e3 * cl:.1f}); full median {1e3 * np.median(wf):.1f} ms "
           f"(max {1e3 * wf.max():.1f}, cpu {1e3 * cf:.1f}); ratio full / local cpu {cf / cl:.2f}x")
 

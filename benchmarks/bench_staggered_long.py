@@ -24,9 +24,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import read_bvh, staggered  # noqa: E402
-from stagger_nb.core.motion import Motion, concatenate  # noqa: E402
-from stagger_nb.core.rotations import quat_angle  # noqa: E402
+from stagger_nb import read_bvh, staggered
+from stagger_nb.core.motion import Motion, concatenate
+from stagger_nb.core.rotations import quat_angle
 
 # ../shared/mocap beside the repository; STAGGER_NB_SHARED_MOCAP (as tests/conftest.py) or STAGGER_NB_SHARED
 # (its parent) point elsewhere, e.g. from a git worktree
@@ -72,6 +72,7 @@ def bounded_work():
     import dataclasses
 
     from helpers import chain_motion
+
     from stagger_nb.staggered.features import laplacian_smooth
     x = np.random.default_rng(0).normal(size=(5000, 8))
     _, c64, _, _ = measure(lambda: laplacian_smooth(x, 64, 0.5))
@@ -143,7 +144,7 @@ def main():
             w0, c0, pk0, _ = measure(lambda: staggered.cull(sm, 50, fit_samples=None))
             print(f"{n:>8} {'cull 50%*':<10} {w0:>8.2f} {c0:>8.2f} {pk0:>8.0f}  * previous fit: ratio "
                   f"{w0 / rows['cull 50%'][-1][1]:.1f}x wall")
-        del sm, cu, m
+        sm = cu = m = None   # free them before the next size (no `del`: the timed lambdas above name them)
     if len(sizes) > 1:
         print("# scaling exponent d log(cpu) / d log(n) over " + ", ".join(map(str, sizes)))
         for k, v in rows.items():

@@ -30,18 +30,18 @@ from pathlib import Path
 # 40-60 ms with OpenBLAS threads under load, 1.3 ms single-threaded). Set before numpy loads OpenBLAS.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from stagger_nb import data  # noqa: E402
-from stagger_nb.timewarp.dp import constrained_dp  # noqa: E402
-from stagger_nb.timewarp.features import pose_features  # noqa: E402
-from stagger_nb.timewarp.guided import solve_warp  # noqa: E402
-from stagger_nb.timewarp.objective import knn_scores  # noqa: E402
+from stagger_nb import data
+from stagger_nb.timewarp.dp import constrained_dp
+from stagger_nb.timewarp.features import pose_features
+from stagger_nb.timewarp.guided import solve_warp
+from stagger_nb.timewarp.objective import knn_scores
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from timewarp_reference import constrained_dp_loop, knn_scores_loop  # noqa: E402  (naive references, tests/)
+from timewarp_reference import constrained_dp_loop, knn_scores_loop
 
 S = 8
 K = 3
@@ -200,6 +200,7 @@ def child_long(F):
     import resource
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from bench_wand import _long_clip, _peak_rss_mb
+
     from stagger_nb import timewarp
     m = _long_clip(F)
     c0, t0 = time.process_time(), time.perf_counter()

@@ -30,23 +30,22 @@ import os
 for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
-import json  # noqa: E402
-import resource  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import wand  # noqa: E402
-from stagger_nb.wand.laplacian import dense_kernel, normalized_laplacian  # noqa: E402
-
+import stagger_nb as sn
+from stagger_nb import wand
+from stagger_nb.wand.laplacian import dense_kernel, normalized_laplacian
 
 CPU = {}  # label -> median CPU seconds of the last timing (this process; BLAS is single-threaded)
 
@@ -86,7 +85,8 @@ def case_a():
     new_frame = _median_time(lambda: wand.greens_falloff(b, next(frames)), repeat=50)
     base = _median_time(lambda: _baseline_pinv(g, s0, 300), repeat=3)
     print(f"A  600 frames dense (N={b.num_eigs}): head (pose vectors + distances) {head * 1e3:.1f} ms")
-    print(f"   sigma change -> falloff: {sig_change * 1e3:.1f} ms wall, {CPU['A'] * 1e3:.1f} ms CPU (target <= 40 ms)   "
+    print(f"   sigma change -> falloff: {sig_change * 1e3:.1f} ms wall, {CPU['A'] * 1e3:.1f} ms CPU "
+          "(target <= 40 ms)   "
           f"baseline dense pinv: {base * 1e3:.1f} ms   ratio baseline/ours {base / sig_change:.1f}x")
     print(f"   new frame -> falloff:    {new_frame * 1e6:.0f} us   ratio baseline/ours {base / new_frame:.0f}x")
     wand.clear_graph_cache()
@@ -192,7 +192,8 @@ def case_c(per_f3, quick):
         r = json.loads(out.stdout.strip().splitlines()[-1])
         total = r["head"] + r["eig"] + r["row"]
         print(f"C  {F} frames sparse (N={r['N']}, k={r['k']}): head {r['head']:.2f} s, eigenpairs {r['eig']:.2f} s, "
-              f"row {r['row'] * 1e3:.1f} ms, total {total:.2f} s wall ({r['cpu']:.2f} s CPU, k-d tree on 2 threads); peak RSS {r['rss_mb']:.0f} MB "
+              f"row {r['row'] * 1e3:.1f} ms, total {total:.2f} s wall ({r['cpu']:.2f} s CPU, k-d tree on 2 threads); "
+              f"peak RSS {r['rss_mb']:.0f} MB "
               f"(clip loaded: {r['rss_before_mb']:.0f} MB)" + ("  (target <= 10 s, < 2 GB)" if F == 20000 else ""))
         if r.get("base") is not None:
             print(f"   dense pinv baseline, same process: {r['base']:.1f} s, peak RSS {r['base_rss_mb']:.0f} MB   "

@@ -115,7 +115,7 @@ def main():
     # current edit at every position), on a fresh editor; the warm-up's CPU is waited for and not counted
     e = StaggerEditor(m900)
     w0, c0 = time.perf_counter(), time.process_time()
-    for f in e._futures():
+    for f in e.warm_futures:
         f.result()
     print(f"{'  editor warm-up (900 fr)':<34} {time.perf_counter() - w0:.2f} s wall, "
           f"{time.process_time() - c0:.2f} s cpu (background, after first paint)")
@@ -128,7 +128,7 @@ def main():
     # -- WandEditor: sigma on 600 frames --------------------------------------------------------------
     w = WandEditor(m600, frame=300, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
     bare = Session(m600)
-    grid = [float(x) for x in w._sigma_grid[10:20:2]]
+    grid = [float(x) for x in w.model.sigma_grid[10:20:2]]
     warm_bases = getattr(w.session, "precompute_wand_bases", None)
     if warm_bases is not None:
         warm_bases(grid)
@@ -141,7 +141,7 @@ def main():
 
     # -- WarpEditor: duration, skip on 900 frames -------------------------------------------------------
     r = WarpEditor(m900)
-    for f in r._futures():   # the editor's warm-up (its skip slider's tables) runs after first paint: let it
+    for f in r.warm_futures:   # the editor's warm-up (its skip slider's tables) runs after first paint: let it
         f.result()           # finish, or its CPU (process-wide) is counted in the first moves
     bare = Session(m900)
     D = m900.duration
@@ -149,7 +149,7 @@ def main():
                                  *sweep(r, "duration", [0.5 * D], [0.6 * D, 0.7 * D, 0.8 * D, 0.9 * D], bare), 50)
     # skip: the editor warms its slider's largest skip on open (smaller skips are sliced from it); the bare
     # session is warmed the same way (Session.warm), then each skip is visited anew
-    for f in r._futures():
+    for f in r.warm_futures:
         f.result()
     ops = [o for o in r.session.ops if o["op"] == "guided_warp"]
     op = dict(ops[-1]) if ops else {"op": "guided_warp", "duration": r.model.duration}

@@ -33,12 +33,11 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
-import browser_harness as bh  # noqa: E402
+import browser_harness as bh
 
 SLIDERS = {"cull": (".sn-cull", "ArrowLeft"), "s": (".sn-s", "ArrowRight"), "tau": (".sn-tau", "ArrowRight"),
            "w_r": (".sn-w-r", "ArrowRight")}
@@ -165,7 +164,7 @@ def main(argv=None) -> dict:
                 page.wait_for_selector(f"{sel} canvas", timeout=120000)
                 bh.wait_plots_drawn(page, sel, timeout=180)
                 runtime = bh.runtime_dir(folder)
-                bh.wait_kernel(runtime, "all(f.done() for f in se._futures())", timeout=600, every=1.0)
+                bh.wait_kernel(runtime, "all(f.done() for f in se.warm_futures)", timeout=600, every=1.0)
                 bh.wait_kernel_idle(page)
                 bh.wait_plots_synced(page, sel)
                 kernel = bh.Kernel(runtime)
@@ -179,12 +178,12 @@ def main(argv=None) -> dict:
                     handle.focus()
                     samples = []
                     kernel.run("_lat.clear()")
-                    for i in range(args.presses):
+                    for _ in range(args.presses):
                         page.evaluate(ARM, [sel])
                         handle.press(key)
                         try:
                             page.wait_for_function(DONE, timeout=15000, polling=10)
-                        except Exception:   # noqa: BLE001 - a press that changed nothing (the slider's end)
+                        except Exception:
                             pass
                         r = page.evaluate(READ)
                         bh.wait_kernel_idle(page)

@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import browser_harness as bh  # noqa: E402
+import browser_harness as bh
 
 CELLS = [
     """import time, ipywidgets as W

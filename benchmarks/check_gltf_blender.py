@@ -12,7 +12,6 @@ glTF importer (defaults), checks one armature with a bone per joint, samples the
 from __future__ import annotations
 
 import argparse
-import glob
 import os
 import subprocess
 import sys
@@ -55,10 +54,11 @@ def main() -> int:
     repo = Path(__file__).resolve().parents[1]
     sys.path.insert(0, str(repo))
     sys.path.insert(0, str(repo / "tests"))
+    from test_io_gltf import random_rig, real_clips
+
     import stagger_nb as sn
     from stagger_nb.core.kinematics import skeleton_height
     from stagger_nb.io.gltf import metres_per_unit
-    from test_io_gltf import random_rig, real_clips
     with tempfile.TemporaryDirectory() as tmp:
         files = []
         motions = [(os.path.basename(c)[:-4], sn.read_bvh(c)) for c in real_clips()]

@@ -150,7 +150,7 @@ def bvh_cases():
                          ("End Sites", "End Site"), ("Zrot", "Zrotation"), ("Z_rotation", "Zrotation"),
                          ("Zrotations", "Zrotation"), ("Xpos", "Xposition"), ("rotationZ", "Zrotation")]:
         add(f"keyword {right!r} as {wrong!r}", bvh(HEAD.replace(right, wrong, 1)), "either")
-    for wrong, kw in [("MOTIONS", "motion"), ("Motion", "motion"), ("MOTION:", "motion"), ("MOTION 4", "motion")]:
+    for wrong in ("MOTIONS", "Motion", "MOTION:", "MOTION 4"):
         add(f"keyword MOTION as {wrong!r}", bvh(motion=wrong), "either")
     for wrong in ("Frames", "Frames=", "Frame:", "frames:", "FRAMES:", "Frames :", "NumFrames:", "Frames::"):
         add(f"Frames: as {wrong!r}", bvh(fr=wrong), "either")
@@ -626,7 +626,7 @@ def session_cases(src: str, tmp: Path, sess_self: Path):
     for op, good in GOOD.items():
         fields = {**good, **EXTRA_FIELDS.get(op, {})}
         for f in fields:
-            for k, v in enumerate(HOSTILE_VALUES):
+            for v in HOSTILE_VALUES:
                 if op == "cull" and f in ("percent", "count"):
                     o = {"op": "cull", f: v}
                 else:
@@ -928,8 +928,9 @@ def api_cases():
 
 
 def _extract_all_options(x, v):
-    from stagger_nb import staggered
     import inspect
+
+    from stagger_nb import staggered
     params = [p for p in inspect.signature(staggered.extract).parameters.values()
               if (p.kind == p.KEYWORD_ONLY or (p.default is not inspect.Parameter.empty))
               and p.name not in ("progress",) and p.kind != p.VAR_KEYWORD]
@@ -1081,7 +1082,7 @@ def run_forked(fn, seconds):
             out["result"] = "no error"
         except ValueError as e:
             out.update(result="ValueError", type=type(e).__name__, message=str(e)[:600])
-        except BaseException as e:  # noqa: BLE001
+        except BaseException as e:
             out.update(result=type(e).__name__, message=(str(e)[:300] + " | "
                                                          + traceback.format_exc()[-900:]))
         try:
@@ -1204,6 +1205,7 @@ def main(argv=None):
             s.export_gltf(glb)
             sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
             from hostile_corpus import gltf_positions
+
             from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
             names, scale, pos = gltf_positions(glb)
             p1, _ = forward_kinematics(edited)

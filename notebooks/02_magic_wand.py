@@ -204,8 +204,8 @@ knee[J("LeftLeg")] = quat_mul(rotvec_to_quat(np.radians([30.0, 0.0, 0.0])), knee
 w_green = wand.greens_falloff(basis, top, frame_range=hop, repetitions=False)
 half = [np.count_nonzero(w_green[top::s] >= 0.5) for s in (-1, 1)]      # frames above one half each side
 w_spline = wand.spline_falloff(hops.num_frames, top, extent=(2 * half[0], 2 * half[1]))
-ankle = {n: (hops.times, sn.forward_kinematics(m)[0][:, J("LeftFoot"), 1]) for n, m in
-         (("original", hops), ("spline falloff", spread(top, knee, w_spline)), ("Green's falloff", spread(top, knee, w_green)))}
+edits = {"original": hops, "spline falloff": spread(top, knee, w_spline), "Green's falloff": spread(top, knee, w_green)}
+ankle = {n: (hops.times, sn.forward_kinematics(m)[0][:, J("LeftFoot"), 1]) for n, m in edits.items()}
 pio.show(plotting.lines_figure(ankle, vlines=[hops.times[top]], y_title="left ankle height (cm)",
                                title=f"Fig. 6: bending the knee at frame {top}, spread two ways"))
 pio.show(plotting.falloff_figure(hops.times, {"green": w_green, "spline": w_spline}, edited_times=[hops.times[top]],
@@ -222,7 +222,8 @@ pio.show(plotting.falloff_figure(hops.times, {"green": w_green, "spline": w_spli
 #
 # **Check:** (a) on the whole of CMU 01_01 at 30 Hz, for at least 8 of its 10 hops: median falloff ≥ 0.7 at
 # the other apexes and ≤ 0.3 at the crouches (measured: two hops, apexes at 3.7 s and 20.4 s, are shaped
-# unlike the others: 0.63 and 0.50; the crouches 0.01-0.04); (b) on the procedural walk and the real straight walks of `../shared/mocap` where
+# unlike the others: 0.63 and 0.50; the crouches 0.01-0.04); (b) on the procedural walk and the real straight
+# walks of `../shared/mocap` where
 # present (xia neutral, bandai, iclone 07_01): ≥ 0.7 and ≤ 0.3 at each of eight frames over the middle
 # stride (`wand.measures.walk_falloffs`); (c) 40 copies of the four hops (10,200 frames): mean difference
 # ≤ 0.02, 99th percentile ≤ 0.1. **Not met**, measured: CMU 131_01 (a stylised start–walk–stop whose strides

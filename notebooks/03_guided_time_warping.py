@@ -254,7 +254,8 @@ stride = walk.slice(downs[0], downs[1] + 1)
 limp = timewarp.apply_warp(stride, manual_warp(stride, np.where(left[downs[0]:downs[1] + 1], 0.5, 1.0)), adaptive=False)
 n_limp = int(round((walk.num_frames - 1) * (limp.num_frames - 1) / (stride.num_frames - 1))) + 1
 v7, w7 = timewarp.guided_warp(walk, limp, n_limp)
-runs = {"walk": walk, "hand-edited stride": limp, "linear warp": timewarp.linear_warp(walk, n_limp)[0], "guided warp": v7}
+runs = {"walk": walk, "hand-edited stride": limp, "linear warp": timewarp.linear_warp(walk, n_limp)[0],
+        "guided warp": v7}
 pio.show(plotting.support_figure({n: (m.times, *single_support(m)) for n, m in runs.items()}, title="V7: the limp"))
 ratio = {n: float(np.divide(*[s.sum() for s in single_support(m)])) for n, m in runs.items()}
 print("left / right single support:", ", ".join(f"{n} {r:.2f}" for n, r in ratio.items()))
@@ -286,7 +287,8 @@ print(f"chosen length {v8.num_frames} frames: flights / rest {fmt(speeds(w8, air
       f"{free.num_frames} frames: flights / rest {fmt(speeds(w_free, air, cmu))}, take-offs and landings "
       f"{speeds(w_free, around, cmu)[0]:.2f}×")
 pio.show(plotting.lines_figure({n: (m.times, m.root_positions[:, 1]) for n, m in (("input", cmu), ("V8", v8),
-                                ("V8 free length", free))}, y_title="root height (cm)", title="V8: flights in slow motion"))
+                                ("V8 free length", free))}, y_title="root height (cm)",
+                               title="V8: flights in slow motion"))
 assert speeds(w8, air, cmu)[0] < 0.6 and 0.8 < speeds(w8, air, cmu)[1] < 1.25
 assert speeds(w_free, air, cmu)[0] < 0.6 and speeds(w_free, air, cmu)[0] < 0.75 * speeds(w_free, around, cmu)[0]
 
@@ -364,7 +366,8 @@ pio.show(plotting.speeds_figure({n: (np.arange(len(w)) * ft, timewarp.warp_speed
 # %%
 trials = [("V1", cmu, cmu, n65), ("V3", part, part, n150), ("V7", walk, limp, n_limp)]
 table = [table1_row(*trial) for trial in trials]
-pio.show(plotting.table_figure(["trial", "n", "m", "r", "s", "objective", "optimization", "heuristic", "heuristic / exact"],
+pio.show(plotting.table_figure(["trial", "n", "m", "r", "s", "objective", "optimization", "heuristic",
+                                "heuristic / exact"],
                                table, title="Table 1 (CPU seconds, measured now)"))
 assert all(float(row[-1]) <= 1.1 for row in table)
 

@@ -2,7 +2,7 @@
 
 Quaternions are (x, y, z, w) everywhere (see :mod:`stagger_nb.core.rotations`).
 """
-from . import data
+from . import data  # noqa: F401  (sn.data.load: the sample clips)
 from .core import Motion, Skeleton, concatenate, forward_kinematics, positions_in_root_frame
 from .io import AMCError, BVHError, read_asf_amc, read_bvh, write_bvh, write_gltf
 

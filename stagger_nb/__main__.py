@@ -53,6 +53,11 @@ def main(argv=None) -> int:
         return 2
     print(f"{len(res.done)} written, {len(res.skipped)} skipped (finished earlier), {len(res.failed)} failed "
           f"in {res.seconds:.1f} s; report: {terminal_text(res.report)}")
+    rows = [r for r in res.quality.values() if "ok" in r]
+    if rows:   # the edits' quality (mild bounds), each clip's summary in the report
+        bad = sum(not r["ok"] for r in rows)
+        print(f"quality: {len(rows) - bad} of {len(rows)} edited clips inside the mild bounds"
+              + (f", {bad} out of bounds (see the report's summary column)" if bad else ""))
     _failed(res, terminal_text)
     return 1 if res.failed else 0
 

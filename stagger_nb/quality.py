@@ -48,13 +48,18 @@ The figures (:class:`QualityReport`):
   its local rotation from the source at the same time (what an unedited layer must keep near 0).
 * ``knots_out_of_order``: names of the joints (and ``"<root translation>"``) of ``staggered`` whose refined
   knot times ``t_k + r[k, j]`` are not strictly increasing (``None`` without a StaggeredMotion).
-* ``detail`` (ratio): high-frequency energy of the edited joint curves over the source's: per joint the local
-  angular velocity ``ω(n) = rotvec(q(n)⁻¹ q(n+1)) / frame_time`` (rad/s), band-passed (its Gaussian low-pass
-  of σ = 0.015 s minus that of σ = 0.08 s: the wiggles of roughly 2-10 Hz, not frame-level jitter), squared
-  and averaged over frames; the ratio of the sums over joints (1: the detail is kept; smoothing lowers it,
-  added jitter raises it). Both curves are read on the source's frames, the edited one
-  at each joint's warped time (``warp_times(staggered, n * source.frame_time, j)``, slerp between edited
-  frames), so retiming alone keeps the ratio near 1.
+* ``detail`` (ratio): high-frequency energy of the edited joint curves over the source's, read on the detail
+  grid ``t_n = n h``, ``h = k * source.frame_time`` (the source's frames; every k-th one for a clip faster than
+  ``DETAIL_RATE`` = 60 Hz, e.g. k = 2 at 120 Hz: the band measured is far below 30 Hz): per joint the local
+  angular velocity ``ω(n) = rotvec(q(n)⁻¹ q(n+1)) / h`` (rad/s), band-passed (its Gaussian low-pass of
+  σ = 0.015 s minus that of σ = 0.08 s, the nearest sample repeated past the ends: the wiggles of roughly
+  2-10 Hz, not frame-level jitter), squared and averaged over the grid; the ratio of the sums over joints
+  (1: the detail is kept; smoothing lowers it, added jitter raises it). The edited curve is read at each
+  joint's warped time (``warp_times(staggered, t_n, j)``, slerp between edited frames), so retiming alone
+  keeps the ratio near 1.
+
+Speed: :func:`prepare` computes the source's part once (a :class:`SourceFigures`; ``compare(...,
+prepared=)``), and the edit's part is vectorised over frames, joints and contacts (benchmarks/bench_quality.py).
 
 :attr:`QualityReport.failures` checks them against :class:`Bounds` (default the ``"mild"`` preset, the goals
 of issue "Edits an animator would keep"); :attr:`~QualityReport.summary` says it in one line.
@@ -68,13 +73,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .core.body import pelvis_joint, up_axis
-from .core.kinematics import forward_kinematics
+from .core.kinematics import _fk_component_major, _to_component_major, _to_frame_major, forward_kinematics
 from .core.motion import Motion
-from .core.rotations import quat_angle, quat_mul, quat_conj, quat_to_rotvec, slerp
+from .core.rotations import _SMALL, quat_angle, quat_mul_components
 from .core.skeleton import Skeleton
 
-__all__ = ["compare", "QualityReport", "ContactFigures", "Bounds", "PRESETS", "body_height", "scaled",
-           "BODY_CM", "DETAIL_SIGMA", "DETAIL_FINE", "SOURCE_SHRINK"]
+__all__ = ["compare", "prepare", "SourceFigures", "QualityReport", "SummaryItem", "ContactFigures", "Bounds", "PRESETS",
+           "body_height", "scaled", "ROW_FIELDS",
+           "BODY_CM", "DETAIL_SIGMA", "DETAIL_FINE", "DETAIL_RATE", "SOURCE_SHRINK"]
 
 #: The body every length is expressed on (cm): the figures read as on a 170 cm person.
 BODY_CM = 170.0
@@ -85,8 +91,18 @@ HEIGHT_PERCENTILE = 90.0
 #: that reading a curve between its frames does: neither is visible detail).
 DETAIL_SIGMA = 0.08
 DETAIL_FINE = 0.015
+#: Highest sampling rate (Hz) of the detail grid: the source's frames, every k-th one for a faster clip (the
+#: band of the detail, roughly 2-10 Hz, is far below the grid's Nyquist frequency).
+DETAIL_RATE = 60.0
+#: Elements per temporary array in the detail's slerp and velocity (blocks of joints stay in cache).
+_BLOCK = 8192
 #: Seconds cut from each end of a source contact for ``foot_travel_source`` (heel strike and toe-off).
 SOURCE_SHRINK = 0.1
+#: Added pops (degrees) and jumps (cm) below this are rounding (e.g. of a frame-rate ratio): 0.
+_ROUNDING = 1e-9
+#: The fields of :meth:`QualityReport.to_row`, in order.
+ROW_FIELDS = ("ok", "summary", "foot_travel", "foot_height", "floor", "pelvis", "pelvis_vs_baseline", "added_pop",
+              "added_pop_joint", "knots_out_of_order", "detail", "moved")
 #: Tolerance (cm) of "no more sliding than without the layer" (rounding of the two evaluations).
 _BASELINE_SLACK = 0.1
 
@@ -98,6 +114,13 @@ def _number(x, name: str) -> float:
         raise ValueError(f"{name} must be a number, got {x!r}") from None
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite, got {x!r}")
+    return x
+
+
+def _positive(x, name: str) -> float:
+    x = _number(x, name)
+    if x <= 0:
+        raise ValueError(f"{name} must be > 0, got {x}")
     return x
 
 
@@ -207,6 +230,48 @@ class ContactFigures:
 
 
 @dataclass(frozen=True)
+class SummaryItem:
+    """One part of :attr:`QualityReport.summary`: ``figure`` (the report field it states, e.g.
+    ``"foot_travel"``, ``"pelvis_vs_baseline"``, ``"added_pop"``), ``text`` (the words shown), ``value`` and
+    ``bound`` (in ``unit``: cm, ° or × for the detail ratio, whose bound is (low, high); None: not bounded),
+    ``ok`` (False: out of bounds, to be shown red) and ``joint`` (the joint it is about, or None)."""
+
+    figure: str
+    text: str
+    value: float | None
+    bound: float | tuple | None
+    ok: bool
+    unit: str
+    joint: str | None = None
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        if isinstance(self.bound, tuple):
+            d["bound"] = list(self.bound)
+        return d
+
+
+def _over(value, bound) -> bool:
+    return bound is not None and value is not None and value > bound + 1e-9
+
+
+def _cm(x: float) -> str:
+    return f"{x:.1f} cm" if x < 9.95 else f"{x:.0f} cm"
+
+
+def _part(joint: str | None) -> tuple[str, str]:
+    """``(words, verb ending)`` for a joint: ``("left foot", "s")``, ``("right toes", "")``."""
+    if joint is None:
+        return "a joint", "s"
+    from .staggered.timing_report import body_part
+    words = body_part(joint)
+    if words == str(joint):
+        return words, "s"
+    words = words[4:] if words.startswith("the ") else words
+    return words, "" if words.split()[-1] in ("toes", "fingers", "hips") else "s"
+
+
+@dataclass(frozen=True)
 class QualityReport:
     """What :func:`compare` measured (every length in cm of a 170 cm body; see :mod:`stagger_nb.quality`).
 
@@ -242,6 +307,7 @@ class QualityReport:
     jump_added: tuple
     detail_by_joint: tuple
     bounds: Bounds = field(default_factory=Bounds)
+    pelvis_vs_baseline_drop: float | None = None
 
     # -- verdicts ---------------------------------------------------------------------------------------
     @property
@@ -280,43 +346,77 @@ class QualityReport:
         return dataclasses.replace(self, bounds=_bounds(bounds))
 
     @property
-    def summary(self) -> str:
-        """One line, e.g. ``"feet held · pelvis ±0.8 cm · no pops"``; figures out of bounds are named with
-        their bound (``"feet slide 3.1 cm (> 1)"``)."""
-        b = self.bounds
-        parts = []
+    def items(self) -> tuple:
+        """The one-line summary as structured parts (:class:`SummaryItem`: figure, text, value, bound, ok), in
+        the order of :attr:`summary`: the feet, the pelvis, the pops, then whatever else is out of bounds (the
+        floor, a moved joint, knots out of order, detail). A widget shows ``text`` and colours it red where
+        ``ok`` is False."""
+        b, out = self.bounds, []
+        worst_c = max(self.contacts, key=lambda c: c.travel, default=None)
+        high_c = max(self.contacts, key=lambda c: c.height, default=None)
         if not self.contacts:
-            parts.append("no contacts")
+            out.append(SummaryItem("contacts", "no contacts", None, None, True, ""))
         else:
-            bad_t = b.travel is not None and self.foot_travel > b.travel + 1e-9
-            bad_h = b.height is not None and self.foot_height > b.height + 1e-9
+            bad_t = _over(self.foot_travel, b.travel)
+            bad_h = _over(self.foot_height, b.height)
+            worse = (b.no_worse_than_baseline and self.baseline_foot_travel is not None
+                     and self.foot_travel > self.baseline_foot_travel + _BASELINE_SLACK)
             if bad_t:
-                parts.append(f"feet slide {self.foot_travel:.1f} cm (> {b.travel:g})")
+                part, s = _part(worst_c.joint)
+                out.append(SummaryItem("foot_travel", f"{part} slide{s} {_cm(self.foot_travel)}", self.foot_travel,
+                                       b.travel, False, "cm", worst_c.joint))
+            if worse:
+                part, s = _part(worst_c.joint)
+                out.append(SummaryItem("foot_travel_vs_baseline",
+                                       f"{part} slide{s} {_cm(self.foot_travel)}, more than without the layer "
+                                       f"({_cm(self.baseline_foot_travel)})", self.foot_travel,
+                                       self.baseline_foot_travel + _BASELINE_SLACK, False, "cm", worst_c.joint))
             if bad_h:
-                parts.append(f"feet {self.foot_height:.1f} cm off their plants (> {b.height:g})")
-            if not bad_t and not bad_h:
-                parts.append("feet held")
-        if b.floor is not None and self.floor > b.floor + 1e-9:
-            parts.append(f"{self.floor:.1f} cm below the floor (> {b.floor:g})")
-        pel = self.pelvis_vs_baseline if self.pelvis_vs_baseline is not None else self.pelvis
-        txt = f"pelvis ±{pel:.1f} cm"
-        if b.pelvis is not None and pel > b.pelvis + 1e-9:
-            txt += f" (> {b.pelvis:g})"
-        parts.append(txt)
-        if b.pop is not None and self.added_pop > b.pop + 1e-9:
-            parts.append(f"pop {self.added_pop:.0f}° at {self.added_pop_joint} (> {b.pop:g})")
-        elif self.added_pop < 0.5:
-            parts.append("no pops")
+                part, s = _part(high_c.joint)
+                out.append(SummaryItem("foot_height", f"{part} {_cm(self.foot_height)} off {'their' if s == '' else 'its'} "
+                                       "plant", self.foot_height, b.height, False, "cm", high_c.joint))
+            if not (bad_t or bad_h or worse):
+                out.append(SummaryItem("foot_travel", "feet held", self.foot_travel, b.travel, True, "cm"))
+        if _over(self.floor, b.floor):
+            out.append(SummaryItem("floor", f"{_cm(self.floor)} below the floor", self.floor, b.floor, False, "cm"))
+        if self.pelvis_vs_baseline is not None:
+            name, pel, drop = "pelvis_vs_baseline", self.pelvis_vs_baseline, self.pelvis_vs_baseline_drop
         else:
-            parts.append(f"pops ≤ {self.added_pop:.0f}°")
-        if b.moved is not None and self.moved > b.moved + 1e-9:
-            parts.append(f"{self.moved_joint} moved {self.moved:.1f} cm (> {b.moved:g})")
+            name, pel, drop = "pelvis", self.pelvis, self.pelvis_drop
+        if _over(pel, b.pelvis):
+            way = "drops" if drop is not None and drop >= pel - 1e-9 else "rises"
+            out.append(SummaryItem(name, f"pelvis {way} {_cm(pel)}", pel, b.pelvis, False, "cm"))
+        else:
+            out.append(SummaryItem(name, f"pelvis ±{pel:.1f} cm", pel, b.pelvis, True, "cm"))
+        if _over(self.added_pop, b.pop):
+            part, s = _part(self.added_pop_joint)
+            out.append(SummaryItem("added_pop", f"{part} pop{s} {self.added_pop:.0f}°", self.added_pop, b.pop, False,
+                                   "°", self.added_pop_joint))
+        else:
+            text = "no pops" if self.added_pop < 0.5 else f"pops ≤ {self.added_pop:.0f}°"
+            out.append(SummaryItem("added_pop", text, self.added_pop, b.pop, True, "°", self.added_pop_joint))
+        if _over(self.moved, b.moved):
+            part, s = _part(self.moved_joint)
+            out.append(SummaryItem("moved", f"{part} moved {_cm(self.moved)}", self.moved, b.moved, False, "cm",
+                                   self.moved_joint))
         if self.knots_out_of_order:
             n = len(self.knots_out_of_order)
-            parts.append((f"{n} joints'" if n > 1 else "1 joint's") + " knots out of order")
+            parts = list(dict.fromkeys(_part(j)[0] for j in self.knots_out_of_order))
+            where = ", ".join(parts[:3]) + (f" and {len(parts) - 3} more" if len(parts) > 3 else "")
+            out.append(SummaryItem("knots_out_of_order", f"poses out of order in {where}", float(n),
+                                   None if b.knots is None else float(b.knots), b.knots is None or n <= b.knots, ""))
         if b.detail is not None and not b.detail[0] <= self.detail <= b.detail[1]:
-            parts.append(f"detail ×{self.detail:.2f}")
-        return " · ".join(parts)
+            text = (f"detail lost (×{self.detail:.2f})" if self.detail < b.detail[0]
+                    else f"jitter added (×{self.detail:.2f})")
+            out.append(SummaryItem("detail", text, self.detail, b.detail, False, "×"))
+        return tuple(out)
+
+    @property
+    def summary(self) -> str:
+        """One line for an animator: ``"feet held · pelvis ±0.8 cm · no pops"`` when every figure is inside
+        :attr:`bounds`; what is out of bounds is said plainly instead (``"left foot slides 3.2 cm · pelvis
+        drops 6.0 cm · no pops"``). The parts, with their figures and bounds: :attr:`items`."""
+        return " · ".join(item.text for item in self.items)
 
     def to_dict(self) -> dict:
         """JSON-safe dict of every figure, the per-contact and per-joint detail, the bounds, ``failures``,
@@ -331,8 +431,20 @@ class QualityReport:
             elif isinstance(v, tuple):
                 v = list(v)
             d[f.name] = v
-        d.update(failures=list(self.failures), ok=self.ok, summary=self.summary)
+        d.update(failures=list(self.failures), ok=self.ok, summary=self.summary,
+                 items=[item.to_dict() for item in self.items])
         return d
+
+    def to_row(self) -> dict:
+        """The main figures as one flat row of JSON scalars (what a table of clips shows, e.g. the batch
+        report): ``ok``, ``summary`` and :data:`ROW_FIELDS`' figures (cm of a 170 cm body, degrees, the detail
+        ratio; ``pelvis_vs_baseline`` None without a baseline; ``knots_out_of_order`` a count, None without a
+        StaggeredMotion)."""
+        row = {"ok": self.ok, "summary": self.summary}
+        for name in ROW_FIELDS[2:]:
+            v = getattr(self, name)
+            row[name] = len(v) if name == "knots_out_of_order" and v is not None else v
+        return row
 
     def __repr__(self) -> str:
         return f"QualityReport({self.summary!r})"
@@ -412,7 +524,7 @@ def _finite_motion(m: Motion, name: str) -> None:
             raise ValueError(f"{name}: {attr} must be finite (no NaN / inf)")
 
 
-def _check_contacts(source: Motion, contacts) -> list:
+def _check_contacts(source: Motion, contacts) -> tuple:
     out = []
     names = source.skeleton.names
     for i, item in enumerate(contacts):
@@ -429,93 +541,432 @@ def _check_contacts(source: Motion, contacts) -> list:
             raise ValueError(f"contacts[{i}]: frames [{a}, {b}) of {name!r} must lie in [0, {source.num_frames}) "
                              "and be non-empty")
         out.append((str(name), a, b))
-    return out
+    return tuple(out)
 
 
-def _at_times(pos: np.ndarray, frame_time: float, times: np.ndarray) -> np.ndarray:
-    """``pos (F, ...)`` sampled at ``times (N,)`` seconds by linear interpolation (clamped at the ends; exact
-    where a time falls on a frame)."""
-    f = np.clip(np.asarray(times, float) / frame_time, 0.0, pos.shape[0] - 1)
-    i0 = np.floor(f + 1e-9).astype(np.int64)
-    np.minimum(i0, pos.shape[0] - 1, out=i0)
-    w = f - i0
-    w[np.abs(w) < 1e-9] = 0.0
-    i1 = np.minimum(i0 + 1, pos.shape[0] - 1)
-    w = w.reshape((-1,) + (1,) * (pos.ndim - 1))
-    out = pos[i0].copy()
-    moving = w.reshape(-1) > 0
-    if moving.any():
-        out[moving] = pos[i0[moving]] * (1 - w[moving]) + pos[i1[moving]] * w[moving]
-    return out
+def _positions_arg(x, motion: Motion, name: str) -> np.ndarray:
+    """``x`` (F, J, 3) checked as ``forward_kinematics(motion)[0]``'s shape and finite, component-major."""
+    p = np.asarray(x, dtype=float)
+    want = (motion.num_frames, motion.num_joints, 3)
+    if p.shape != want or not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} must be finite, of shape {want} (forward_kinematics(...)[0]), got {p.shape}")
+    return _to_component_major(p)
 
 
-def _frame_steps(q: np.ndarray) -> np.ndarray:
-    """Largest frame-to-frame rotation angle (degrees) of each joint, ``q (F, J, 4)`` -> ``(J,)``."""
-    if q.shape[0] < 2:
-        return np.zeros(q.shape[1])
-    return np.degrees(quat_angle(q[:-1], q[1:])).max(axis=0)
+def _height_rows(P: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Heights along the coordinate axis ``up`` (±X/±Y/±Z) of component-major positions ``P (3, ...)``."""
+    a = int(np.argmax(np.abs(up)))
+    return P[a] if up[a] > 0 else -P[a]
 
 
-def _position_steps(p: np.ndarray) -> np.ndarray:
-    if p.shape[0] < 2:
-        return np.zeros(p.shape[1])
-    return np.linalg.norm(np.diff(p, axis=0), axis=-1).max(axis=0)
+# -- vectorised kernels on component-major arrays (C, J, F): each step one contiguous numpy operation -------
 
-
-def _detail_energy(q: np.ndarray, frame_time: float) -> np.ndarray:
-    """High-frequency energy (rad²/s²) of each joint's local angular velocity, ``q (F, J, 4)`` -> ``(J,)``."""
-    from scipy.ndimage import gaussian_filter1d
-    if q.shape[0] < 3:
-        return np.zeros(q.shape[1])
-    w = quat_to_rotvec(quat_mul(quat_conj(q[:-1]), q[1:])) / frame_time          # (F-1, J, 3)
-    hp = (gaussian_filter1d(w, DETAIL_FINE / frame_time, axis=0, mode="nearest")
-          - gaussian_filter1d(w, DETAIL_SIGMA / frame_time, axis=0, mode="nearest"))
-    return np.mean(np.sum(hp * hp, axis=-1), axis=0)
-
-
-def _detail_energies(source: Motion, motion: Motion, sm, t0: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(edited, source)`` detail energies ``(J,)``, both on the source's frames: the edited motion's local
-    rotations are read at each joint's warped time ``w_j(n * source.frame_time)`` (slerp between its frames;
-    exact where a time falls on a frame), so a timing edit that only retimes a curve keeps its detail. Frames
-    whose warped time falls outside the edited motion (any joint) are left out of both."""
-    from .staggered import warp_times
-    Fs, J = source.num_frames, source.num_joints
-    ts = np.arange(Fs) * source.frame_time
-    if sm is None:
-        te = np.broadcast_to(ts[:, None], (Fs, J))
+def _fk_cm(motion: Motion, joints=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(P, Q)``: world positions ``P (3, J, F)`` (component-major ``forward_kinematics(motion)[0]``, the
+    same products: equal bit for bit) and the local rotations ``Q (4, J, F)``; with ``joints`` only those
+    and their ancestors are computed (``P (3, n, F)`` for ``sub``, see :func:`_fk_rows`; Q is None)."""
+    sk = motion.skeleton
+    if joints is None:
+        Q = _to_component_major(motion.local_quats)
+        T = (sk.offsets.T[:, :, None] if motion.local_translations is None
+             else _to_component_major(motion.local_translations))
+        return _fk_component_major(Q, T, motion.root_positions.T, sk.parents)[1], Q
+    from .staggered.contacts import chain_subset
+    sub, sub_par, _ = chain_subset(sk.parents, joints)
+    Q = np.empty((4, sub.size, motion.num_frames))
+    for c in range(4):
+        Q[c] = motion.local_quats[:, sub, c].T
+    if motion.local_translations is None:
+        T = sk.offsets[sub].T[:, :, None]
     else:
-        te = np.stack([warp_times(sm, ts, j) for j in range(J)], axis=1)
-    f = (te - t0) / motion.frame_time
-    F = motion.num_frames
-    keep = np.all((f >= -1e-6) & (f <= F - 1 + 1e-6), axis=1)
-    if keep.sum() < 3:
-        return np.zeros(J), np.zeros(J)
-    f = np.clip(f[keep], 0.0, F - 1)
-    i0 = np.minimum(np.floor(f + 1e-9).astype(np.int64), F - 1)
+        T = np.empty((3, sub.size, motion.num_frames))
+        for c in range(3):
+            T[c] = motion.local_translations[:, sub, c].T
+    return _fk_component_major(Q, T, np.ascontiguousarray(motion.root_positions.T), sub_par)[1], None
+
+
+def _fk_rows(motion: Motion, joints) -> np.ndarray:
+    """World positions ``(3, J, F)`` of ``joints`` (their chains' FK; the other rows NaN)."""
+    from .staggered.contacts import chain_subset
+    sub, _, _ = chain_subset(motion.skeleton.parents, joints)
+    P = np.full((3, motion.num_joints, motion.num_frames), np.nan)
+    P[:, sub] = _fk_cm(motion, joints)[0]
+    return P
+
+
+def _dot(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Component dot product of component-first quaternions ``(4, ...)`` -> ``(...)``."""
+    d = A[0] * B[0]
+    for c in (1, 2, 3):
+        d += A[c] * B[c]
+    return d
+
+
+def _largest_angles(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Largest rotation angle (degrees) between ``A`` and ``B`` (4, J, n) over ``n``, per joint ``(J,)``.
+
+    The angle grows with the chord ``|a - s b|`` (``s`` the sign of ``a·b``: the shorter arc), which has no
+    cancellation for small angles (``1 - |a·b|`` has, and unit quaternions are unit to ~1e-12 only): the
+    frame of the longest chord is found for all joints at once, and
+    :func:`~stagger_nb.core.rotations.quat_angle` evaluated there only (one pair per joint)."""
+    J, n = A.shape[1], A.shape[2]
+    if n == 0:
+        return np.zeros(J)
+    sign = np.copysign(1.0, _dot(A, B))
+    chord = np.zeros(A.shape[1:])
+    for c in range(4):
+        d = A[c] - sign * B[c]
+        d *= d
+        chord += d
+    k = np.argmax(chord, axis=1)
+    cols = np.arange(J)
+    a, b = A[:, cols, k].T, B[:, cols, k].T                                   # (J, 4)
+    out = np.degrees(quat_angle(a, b))
+    out[np.all(a == b, axis=1)] = 0.0
+    return out
+
+
+def _step_angles(Q: np.ndarray) -> np.ndarray:
+    """Largest frame-to-frame rotation angle (degrees) of each joint of ``Q (4, J, F)`` -> ``(J,)``."""
+    if Q.shape[2] < 2:
+        return np.zeros(Q.shape[1])
+    return _largest_angles(Q[:, :, :-1], Q[:, :, 1:])
+
+
+def _norms2(D: np.ndarray) -> np.ndarray:
+    """Squared lengths of component-first vectors ``D (3, ...)``."""
+    return D[0] * D[0] + D[1] * D[1] + D[2] * D[2]
+
+
+def _step_lengths(P: np.ndarray) -> np.ndarray:
+    """Largest frame-to-frame displacement of each joint of ``P (3, J, F)`` -> ``(J,)`` (file units)."""
+    if P.shape[2] < 2:
+        return np.zeros(P.shape[1])
+    return np.sqrt(_norms2(np.diff(P, axis=2)).max(axis=1))
+
+
+def _relative_rotvecs(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``rotvec(a⁻¹ b)`` (angle in [0, π], as :func:`~stagger_nb.core.rotations.quat_to_rotvec`:
+    ``2 atan2(|v|, |w|) v / |v|`` on the hemisphere ``w >= 0``, ``2 v / w`` below ``|v| = 1e-12``) of
+    component-first quaternions ``A, B (4, ...)`` -> ``(3, ...)``."""
+    R = np.empty(np.broadcast_shapes(A.shape, B.shape))
+    tmp = np.empty(R.shape[1:])
+    quat_mul_components((-A[0], -A[1], -A[2], A[3]), B, R, tmp)
+    V, w = R[:3], R[3]
+    s = np.sqrt(_norms2(V))
+    aw = np.abs(w)
+    big = s > _SMALL
+    scale = np.arctan2(s, aw, out=tmp)
+    scale /= np.where(big, s, 1.0)
+    if not big.all():
+        scale[~big] = 1.0 / aw[~big]
+    scale *= 2.0
+    np.copysign(scale, w, out=scale)                     # -q for w < 0: the same rotation, the short way
+    V *= scale
+    return V
+
+
+def _slerp_cm(A: np.ndarray, B: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Spherical linear interpolation of component-first quaternions ``A, B (4, ...)`` at ``t (...)`` along the
+    shorter arc, as :func:`~stagger_nb.core.rotations.slerp`: ``sin((1 - t) θ) a + sin(t θ) b`` normalised (the
+    common ``1 / sin θ`` cancels in the normalisation; below ``sin θ = 1e-9`` the weights ``1 - t`` and ``t``)."""
+    d = _dot(A, B)
+    sign = np.copysign(1.0, d)
+    np.abs(d, out=d)
+    theta = np.arccos(np.minimum(d, 1.0, out=d), out=d)
+    small = theta < 1e-9
+    w0 = np.sin((1.0 - t) * theta)
+    w1 = np.sin(t * theta)
+    if small.any():
+        w0[small] = (1.0 - t)[small] if np.ndim(t) else 1.0 - t
+        w1[small] = t[small] if np.ndim(t) else t
+    w1 *= sign
+    out = A * w0
+    out += B * w1
+    out /= np.sqrt(_dot(out, out))
+    return out
+
+
+def _fractional(f: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(i0, i1, w)`` of fractional frame indices ``f`` into ``count`` frames: ``f`` clamped, ``w = 0``
+    within 1e-9 of a frame (a time on a frame reads that frame exactly)."""
+    f = np.clip(f, 0.0, count - 1)
+    i0 = np.minimum(np.floor(f + 1e-9).astype(np.int64), count - 1)
     w = f - i0
     w[np.abs(w) < 1e-9] = 0.0
-    cols = np.broadcast_to(np.arange(J), i0.shape)
-    q = motion.local_quats[i0, cols]                                                # (n, J, 4)
-    frac = w > 0
-    if frac.any():
-        i1 = np.minimum(i0 + 1, F - 1)
-        q[frac] = slerp(q[frac], motion.local_quats[i1[frac], cols[frac]], w[frac])
-    return _detail_energy(q, source.frame_time), _detail_energy(source.local_quats[keep], source.frame_time)
+    return i0, np.minimum(i0 + 1, count - 1), w
 
 
-def _travel(pe: np.ndarray, ps: np.ndarray) -> tuple[float, float, float]:
-    """(travel against the source, raw travel, path length) of positions ``pe (n, 3)`` against ``ps (n, 3)``."""
-    de, ds = pe - pe[0], ps - ps[0]
-    rel = float(np.linalg.norm(de - ds, axis=-1).max())
-    raw = float(np.linalg.norm(de, axis=-1).max())
-    path = float(np.linalg.norm(np.diff(pe, axis=0), axis=-1).sum()) if pe.shape[0] > 1 else 0.0
-    return rel, raw, path
+def _read_positions(P: np.ndarray, joints: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """``P (3, J, F)`` at fractional ``frames (n,)`` of ``joints (n,)`` (linear) -> ``(3, n)``."""
+    i0, i1, w = _fractional(frames, P.shape[2])
+    out = P[:, joints, i0]
+    moving = w > 0
+    if moving.any():
+        wm = w[moving]
+        out[:, moving] = P[:, joints[moving], i0[moving]] * (1 - wm) + P[:, joints[moving], i1[moving]] * wm
+    return out
 
 
-# -- compare ---------------------------------------------------------------------------------------------
+def _band_pass_energy(V: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """Mean over samples of the squared band-passed angular velocity ``V (3, J, n)`` -> ``(J,)`` (rad²/s²):
+    ``kernel`` is the difference of the two Gaussian low-passes (:func:`_detail_kernel`), one correlation along
+    time (the nearest sample repeated past each end, as ``gaussian_filter1d(mode="nearest")``)."""
+    from scipy.ndimage import correlate1d
+    C, J, n = V.shape
+    if n < 2:
+        return np.zeros(J)
+    hp = correlate1d(V.reshape(C * J, n), kernel, axis=1, mode="nearest")
+    hp *= hp
+    return hp.reshape(C, J, n).sum(axis=0).mean(axis=1)
+
+
+def _detail_kernel(frame_time: float) -> np.ndarray:
+    """Correlation weights of ``gaussian_filter1d(σ = DETAIL_FINE) - gaussian_filter1d(σ = DETAIL_SIGMA)``
+    on samples ``frame_time`` apart (scipy's kernels: truncated at 4 σ, normalised), one kernel."""
+    from scipy.ndimage._filters import _gaussian_kernel1d
+    sf, sc = DETAIL_FINE / frame_time, DETAIL_SIGMA / frame_time
+    rf, rc = int(4.0 * sf + 0.5), int(4.0 * sc + 0.5)
+    k = -_gaussian_kernel1d(sc, 0, rc)[::-1]
+    k[rc - rf: rc + rf + 1] += _gaussian_kernel1d(sf, 0, rf)[::-1]
+    return k
+
+
+def _segments(lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(starts, owner)`` of consecutive segments of ``lengths`` (all > 0) laid end to end: the start of
+    each segment and, per element, its segment's start."""
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    return starts, np.repeat(starts, lengths)
+
+
+def _travels(pe: np.ndarray, ps: np.ndarray, starts: np.ndarray, owner: np.ndarray):
+    """Per segment: ``(travel against the source, raw travel)`` of positions ``pe (3, n)`` against
+    ``ps (3, n)``: ``max |(p(n) - p(a)) - (p_src(n) - p_src(a))|`` and ``max |p(n) - p(a)|`` (``a`` the
+    segment's first element)."""
+    de = pe - pe[:, owner]
+    rel = np.sqrt(np.maximum.reduceat(_norms2(de - (ps - ps[:, owner])), starts))
+    raw = np.sqrt(np.maximum.reduceat(_norms2(de), starts))
+    return rel, raw
+
+
+# -- the source's figures, once ---------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class SourceFigures:
+    """Everything :func:`compare` reads of the source alone, computed once by :func:`prepare` (read-only
+    arrays; a session caches one per source). Pass it as ``compare(source, edited, prepared=...)``: the
+    figures are the same, bit for bit, as without it.
+
+    Attributes
+    ----------
+    source : Motion
+        The motion these figures are of (``compare`` checks it is the ``source`` it is given).
+    positions : ndarray, shape (F, J, 3)
+        ``forward_kinematics(source)[0]``, file units.
+    up : ndarray, shape (3,)
+        The vertical axis (:func:`~stagger_nb.core.body.up_axis`).
+    body_height, scale : float
+        :func:`body_height` (file units) and ``BODY_CM / body_height``.
+    contacts : tuple of (joint_name, start_frame, stop_frame)
+        The source's contacts (default :func:`~stagger_nb.staggered.detect_contacts`), half-open frames.
+    floor : float
+        The lowest height any joint of the source reaches (file units).
+    pelvis : int
+        :func:`~stagger_nb.core.body.pelvis_joint`.
+    step_angles : ndarray, shape (J,)
+        Each joint's largest frame-to-frame rotation (degrees).
+    step_lengths : ndarray, shape (J,)
+        Each joint's largest frame-to-frame displacement (file units).
+    velocity : ndarray, shape (3, J, G - 1)
+        Local angular velocity on the detail grid (G samples ``h`` apart, see :mod:`stagger_nb.quality`):
+        ``rotvec(q(n)⁻¹ q(n+1)) / h`` (rad/s), component-major.
+    detail : ndarray, shape (J,)
+        Band-passed energy of ``velocity`` over the whole grid (rad²/s²).
+    """
+
+    source: Motion
+    positions: np.ndarray
+    up: np.ndarray
+    body_height: float
+    scale: float
+    contacts: tuple
+    floor: float
+    pelvis: int
+    step_angles: np.ndarray
+    step_lengths: np.ndarray
+    velocity: np.ndarray
+    detail: np.ndarray
+    _P: np.ndarray = field(repr=False, default=None)          # positions, component-major (3, J, F)
+    _Q: np.ndarray = field(repr=False, default=None)          # local rotations, component-major (4, J, F)
+    _kernel: np.ndarray = field(repr=False, default=None)     # the detail band-pass (see _detail_kernel)
+    _step: int = field(repr=False, default=1)                 # source frames per detail sample (_detail_step)
+
+    def __repr__(self) -> str:
+        return (f"SourceFigures({self.source.num_frames} frames x {self.source.num_joints} joints, body "
+                f"{self.body_height:.4g} units, {len(self.contacts)} contacts)")
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+def prepare(source: Motion, *, contacts=None, body_height: float | None = None,
+            source_positions: np.ndarray | None = None) -> SourceFigures:
+    """The figures of ``source`` that :func:`compare` needs for any edit (its FK, contacts, body height,
+    floor, per-joint largest frame-to-frame rotation and displacement, angular velocity and its detail
+    energy), computed once: ``compare(source, edited, prepared=prepare(source))`` then measures only the
+    edit (one FK of the edited motion, or none with ``edited_positions=``).
+
+    Parameters are those of :func:`compare` of the same names (``contacts`` default
+    :func:`~stagger_nb.staggered.detect_contacts`; ``body_height`` default :func:`body_height`;
+    ``source_positions``: ``forward_kinematics(source)[0]`` when the caller has it). Returns a frozen
+    :class:`SourceFigures`.
+    """
+    from . import staggered as stg
+    if not isinstance(source, Motion):
+        raise ValueError(f"source must be a Motion, got {type(source).__name__}")
+    _finite_motion(source, "source")
+    if source_positions is None:
+        P, Q = _fk_cm(source)
+    else:
+        P, Q = _positions_arg(source_positions, source, "source_positions"), _to_component_major(source.local_quats)
+    pos = _readonly(_to_frame_major(P))
+    up = up_axis(source, pos)
+    h_body = _body_height(source, pos) if body_height is None else _positive(body_height, "body_height")
+    if contacts is None:
+        contacts = stg.detect_contacts(source, positions=pos)
+    contacts = _check_contacts(source, contacts)
+    step = _detail_step(source.frame_time)
+    h = step * source.frame_time
+    Qg = Q[:, :, ::step]
+    V = (_relative_rotvecs(Qg[:, :, :-1], Qg[:, :, 1:]) / h if Qg.shape[2] > 1
+         else np.zeros((3, source.num_joints, 0)))
+    kernel = _detail_kernel(h)
+    detail = _band_pass_energy(V, kernel) if Qg.shape[2] >= 3 else np.zeros(source.num_joints)
+    return SourceFigures(
+        source=source, positions=pos, up=_readonly(up), body_height=h_body, scale=BODY_CM / h_body,
+        contacts=contacts, floor=float(_height_rows(P, up).min()), pelvis=pelvis_joint(source.skeleton),
+        step_angles=_readonly(_step_angles(Q)), step_lengths=_readonly(_step_lengths(P)),
+        velocity=_readonly(V), detail=_readonly(detail), _P=_readonly(P), _Q=_readonly(Q), _kernel=_readonly(kernel),
+        _step=step)
+
+
+# -- the edit's figures -------------------------------------------------------------------------------------
+
+def _warp_table(sm):
+    """``(tables, table)``: ``(S, T)`` of the time warps of ``sm`` (every control variable's,
+    :func:`staggered.warp_times`), and the same or None when no knot moved (the warp is the identity);
+    ``(None, None)`` without a StaggeredMotion."""
+    if sm is None:
+        return None, None
+    from .staggered.timing import _warp_tables
+    S, T = _warp_tables(sm)
+    return (S, T), None if np.array_equal(S, T) else (S, T)
+
+
+def _warp(table, c: int, times: np.ndarray, inverse: bool = False) -> np.ndarray:
+    from .staggered.timing import _warp_column
+    return times if table is None else _warp_column(*table, c, times, inverse)
+
+
+def _warp_rows(table, J: int, times: np.ndarray) -> np.ndarray:
+    """``_warp(table, j, times)`` of every joint ``j < J`` at once, ``(J, n)`` for sorted ``times (n,)`` (the
+    same numbers: ``np.interp`` between the knots, slope 1 past the end knots)."""
+    S, T = table
+    Y = np.empty((J, times.size))
+    for j in range(J):
+        Y[j] = np.interp(times, S[:, j], T[:, j])
+    if times.size:
+        for j in np.flatnonzero(times[0] < S[0, :J]):
+            x = times < S[0, j]
+            Y[j, x] = T[0, j] + (times[x] - S[0, j])
+        for j in np.flatnonzero(times[-1] > S[-1, :J]):
+            x = times > S[-1, j]
+            Y[j, x] = T[-1, j] + (times[x] - S[-1, j])
+    return Y
+
+
+def _detail_step(frame_time: float) -> int:
+    """Source frames between two samples of the detail grid: the grid is the source's frames, every k-th
+    one above DETAIL_RATE (a 120 Hz clip is read at 60 Hz)."""
+    return max(1, int(1.0 / (DETAIL_RATE * frame_time) + 1e-9))
+
+
+def _detail_energies(prep: SourceFigures, Qe: np.ndarray, ft_e: float, table, t0: float):
+    """``(edited, source)`` detail energies ``(J,)``, both on the source's detail grid (its frames, every
+    ``_detail_step``-th): the edited rotations ``Qe (4, J, F)`` are read at each joint's warped time
+    ``w_j(t_n)`` (slerp between its frames; exact where a time falls on a frame), so a timing edit that only
+    retimes a curve keeps its detail. Grid times whose warped time falls outside the edited motion (any
+    joint) are left out of both."""
+    src = prep.source
+    J, F, k = src.num_joints, Qe.shape[2], prep._step
+    h = k * src.frame_time
+    ts = np.arange(0, src.num_frames, k) * src.frame_time
+    G = ts.size
+    if table is None:
+        f = np.broadcast_to((ts - t0) / ft_e, (J, G))
+    else:
+        f = (_warp_rows(table, J, ts) - t0) / ft_e                                   # (J, G)
+    keep = np.all((f >= -1e-6) & (f <= F - 1 + 1e-6), axis=0)
+    n = int(keep.sum())
+    if n < 3:
+        return np.zeros(J), np.zeros(J)
+    lo = int(np.argmax(keep))
+    span = bool(keep[lo:lo + n].all())                        # the kept samples are one run [lo, lo + n)
+    f = f[:, lo:lo + n] if span else f[:, keep]
+    i0, i1, w = _fractional(f, F)
+    i0 += (np.arange(J) * F)[:, None]                         # flat indices into (4, J * F)
+    i1 += (np.arange(J) * F)[:, None]
+    Qflat = Qe.reshape(4, J * F)
+    V = np.empty((3, J, n - 1))
+    block = max(1, _BLOCK // n)                               # joints per block: temporaries stay in cache
+    for j0 in range(0, J, block):
+        rows = slice(j0, j0 + block)
+        q = np.take(Qflat, i0[rows], axis=1)                                     # (4, rows, n)
+        frac = w[rows] > 0
+        if frac.any():
+            q = np.where(frac, _slerp_cm(q, np.take(Qflat, i1[rows], axis=1), w[rows]), q)
+        V[:, rows] = _relative_rotvecs(q[:, :, :-1], q[:, :, 1:])
+    V /= h
+    e_e = _band_pass_energy(V, prep._kernel)
+    if n == G:
+        e_s = prep.detail
+    elif span:
+        e_s = _band_pass_energy(prep.velocity[:, :, lo:lo + n - 1], prep._kernel)
+    else:
+        Qs = prep._Q[:, :, ::k][:, :, keep]
+        e_s = _band_pass_energy(_relative_rotvecs(Qs[:, :, :-1], Qs[:, :, 1:]) / h, prep._kernel)
+    return e_e, e_s
+
+
+def _carried(sm, contacts, frame_time: float, tables) -> list:
+    """Each source contact carried through its joint's own timing: ``(start, stop)`` frames of the edited
+    motion, or None where it keeps no frame. The numbers of ``staggered.carry_contacts(sm, contacts,
+    frame_time, carry_by="joint")`` (its first and last active times mapped through the joint's time warp,
+    the edited frames inside), computed for all contacts at once, one warp per contact joint."""
+    from .staggered.representation import default_times
+    from .staggered.timing import _warp_column
+    if not contacts:
+        return []
+    names = sm.skeleton.names
+    S, T = tables
+    t0, ft, F = float(sm.pose_times[0]), sm.frame_time, default_times(sm).size
+    joints = np.array([names.index(c[0]) for c in contacts])
+    ends = np.array([(a, b - 1) for _, a, b in contacts], dtype=float) * frame_time        # (N, 2) seconds
+    for j in np.unique(joints):
+        at = joints == j
+        ends[at] = _warp_column(S, T, int(j), ends[at].ravel()).reshape(-1, 2)
+    e = (ends - t0) / ft
+    start = np.maximum(np.ceil(e[:, 0] - 1e-6), 0).astype(np.int64)
+    stop = np.minimum(np.floor(e[:, 1] + 1e-6) + 1, F).astype(np.int64)
+    return [(int(a), int(b)) if b > a else None for a, b in zip(start, stop)]
+
 
 def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=None, bounds=None,
-            body_height: float | None = None, source_positions: np.ndarray | None = None) -> QualityReport:
+            body_height: float | None = None, source_positions: np.ndarray | None = None,
+            prepared: SourceFigures | None = None, edited_positions: np.ndarray | None = None,
+            baseline_positions: np.ndarray | None = None) -> QualityReport:
     """Measure what an edit did to ``source`` (definitions: :mod:`stagger_nb.quality`).
 
     Parameters
@@ -528,7 +979,8 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         The edited StaggeredMotion: its time warps carry the contacts, its knots are checked for order.
         Without it the contacts stay on their frames and ``knots_out_of_order`` is None.
     contacts : list of (joint_name, start_frame, stop_frame), optional
-        Source contacts, half-open source frames; default ``staggered.detect_contacts(source)``.
+        Source contacts, half-open source frames; default ``prepared.contacts``, else
+        ``staggered.detect_contacts(source)``.
     baseline : Motion or StaggeredMotion, optional
         The same edit without the contact layer: ``pelvis_vs_baseline`` and ``baseline_foot_travel`` are
         measured against it.
@@ -536,19 +988,32 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         What :attr:`QualityReport.failures` checks (default ``"mild"``; a dict overrides fields of its
         ``"preset"``, e.g. ``{"preset": "strong", "pop": 8}``).
     body_height : float, optional
-        The source's body height in file units (default :func:`body_height` of the source).
+        The source's body height in file units (default ``prepared.body_height``, else :func:`body_height`).
     source_positions : ndarray (F, J, 3), optional
-        ``forward_kinematics(source)[0]`` when the caller has it (the same figures, one FK fewer).
+        ``forward_kinematics(source)[0]`` when the caller has it (the same figures, one FK fewer; not read
+        with ``prepared``).
+    prepared : SourceFigures, optional
+        :func:`prepare` of ``source``: the source's figures, computed once for any number of edits (the
+        same report, bit for bit).
+    edited_positions, baseline_positions : ndarray (F_edited, J, 3), optional
+        ``forward_kinematics(edited)[0]`` / ``(baseline)[0]`` when the caller has them (the baseline's is
+        otherwise computed for the pelvis and the contact joints' chains only).
 
     Returns
     -------
-    QualityReport (frozen): the figures, per-contact and per-joint detail, ``.summary``, ``.ok``,
+    QualityReport (frozen): the figures, per-contact and per-joint detail, ``.summary``, ``.items``, ``.ok``,
     ``.failures``, ``.to_dict()``.
     """
     from . import staggered as stg
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
-    _finite_motion(source, "source")
+    if prepared is None:
+        prepared = prepare(source, contacts=contacts, body_height=body_height, source_positions=source_positions)
+        contacts = body_height = None
+    elif not isinstance(prepared, SourceFigures):
+        raise ValueError(f"prepared must be quality.prepare(source), got {type(prepared).__name__}")
+    elif prepared.source is not source:
+        raise ValueError("prepared: computed for another source motion (use quality.prepare(source) of this one)")
     motion, sm = _as_motion(edited, "edited")
     if staggered is not None:
         if not isinstance(staggered, stg.StaggeredMotion):
@@ -563,78 +1028,88 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         base, _ = _as_motion(baseline, "baseline")
         _same_rig(source, base, "baseline")
         _finite_motion(base, "baseline")
+    elif baseline_positions is not None:
+        raise ValueError("baseline_positions: given without a baseline")
     bnds = _bounds(bounds)
-    sk = source.skeleton
-    names = sk.names
-    if source_positions is None:
-        src_pos, _ = forward_kinematics(source)
-    else:
-        src_pos = np.asarray(source_positions, dtype=float)
-        if src_pos.shape != (source.num_frames, source.num_joints, 3) or not np.all(np.isfinite(src_pos)):
-            raise ValueError(f"source_positions must be finite, of shape ({source.num_frames}, {source.num_joints}, 3)"
-                             f" (forward_kinematics(source)[0]), got {src_pos.shape}")
-    up = up_axis(source, src_pos)
+    contacts = prepared.contacts if contacts is None else _check_contacts(source, contacts)
     if body_height is None:
-        h_body = _body_height(source, src_pos)
+        scale, h_body = prepared.scale, prepared.body_height
     else:
-        h_body = _number(body_height, "body_height")
-        if h_body <= 0:
-            raise ValueError(f"body_height must be > 0, got {h_body}")
-    scale = BODY_CM / h_body
-    if contacts is None:
-        contacts = stg.detect_contacts(source, positions=src_pos)
-    contacts = _check_contacts(source, contacts)
+        h_body = _positive(body_height, "body_height")
+        scale = BODY_CM / h_body
+    if edited_positions is None:
+        Pe, Qe = _fk_cm(motion)
+    else:
+        Pe, Qe = _positions_arg(edited_positions, motion, "edited_positions"), _to_component_major(motion.local_quats)
+    return _measure(prepared, motion, sm, Pe, Qe, base, baseline_positions, contacts, scale, h_body, bnds)
 
-    ft_s, ft_e = source.frame_time, motion.frame_time
+
+def _measure(prep: SourceFigures, motion: Motion, sm, Pe: np.ndarray, Qe: np.ndarray, base, base_positions,
+             contacts: tuple, scale: float, h_body: float, bnds: Bounds) -> QualityReport:
+    """The figures of :func:`compare` from the source's (``prep``) and the edit's FK ``Pe (3, J, F)`` and
+    rotations ``Qe (4, J, F)``."""
+    src, sk, up = prep.source, prep.source.skeleton, prep.up
+    names = sk.names
+    Fs, J, F = src.num_frames, src.num_joints, motion.num_frames
+    Ps = prep._P
+    ft_s, ft_e = src.frame_time, motion.frame_time
     t0 = float(sm.pose_times[0]) if sm is not None else 0.0
-    pos, _ = forward_kinematics(motion)
-    F = motion.num_frames
+    tables, table = _warp_table(sm)
     te = t0 + np.arange(F) * ft_e
-    inside = te <= source.duration + 0.5 * ft_s + 1e-9          # frames the source covers
-    src_at = _at_times(src_pos, ft_s, te[inside])               # (n, J, 3) the source at the same times
-
-    # whole-body figures
-    moved_j = np.linalg.norm(pos[inside] - src_at, axis=-1).max(axis=0) if inside.any() else np.zeros(len(names))
-    mj = int(np.argmax(moved_j))
-    if inside.any():
-        fs = np.clip(te[inside] / ft_s, 0, source.num_frames - 1)
-        i0 = np.floor(fs + 1e-9).astype(np.int64)
-        i1 = np.minimum(i0 + 1, source.num_frames - 1)
-        w = np.where(np.abs(fs - i0) < 1e-9, 0.0, fs - i0)
-        q_src = source.local_quats[i0]
+    n_in = int(np.searchsorted(te, src.duration + 0.5 * ft_s + 1e-9, side="right"))   # frames the source covers
+    # the source at the same times (te increasing: the covered frames are the first n_in)
+    i0, i1, w = _fractional(te[:n_in] / ft_s, Fs)
+    same_frames = not w.any() and np.array_equal(i0, np.arange(n_in))
+    if same_frames:
+        src_at, q_src = Ps[:, :, :n_in], prep._Q[:, :, :n_in]
+    else:
+        src_at, q_src = Ps[:, :, i0], prep._Q[:, :, i0]
         frac = w > 0
         if frac.any():
-            q_src[frac] = slerp(source.local_quats[i0[frac]], source.local_quats[i1[frac]], w[frac][:, None])
-        q_e = motion.local_quats[inside]
-        ang = np.where(np.all(q_src == q_e, axis=-1), 0.0, quat_angle(q_src, q_e))   # exact 0 where equal
-        rotated = float(np.degrees(ang).max())
+            wf = w[frac]
+            src_at[:, :, frac] = Ps[:, :, i0[frac]] * (1 - wf) + Ps[:, :, i1[frac]] * wf
+            q_src[:, :, frac] = _slerp_cm(prep._Q[:, :, i0[frac]], prep._Q[:, :, i1[frac]],
+                                          np.broadcast_to(wf, (J, wf.size)))
+
+    # whole-body figures
+    if n_in:
+        moved_j = np.sqrt(_norms2(Pe[:, :, :n_in] - src_at).max(axis=1))
+        rotated = float(_largest_angles(q_src, Qe[:, :, :n_in]).max())
     else:
-        rotated = 0.0
-    pel = pelvis_joint(sk)
-    hp_e, hp_s = _heights(pos[inside, pel], up), _heights(src_at[:, pel], up)
-    dpel = hp_e - hp_s
+        moved_j, rotated = np.zeros(J), 0.0
+    mj = int(np.argmax(moved_j))
+    pel = prep.pelvis
+    He = _height_rows(Pe, up)                                                     # (J, F)
+    dpel = He[pel, :n_in] - _height_rows(src_at[:, pel], up)
     pelvis = float(np.abs(dpel).max()) * scale if dpel.size else 0.0
     pelvis_drop = float(max(-dpel.min(), 0.0)) * scale if dpel.size else 0.0
-    pelvis_vs_base = None
-    base_pos = None
+    pelvis_vs_base = pelvis_base_drop = None
+    Pb = None
     if base is not None:
-        base_pos, _ = forward_kinematics(base)
-        n = min(base_pos.shape[0], F)
-        pelvis_vs_base = float(np.abs(_heights(pos[:n, pel] - base_pos[:n, pel], up)).max()) * scale if n else 0.0
-    floor = float(_heights(src_pos, up).min())
-    below = floor - float(_heights(pos, up).min())
-    floor_pen = max(below, 0.0) * scale
+        if base_positions is not None:
+            Pb = _positions_arg(base_positions, base, "baseline_positions")
+        else:
+            Pb = _fk_rows(base, sorted({pel} | {sk.index(c[0]) for c in contacts}))   # (NaN elsewhere)
+        n = min(base.num_frames, F)
+        db = He[pel, :n] - _height_rows(Pb[:, pel, :n], up)
+        pelvis_vs_base = float(np.abs(db).max()) * scale if n else 0.0
+        pelvis_base_drop = float(max(-db.min(), 0.0)) * scale if n else 0.0
+    floor_pen = max(prep.floor - float(He.min()), 0.0) * scale
 
     ratio = ft_s / ft_e
-    pop_e, pop_s = _frame_steps(motion.local_quats) * ratio, _frame_steps(source.local_quats)
-    pop_added = np.maximum(pop_e - pop_s, 0.0)
+    pop_added = np.maximum(_step_angles(Qe) * ratio - prep.step_angles, 0.0)
+    pop_added[pop_added < _ROUNDING] = 0.0            # a frame-rate ratio's rounding is no pop (nor a joint)
     pj = int(np.argmax(pop_added))
-    jump_added = np.maximum(_position_steps(pos) * ratio - _position_steps(src_pos), 0.0) * scale
+    jump_added = np.maximum(_step_lengths(Pe) * ratio - prep.step_lengths, 0.0) * scale
+    jump_added[jump_added < _ROUNDING] = 0.0
     jj = int(np.argmax(jump_added))
-    e_e, e_s = _detail_energies(source, motion, sm, t0)
+    e_e, e_s = _detail_energies(prep, Qe, ft_e, table, t0)
     total_s = float(e_s.sum())
     detail = float(e_e.sum()) / total_s if total_s > 0 else 1.0
-    detail_j = np.where(e_s > 0, e_e / np.where(e_s > 0, e_s, 1.0), 1.0)
+    # per joint; a joint still in the source (energy at rounding level: 1e-12 of the mean) reads 1 when it
+    # stays still, else its energy over that floor
+    tiny = max(1e-12 * total_s / max(e_s.size, 1), 1e-300)
+    detail_j = np.where(e_s > tiny, e_e / np.maximum(e_s, tiny), np.where(e_e > tiny, e_e / tiny, 1.0))
 
     knots_bad = None
     if sm is not None:
@@ -642,50 +1117,13 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         bad = ~np.all(np.diff(T, axis=0) > 0, axis=0)
         knots_bad = tuple((list(names) + ["<root translation>"])[c] for c in np.flatnonzero(bad))
 
-    # contacts carried through each contact joint's own timing
-    figures = []
-    for name, a0, b0 in contacts:
-        if sm is not None:
-            moved_c = stg.carry_contacts(sm, [(name, a0, b0)], ft_s, carry_by="joint")
-            if not moved_c:
-                continue                       # carried onto no frame
-            _, a, b = moved_c[0]
-        else:
-            a, b = a0, b0
-        b = min(b, F)
-        if b <= a:
-            continue
-        j = sk.index(name)
-        frames = np.arange(a, b)
-        tt = te[frames]
-        ts = stg.warp_times(sm, tt, j, inverse=True) if sm is not None else tt
-        ps = _at_times(src_pos[:, j], ft_s, ts)
-        pe = pos[frames, j]
-        rel, raw, path = _travel(pe, ps)
-        height = float(np.abs(_heights(pe - ps, up)).max())
-        bt = None
-        if base_pos is not None:
-            fb = frames[frames < base_pos.shape[0]]
-            bt = _travel(base_pos[fb, j], ps[: fb.size])[0] * scale if fb.size else 0.0
-        figures.append(ContactFigures(name, (a0, b0), (int(a), int(b)), rel * scale, raw * scale,
-                                      path * scale, height * scale, bt))
-    # inside the source's own intervals, shrunk by SOURCE_SHRINK at each end, at the same times
-    in_src, in_src_raw = 0.0, 0.0
-    for name, a, b in contacts:
-        j = sk.index(name)
-        lo, hi = a * ft_s + SOURCE_SHRINK, (b - 1) * ft_s - SOURCE_SHRINK
-        frames = np.flatnonzero((te >= lo - 1e-9) & (te <= hi + 1e-9))
-        if frames.size < 2:
-            continue
-        rel, raw, _ = _travel(pos[frames, j], _at_times(src_pos[:, j], ft_s, te[frames]))
-        in_src, in_src_raw = max(in_src, rel * scale), max(in_src_raw, raw * scale)
+    figures = _contact_figures(prep, contacts, sm, tables, table, Pe, He, Pb, te, F, base, scale)
+    in_src, in_src_raw = _source_interval_travel(prep, contacts, Pe, te, scale)
 
     def worst(attr):
         return max((getattr(c, attr) for c in figures), default=0.0)
 
-    base_travel = None
-    if base_pos is not None:
-        base_travel = max((c.baseline_travel for c in figures), default=0.0)
+    base_travel = None if base is None else max((c.baseline_travel for c in figures), default=0.0)
     return QualityReport(
         scale=scale, body_height=h_body,
         foot_travel=worst("travel"), foot_travel_raw=worst("travel_raw"), foot_path=worst("path"),
@@ -695,6 +1133,69 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         added_jump=float(jump_added[jj]), added_jump_joint=names[jj] if jump_added[jj] > 0 else None,
         moved=float(moved_j[mj]) * scale, moved_joint=names[mj] if moved_j[mj] > 0 else None,
         rotated=rotated, knots_out_of_order=knots_bad, detail=detail, baseline_foot_travel=base_travel,
-        contacts=tuple(figures), joints=tuple(names), pop_added=tuple(float(x) for x in pop_added),
-        jump_added=tuple(float(x) for x in jump_added), detail_by_joint=tuple(float(x) for x in detail_j),
-        bounds=bnds)
+        contacts=tuple(figures), joints=tuple(names), pop_added=tuple(pop_added.tolist()),
+        jump_added=tuple(jump_added.tolist()), detail_by_joint=tuple(detail_j.tolist()),
+        bounds=bnds, pelvis_vs_baseline_drop=pelvis_base_drop)
+
+
+def _contact_figures(prep, contacts, sm, tables, table, Pe, He, Pb, te, F, base, scale) -> list:
+    """One :class:`ContactFigures` per contact carried onto at least one frame, all contacts at once."""
+    sk = prep.source.skeleton
+    carried = (_carried(sm, contacts, prep.source.frame_time, tables) if sm is not None
+               else [(a, b) for _, a, b in contacts])
+    kept = [(c, a, min(b, F)) for c, ab in zip(contacts, carried) if ab is not None
+            for a, b in [ab] if min(b, F) > a]
+    if not kept:
+        return []
+    first = np.array([a for _, a, _ in kept], dtype=np.int64)
+    lengths = np.array([b for _, _, b in kept], dtype=np.int64) - first
+    starts, owner = _segments(lengths)
+    frames = np.arange(owner.size) + np.repeat(first - starts, lengths)
+    joints = np.repeat([sk.index(c[0]) for c, _, _ in kept], lengths)
+    tt = te[frames]
+    ts = np.empty_like(tt)
+    for j in np.unique(joints):                                  # the source time of each frame, per joint
+        at = joints == j
+        ts[at] = _warp(table, int(j), tt[at], inverse=True)
+    ps = _read_positions(prep._P, joints, ts / prep.source.frame_time)
+    pe = Pe[:, joints, frames]
+    rel, raw = _travels(pe, ps, starts, owner)
+    steps = np.sqrt(_norms2(np.diff(pe, axis=1))) if pe.shape[1] > 1 else np.zeros(0)
+    steps = np.append(steps, 0.0)
+    steps[starts[1:] - 1] = 0.0                                  # no step from one contact into the next
+    steps[-1] = 0.0
+    path = np.add.reduceat(steps, starts)
+    height = np.maximum.reduceat(np.abs(He[joints, frames] - _height_rows(ps, prep.up)), starts)
+    bt = [None] * len(kept)
+    if Pb is not None:
+        inb = frames < base.num_frames                            # a prefix of each contact
+        fb = np.minimum(frames, base.num_frames - 1)
+        pb = Pb[:, joints, fb]
+        d = _norms2((pb - pb[:, owner]) - (ps - ps[:, owner]))
+        d[~inb | ~inb[owner]] = 0.0
+        bt = (np.sqrt(np.maximum.reduceat(d, starts)) * scale).tolist()
+    return [ContactFigures(c[0], (c[1], c[2]), (int(a), int(b)), float(r * scale), float(w * scale),
+                           float(p * scale), float(h * scale), t)
+            for (c, a, b), r, w, p, h, t in zip(kept, rel, raw, path, height, bt)]
+
+
+def _source_interval_travel(prep, contacts, Pe, te, scale) -> tuple[float, float]:
+    """``(foot_travel_source, foot_travel_source_raw)``: inside the source's own contact intervals shrunk by
+    SOURCE_SHRINK at each end, at the same times (no carrying)."""
+    ft_s = prep.source.frame_time
+    spans, sk = [], prep.source.skeleton
+    for name, a, b in contacts:
+        s = int(np.searchsorted(te, a * ft_s + SOURCE_SHRINK - 1e-9, side="left"))
+        e = int(np.searchsorted(te, (b - 1) * ft_s - SOURCE_SHRINK + 1e-9, side="right"))
+        if e - s >= 2:
+            spans.append((sk.index(name), s, e))
+    if not spans:
+        return 0.0, 0.0
+    first = np.array([s for _, s, _ in spans], dtype=np.int64)
+    lengths = np.array([e for _, _, e in spans], dtype=np.int64) - first
+    starts, owner = _segments(lengths)
+    frames = np.arange(owner.size) + np.repeat(first - starts, lengths)
+    joints = np.repeat([j for j, _, _ in spans], lengths)
+    ps = _read_positions(prep._P, joints, te[frames] / ft_s)
+    rel, raw = _travels(Pe[:, joints, frames], ps, starts, owner)
+    return float(rel.max()) * scale, float(raw.max()) * scale

@@ -12,13 +12,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import fftconvolve
 
-from .core.body import joint_sides  # noqa: F401 - re-exported (the bones' colour key)
+from .core.body import joint_sides
 from .core.kinematics import forward_kinematics, skeleton_height
 from .core.motion import Motion
 from .core.rotations import quat_rotate
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
-           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys", "body_size",
+           "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys",
+           "body_size",
            "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
            "trail_segments", "mesh_index"]
 
@@ -179,7 +180,8 @@ class Camera:
     """A perspective camera riding on a rig that follows the character.
 
     rig : (F, 3) rig position per frame (world); position, target : (3,) camera position and look-at point
-    relative to the rig (:func:`follow_camera` puts the look-at point at the rig's origin); fov : vertical field of view, degrees; ground : y of the ground plane;
+    relative to the rig (:func:`follow_camera` puts the look-at point at the rig's origin);
+    fov : vertical field of view, degrees; ground : y of the ground plane;
     near, far : clip distances (file units).
     """
     rig: np.ndarray

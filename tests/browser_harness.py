@@ -92,9 +92,10 @@ def jupyter_lab(folder: Path, timeout: float = 180.0):
                 break
             except Exception:
                 if proc.poll() is not None:
-                    raise RuntimeError("jupyter lab exited: " + log_path.read_text()[-2000:])
+                    raise RuntimeError("jupyter lab exited: " + log_path.read_text()[-2000:]) from None
                 if time.monotonic() > deadline:
-                    raise RuntimeError(f"jupyter lab did not answer within {timeout} s: " + log_path.read_text()[-2000:])
+                    raise RuntimeError(f"jupyter lab did not answer within {timeout} s: "
+                                       + log_path.read_text()[-2000:]) from None
                 time.sleep(0.5)
         yield url
     finally:
@@ -180,7 +181,8 @@ def _accept_kernel_dialog(page, wait_ms: int = 3000) -> None:
 def sidebar_open(page) -> bool:
     """Whether the left sidebar (file browser) takes room beside the notebook; opens it if not."""
     visible = page.evaluate("() => { const s = document.querySelector('#jp-left-stack');"
-                            " return !!s && !s.classList.contains('lm-mod-hidden') && s.getBoundingClientRect().width > 100; }")
+                            " return !!s && !s.classList.contains('lm-mod-hidden')"
+                            " && s.getBoundingClientRect().width > 100; }")
     if not visible:
         page.locator(".jp-SideBar.jp-mod-left [data-id='filebrowser']").first.click(timeout=10000)
         page.wait_for_timeout(500)
@@ -195,8 +197,17 @@ def run_all_cells(page, done: str = DONE, timeout: float = 240.0) -> None:
     _accept_kernel_dialog(page, wait_ms=500)
     if page.locator(".jp-Dialog").count():
         raise AssertionError("a dialog blocks Run All Cells: " + page.locator(".jp-Dialog").first.inner_text()[:300])
-    page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
-    page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
+    started = r"""() => [...document.querySelectorAll('.jp-InputArea-prompt')]
+                         .some(p => /\[(\*|\d+)\]/.test(p.textContent))"""
+    for _attempt in range(3):
+        page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
+        page.locator(".lm-Menu-itemLabel").get_by_text("Run All Cells", exact=True).click()
+        try:   # the menu's command reached the notebook: a prompt shows [*] or a count
+            page.wait_for_function(started, timeout=20000)
+            break
+        except Exception:
+            page.keyboard.press("Escape")
+            page.locator(".jp-Notebook .jp-Cell").first.click()
     page.wait_for_selector(f".jp-OutputArea-output >> text={done}", timeout=timeout * 1000)
 
 
@@ -248,7 +259,7 @@ def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 5, 
             log["console"][n_console:] = [c for c in log["console"][n_console:] if "widget model not found" not in c]
         warnings.warn(f"reload {attempt} of {target} showed {MODEL_NOT_FOUND!r} {shown}x (JupyterLab's restore "
                       f"race, benchmarks/browser_restore_race.py; load average {os.getloadavg()[0]:.1f}): "
-                      "reloading again")
+                      "reloading again", stacklevel=2)
     raise AssertionError(f"after {attempts} reloads JupyterLab still shows {MODEL_NOT_FOUND!r}")
 
 

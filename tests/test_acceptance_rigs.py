@@ -11,14 +11,13 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import shared_clip_path
 
 import stagger_nb as sn
 from stagger_nb import staggered, timewarp, wand
 from stagger_nb.core.body import pelvis_joint
 from stagger_nb.core.rotations import quat_mul, quat_rotate, rotvec_to_quat
 from stagger_nb.session import Session
-
-from conftest import shared_clip_path
 
 
 def _load(name):
@@ -150,7 +149,8 @@ def global_move(m, seed=0, rise=5.0):
     rot = rotvec_to_quat(np.outer(2.5 * np.sin(3 * t) + 0.3 * rng.uniform(), [0.0, 1.0, 0.0]))
     q = np.array(m.local_quats)
     q[:, 0] = quat_mul(rot, q[:, 0])
-    return m.replace(local_quats=q, root_positions=quat_rotate(rot, m.root_positions) + np.outer(t, [800., rise, -300.]))
+    root = quat_rotate(rot, m.root_positions) + np.outer(t, [800., rise, -300.])
+    return m.replace(local_quats=q, root_positions=root)
 
 
 def _variants(m):

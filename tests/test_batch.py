@@ -8,13 +8,12 @@ import os
 
 import pyarrow.parquet as pq
 import pytest
+from conftest import SHARED_MOCAP
 
 import stagger_nb as sn
 from stagger_nb import batch
 from stagger_nb.__main__ import main
 from stagger_nb.session import Session
-
-from conftest import SHARED_MOCAP
 
 OPS = [{"op": "cull", "percent": 50}, {"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0}]
 
@@ -117,3 +116,69 @@ def test_cli_refuses_output_over_input_and_reports(clips, tmp_path, capsys):
     assert main(["batch", str(session), str(src), str(tmp_path / "o"), "--executor", "serial", "--no-progress"]) == 1
     out = capsys.readouterr()
     assert f"{n} written" in out.out and "sub/broken.bvh" in out.err and "line" in out.err
+
+
+# -- the quality figures of each clip (issue "Edits an animator would keep", item 3) -----------------------------
+def _csv(out):
+    import csv
+    with open(out / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def test_the_report_carries_each_clips_quality(tmp_path):
+    """Each edited clip's row is its Session.quality() (mild bounds) computed apart; a re-run that skips the
+    clips still reports their figures (kept in the manifest); names a spreadsheet would evaluate are escaped in
+    every row, done ones too."""
+    from stagger_nb import quality
+    src = tmp_path / "in"
+    src.mkdir()
+    walk, run = sn.data.load("walk").slice(0, 90), sn.data.load("run").slice(0, 60)
+    sn.write_bvh(walk, src / "-walk.bvh")
+    sn.write_bvh(run, src / "run.bvh")
+    (src / "broken.bvh").write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\n")
+    ops = [{"op": "succession", "root": "Hips", "s": 0.03, "l": 2.0}, {"op": "random_timing", "tau": 0.1, "seed": 1},
+           {"op": "keep_contacts"}]
+    session = tmp_path / "edit.json"
+    Session(walk, ops=ops).save(session)
+    out = tmp_path / "out"
+    res = batch.run_session_batch(session, src, out, executor="serial", progress=False)
+    assert sorted(res.done) == ["-walk.bvh", "run.bvh"] and len(res.failed) == 1
+    want = {name: Session(sn.read_bvh(src / name), ops=ops).quality().to_row() for name in res.done}
+    assert res.quality == want
+    assert set(want["run.bvh"]) == set(quality.ROW_FIELDS)
+    assert want["run.bvh"]["pelvis_vs_baseline"] is not None        # the layer judged against no layer
+    report = json.loads((out / batch.REPORT_JSON).read_text())
+    assert report["quality"] == want
+    rows = {r["file"]: r for r in _csv(out)}
+    assert set(rows) == {"'-walk.bvh", "run.bvh", "broken.bvh"}
+    r = rows["run.bvh"]
+    q = want["run.bvh"]
+    assert r["status"] == "done" and r["summary"] == q["summary"] and r["quality_ok"] == str(q["ok"])
+    assert float(r["foot_travel_cm"]) == pytest.approx(q["foot_travel"], abs=5e-4)
+    assert float(r["pelvis_vs_no_layer_cm"]) == pytest.approx(q["pelvis_vs_baseline"], abs=5e-4)
+    assert int(r["knots_out_of_order"]) == q["knots_out_of_order"] and r["error"] == ""
+    assert rows["broken.bvh"]["status"] == "failed" and rows["broken.bvh"]["summary"] == ""
+    assert "line" in rows["broken.bvh"]["error"]
+    # a re-run skips both clips and still reports their figures
+    again = batch.run_session_batch(session, src, out, executor="serial", progress=False)
+    assert sorted(again.skipped) == sorted(want) and again.quality == want
+    rows = {r["file"]: r for r in _csv(out)}
+    assert rows["run.bvh"]["status"] == "skipped" and rows["run.bvh"]["summary"] == q["summary"]
+    assert json.loads((out / batch.REPORT_JSON).read_text())["quality"] == want
+
+
+def test_a_manifest_whose_quality_is_not_figures_is_refused(tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    sn.write_bvh(sn.data.load("walk").slice(0, 40), src / "a.bvh")
+    session = tmp_path / "edit.json"
+    Session(sn.data.load("walk").slice(0, 30), ops=OPS).save(session)
+    out = tmp_path / "out"
+    batch.run_session_batch(session, src, out, executor="serial", progress=False)
+    path = out / batch.MANIFEST
+    data = json.loads(path.read_text())
+    assert set(data["clips"]["a.bvh"]["quality"]) >= {"ok", "summary"}
+    data["clips"]["a.bvh"]["quality"] = {"summary": {"nested": "object"}}
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="'quality' is not a row of figures"):
+        batch.run_session_batch(session, src, out, executor="serial", progress=False)

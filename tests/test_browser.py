@@ -21,9 +21,8 @@ import json
 import os
 import time
 
-import pytest
-
 import browser_harness as bh
+import pytest
 from conftest import shared_clip_path
 
 pytestmark = [pytest.mark.browser]
@@ -45,7 +44,8 @@ walk = sn.read_bvh({str(walk_path)!r})""",
 se.s.value = 0.08
 se.view.frame = 64
 se""",
-        """we = WandEditor(run, frame=40, joint="LeftUpLeg" if "LeftUpLeg" in run.skeleton.names else run.skeleton.names[2],
+        """we = WandEditor(run, frame=40,
+                joint="LeftUpLeg" if "LeftUpLeg" in run.skeleton.names else run.skeleton.names[2],
                 rotation=(35.0, 0.0, 0.0), show_ghost=True)
 we.view.frame = 75
 we""",

@@ -20,10 +20,9 @@ import sys
 import time
 from pathlib import Path
 
+import browser_harness as bh
 import numpy as np
 import pytest
-
-import browser_harness as bh
 
 REPO = Path(__file__).resolve().parents[1]
 ARTIFACTS = REPO / "artifacts"
@@ -149,7 +148,6 @@ def test_view_plays_in_the_browser_and_picks(lab):
             page.wait_for_timeout(2500)
             canvas = page.locator(f"{run_sel} canvas").first
             canvas.scroll_into_view_if_needed()
-            F = kernel.eval("v.motion.num_frames")
             ft = kernel.eval("v.motion.frame_time")
 
             # -- drawn height at start / middle / end (run and CMU 01_01) ----------------------------------
@@ -290,7 +288,8 @@ def test_view_plays_in_the_browser_and_picks(lab):
             assert e["grown_widgets"] <= 0, report   # updated in place (the new ground replaces the old one)
             assert ((e["new_xy"][0] - e["old_xy"][0]) ** 2 + (e["new_xy"][1] - e["old_xy"][1]) ** 2) ** 0.5 > 30, \
                 report
-            assert e["picked_at_old"] != "Head" and e["picked_at_new"] == "Head", report   # drawn where the new motion is
+            # drawn where the new motion is
+            assert e["picked_at_old"] != "Head" and e["picked_at_new"] == "Head", report
             assert min(e["canvas_changed"]) > 0.0, report                              # the edited motion plays
             assert not page_errors, page_errors
         except BaseException as exc:
@@ -311,9 +310,10 @@ def test_exported_page_plays_offline(tmp_path):
         print("SKIP:", reason)
         pytest.skip(reason)
     sys.path.insert(0, str(REPO))
+    from playwright.sync_api import sync_playwright
+
     import stagger_nb as sn
     from stagger_nb.widgets import StaggerEditor, export_html
-    from playwright.sync_api import sync_playwright
 
     run = sn.data.load("run")
     names = list(run.skeleton.names)
@@ -421,7 +421,8 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
     (and the StaggerEditor's cull %, a new edited motion) with the keyboard changes its canvas; after saving and
     reloading the tab (kernel alive), every view is drawn again and
     shows the current frame and data: the frame, clip length and root position it draws (marked by the
-    browser-side clock on its element) are the kernel's current ones, and the frame readout is the moved one. A reload that hits JupyterLab's restore race is reloaded again
+    browser-side clock on its element) are the kernel's current ones, and the frame readout is the moved one.
+    A reload that hits JupyterLab's restore race is reloaded again
     (``reloads`` in the report counts them)."""
     reason = bh.skip_reason()
     if reason:
@@ -479,7 +480,7 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
         report["drawn_after_reload"] = dict(zip(EDITOR_SELECTORS, drawn))
         report["kernel"] = {}
         for name, var in zip(EDITOR_SELECTORS, ("se", "we", "xe")):
-            report["kernel"][name] = kernel_state = bh_eval(
+            report["kernel"][name] = bh_eval(
                 page, tmp_path,
                 f"[{var}.view.frame, {var}.view.motion.num_frames, "
                 f"[round(float(x), 2) for x in {var}.view.shown_positions()[0]]]")

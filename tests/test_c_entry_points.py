@@ -12,11 +12,10 @@ import os
 
 import numpy as np
 import pytest
+from conftest import run_forked
 
 from stagger_nb.io import bvh_read
 from stagger_nb.staggered import _kernels
-
-from conftest import run_forked
 
 cparse = bvh_read._cparse
 cspline = _kernels._cspline
@@ -35,7 +34,7 @@ def run_calls(calls, timeout=120) -> dict:
             try:
                 thunk()
                 outcome = "ok"
-            except Exception as e:  # noqa: BLE001 - the kind is the result
+            except Exception as e:
                 outcome = type(e).__name__
             send(f"done {k} {outcome}\n")
     text, status = run_forked(body, timeout)
@@ -182,7 +181,7 @@ def test_parse_rows_and_quats_from_tangents_with_hostile_arguments_never_crash()
     rng = np.random.default_rng(7)
     text = b"1 2 3\n4 5 6\n7 8 9\n"
     calls = []
-    for k in range(2000):
+    for _ in range(2000):
         C, rows = 3, int(rng.choice([3, 1, 0, -1, 2**62, 2**63 - 1]))
         out = np.zeros(int(rng.choice([9, 0, 1, 8])))
         base = np.array(rng.choice([0, 1, 2, -1, 8, 9, 2**62, -2**63], size=C), np.int64)
@@ -198,7 +197,7 @@ def test_parse_rows_and_quats_from_tangents_with_hostile_arguments_never_crash()
         for n_t, n_o in ((3, 1), (6, 2), (3, 2), (0, 0), (2, 1)):
             for dtype in (np.float64, np.float32):
                 calls.append((f"quats_from_tangents({axes!r}, t {n_t} {dtype.__name__}, out {n_o})",
-                              lambda a=axes, t=np.zeros(n_t, dtype), o=np.zeros((n_o, 4)):
+                              lambda a=axes, t=np.zeros(n_t, dtype), o=np.zeros((n_o, 4)):  # noqa: B008
                               cparse.quats_from_tangents(t, a, o)))
     counts = run_calls(calls)
     assert set(counts) <= {"ok", *OK_ERRORS}, counts

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from stagger_nb import data, staggered as st, timewarp, write_bvh
-from stagger_nb.core.rotations import quat_angle
-from stagger_nb.session import Session
-
 from conftest import shared_clip_path
 from gait_marks import hop_marks, rig_of, walk_marks
+
+from stagger_nb import data, timewarp, write_bvh
+from stagger_nb import staggered as st
+from stagger_nb.core.rotations import quat_angle
+from stagger_nb.session import Session
 
 CLIPS = ["walk", "cmu_01_01", "xia_neutral_walk.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
          "iclone_cmu_07_01_walk.bvh"]

@@ -9,12 +9,12 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import REPO
 
-from stagger_nb import data, staggered as st, timewarp, wand, write_bvh
+from stagger_nb import data, timewarp, wand, write_bvh
+from stagger_nb import staggered as st
 from stagger_nb.session import Session
 from stagger_nb.session.runners import even_upsample
-
-from conftest import REPO
 
 
 @pytest.fixture(scope="module")

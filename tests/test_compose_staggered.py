@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stagger_nb import data, staggered as st
+from stagger_nb import data
+from stagger_nb import staggered as st
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul
 
 

@@ -2,13 +2,12 @@
 clips, and the torso-frame positions of guided time warping."""
 import numpy as np
 import pytest
+from conftest import SHARED_CLIPS
+from references import forward_kinematics_reference
 from scipy.spatial.transform import Rotation
 
 from stagger_nb.core import Motion, Skeleton, fk_arrays, forward_kinematics, positions_in_root_frame, skeleton_height
-from references import forward_kinematics_reference
 from stagger_nb.core.rotations import quat_to_matrix
-
-from conftest import SHARED_CLIPS
 
 ALL_CLIPS = ["bandai_kick.bvh", "bandai_run_cycle.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh",
              "iclone_cmu_02_03_run.bvh", "iclone_cmu_07_01_walk.bvh", "pymo_walk_turnaround.bvh",

@@ -1,11 +1,10 @@
 """Procedural clips: planted feet, ballistic flight, determinism, the CMU joint layout, BVH round trip."""
 import numpy as np
 import pytest
+from conftest import shared_clip_path
 
 from stagger_nb import forward_kinematics, read_bvh, write_bvh
 from stagger_nb.data import procedural as P
-
-from conftest import shared_clip_path
 
 
 @pytest.fixture(scope="module")

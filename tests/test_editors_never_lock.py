@@ -12,6 +12,7 @@ import weakref
 import numpy as np
 import pytest
 import traitlets
+from editor_helpers import from_browser, rss_mb, wait_until, warm_threads
 
 import stagger_nb as sn
 from stagger_nb.session import Session
@@ -19,8 +20,6 @@ from stagger_nb.session import ops as O
 from stagger_nb.session import runners as R
 from stagger_nb.session.models import plain_message, snap
 from stagger_nb.session.replay import ReplayError
-
-from editor_helpers import from_browser, rss_mb, wait_until, warm_threads
 
 RAW = re.compile(r"ops\[\d+\]|[A-Z][a-z]+Error|Exception|zero-size array|got shape|math domain")
 

@@ -20,12 +20,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import run_forked
 
 import stagger_nb as sn
 from stagger_nb import batch
 from stagger_nb.session import Session
-
-from conftest import run_forked
 
 REPO = Path(__file__).resolve().parents[1]
 MARKER = "MARKER-7f3a-not-a-clip"
@@ -58,7 +57,7 @@ def in_child(fn, timeout=TIMEOUT) -> str:
         try:
             fn()
             send("ok")
-        except BaseException as e:  # noqa: BLE001 - reported to the parent
+        except BaseException as e:
             send(f"{type(e).__name__}: {e}")
     return run_forked(body, timeout)[0]
 
@@ -97,9 +96,10 @@ def assert_clean(proc, out: Path | None = None):
 
 
 def report_rows(out: Path) -> dict:
-    """``{file: error}`` of ``out/batch_report.csv`` (read with the csv module, as a spreadsheet would)."""
+    """``{file: error}`` of the failed clips' rows of ``out/batch_report.csv`` (read with the csv module, as a
+    spreadsheet would; the report has a row per clip, its status in a column)."""
     with open(out / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
-        return {row["file"]: row["error"] for row in csv.DictReader(f)}
+        return {row["file"]: row["error"] for row in csv.DictReader(f) if row["status"] == "failed"}
 
 
 @pytest.fixture
@@ -181,7 +181,8 @@ def test_readers_session_and_warp_references_refuse_what_is_not_a_regular_file(j
              "warp reference": lambda: Session.load(tmp_path / "ref.json").edited()}
     for what, call in calls.items():
         got = in_child(call)
-        assert got.split(":")[0] in ("ValueError", "BVHError", "AMCError", "ReplayError"), (what, got)  # all ValueErrors
+        # all ValueErrors
+        assert got.split(":")[0] in ("ValueError", "BVHError", "AMCError", "ReplayError"), (what, got)
         assert "not a regular file" in got and str(path) in got, (what, got)
         assert MARKER not in got and "PATH=" not in got, (what, got)
 
@@ -382,10 +383,10 @@ def test_csv_cells_a_spreadsheet_would_evaluate_are_escaped(job, tmp_path):
     assert_clean(proc)
     with open(out / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
-    assert rows[0] == ["file", "line", "error"]
+    assert rows[0] == list(batch.report.CSV_COLUMNS) and rows[0][:3] == ["file", "status", "line"]
     cells = [c for row in rows for c in row]
     assert not any(c[:1] in ("=", "+", "-", "@", "\t", "\r") for c in cells), cells
-    assert sorted(r[0] for r in rows[1:]) == sorted("'" + n for n in FORMULAS)
+    assert sorted(r[0] for r in rows[1:] if r[1] == "failed") == sorted("'" + n for n in FORMULAS)
     report = json.loads((out / batch.REPORT_JSON).read_text())
     assert sorted(r["file"] for r in report["failed"]) == sorted(FORMULAS)   # JSON: the names as they are
 

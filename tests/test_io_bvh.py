@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_CLIPS, shared_clip_path
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -21,8 +22,6 @@ from stagger_nb.io._numformat import format_table
 from stagger_nb.io._numparse import parse_columns, parse_table
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
 from stagger_nb.io.bvh_read import _normalise_breaks, _parse_motion_lines
-
-from conftest import SHARED_CLIPS, shared_clip_path
 
 TINY = """HIERARCHY
 ROOT Hips

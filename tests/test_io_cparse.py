@@ -9,11 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_MOCAP
 
 import stagger_nb as sn
 from stagger_nb.io import bvh_read as bvh
-
-from conftest import SHARED_MOCAP
 
 cparse = bvh._cparse
 needs_c = pytest.mark.skipif(cparse is None, reason="the C accelerator was not built here (no compiler at install)")
@@ -344,7 +343,8 @@ def test_c_quaternions_from_tangents_are_euler_components_bit_for_bit(axes):
         out = np.full((ang.shape[1], 4), np.nan)
         cparse.quats_from_tangents(t, axes, out)
         assert np.array_equal(ref.view(np.int64), out.view(np.int64)), axes
-    for bad in (("XXY", np.empty((2, 4))), ("XYZ", np.empty((3, 4))), ("XY", np.empty((2, 4))), ("xyz", np.empty((2, 4)))):
+    for bad in (("XXY", np.empty((2, 4))), ("XYZ", np.empty((3, 4))), ("XY", np.empty((2, 4))),
+                ("xyz", np.empty((2, 4)))):
         with pytest.raises(ValueError, match="quats_from_tangents"):
             cparse.quats_from_tangents(np.zeros(6), *bad)
 

@@ -9,13 +9,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_io_asfamc import TINY_AMC, TINY_ASF
+from test_io_bvh import TINY
 
 from stagger_nb.core.motion import Motion
 from stagger_nb.io.asfamc import AMCError, asf_amc_to_motion, parse_amc, parse_asf
 from stagger_nb.io.bvh import BVHError, parse_bvh
-
-from test_io_asfamc import TINY_AMC, TINY_ASF
-from test_io_bvh import TINY
 
 SRC = "clip.bvh"
 

@@ -15,13 +15,12 @@ import subprocess
 
 import numpy as np
 import pytest
+from conftest import REPO, SHARED_CLIPS, SHARED_MOCAP
 
 import stagger_nb as sn
 from stagger_nb.core.kinematics import skeleton_height
 from stagger_nb.io.gltf import metres_per_unit, motion_to_gltf
 from stagger_nb.session import Session
-
-from conftest import REPO, SHARED_CLIPS, SHARED_MOCAP
 
 NODE_DIR = REPO / ".cache" / "node"
 # exact versions: the validator is published only as 2.0.0-dev.* pre-releases, which a "@2" range never matches

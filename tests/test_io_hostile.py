@@ -15,18 +15,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_io_asfamc import TINY_AMC, TINY_ASF
+from test_io_bvh import TINY
 
 import stagger_nb as sn
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
-from stagger_nb.core.motion import MIN_FRAME_TIME, Motion
+from stagger_nb.core.motion import MIN_FRAME_TIME
 from stagger_nb.core.rotations import quat_normalize
 from stagger_nb.core.skeleton import Skeleton
 from stagger_nb.io._common import MAX_INPUT_BYTES, read_regular_file
 from stagger_nb.io.asfamc import AMCError, read_asf_amc
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
-
-from test_io_asfamc import TINY_AMC, TINY_ASF
-from test_io_bvh import TINY
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -20,9 +20,13 @@ def _valid(fig: dict) -> go.Figure:
 def test_pose_probability_marks_candidates_and_kept_poses():
     f = plotting.pose_probability_figure(T, np.sin(T), [0.1, 0.5, 0.9], [0.3, 0.8, 0.4], [0.5], [0.8])
     g = _valid(f)
-    assert [tr.mode for tr in g.data] == ["lines", "markers", "markers"]
+    assert [tr.mode for tr in g.data] == ["lines", "markers", "markers", "lines"]
     assert list(g.data[2].x) == [0.5] and "1 of 3" in g.layout.title.text
-    assert [s.x0 for s in g.layout.shapes] == [0.5]   # each kept pose also a vertical line
+    # each kept pose also a vertical line across the plot (one trace on the 0..1 overlay axis)
+    assert g.data[3].yaxis == "y2" and list(g.layout.yaxis2.range) == [0, 1]
+    np.testing.assert_array_equal(g.data[3].x, [0.5, 0.5, np.nan])   # (nan: a gap)
+    np.testing.assert_array_equal(g.data[3].y, [0, 1, np.nan])
+    assert not g.layout.shapes
     empty = _valid(plotting.pose_probability_figure(None, None, [0.1], [0.3], [], []))
     assert len(empty.data[0].x) == 0
     with pytest.raises(ValueError, match="times, probability"):
@@ -39,16 +43,34 @@ def test_joint_curves_knots_sit_on_the_edited_curves():
     assert [tr.name for tr in g.data][:6] == ["x", "y", "z", "x original", "y original", "z original"]
     # one legend entry per component (edited and original toggle together), then the dotted "original",
     # the knots and the pose lines' entries
-    assert [tr.name for tr in g.data if tr.showlegend is not False] == ["x", "y", "z", "knots t<sub>k</sub> + r<sub>kj</sub>",
-                                                                      "original", "pose times t<sub>k</sub>"]
+    assert [tr.name for tr in g.data if tr.showlegend is not False] == [
+        "x", "y", "z", "knots t<sub>k</sub> + r<sub>kj</sub>", "original", "pose times t<sub>k</sub>"]
     np.testing.assert_allclose(g.data[1].y, 2 * T)
     np.testing.assert_allclose(g.data[6].y, [0.25, 0.5, 0.75])   # linear curves: interpolation is exact
-    assert [s.x0 for s in g.layout.shapes] == [0.2, 0.6]
+    np.testing.assert_array_equal(g.data[8].x, [0.2, 0.2, np.nan, 0.6, 0.6, np.nan])   # the pose lines
+    assert not g.layout.shapes
     assert g.layout.yaxis.title.text == "rotation (°)" and g.layout.xaxis.title.text == "time (s)"
     with pytest.raises(ValueError, match="edited_deg"):
         plotting.joint_curves_figure(T, edited[:5])
     with pytest.raises(ValueError, match="original_times"):
         plotting.joint_curves_figure(T, edited, edited)
+
+
+def test_long_curves_are_decimated_without_losing_a_peak():
+    """2,751 frames (CMU 01_01) drawn with <= 1200 points a curve: every bucket keeps its first, lowest, highest
+    and last sample, so the drawn extremes and ends are the data's and any sample lies inside its bucket's range."""
+    rng = np.random.default_rng(3)
+    t = np.arange(2751) / 120
+    y = np.cumsum(rng.normal(size=t.size))
+    y[1234] = 500.0                                       # a one-frame spike
+    x2, y2 = plotting._style.decimate(t, y)
+    assert len(x2) <= 1200 and y2.max() == 500.0 and y2.min() == y.min()
+    assert (x2[0], x2[-1], y2[0], y2[-1]) == (t[0], t[-1], y[0], y[-1])
+    np.testing.assert_array_equal(y2, y[np.searchsorted(t, x2)])         # samples of the data, in order
+    f = plotting.joint_curves_figure(t, np.stack([y, y, y], 1), np.stack([y, y, y], 1), t)
+    assert all(len(tr["x"]) <= 1200 for tr in f["data"][:6])
+    short = plotting._style.decimate(T, np.sin(T))
+    assert short[0] is not None and len(short[0]) == len(T)
 
 
 def test_falloff_every_curve_has_a_legend_and_the_edited_frames_are_marked():

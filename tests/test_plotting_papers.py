@@ -41,6 +41,20 @@ def test_strobe_draws_every_bone_of_each_frame_once():
         plotting.skeleton_strobe_figure(pos, [-1, 0, 1], [0], view="iso")
 
 
+def test_strobe_tells_apart_frames_of_one_colour_and_keeps_tick_labels_level():
+    """Notebook 01's Fig. 6 and 8 give an original and an edited pose the same colour twice: each repeat is drawn
+    darker and dashed (so the legend's swatches differ), and no axis turns its tick labels (it showed them 90°)."""
+    base = np.array([[0, 0, 0], [0, 10, 0], [0, 20, 0]], float)
+    pos = np.stack([base + [f, 0, 0] for f in range(5)])
+    cols = ["#90cdf4", "#805ad5", "#90cdf4", "#805ad5"]
+    for view in ("side", "front"):
+        g = _valid(plotting.skeleton_strobe_figure(pos, [-1, 0, 1], range(4), colors=cols, view=view))
+        lines = [(tr.line.color, tr.line.dash) for tr in g.data]
+        assert len(set(lines)) == 4, lines                           # four different legend swatches
+        assert lines[0] == ("#90cdf4", None) and lines[2][1] == "dash" and lines[2][0] != "#90cdf4"
+        assert all(g.layout.scene[f"{k}axis"].tickangle == 0 for k in "xyz")
+
+
 def test_strobe_scene_is_as_tall_as_its_drawing_and_keeps_the_visible_coordinates():
     # six 170-unit figures 120 apart (front view: x across, y up, z the depth seen end-on, 200 deep)
     base = np.array([[0, 0, 0], [0, 170, 0], [30, 100, 200]], float)

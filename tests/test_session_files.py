@@ -75,7 +75,7 @@ def _no_block(fn, timeout=10.0):
     def run():
         try:
             fn()
-        except BaseException as e:  # noqa: BLE001
+        except BaseException as e:
             out["e"] = e
 
     t = threading.Thread(target=run, daemon=True)

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mesh_reference import browser_mesh, skeleton_mesh
 
 import stagger_nb as sn
-from mesh_reference import browser_mesh, skeleton_mesh
 from stagger_nb import scene3d
 from stagger_nb.widgets import SkeletonView
 
@@ -26,7 +26,7 @@ def test_the_browser_builds_the_reference_mesh(clip, frame, tmp_path):
     pos, nrm, col, info = browser_mesh(v, frame, tmp_path)
     head = m.skeleton.index("Head")
     want_pos, want_nrm = skeleton_mesh(scene3d.skeleton_points(m)[frame], scene3d.segments(m), m.num_joints,
-                                       v._radius, 0.45 * v._radius, _T, [head], 1.6)
+                                       v.conductor.joint_radius, v.conductor.bone_radius, _T, [head], 1.6)
     scale = np.abs(want_pos).max()
     np.testing.assert_allclose(pos, want_pos, atol=1e-5 * scale)   # float32 rounding of the same affine maps
     np.testing.assert_allclose(nrm, want_nrm, atol=1e-5)
@@ -48,7 +48,7 @@ def test_the_browser_mesh_is_spheres_at_joints_and_tubes_along_bones(tmp_path):
     vs, J = len(_T.sphere), m.num_joints
     spheres = pos[:J * vs].reshape(J, vs, 3)
     # each sphere: every vertex at the joint radius from its joint
-    np.testing.assert_allclose(np.linalg.norm(spheres - P[:J, None], axis=2), v._radius, rtol=1e-4)
+    np.testing.assert_allclose(np.linalg.norm(spheres - P[:J, None], axis=2), v.conductor.joint_radius, rtol=1e-4)
     segs = scene3d.segments(m)
     tubes = pos[J * vs:].reshape(len(segs), -1, 3)
     tn = nrm[J * vs:].reshape(len(segs), -1, 3)
@@ -59,7 +59,7 @@ def test_the_browser_mesh_is_spheres_at_joints_and_tubes_along_bones(tmp_path):
         radial = rel - along[:, None] * axis
         # on the bone's axis segment [0, L], at the bone radius; normals unit, radial, outwards
         assert along.min() > -1e-3 and along.max() < np.linalg.norm(P[b] - P[a]) + 1e-3
-        np.testing.assert_allclose(np.linalg.norm(radial, axis=1), 0.45 * v._radius, rtol=1e-3)
+        np.testing.assert_allclose(np.linalg.norm(radial, axis=1), v.conductor.bone_radius, rtol=1e-3)
         np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5)
         np.testing.assert_allclose(n, radial / np.linalg.norm(radial, axis=1, keepdims=True), atol=1e-3)
     # triangles face outwards (counter-clockwise seen from outside): the face normal agrees with the vertex normals

@@ -8,10 +8,10 @@ import os
 
 import numpy as np
 import pytest
+from references import evaluate_reference
 
 from stagger_nb import data, staggered
 from stagger_nb.staggered import _kernels as K
-from references import evaluate_reference
 from stagger_nb.staggered.evaluation import evaluate_samples
 
 needs_c = pytest.mark.skipif(K._cspline is None, reason="the C kernel was not built here (no compiler at install)")

@@ -10,8 +10,8 @@ from scipy.ndimage import gaussian_filter1d
 from stagger_nb import Motion, Skeleton, staggered
 from stagger_nb.core.rotations import quat_angle, quat_conj, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
 from stagger_nb.staggered import timing_report
-from stagger_nb.staggered.fitting import fit_staggered
 from stagger_nb.staggered.evaluation import evaluate, evaluate_arrays
+from stagger_nb.staggered.fitting import fit_staggered
 from stagger_nb.staggered.representation import default_times, knot_times
 
 FT = 1 / 30
@@ -195,7 +195,8 @@ def test_mean_pose_maximises_alignment():
     m = staggered.mean_pose(q)
     cand = rng.normal(size=(20000, 3, 4))
     cand /= np.linalg.norm(cand, axis=-1, keepdims=True)
-    score = lambda x: np.sum(np.einsum("kja,...ja->...kj", q, x) ** 2, axis=-2)  # sum_k (q_k . x)^2 per joint
+    def score(x):  # sum_k (q_k . x)^2 per joint
+        return np.sum(np.einsum("kja,...ja->...kj", q, x) ** 2, axis=-2)
     assert np.all(score(m[None])[0] >= score(cand).max(axis=0) - 1e-12)  # the eigenvector is the maximiser
 
 

@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from stagger_nb.core.rotations import quat_angle, rotvec_to_quat
 from helpers import chain_motion
-from stagger_nb import staggered
-from stagger_nb.staggered.extraction import (candidate_poses, local_maxima, locate_poses, pose_priorities,
-                                             tent_filter, timing_refinements)
-from stagger_nb.staggered.features import laplacian_smooth, local_evidence, motion_trail_curvature
 
+from stagger_nb import staggered
+from stagger_nb.core.rotations import quat_angle, rotvec_to_quat
+from stagger_nb.staggered.extraction import (
+    candidate_poses,
+    local_maxima,
+    locate_poses,
+    pose_priorities,
+    tent_filter,
+    timing_refinements,
+)
+from stagger_nb.staggered.features import laplacian_smooth, local_evidence, motion_trail_curvature
 
 # -- curvature ------------------------------------------------------------------------------------
 
@@ -147,6 +152,7 @@ def test_priorities_closed_form():
 @pytest.fixture(scope="module")
 def walk_sm():
     from conftest import shared_clip_path
+
     from stagger_nb import read_bvh
     return staggered.extract(read_bvh(shared_clip_path("cmu_131_01_walk_startstop.bvh")))
 

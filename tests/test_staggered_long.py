@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import chain_motion
 
 from stagger_nb import staggered
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import quat_angle
 from stagger_nb.staggered.features import laplacian_smooth
-
-from helpers import chain_motion
 
 
 def _slow_smooth(signal, iterations, lam=0.5):
@@ -93,6 +92,7 @@ def test_cull_options_are_checked(kw):
 @pytest.mark.parametrize("F,width,ft", [(50, 1.0, 0.004), (400, 2.0, 1 / 240), (30, 3.0, 1 / 120), (3000, 0.5, 1e-3)])
 def test_long_tent_kernels_by_fft_equal_direct_convolution(rng, F, width, ft):
     from scipy.ndimage import convolve1d
+
     from stagger_nb.staggered.extraction import tent_filter
     x = rng.uniform(size=F)
     R = width / ft

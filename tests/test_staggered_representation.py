@@ -5,13 +5,13 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import SHARED_CLIPS
+from references import evaluate_reference, fit_rotation_tangents_nelder_mead
 from scipy.spatial.transform import Rotation
 
-from conftest import SHARED_CLIPS
 from stagger_nb import staggered
 from stagger_nb.core.kinematics import skeleton_height
 from stagger_nb.core.rotations import quat_angle, quat_bezier, quat_mul, rotvec_to_quat, slerp
-from references import evaluate_reference, fit_rotation_tangents_nelder_mead
 from stagger_nb.staggered.evaluation import bezier_cubic, evaluate_arrays, rotation_spline
 from stagger_nb.staggered.fitting import fit_staggered
 from stagger_nb.staggered.rotation_fit import fit_rotation_tangents
@@ -287,9 +287,9 @@ def test_default_fit_is_c1_and_c0_is_not(extracted):
 
 
 def test_c1_fit_recovers_a_known_c1_spline(rng):
+    from stagger_nb.core.rotations import quat_continuous
     from stagger_nb.staggered.rotation_fit_c1 import _tangents_from_velocities, fit_rotation_tangents_c1
     from stagger_nb.staggered.sampling import sample_segments
-    from stagger_nb.core.rotations import quat_continuous
     K, C, ft = 6, 3, 0.01
     knots = np.cumsum(rng.uniform(0.2, 0.4, size=(K, C)), axis=0)
     knots = np.round(knots / ft) * ft
@@ -311,6 +311,7 @@ def test_c1_fit_recovers_a_known_c1_spline(rng):
 
 def test_reconstruction_on_cmu_01_01():
     from pathlib import Path
+
     from stagger_nb import read_bvh
     p = Path(__file__).resolve().parents[1] / "data" / "cmu_01_01.bvh"
     if not p.is_file():

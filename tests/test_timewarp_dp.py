@@ -5,11 +5,11 @@ import itertools
 
 import numpy as np
 import pytest
+from timewarp_reference import constrained_dp_loop
 
 from stagger_nb import timewarp
 from stagger_nb.timewarp import dp
 from stagger_nb.timewarp.objective import knn_scores
-from timewarp_reference import constrained_dp_loop
 
 
 def _admissible_paths(n, m, s):

@@ -65,7 +65,7 @@ def _xia_walk_and_run(shared_motion):
 def test_faster_reference_moves_the_speed_distribution(shared_motion):
     walk, angry, line = _xia_walk_and_run(shared_motion)
     speeds, p90, lines = _speeds, _p90, [line]
-    s_in, s_ref = speeds(walk), speeds(angry)
+    s_ref = speeds(angry)
     # (b) fixed durations (keytimes at the ends only): the mean speed is fixed by path length / duration, so
     # a faster reference can only reshape the distribution: faster peaks, slower lulls (the paper's V6 effect)
     for frac in (1.0, 0.65):

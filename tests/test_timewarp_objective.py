@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from timewarp_reference import knn_scores_loop
 
 import stagger_nb.timewarp.objective as objective
 from stagger_nb.core.rotations import euler_to_quat, quat_mul
 from stagger_nb.timewarp.features import pose_features, reference_blocks, reference_features, triple_features
 from stagger_nb.timewarp.objective import knn_scores
-from timewarp_reference import knn_scores_loop
 
 
 def _walks(rng, n, r, d, scale=1.0):

@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from stagger_nb import concatenate, data, wand
-from stagger_nb.wand.laplacian import (distinct_poses, kernel_pattern, knn_graph, quotient_pattern,
-                                       sparse_kernel)
+from stagger_nb.wand.laplacian import distinct_poses, kernel_pattern, knn_graph, quotient_pattern, sparse_kernel
 
 
 @pytest.fixture(scope="module")

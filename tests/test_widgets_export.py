@@ -3,8 +3,6 @@ motion embedded and decodable back to the tracks), written atomically, never ove
 non-HTML file. The browser side (it plays offline) is in tests/test_browser_view3d.py."""
 from __future__ import annotations
 
-import base64
-import json
 import re
 from html.parser import HTMLParser
 

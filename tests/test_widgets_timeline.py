@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 import stagger_nb as sn
-from stagger_nb import staggered
 from stagger_nb.session import Session
-from stagger_nb.session.timeline import KnotTable, knot_table, place_refine
+from stagger_nb.session.timeline import knot_table
 from stagger_nb.widgets.timeline import Timeline
 
 
@@ -51,27 +50,13 @@ def test_refine_op_is_checked_against_the_neighbours_and_replays(walk):
     t = lo + 0.25 * (hi - lo)
     op = tb.refine_op(k, jn, t)
     assert op == {"op": "refine", "pose": 4, "joint": jn, "time": t}
-    s.set_ops(place_refine(s.ops, op))
+    s.set_ops(s.ops + [op])
     after = knot_table(s)
     assert abs(after.knots[k, j] - t) < 1e-12
     assert np.count_nonzero(after.knots != tb.knots) == 1
     with pytest.raises(ValueError, match="pose 4 must stay between poses 3 and 5"):
         tb.retime_time(4, tb.pose_times[5])
     assert tb.retime_time(4, tb.pose_times[4] + 0.01) == tb.pose_times[4] + 0.01
-
-
-def test_place_refine_replaces_its_knot_and_goes_before_the_contact_layer_and_motion_ops():
-    r = {"op": "refine", "pose": 3, "joint": "LeftFoot", "time": 1.2}
-    ops = [{"op": "cull", "percent": 50.0}, {"op": "succession", "root": "Hips", "s": 0.02}, {"op": "keep_contacts"},
-           {"op": "guided_warp", "duration": 2.0}]
-    out = place_refine(ops, r)
-    assert [o["op"] for o in out] == ["cull", "succession", "refine", "keep_contacts", "guided_warp"]
-    again = place_refine(out, dict(r, time=1.3))
-    assert [o["op"] for o in again] == [o["op"] for o in out] and again[2]["time"] == 1.3
-    other = place_refine(again, dict(r, joint="RightFoot"))
-    assert [o.get("joint") for o in other if o["op"] == "refine"] == ["LeftFoot", "RightFoot"]
-    assert place_refine([{"op": "keep_contacts"}], r)[0] == r       # no staggered op: first
-    assert ops[2] == {"op": "keep_contacts"} and len(ops) == 4        # the input list is left alone
 
 
 def test_timeline_view_state_and_requests(walk):
@@ -99,3 +84,40 @@ def test_timeline_view_state_and_requests(walk):
     view.store.frame = 20              # a click on the empty sheet seeks
     assert view.frame == 20
     view.close()
+
+
+def test_the_editors_dope_sheet_writes_refine_ops_through_the_model(walk):
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(walk, precompute=False)
+    try:
+        t = e.timeline
+        assert t.table == knot_table(e.session).to_json()       # the sheet shows the session's knots
+        assert t.table["joints"] == list(walk.skeleton.names) and t.selected_joint == e.model.joint
+        open_groups = [g for g, js in t.table["groups"] if g not in t.collapsed]
+        assert open_groups == ["left arm"]                      # only the selected joint's limb is open
+        k, j = 4, "LeftForeArm"
+        lo, hi = knot_table(e.session).knot_range(k, j)
+        want = e.model.snap_time(lo + 0.7 * (hi - lo))
+        t.drag_knot(k, j, lo + 0.7 * (hi - lo))
+        assert [o["op"] for o in e.session.ops] == ["refine", "keep_contacts"]
+        assert e.session.ops[0]["time"] == want and abs(want - (lo + 0.7 * (hi - lo))) <= 0.5e-3   # to 1 ms at 60 Hz
+        e.model.s = 0.02                                        # a later succession goes before the refine
+        assert [o["op"] for o in e.session.ops] == ["succession", "refine", "keep_contacts"]
+        t.drag_knot(k, j, lo + 0.6 * (hi - lo))                  # the same knot again: the op replaced
+        refines = [o for o in e.session.ops if o["op"] == "refine"]
+        assert len(refines) == 1 and refines[0]["time"] == pytest.approx(lo + 0.6 * (hi - lo), abs=0.5e-3)
+        shown = np.asarray(t.table["knots"])
+        assert shown[k, t.table["joints"].index(j)] == pytest.approx(refines[0]["time"], abs=1e-4)
+        n = len(e.session.ops)
+        t.drag_knot(k, j, hi + 0.5)                              # past the next knot: refused, nothing written
+        assert len(e.session.ops) == n and "must stay between" in t.message
+        e.session.undo()                                         # undo: the model reads the refine back
+        assert e.model.refines == [{"pose": k, "joint": j, "time": want}]
+        t5 = float(t.table["pose_times"][5]) + 0.01
+        t.drag_pose(5, t5)                                       # a pose's tab: the model's retime op
+        assert {"op": "retime", "pose": 5, "time": e.model.snap_time(t5)} in e.session.ops
+        assert t.table["pose_times"][5] == pytest.approx(t5, abs=0.5e-3)
+        t.select(2, "Head")
+        assert (e.model.pose, e.model.joint) == (2, "Head") and "trunk" not in t.collapsed
+    finally:
+        e.close()

@@ -7,13 +7,13 @@ import json
 
 import numpy as np
 import pytest
+from ipywidgets import Widget
 
 import stagger_nb as sn
 from stagger_nb import scene3d
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.skeleton import Skeleton
 from stagger_nb.widgets import SkeletonView
-from ipywidgets import Widget
 
 
 class _RecordingComm:

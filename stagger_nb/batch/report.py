@@ -6,7 +6,9 @@
   record of what the batch wrote: a file in OUT that it does not list (or whose bytes changed since) is the
   user's and is never replaced. A manifest that is not one (bad JSON, wrong fields, an output outside OUT)
   is an error naming the file, its content never quoted;
-- the reports (``batch_report.json``, ``batch_report.csv``): every failed clip with its file, line and error.
+- the reports (``batch_report.json``, ``batch_report.csv``): every clip with its status (done, skipped, failed),
+  the quality figures of its edit (``python -m stagger_nb batch``: ``Session.quality``'s row, kept in the
+  manifest so a re-run's report still has the clips it skips) and, for a failed clip, its file, line and error.
   A small report is written before any clip runs, so a run that dies or fills the disk leaves one; the final
   one replaces it atomically, or, when the disk is full, the first is overwritten in place (no new blocks)
   to say so. Names that are not valid UTF-8 are shown with ``\\xNN`` escapes; CSV cells a spreadsheet would
@@ -18,13 +20,14 @@ import csv
 import hashlib
 import io
 import json
+import math
 import os
 import re
 from dataclasses import dataclass, field
 
 from ..io._common import WriteError, confined_parts, overwrite_in_place, read_confined, write_confined
 
-__all__ = ["BatchResult", "BatchError", "MANIFEST", "REPORT_JSON", "REPORT_CSV"]
+__all__ = ["BatchResult", "BatchError", "MANIFEST", "REPORT_JSON", "REPORT_CSV", "CSV_COLUMNS", "clip_rows"]
 
 MANIFEST = ".stagger_nb_manifest.json"
 REPORT_JSON = "batch_report.json"
@@ -39,13 +42,16 @@ _HEX64 = re.compile(r"[0-9a-f]{64}")
 class BatchResult:
     """What a run did: ``done`` (relative paths run now and written), ``skipped`` (finished in an earlier run),
     ``failed`` (report rows: file, line, error), ``seconds`` (wall time), ``report`` (report JSON path),
-    ``worker_peak_mb`` ({"host:pid": peak resident MB of that worker process} over the clips it ran)."""
+    ``worker_peak_mb`` ({"host:pid": peak resident MB of that worker process} over the clips it ran),
+    ``quality`` ({relative path: the quality row of its edit} for the done and skipped clips of a session
+    batch: :meth:`QualityReport.to_row <stagger_nb.quality.QualityReport.to_row>`, or ``{"error": ...}``)."""
     done: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
     failed: list = field(default_factory=list)
     seconds: float = 0.0
     report: str = ""
     worker_peak_mb: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
 
 
 class BatchError(ValueError):
@@ -175,8 +181,11 @@ class Manifest:
 
 def _entry_problem(entry) -> str | None:
     """Why a manifest entry is not one (its values are not quoted), or None."""
-    if not isinstance(entry, dict) or "output" not in entry or set(entry) - {"key", "output", "output_sha256"}:
+    if (not isinstance(entry, dict) or "output" not in entry
+            or set(entry) - {"key", "output", "output_sha256", "quality"}):
         return "not an object with 'key' and 'output'"
+    if "quality" in entry and not _quality_row(entry["quality"]):
+        return "'quality' is not a row of figures"
     key = entry.get("key")
     if key is not None and not (isinstance(key, dict) and set(key) == {"input_sha256", "job_sha256"}
                                 and all(isinstance(v, str) and _HEX64.fullmatch(v) for v in key.values())):
@@ -191,14 +200,61 @@ def _entry_problem(entry) -> str | None:
     return None
 
 
+def _quality_row(row) -> bool:
+    """Whether ``row`` is a quality row as the batch writes it: None, or an object of at most 32 known-size
+    scalars (text of at most 2,000 characters) keyed by short names."""
+    if row is None:
+        return True
+    return (isinstance(row, dict) and len(row) <= 32
+            and all(isinstance(k, str) and len(k) <= 64 for k in row)
+            and all(v is None or isinstance(v, (bool, int)) or (isinstance(v, float) and math.isfinite(v))
+                    or (isinstance(v, str) and len(v) <= 2000) for v in row.values()))
+
+
 # --------------------------------------------------------------------------------------------------
 # the reports
 # --------------------------------------------------------------------------------------------------
+#: Columns of ``batch_report.csv``: the clip, its status (``done``, ``skipped``: finished in an earlier run, or
+#: ``failed``), the line of a parse error, the quality figures of the edit (``python -m stagger_nb batch``: its
+#: :meth:`QualityReport.to_row <stagger_nb.quality.QualityReport.to_row>`, mild bounds; cm of a 170 cm body,
+#: degrees; empty for extract-poses and for failed clips), and the error last.
+CSV_COLUMNS = ("file", "status", "line", "quality_ok", "summary", "foot_travel_cm", "foot_height_cm", "floor_cm",
+               "pelvis_cm", "pelvis_vs_no_layer_cm", "added_pop_deg", "pop_joint", "knots_out_of_order",
+               "detail_ratio", "moved_cm", "error")
+#: The quality row's key behind each quality column.
+_QUALITY_KEYS = {"quality_ok": "ok", "summary": "summary", "foot_travel_cm": "foot_travel",
+                 "foot_height_cm": "foot_height", "floor_cm": "floor", "pelvis_cm": "pelvis",
+                 "pelvis_vs_no_layer_cm": "pelvis_vs_baseline", "added_pop_deg": "added_pop",
+                 "pop_joint": "added_pop_joint", "knots_out_of_order": "knots_out_of_order",
+                 "detail_ratio": "detail", "moved_cm": "moved"}
+
+
+def clip_rows(report: dict) -> list:
+    """One row per clip of ``report`` (its ``done``, ``skipped`` and ``failed`` clips, sorted by file), with the
+    quality figures ``report["quality"]`` holds for it: dicts keyed by :data:`CSV_COLUMNS`."""
+    quality = report.get("quality") or {}
+    rows = []
+    for status in ("done", "skipped"):
+        for rel in report.get(status, []):
+            q = quality.get(rel) or {}
+            row = {"file": rel, "status": status, "error": q.get("error")}
+            row.update({col: q.get(key) for col, key in _QUALITY_KEYS.items()})
+            rows.append(row)
+    rows += [dict(r, status="failed") for r in report.get("failed", [])]
+    return sorted(rows, key=lambda r: (str(r.get("file")), r["status"]))
+
+
+def _value(v) -> str | None:
+    if isinstance(v, float):
+        return f"{v:.3f}"
+    return v
+
+
 def _csv_bytes(rows: list, quote_all: bool = False) -> bytes:
     buf = io.StringIO()
     w = csv.writer(buf, quoting=csv.QUOTE_ALL if quote_all else csv.QUOTE_MINIMAL)
-    w.writerow(["file", "line", "error"])
-    w.writerows([_cell(r.get("file")), _cell(r.get("line")), _cell(r.get("error"))] for r in rows)
+    w.writerow(CSV_COLUMNS)
+    w.writerows([_cell(_value(r.get(c))) for c in CSV_COLUMNS] for r in rows)
     return buf.getvalue().encode("utf-8")
 
 
@@ -207,6 +263,8 @@ def _json_bytes(report: dict) -> bytes:
     for k in ("done", "skipped"):
         if k in report:
             report[k] = [text_of(r) for r in report[k]]
+    if "quality" in report:
+        report["quality"] = {text_of(rel): row for rel, row in report["quality"].items()}
     if "failed" in report:
         report["failed"] = _rows_text(report["failed"])
     for k in ("input_dir", "output"):
@@ -216,10 +274,10 @@ def _json_bytes(report: dict) -> bytes:
 
 
 def write_reports(root: str, shown: str, report: dict) -> str:
-    """``batch_report.json`` (``report``) and ``batch_report.csv`` (its ``failed`` rows) in ``root``, atomically;
-    the JSON report's path. ``WriteError`` when either cannot be written."""
+    """``batch_report.json`` (``report``) and ``batch_report.csv`` (one row per clip: :func:`clip_rows`) in
+    ``root``, atomically; the JSON report's path. ``WriteError`` when either cannot be written."""
     write_confined(root, REPORT_JSON, _json_bytes(report), replace=True)
-    write_confined(root, REPORT_CSV, _csv_bytes(report.get("failed", [])), replace=True)
+    write_confined(root, REPORT_CSV, _csv_bytes(clip_rows(report)), replace=True)
     return os.path.join(shown, REPORT_JSON)
 
 
@@ -232,9 +290,10 @@ def report_failure(root: str, shown: str, report: dict, status: str) -> bool:
     small = {k: report.get(k) for k in ("status", "input_dir", "output", "executor", "clips")}
     small.update({f"{k}_count": len(report.get(k, [])) for k in ("done", "skipped", "failed")})
     for name, full, brief, pad_at in ((REPORT_JSON, _json_bytes(report), _json_bytes(small), None),
-                                      (REPORT_CSV, _csv_bytes(report.get("failed", []) + [
-                                          {"file": "(this run)", "error": status}], quote_all=True),
-                                       _csv_bytes([{"file": "(this run)", "error": status}], quote_all=True), -3)):
+                                      (REPORT_CSV, _csv_bytes(clip_rows(report) + [
+                                          {"file": "(this run)", "status": "failed", "error": status}], quote_all=True),
+                                       _csv_bytes([{"file": "(this run)", "status": "failed", "error": status}],
+                                                  quote_all=True), -3)):
         ok = False
         try:
             write_confined(root, name, full, replace=True)

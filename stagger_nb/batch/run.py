@@ -143,6 +143,8 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
         entry, st = manifest.clips.get(rel), _lstat(out)
         if entry and entry["key"] == key and entry["output"] == out_rel and st and stat.S_ISREG(st.st_mode):
             result.skipped.append(rel)
+            if entry.get("quality") is not None:
+                result.quality[rel] = entry["quality"]
             continue
         replace = False
         if st is not None:
@@ -166,7 +168,7 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
                         "did not end (stopped, or the disk filled)",
               "input_dir": in_root, "output": shown, "executor": executor, "scheduler": scheduler,
               "workers": workers, "clips": len(rels), "done": [], "skipped": result.skipped,
-              "failed": sorted(result.failed, key=lambda row: row["file"])}
+              "failed": sorted(result.failed, key=lambda row: row["file"]), "quality": dict(result.quality)}
     result.report = os.path.join(shown, REPORT_JSON)
     try:  # the manifest naming what is about to be written, then the first report: small, atomic
         manifest.save()
@@ -184,6 +186,8 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
         if r["ok"]:
             result.done.append(rel)
             manifest.clips[rel] = {"key": keys[rel], "output": r["output"], "output_sha256": r["output_sha256"]}
+            if r.get("quality") is not None:
+                manifest.clips[rel]["quality"] = result.quality[rel] = r["quality"]
         else:
             old = before[rel]
             if old is not None:  # unchanged output (the task writes last): still the batch's, to be run again
@@ -194,6 +198,7 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
     result.failed.sort(key=lambda row: row["file"])
     result.seconds = time.perf_counter() - t0
     report.update(status="finished", done=result.done, failed=result.failed, seconds=round(result.seconds, 3),
+                  quality={rel: result.quality[rel] for rel in sorted(result.quality)},
                   worker_peak_mb={k: round(v, 1) for k, v in result.worker_peak_mb.items()})
     errors = []
     try:

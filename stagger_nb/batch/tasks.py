@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import math
 import os
 import resource
 import socket
@@ -29,13 +30,18 @@ def _pin_threads() -> None:
 
 
 def _run_task(task: dict) -> dict:
-    """Run one clip; never raises: ``{"file", "ok", "output", "output_sha256", "line", "error", "seconds"}``."""
+    """Run one clip; never raises: ``{"file", "ok", "output", "output_sha256", "line", "error", "quality",
+    "seconds"}`` (``quality``: a session's :meth:`QualityReport.to_row <stagger_nb.quality.QualityReport.to_row>`
+    of the edited clip, ``{"error": ...}`` when it could not be measured, None for extract-poses)."""
     _pin_threads()
     t0 = time.perf_counter()
     res = {"file": task["rel"], "ok": False, "output": task["out_rel"], "output_sha256": None, "line": None,
-           "error": None}
+           "error": None, "quality": None}
     try:
-        data = _session_bytes(task) if task["kind"] == "session" else _poses_bytes(task)
+        if task["kind"] == "session":
+            data, res["quality"] = _session_bytes(task)
+        else:
+            data = _poses_bytes(task)
         from ..io._common import write_confined
         write_confined(task["out_root"], task["out_rel"], data, replace=task["replace"])
         res["output_sha256"] = hashlib.sha256(data).hexdigest()
@@ -51,13 +57,20 @@ def _run_task(task: dict) -> dict:
     return res
 
 
-def _session_bytes(task: dict) -> bytes:
-    """The BVH bytes of the clip edited by the session's ops."""
+def _session_bytes(task: dict) -> tuple[bytes, dict]:
+    """The BVH bytes of the clip edited by the session's ops, and the edit's quality figures
+    (:meth:`Session.quality <stagger_nb.session.Session.quality>`, default bounds, as one row)."""
     from ..io.bvh_write import bvh_bytes
     from ..session import Session
     motion = read_clip(task["input"])
     s = Session(motion, ops=task["ops"], extract_options=task["extract_options"] or None)
-    return bvh_bytes(s.edited())
+    data = bvh_bytes(s.edited())
+    try:
+        row = {k: None if isinstance(v, float) and not math.isfinite(v) else v
+               for k, v in s.quality().to_row().items()}
+    except Exception as e:  # noqa: BLE001 - the clip is written; what could not be measured is said in its row
+        row = {"error": f"quality: {e}" if isinstance(e, ValueError) else f"quality: {type(e).__name__}: {e}"}
+    return data, row
 
 
 def _pose_schema():

@@ -36,8 +36,9 @@ def pelvis_joint(skeleton: Skeleton) -> int:
     The shallowest joint with at least three child *chains* (children that have children of their own, so
     an End Site or a one-joint prop does not count): ``Hips`` on CMU-style, Bandai and PyMO rigs (below
     Bandai's static ``joint_Root``), the CMU ASF root; or, where that joint is the chest because the legs
-    hang off a joint of their own, the ancestor where the legs' and the spine's chains meet.  A rig without such a joint but with several leaves
-    (a two-legged toy) gets the deepest common ancestor of its leaves; a single chain gets joint 0.
+    hang off a joint of their own, the ancestor where the legs' and the spine's chains meet.
+    A rig without such a joint but with several leaves (a two-legged toy) gets the deepest common ancestor of
+    its leaves; a single chain gets joint 0.
     """
     parents = skeleton.parents
     J = skeleton.num_joints

@@ -121,7 +121,7 @@ class Motion:
     @classmethod
     def _from_owned(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray,
                     local_quats: np.ndarray, local_translations: np.ndarray | None = None,
-                    continuous: bool = False) -> "Motion":
+                    continuous: bool = False) -> Motion:
         """Package-internal constructor for arrays the caller has just made and hands over (the readers):
         finite, float64, C-contiguous, of the right shapes, quaternions unit to rounding. They are taken
         without copies (made hemisphere-continuous in place, then read-only), so reading a long take
@@ -143,7 +143,7 @@ class Motion:
 
     @classmethod
     def _trusted(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray, local_quats: np.ndarray,
-                 local_translations: np.ndarray | None = None) -> "Motion":
+                 local_translations: np.ndarray | None = None) -> Motion:
         """Package-internal constructor for a result the library has just computed from valid motions
         (``staggered.evaluate``, the constraint layer): ``local_quats`` (F, J, 4) float64 is owned by the new
         Motion (not aliased by anyone: it is modified in place), the other arrays are finite float64 of the
@@ -201,14 +201,14 @@ class Motion:
         return t
 
     # -- new motions ------------------------------------------------------------------------------
-    def replace(self, **changes) -> "Motion":
+    def replace(self, **changes) -> Motion:
         """A new Motion with some fields replaced (validated again)."""
         fields = dict(skeleton=self.skeleton, frame_time=self.frame_time, root_positions=self.root_positions,
                       local_quats=self.local_quats, local_translations=self.local_translations)
         fields.update(changes)
         return Motion(**fields)
 
-    def slice(self, start: int | None = None, stop: int | None = None, step: int | None = None) -> "Motion":
+    def slice(self, start: int | None = None, stop: int | None = None, step: int | None = None) -> Motion:
         """Frames ``[start, stop)`` (every ``step``-th, ``step >= 1``) as a new Motion; ``start``/``stop``
         are integers (or None) with Python's meaning of negative indices. ``ValueError`` names the argument."""
         for name, v in (("start", start), ("stop", stop), ("step", step)):
@@ -227,7 +227,7 @@ class Motion:
         return Motion(self.skeleton, self.frame_time * (step or 1), self.root_positions[sl],
                       self.local_quats[sl], lt)
 
-    def sample(self, frames: np.ndarray, frame_time: float | None = None) -> "Motion":
+    def sample(self, frames: np.ndarray, frame_time: float | None = None) -> Motion:
         """Evaluate at fractional frame indices ``frames (N,)`` (clamped to the clip): rotations by slerp,
         translations linearly. The result is sampled every ``frame_time`` (default: this one)."""
         f = np.clip(np.asarray(frames, dtype=float).reshape(-1), 0.0, self.num_frames - 1)
@@ -248,11 +248,11 @@ class Motion:
                                     + self.local_translations[i1] * a[:, None, None])
         return Motion(self.skeleton, self.frame_time if frame_time is None else frame_time, rp, q, lt)
 
-    def sample_times(self, times: np.ndarray, frame_time: float | None = None) -> "Motion":
+    def sample_times(self, times: np.ndarray, frame_time: float | None = None) -> Motion:
         """Like :meth:`sample` with times in seconds."""
         return self.sample(np.asarray(times, dtype=float) / self.frame_time, frame_time)
 
-    def resample(self, frame_time: float) -> "Motion":
+    def resample(self, frame_time: float) -> Motion:
         """Resample to a new frame time (seconds) covering the same duration (slerp / linear).
 
         Raises ``ValueError`` naming ``frame_time`` when it is outside [MIN_FRAME_TIME, MAX_FRAME_TIME] or

@@ -18,7 +18,7 @@ returns ``{"data": [...], "layout": {...}}`` whose trace order is documented; no
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -35,6 +35,18 @@ SPEED_TICKS = (0.1, 0.25, 0.5, 1, 2, 4, 10)
 
 def _colour(i: int, colours=None) -> str:
     return (colours[i] if colours is not None else PALETTE[i % len(PALETTE)])
+
+
+def _repeat_line(colour: str, k: int) -> dict:
+    """The line of the ``k``-th trace given ``colour`` (0 = the first): a colour given twice (original / edited
+    pairs) is told apart, in the drawing and in the legend, by a darker shade and a dash."""
+    if k == 0:
+        return dict(width=5, color=colour)
+    from plotly.colors import hex_to_rgb, unlabel_rgb
+    rgb = hex_to_rgb(colour) if colour.startswith("#") else unlabel_rgb(colour)
+    f = 0.6 ** k
+    shade = "rgb({},{},{})".format(*(int(round(c * f + 26 * (1 - f))) for c in rgb))
+    return dict(width=5, color=shade, dash=_DASHES[k % len(_DASHES)])
 
 
 def _gradient(n: int) -> list[str]:
@@ -57,7 +69,8 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
     view : ``"side"`` (camera on +x), ``"front"`` (on +z) or ``"top"`` (on +y)
     height : the figure's largest height, px; a wide strobe gets less (as tall as its drawing needs)
 
-    Traces: one ``scatter3d`` polyline per drawn frame, bones separated by gaps.
+    Traces: one ``scatter3d`` polyline per drawn frame, bones separated by gaps; a colour given to several
+    frames is drawn as given, then darker and dashed, then darker still and dotted (the legend tells them apart).
     """
     p = floats(positions, "positions", ndim=3)
     if p.shape[2] != 3:
@@ -75,6 +88,7 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
         raise ValueError(f"view must be 'side', 'front' or 'top', got {view!r}")
     child = np.flatnonzero(par >= 0)
     data = []
+    cols = [_colour(n, colors) for n in range(len(fr))]
     for n, f in enumerate(fr):
         seg = np.full((len(child), 3, 3), np.nan)           # parent, child, gap
         seg[:, 0] = p[f, par[child]] + off[n]
@@ -82,7 +96,7 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
         seg = seg.reshape(-1, 3)
         data.append(dict(type="scatter3d", x=seg[:, 0], y=seg[:, 1], z=seg[:, 2], mode="lines",
                          name=str(names[n]) if names is not None else f"frame {f}",
-                         line=dict(width=5, color=_colour(n, colors))))
+                         line=_repeat_line(cols[n], cols[:n].count(cols[n]))))
     eye = {"side": dict(x=2.0, y=0.3, z=0.0), "front": dict(x=0.0, y=0.3, z=2.0),
            "top": dict(x=0.0, y=2.0, z=0.01)}[view]
     # the axis along the line of sight is seen end-on: its tick labels pile up in one spot (unreadable), so it
@@ -91,11 +105,13 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
     scene_px = _strobe_fit(data, view, int(height) - _STROBE_TITLE)
     scene = dict(aspectmode="data", camera=dict(up=dict(x=0, y=1, z=0), eye=eye,
                                                  projection=dict(type="orthographic")))
+    # tick labels stay horizontal (plotly turns a 3D axis' labels to follow the axis: 90° on an orthographic view)
     scene[depth] = dict(showticklabels=False, title=dict(text=""), showspikes=False)
     # the axis letters ("x", "y", "z") say nothing here and the vertical one is drawn on top of its middle tick
     # label (notebook 02, Fig. 4: "1y0"): the scene goes without axis titles (units are the clip's, in the text)
     for ax in ("xaxis", "yaxis", "zaxis"):
         scene.setdefault(ax, {}).setdefault("title", dict(text=""))
+        scene[ax]["tickangle"] = 0
     if view != "top":
         scene["yaxis"]["nticks"] = 4
     layout = dict(title=dict(text=title, x=0.01, xanchor="left", font=dict(size=14)),
@@ -109,15 +125,16 @@ def skeleton_strobe_figure(positions, parents, frames, *, colors=None, names=Non
 # 6-frame walk strobe, 700 x 160 x 40 cm, was drawn ~650 px wide in a 380 px high scene; 4 standing poses,
 # 280 x 155 x 40 cm, ~360 px).
 _STROBE_PX_PER_UNIT, _STROBE_TITLE = 0.41, 40
+_DASHES = ("solid", "dash", "dot", "dashdot")
 _STROBE_WIDTH, _STROBE_FILL, _STROBE_MIN = 620, 0.7, 160   # px drawn at most across, share of the height, px
 
 
 def _strobe_fit(data, view: str, max_px: int) -> int:
     """The scene height (px) of a strobe, and its depth coordinates squeezed in place (``data`` is changed):
-    the drawing fills the scene (<= 620 px across, ~70 % of its height: room for the tick labels) instead of a fixed 380 px scene with
-    ~250 px empty above and below a wide strobe, or a strobe deep along the line of sight drawn at a third of
-    the width. The depth axis is seen end-on (orthographic): squeezing it changes the picture's scale, not
-    its content (hover shows the squeezed depth; its tick labels are hidden)."""
+    the drawing fills the scene (<= 620 px across, ~70 % of its height: room for the tick labels) instead of a
+    fixed 380 px scene with ~250 px empty above and below a wide strobe, or a strobe deep along the line of sight
+    drawn at a third of the width. The depth axis is seen end-on (orthographic): squeezing it changes the picture's
+    scale, not its content (hover shows the squeezed depth; its tick labels are hidden)."""
     h, v, d = {"side": "zyx", "front": "xyz", "top": "xzy"}[view]
     span = {}
     for k in "xyz":

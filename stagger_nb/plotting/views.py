@@ -14,12 +14,27 @@ rotations as rotation vectors in degrees (x, y, z components). Every builder ret
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ._style import (COMPONENT_COLOURS, EDIT_COLOUR, LEGEND_ROW, METHOD_COLOURS, METHOD_NAMES, POSE_COLOUR,
-                     base_layout, data_span, floats, legend_line, same_length, vline)
+from ._style import (
+    COMPONENT_COLOURS,
+    EDIT_COLOUR,
+    LEGEND_ROW,
+    LINES_AXIS,
+    METHOD_COLOURS,
+    METHOD_NAMES,
+    POSE_COLOUR,
+    base_layout,
+    data_span,
+    decimate,
+    floats,
+    legend_line,
+    same_length,
+    vline,
+    vlines_trace,
+)
 
 __all__ = ["pose_probability_figure", "joint_curves_figure", "falloff_figure", "warp_figure",
            "SPEED_LIMITS"]
@@ -44,11 +59,12 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
 
     region : (K,) in [0, 1] or None
         The magic-wand region of a timing edit: the falloff at each kept pose (the scale of its timing offsets,
-        Dean et al. 2018 §3.3 on Coleman et al. §5.2), drawn as trace 3, a shaded step line on the same [0, 1]
+        Dean et al. 2018 §3.3 on Coleman et al. §5.2), drawn as trace 4, a shaded step line on the same [0, 1]
         axis.
 
-    Traces: 0 ``P(t)`` line, 1 candidates (hollow circles), 2 kept poses (filled diamonds, also drawn as
-    dotted vertical lines of the same colour), 3 the region (when given).
+    Traces: 0 ``P(t)`` line (at most ~1200 points: :func:`~._style.decimate`), 1 candidates (hollow circles),
+    2 kept poses (filled diamonds), 3 their dotted vertical lines (one trace on the overlay axis ``y2``),
+    4 the region (when given).
     """
     ct, cv = floats(candidate_times, "candidate_times"), floats(candidate_values, "candidate_values")
     kt, kv = floats(kept_times, "kept_times"), floats(kept_values, "kept_values")
@@ -67,7 +83,10 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
              marker=dict(size=7, color="rgba(0,0,0,0)", line=dict(color="#4a5568", width=1.5)), cliponaxis=False),
         dict(type="scatter", x=kt, y=kv, mode="markers", name=f"staggered poses ({len(kt)})",
              marker=dict(size=10, color=POSE_COLOUR, symbol="diamond"), cliponaxis=False),
+        vlines_trace(kt, POSE_COLOUR, "dot", showlegend=False),
     ]
+    if len(t):
+        data[0]["x"], data[0]["y"] = decimate(t, p)
     if region is not None:
         rw = floats(region, "region")
         same_length(kept_times=kt, region=rw)
@@ -78,8 +97,7 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
         title = f"pose probability P(t): {len(kt)} of {len(ct)} candidate poses kept"
     layout = base_layout(title, height, y_title="P(t)", x_range=x_range if x_range is not None else data_span(t, ct),
                          yaxis=dict(title=dict(text="P(t)", standoff=4), rangemode="tozero", automargin=True,
-                                    hoverformat=".3g"),
-                         shapes=[vline(x, POSE_COLOUR, "dot") for x in kt])
+                                    hoverformat=".3g"), yaxis2=LINES_AXIS)
     return dict(data=data, layout=layout)
 
 
@@ -101,9 +119,10 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
     pose_label, pose_colour : legend name and colour of the dashed vertical lines (e.g. "edited frames" in
         the wand editor, in the falloff plot's edited-frame colour ``plotting.EDIT_COLOUR``)
 
-    Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None); 6 knots;
-    7 "original (dotted)" and 8 the pose lines' legend entries (no data). The legend shows x, y, z once
-    each (a click hides a component, edited and original together).
+    Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None; each curve at most
+    ~1200 points, :func:`~._style.decimate`: the same drawing at plot resolution); 6 knots; 7 "original
+    (dotted)" legend entry (no data); 8 the pose lines (one trace on the overlay axis ``y2``). The legend shows
+    x, y, z once each (a click hides a component, edited and original together).
     """
     t = floats(times, "times")
     e = floats(edited_deg, "edited_deg", ndim=2)
@@ -119,10 +138,10 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
     else:
         o, ot = np.zeros((0, 3)), np.zeros(0)
     pt, kt = floats(pose_times, "pose_times"), floats(knot_times, "knot_times")
-    data = [dict(type="scatter", x=t, y=e[:, i], mode="lines", name=c, legendgroup=c,
+    data = [dict(type="scatter", **dict(zip("xy", decimate(t, e[:, i]))), mode="lines", name=c, legendgroup=c,
                  line=dict(color=col, width=2)) for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
-    data += [dict(type="scatter", x=ot, y=o[:, i], mode="lines", name=f"{c} original", legendgroup=c,
-                  showlegend=False, line=dict(color=col, width=1.2, dash="dot"))
+    data += [dict(type="scatter", **dict(zip("xy", decimate(ot, o[:, i]))), mode="lines", name=f"{c} original",
+                  legendgroup=c, showlegend=False, line=dict(color=col, width=1.2, dash="dot"))
              for i, (c, col) in enumerate(zip("xyz", COMPONENT_COLOURS))]
     if len(kt) and len(t):
         ky = np.stack([np.interp(kt, t, e[:, i]) for i in range(3)], axis=1)   # (K, 3) on the edited curves
@@ -133,10 +152,10 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
                      marker=dict(symbol="diamond", size=7, color="#1a202c"), showlegend=bool(len(kx)),
                      cliponaxis=False))   # a knot at the clip's first or last frame is drawn whole
     data.append({**legend_line("original", "#4a5568", "dot"), "showlegend": bool(len(ot))})
-    data.append({**legend_line(pose_label, pose_colour, "dash"), "showlegend": bool(len(pt))})
+    data.append(vlines_trace(pt, pose_colour, "dash", name=pose_label, showlegend=bool(len(pt))))
     layout = base_layout(title or "joint rotation: edited (solid) vs original (dotted)", height,
                          y_title="rotation (°)", x_range=x_range if x_range is not None else data_span(t, ot),
-                         shapes=[vline(x, pose_colour) for x in pt])
+                         yaxis2=LINES_AXIS)
     return dict(data=data, layout=layout)
 
 
@@ -171,7 +190,8 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
         same_length(times=t, **{f"sweep[{k}]": y})
         a = k / max(1, len(sweep) - 1)
         data.append(dict(type="scatter", x=t, y=y, mode="lines", name=str(label), meta=f"sweep{k}", opacity=0.8,
-                         line=dict(width=1.2, color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
+                         line=dict(width=1.2,
+                                   color=f"rgb({int(40 + 200 * a)},{int(90 + 60 * a)},{int(220 - 180 * a)})")))
     et = floats(edited_times, "edited_times")
     if len(et):
         data.append(legend_line("edited frame" if len(et) == 1 else "edited frames", EDIT_COLOUR, "solid", 3))

@@ -9,15 +9,20 @@ cached), motion ops evaluate first (§3).
 
 One module per job:
 
-- :mod:`.session` — :class:`Session`: the op list, the cached heads, warm-up, files;
+- :mod:`.session` — :class:`Session`: the op list and history, the replay's entry points, warm-up, files;
+- :mod:`.heads` — the expensive heads of the techniques, each computed once (:class:`~.heads.Heads`), and the
+  session's methods over them (culls, the wand's basis and falloffs, forward kinematics);
 - :mod:`.replay` — the replay: chained prefix digests, each state computed once, the per-step notes;
-- :mod:`.ops` — one frozen dataclass per op, ``from_json`` / ``to_json``, every field checked;
-- :mod:`.runners` — op -> function over the state, and the cached expensive heads;
+- :mod:`.ops` — one frozen dataclass per op (:mod:`.ops.staggered`, :mod:`.ops.motion`), ``from_json`` /
+  ``to_json``, every field checked (:mod:`.ops.fields`), the limits (:func:`~.ops.limits`);
+- :mod:`.runners` — op -> function over the state: the staggered ops' (:mod:`.runners`), the motion ops' and the
+  warps' (:mod:`.motion_runners`), what they share (:mod:`.run`: ``Run``, ``convert``);
 - :mod:`.history` — the op list, undo/redo, observers;
 - :mod:`.cache` — the one cache (one lock, compute-once futures, content/weakref keys, bounded);
 - :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards;
 - :mod:`.warm` — the session's background worker for :meth:`Session.warm`;
 - :mod:`.progress` — :func:`progress_bar`, a tqdm bar as the ``progress`` callback of ``edited``/``warm``;
+- :mod:`.timeline` — the dope sheet's rows and marks of a staggered state;
 - :mod:`.models` — the editors' evented models and the binding that keeps one in step with a session.
 
 This package does not import ipywidgets; the widgets build on it.
@@ -30,8 +35,8 @@ from .deprecated import register_op
 from .files import SESSION_FORMAT, SESSION_VERSION
 from .ops import OPS, Op, validate_op
 from .progress import ProgressBar, progress_bar
-from .runners import apply_pose_deltas, warp_table_key
 from .replay import ReplayError
+from .runners import apply_pose_deltas, warp_table_key
 from .session import Session, joint_rotation_degrees
 
 __all__ = ["Session", "Op", "OPS", "validate_op", "apply_pose_deltas", "joint_rotation_degrees",

@@ -38,6 +38,8 @@ BOUNDS = {
     "falloff": 64,    # Green's falloffs (F floats) of the pose edits and timing regions that propagate
     "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
     "positions": 4,   # forward kinematics of a source motion (keep_contacts' targets)
+    "quality_source": 4,  # quality.prepare of a source motion (Session.quality: the source's figures, once)
+    "quality": 64,    # Session.quality reports by op-list digest (small: figures and names)
     "step": 512,      # (state content name, op) -> the op-prefix digest of the state it gave (strings)
     "state": 64,      # replay steps by op-prefix digest (a slider sweep touches a handful; the editor's
                       # warm-up replays every cull position: 2-3 steps each)
@@ -47,8 +49,9 @@ BOUNDS = {
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
 BUDGETS = {"state": 384 * 2**20}
 
-QUIET = {"state", "step", "offset_basis", "positions", "falloff"}  # not reported to ``busy`` (replay steps and a head about one
-# evaluate long, a falloff one row product: the replay reports its own progress)
+# not reported to ``busy`` (replay steps and heads about one evaluate long, a falloff one row product: the replay
+# reports its own progress)
+QUIET = {"state", "step", "offset_basis", "positions", "falloff", "quality_source", "quality"}
 
 
 class Cache:

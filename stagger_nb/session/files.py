@@ -21,7 +21,7 @@ from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..io._common import file_path, read_regular_file
 from ..io.bvh import parse_bvh
-from .ops import _fail, integer, number, text, tuple_of
+from .ops.fields import _fail, integer, number, text, tuple_of
 
 __all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
            "read_session_json", "session_bytes", "MAX_SESSION_BYTES", "check_save_target",

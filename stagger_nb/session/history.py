@@ -6,7 +6,7 @@ change, undo and redo included.
 """
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 __all__ = ["History", "Flag"]
 

@@ -61,7 +61,7 @@ class ProgressBar:
             self._bar.close()
         self.closed = True
 
-    def __enter__(self) -> "ProgressBar":
+    def __enter__(self) -> ProgressBar:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -9,18 +9,21 @@ found by the state's content name and the op. :class:`Replay` also remembers, pe
 views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`.
 
 The state flowing through the ops is a :class:`~stagger_nb.core.Motion` or a ``staggered.StaggeredMotion``;
-:func:`~.runners.convert` turns it into what the next op needs (Coleman et al. 2008, §3-§4).
+:func:`~.run.convert` turns it into what the next op needs (Coleman et al. 2008, §3-§4).
 """
 from __future__ import annotations
 
 import hashlib
 import threading
 from collections import OrderedDict
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from ..core.motion import Motion
+from .heads import Heads
 from .ops import Op
-from .runners import BATCHED, RUNNERS, Heads, Run, convert
+from .run import Run, convert
+from .runners import BATCHED, RUNNERS
 
 __all__ = ["Replay", "ReplayError", "chain_keys"]
 

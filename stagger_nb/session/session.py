@@ -26,16 +26,14 @@ from .deprecated import REQUIRED
 from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, export_gltf,
                     motion_from_json, motion_to_json, read_session_json, read_source, session_bytes)
 from .history import Flag, History
-from .ops import Op, _fail, _limit, check_extract_options, number, optional, text
+from .heads import CachedHeads, Heads
+from .ops import Op
+from .ops.fields import _fail, _limit, check_extract_options, text
+from .quality import session_quality
 from .replay import Replay
-from .runners import Heads
 from .warm import Worker, warm_items
 
 __all__ = ["Session", "joint_rotation_degrees"]
-
-_percent = number(0.0, 100.0, open_lo=True)
-_sigma = optional(number(0.0, open_lo=True))
-
 
 def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
     """Local rotation of ``joint`` (name or index) over time as a rotation vector, shape (F, 3), degrees."""
@@ -43,7 +41,7 @@ def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
     return np.degrees(quat_to_rotvec(motion.local_quats[:, j]))
 
 
-class Session:
+class Session(CachedHeads):
     """A source motion plus an ordered list of ops; :meth:`edited` replays them.
 
     Parameters
@@ -230,97 +228,22 @@ class Session:
         not recompute them); empty when no op is staggered."""
         return self._replay.timing_warnings(self._history.ops)
 
+    def quality(self, bounds=None):
+        """The :class:`~stagger_nb.quality.QualityReport` of the current edit against the source
+        (``sn.quality.compare``: feet in their carried contacts, pelvis, pops, knot order, detail; with a
+        ``keep_contacts`` op also against the same edit without it), cached per op list; ``bounds`` a preset
+        name, ``Bounds`` or dict (default ``"mild"``). See :mod:`stagger_nb.session.quality`."""
+        return session_quality(self, bounds)
+
+    def quality_summary(self, bounds=None) -> str:
+        """The one-line summary of :meth:`quality` ("feet held · pelvis ±0.8 cm · no pops"; what is out of
+        bounds named plainly); its parts for a widget: ``quality().items``."""
+        return self.quality(bounds).summary
+
     def warp_curve(self, index: int = -1):
         """The time warp computed by the warp op at ``index``: (N,) input seconds of each output frame
         (None when that op is not a warp)."""
         return self._replay.warp_curve(self._history.ops, self._index(index))
-
-    # -- cached heads --------------------------------------------------------------------------------
-    def precompute_cull(self, percents, stop: Callable | None = None) -> int:
-        """Compute and cache ``cull`` of the source's extraction for each of ``percents`` in this thread;
-        stops early when ``stop()`` is true. Returns how many were computed or already cached.
-        (Prefer :meth:`warm`, which runs on the session's executor.)"""
-        n = 0
-        sm = self.extraction()
-        for pc in percents:
-            if stop is not None and stop():
-                break
-            self._ctx.cull(sm, _percent(pc, "percents[]"))
-            n += 1
-        return n
-
-    def precompute_wand_bases(self, sigmas, stop: Callable | None = None, motion: Motion | None = None) -> int:
-        """Compute and cache the magic-wand eigenbasis for each of ``sigmas`` in this thread; stops early when
-        ``stop()`` is true. Returns how many. (Prefer :meth:`warm`.)"""
-        n = 0
-        for sg in sigmas:
-            if stop is not None and stop():
-                break
-            self.wand_basis(_sigma(sg, "sigmas[]"), motion)
-            n += 1
-        return n
-
-    def use_reference(self, path: str, motion: Motion) -> dict:
-        """Resolve the op reference ``{"path": path}`` to ``motion`` in this session (e.g. an in-memory clip
-        under a name like ``"<memory:name>"``) instead of reading the file; returns that reference.
-        A saved session keeps only the path: a new process reads the file."""
-        if not isinstance(motion, Motion):
-            raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
-        self._ctx.memory_references[text(path, "path")] = motion
-        return {"path": path}
-
-    def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
-        """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
-        return self._ctx.wand_basis(self.source if motion is None else motion, sigma)
-
-    def positions(self, motion: Motion | None = None) -> np.ndarray:
-        """World joint positions ``(F, J, 3)`` of ``motion`` (default: the source), ``forward_kinematics``
-        computed once per motion and kept in the session's cache (read-only)."""
-        return self._ctx.positions(self.source if motion is None else motion)
-
-    def wand_graph(self, motion: Motion | None = None):
-        """The (cached) sigma-independent pose graph of ``motion`` (default: the source)."""
-        return self._ctx.wand_graph(self.source if motion is None else motion)
-
-    def falloff_curves(self, frame: int, sigma: float | None = None, frame_range=None, compare=(),
-                       spline_extent: float | None = None, motion: Motion | None = None) -> dict:
-        """Falloff weights around ``frame`` (1 there, 0 far away), each (F,), for the views.
-
-        ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
-        basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
-        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6).
-        """
-        from .. import wand
-        m = self.source if motion is None else motion
-        fr = None if frame_range is None else tuple(frame_range)
-        f = int(frame)
-        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), f, fr)}
-        sg = None if sigma is None else float(sigma)
-        for name in compare:
-            if name == "isomap":
-                make = lambda: 1.0 - wand.normalize_distance(wand.isomap_distance(m, f), fr)  # noqa: E731
-            elif name == "diffusion":
-                make = lambda: 1.0 - wand.normalize_distance(wand.diffusion_distance(m, f, sigma=sg), fr)  # noqa: E731
-            elif name == "spline":
-                extent = spline_extent or max(2.0, m.num_frames / 10)
-                make = lambda: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
-            else:
-                raise ValueError(f"compare: unknown curve {name!r}; use 'isomap', 'diffusion', 'spline'")
-            key = (name, f, sg, fr, spline_extent if name == "spline" else None)
-            out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
-        return out
-
-    def pose_falloff(self, frame: int, sigma: float | None = None, frame_range=None):
-        """The magic wand's falloff around source ``frame`` (Dean et al. 2018, §3.3; the cached basis of ``sigma``)
-        read at every pose of :meth:`staggered` at its source time, shape (K,): the weight a timing edit with
-        ``"falloff": {"frame": frame, "sigma": sigma}`` gives each pose's offsets (a region of the clip), and the
-        share a propagated pose edit at that frame's pose gives it. ``frame`` indexes the motion the poses were
-        extracted from (the source, unless a motion op comes first)."""
-        from .runners import Run, falloff_at_poses
-        sm = self.staggered()
-        fr = None if frame_range is None else tuple(int(x) for x in frame_range)
-        run = Run(self._ctx, self._replay.origin(self._history.ops))
-        return falloff_at_poses(sm, run, int(frame), None if sigma is None else float(sigma), fr, "")
 
     # -- background cache fills --------------------------------------------------------------------
     def warm(self, *jobs, progress: Callable | None = None) -> Future:

@@ -4,7 +4,8 @@ A staggered pose ``k`` has one knot per joint ``j`` at the refined time ``T[k, j
 al. 2008, §3). Succession and random timing (§5.2) slide these knots along each joint's row; a drag of one knot
 is the ``refine`` op, a drag of a pose's column the ``retime`` op. :func:`knot_table` reads them from a session's
 last staggered state; :class:`KnotTable` checks a drag and gives the op (a plain sentence where it cannot
-apply); :func:`place_refine` puts a refine op into an op list. No widgets here (the view is
+apply); the StaggerEditor's model records it (``StaggerModel.refine``: the binding puts refine ops after the
+timing edits, before the contact layer). No widgets here (the view is
 :class:`stagger_nb.widgets.timeline.Timeline`).
 """
 from __future__ import annotations
@@ -15,12 +16,7 @@ import numpy as np
 
 from ..core.body import limb_groups
 
-__all__ = ["KnotTable", "knot_table", "place_refine", "STAGGERED_OPS"]
-
-#: Ops that act on the staggered representation: a refine op goes after the last of them (before the contact
-#: layer and the motion ops, which work on the evaluated motion).
-STAGGERED_OPS = ("extract", "cull", "edit_pose", "retime", "ik_pose", "insert_pose", "delete_pose", "exaggerate",
-                 "succession", "random_timing", "refine")
+__all__ = ["KnotTable", "knot_table", "knot_table_of"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +55,19 @@ class KnotTable:
         if joint not in self.joints:
             raise ValueError(f"joint: no joint named {joint!r} in this skeleton")
         return self.joints.index(joint)
+
+    def groups_of(self, joint) -> list:
+        """Labels of the limb groups holding ``joint`` ([] for a name not in the table)."""
+        if joint not in self.joints:
+            return []
+        j = self.joints.index(joint)
+        return [label for label, js in self.groups if j in js]
+
+    def same_as(self, other) -> bool:
+        """Whether ``other`` (a KnotTable or None) draws the same sheet: same joints, pose times, knots and time
+        axis (what a view needs to be sent again)."""
+        return (isinstance(other, KnotTable) and other.joints == self.joints and other.duration == self.duration
+                and np.array_equal(other.pose_times, self.pose_times) and np.array_equal(other.knots, self.knots))
 
     def knot_range(self, pose, joint) -> tuple[float, float]:
         """The open interval (seconds) joint ``joint``'s knot of pose ``pose`` may move in: between the same
@@ -105,29 +114,26 @@ class KnotTable:
                 "duration": float(self.duration)}
 
 
-def knot_table(session) -> KnotTable:
-    """The knots of ``session``'s last staggered state (``Session.staggered()``: the extraction of the source
-    when no op is staggered). May replay the session (raises its ValueError when the replay fails)."""
-    sm = session.staggered()
+_GROUPS: dict = {}   # limb groups by skeleton (a skeleton is frozen: computed once per rig)
+
+
+def knot_table_of(sm, duration: float | None = None) -> KnotTable:
+    """The knots of the staggered motion ``sm``; the time axis ends at ``duration`` seconds (default the last
+    pose's time)."""
     sk = sm.skeleton
+    key = (sk.names, sk.parents.tobytes())
+    if key not in _GROUPS:
+        _GROUPS[key] = tuple((label, tuple(js)) for label, js in limb_groups(sk))
     t = np.array(sm.pose_times, dtype=float)
     knots = t[:, None] + np.asarray(sm.refinements, dtype=float)
     for a in (t, knots):
         a.setflags(write=False)
-    end = max(float(t[-1]), float(session.edited().duration))
-    return KnotTable(joints=tuple(sk.names), groups=tuple((label, tuple(js)) for label, js in limb_groups(sk)),
-                     pose_times=t, knots=knots, frame_time=float(sm.frame_time), duration=end)
+    end = max(float(t[-1]), float(duration or 0.0))
+    return KnotTable(joints=tuple(sk.names), groups=_GROUPS[key], pose_times=t, knots=knots,
+                     frame_time=float(sm.frame_time), duration=end)
 
 
-def place_refine(ops: list, op: dict) -> list:
-    """``ops`` with the refine ``op``: in place of the refine op of the same pose and joint, else after the last
-    op that acts on the staggered representation (:data:`STAGGERED_OPS`; the end when there is none), so the
-    contact layer and the motion ops that follow see it. Returns a new list."""
-    out = [dict(o) for o in ops]
-    for i, o in enumerate(out):
-        if o.get("op") == "refine" and o.get("pose") == op["pose"] and o.get("joint") == op["joint"]:
-            out[i] = dict(op)
-            return out
-    last = max((i for i, o in enumerate(out) if o.get("op") in STAGGERED_OPS), default=-1)
-    out.insert(last + 1 if last >= 0 else 0, dict(op))
-    return out
+def knot_table(session) -> KnotTable:
+    """The knots of ``session``'s last staggered state (``Session.staggered()``: the extraction of the source
+    when no op is staggered). May replay the session (raises its ValueError when the replay fails)."""
+    return knot_table_of(session.staggered(), session.edited().duration)

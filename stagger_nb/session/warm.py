@@ -164,8 +164,9 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
 def warm_items(session, jobs) -> list:
     """The ``(label, fn[, wait])`` items of :meth:`Session.warm <stagger_nb.session.Session.warm>`'s ``jobs`` on
     ``session`` (each checked now: ValueError naming ``jobs[i]``)."""
-    from .ops import GuidedWarp, _fail, number, optional
-    from .runners import warp_k, warp_size
+    from .ops import GuidedWarp
+    from .ops.fields import _fail, number, optional
+    from .motion_runners import warp_k, warp_size
     percent, sigma = number(0.0, 100.0, open_lo=True), optional(number(0.0, open_lo=True))
     items = []
     for i, job in enumerate(jobs):

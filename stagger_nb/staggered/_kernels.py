@@ -74,13 +74,13 @@ def accelerated() -> bool:
     return _cspline is not None and accel_allowed()
 
 
-def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, work: "Workspace") -> bool:
+def rotations_block_c(ctrl, arcp, table, counts, M: int, idx, t, out, s0: int, work: Workspace) -> bool:
     """``evaluation._rotations_block`` in C (``_cspline.c``: the same operations in the same order, so
     the same bits, in one loop per level instead of one numpy pass per operation) into ``out[:, s0:s0 + n]``
     of a C-contiguous ``out (4, N)``. ``ctrl (16, P)``, ``arcp (9, P)``, ``table (3, P * M)`` float64 and
     ``counts (P,)``, ``idx (n,)`` int64 contiguous, ``t (n,)``; ``M = 0`` (``table`` empty, ``counts`` any
-    P int64): no displacement, the spline renormalised (``bezier_into``'s default). The three per-sample arcs' angles are
-    numpy's ``arccos`` between the kernel's four stages. False when the kernel is not built or disabled
+    P int64): no displacement, the spline renormalised (``bezier_into``'s default). The three per-sample arcs'
+    angles are numpy's ``arccos`` between the kernel's four stages. False when the kernel is not built or disabled
     (the caller then runs the numpy path)."""
     if not accelerated():
         return False

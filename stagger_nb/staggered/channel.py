@@ -235,7 +235,7 @@ class Channel:
         """Refined knot times ``t_k + r[k, c]``, shape (K, C), seconds."""
         return np.asarray(pose_times)[:, None] + self.refinements
 
-    def with_arrays(self, **arrays) -> "Channel":
+    def with_arrays(self, **arrays) -> Channel:
         """This channel with some arrays replaced: each given one copied read-only after a shape check (the
         sample axis of the displacement table may change), the others shared (already checked, read-only)."""
         for name, a in arrays.items():

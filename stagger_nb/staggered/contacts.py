@@ -18,7 +18,8 @@ from ..core.motion import Motion
 __all__ = ["detect_contacts", "end_effectors", "contact_events", "DEFAULT_TOLERANCE", "DEFAULT_HAND_SUPPORT"]
 
 DEFAULT_TOLERANCE = 0.02   # fraction of the skeleton height (~3.4 cm for 1.7 m): above marker noise, below a step
-DEFAULT_HAND_SUPPORT = 0.1  # fraction of the skeleton height (~17 cm): a hand this close to the feet's level bears weight
+# fraction of the skeleton height (~17 cm): a hand this close to the feet's level bears weight
+DEFAULT_HAND_SUPPORT = 0.1
 _FOOT = re.compile(r"foot|toe|ankle|heel", re.I)
 _HAND = re.compile(r"hand|wrist", re.I)
 _FINGER = re.compile(r"thumb|index|middle|ring|pinky|finger|end", re.I)

@@ -222,7 +222,7 @@ def locate_poses(motion: Motion, *, filter_width: float = 0.15, refinement_windo
     """
     if not isinstance(motion, Motion):
         raise ValueError(f"locate_poses: motion must be a Motion, got {type(motion).__name__}")
-    F, J = motion.num_frames, motion.num_joints
+    F = motion.num_frames
     if F < 2:
         raise ValueError(f"locate_poses: motion needs at least 2 frames, got {F}")
     _checks.frame_time("locate_poses", motion.frame_time)

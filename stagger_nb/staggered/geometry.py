@@ -85,7 +85,7 @@ class OffsetBasis:
                 and np.array_equal(self.pose_times, sm.pose_times)
                 and np.array_equal(self.counts, sm.displacement_counts[self.seg, self.joint]))
 
-    def restrict(self, pairs: np.ndarray) -> "OffsetBasis":
+    def restrict(self, pairs: np.ndarray) -> OffsetBasis:
         """This basis on the subset ``pairs (P,) bool`` of its pairs (the grid gathered, pairs renumbered)."""
         if pairs.all():
             return self

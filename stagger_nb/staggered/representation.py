@@ -202,7 +202,7 @@ class StaggeredMotion:
         for name, v in sets.items():
             object.__setattr__(self, name, v)
 
-    def _with_fields(self, **fields) -> "StaggeredMotion":
+    def _with_fields(self, **fields) -> StaggeredMotion:
         """``dataclasses.replace(self, **fields)`` for the package's editing tools (``timing._refresh``), without
         validating and copying every array again: given channels and arrays of this motion's shapes are taken
         (a given array copied read-only), the others are this motion's own (already checked and read-only; e.g.

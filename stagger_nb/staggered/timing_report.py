@@ -250,7 +250,7 @@ class _LazyWarnings(dict):
         super().__init__(data)
         self._make = make
 
-    def _fill(self) -> "_LazyWarnings":
+    def _fill(self) -> _LazyWarnings:
         make = self._make
         if make is not None:
             dict.__setitem__(self, "warnings", make())

@@ -141,7 +141,7 @@ def falloff(m: Motion, frame: int, sigma: float | None = None, frame_range=None,
         Passed to :func:`.greens.greens_basis` (``method``, ``knn``, ``self_term``, ``joint_weights``, ...).
         The defaults deviate from Eqs. 1-3 as printed (reasons and measurements in :mod:`.greens`); the
         paper's formula is ``self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
-        heading="keep"`` (the default pose space is heading-invariant, :mod:`.pose_space`).
+        heading="keep", flips="keep"`` (the default pose space is heading-invariant, :mod:`.pose_space`).
 
     Returns
     -------

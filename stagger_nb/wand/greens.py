@@ -8,9 +8,10 @@ What exactly is computed (the choices the paper leaves open, stated once):
 
 **Deviations from the paper, and why the defaults are not Eq. 3 as printed.**  The paper's formula is
 ``greens_basis(m, self_term=True, normalization="symmetric", chain_floor=0.0, reference="identity",
-heading="keep")`` (``heading``: the default pose space leaves the root's heading out, :mod:`.pose_space`)
-(every flag is opt-in).  Measured on the issue's checks (default sigma, N = 50; same-phase weight must be
->= 0.8 and opposite-phase <= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
+heading="keep", flips="keep")`` (every flag is opt-in; ``heading``: the default pose space leaves the root's
+heading out, ``flips``: it leaves out joints that flip 180 degrees between frames, :mod:`.pose_space`).
+Measured on the issue's checks (default sigma, N = 50; same-phase weight must be >= 0.8 and opposite-phase
+<= 0.1, ``tests/test_wand_cyclic.py``), it fails them: xia_angry_run same phase
 0.67 / 0.59 (frames 10 / 20); bandai_run_cycle looped x4 same phase 0.47 / 0.81 / 0.56 and opposite
 0.22 / 0.33 / 0.37 (frames 3 / 5 / 15), with the neighbours of the edited frame down to 0.36 (a spike:
 the "snap" the paper blames on ISOMAP); xia_neutral_walk opposite 0.13.  No N in {5, 10, 20, 50} with
@@ -369,7 +370,8 @@ def _sparse_eigs(K, N: int):
 
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
-               time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True) -> PoseGraph:
+               time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True,
+               flips: str = "drop") -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -387,8 +389,9 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         makes strong, depends on the sampling).  ``benchmarks/bench_wand.py`` prints the figures.
     knn : int
         Neighbours per frame of the sparse kernel (ignored by the dense kernel).
-    joint_weights, time_weight, reference, heading
-        See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included).
+    joint_weights, time_weight, reference, heading, flips
+        See :func:`.pose_space.pose_vectors` (``heading="keep"``: the paper's pose space, root heading included;
+        ``flips="keep"``: joints that flip 180 degrees between frames kept in the distance).
     distinct : bool
         Poses a clip repeats exactly (a take concatenated with itself) form one node each on the sparse paths,
         and the default sigma is taken over distinct poses (default; :func:`_quotient_graph`, measured there).
@@ -397,7 +400,7 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     if method not in ("auto", "dense", "sparse", "landmarks"):
         raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
     X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference,
-                     heading=heading)
+                     heading=heading, flips=flips)
     F = X.shape[0]
     if F < 2:
         raise ValueError("the magic wand needs a motion with at least 2 frames")
@@ -502,7 +505,7 @@ def clear_graph_cache() -> None:
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean", heading: str = "remove", distinct: bool = True) -> GreensBasis:
+                 reference="mean", heading: str = "remove", distinct: bool = True, flips: str = "drop") -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
@@ -518,13 +521,13 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference, heading, distinct
+    method, knn, joint_weights, time_weight, reference, heading, distinct, flips
         See :func:`pose_graph`.
     """
     if sigma is not None:
         _check_sigma(sigma)
     g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                          reference=reference, heading=heading, distinct=distinct)
+                          reference=reference, heading=heading, distinct=distinct, flips=flips)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 

@@ -22,7 +22,7 @@ from .falloff import greens_falloff
 from .greens import GreensBasis, greens_basis
 from .pose_space import pose_vectors
 
-__all__ = ["hop_frames", "stride_frames", "hop_falloffs", "walk_falloffs", "window_max"]
+__all__ = ["hop_frames", "stride_frames", "stride_contrast", "hop_falloffs", "walk_falloffs", "window_max"]
 
 
 def _runs(mask) -> list[tuple[int, int]]:
@@ -51,6 +51,20 @@ def stride_frames(m: Motion, lo: float = 0.7, hi: float = 1.6, X=None) -> int:
         raise ValueError(f"the clip ({m.duration:.2f} s) is shorter than a stride of {lo} s")
     d = [np.mean(np.linalg.norm(X[:-L] - X[L:], axis=1)) for L in lags]
     return int(lags[int(np.argmin(d))])
+
+
+def stride_contrast(m: Motion, stride: int, X=None) -> float:
+    """How well the poses repeat at ``stride`` frames: the mean pose-vector distance between frames a stride
+    apart over the one between frames half a stride apart (0 for an exact cycle; near or above 1 when the
+    poses do not repeat, e.g. a walk whose arm does something else every step).  A walk claim needs a gait:
+    ``benchmarks/bench_claims.py`` states a clip with contrast > 0.5, or a stride at the end of the searched
+    lags, as having none."""
+    X = pose_vectors(m) if X is None else X
+    T = int(stride)
+    h = max(1, int(round(T / 2)))
+    if T >= X.shape[0] - 1:
+        return float("nan")
+    return float(np.mean(np.linalg.norm(X[:-T] - X[T:], axis=1)) / np.mean(np.linalg.norm(X[:-h] - X[h:], axis=1)))
 
 
 def window_max(w: np.ndarray, centre: float, half: float) -> float:

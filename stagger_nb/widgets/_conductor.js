@@ -247,6 +247,15 @@ function initialize({ model }) {
     } else {
       if (st.raf) cancelAnimationFrame(st.raf);
       st.raf = 0;
+      // pause keeps the frame shown: the Play's coarse ticks lag the clock, so its value becomes the clock's
+      // frame (a stop sets the value back to the start right after this, as the Play does)
+      const f = Math.min(Math.max(Math.round(clockFrame()), st.player.get("min") || 0), maxFrame());
+      if (Number.isFinite(f) && f !== st.player.get("value")) {
+        st.correcting = f;
+        st.player.set("value", f);
+        st.player.save_changes();
+        st.correcting = null;
+      }
       show(st.player.get("value"));
     }
   }

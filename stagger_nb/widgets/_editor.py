@@ -26,6 +26,10 @@ __all__ = ["_Editor"]
 
 _STYLE = {"description_width": "120px"}
 _WIDE = widgets.Layout(width="340px")
+#: The editors' 3D view: beside the tool column in a notebook's output area at 1280x800 (sidebar open)
+_VIEW_SIZE = {"width": 400, "height": 236}
+#: The height (px) of an editor's first plot, legend row included: it ends inside the first screen
+_PLOT_HEIGHT = 272
 
 
 def _session_for(editor, motion, session: Session | None, source_path=None) -> Session:
@@ -180,6 +184,25 @@ def _on_kernel_thread(fn, *args) -> None:
         loop.add_callback(fn, *args)
 
 
+def _on_kernel_loop_later(delay: float, fn):
+    """``fn()`` on the kernel's IOLoop ``delay`` seconds from now (a handle with ``cancel()``); at once (and
+    None) outside a kernel (scripts, tests)."""
+    try:
+        from IPython import get_ipython
+        loop = getattr(getattr(get_ipython(), "kernel", None), "io_loop", None)
+    except ImportError:
+        loop = None
+    if loop is None:
+        fn()
+        return None
+    h = loop.call_later(delay, fn)
+
+    class _Handle:
+        def cancel(self):
+            loop.remove_timeout(h)
+    return _Handle()
+
+
 def _share_layouts_and_styles(root: widgets.Widget, keep=()) -> int:
     """Let the widgets under ``root`` with equal ``layout`` (or equal ``style``) share one model, closing the
     duplicates (ipywidgets lets controls share a Layout or style instance): fewer models for JupyterLab to send
@@ -232,18 +255,28 @@ class _Editor(widgets.VBox):
                 return controls[key]
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
-    def _setup(self, model, session: Session, view: SkeletonView, plots: list, controls,
-               references: dict | None = None):
-        """Bind ``model`` to ``session`` and lay out the editor: ``controls`` is the list of control rows, or a
-        callable ``controls(model)`` giving it once the binding has set the model from the session."""
+    def _setup(self, model, session: Session, view: SkeletonView, plots: list, tools,
+               references: dict | None = None, quick=(), views=()):
+        """Bind ``model`` to ``session`` and lay the editor out as a workspace (at 1280x800 with JupyterLab's
+        sidebar open the 3D view, the first plot and the main sliders are on one screen):
+
+        - a top bar: undo, redo, the progress bar, the model's quality line (when it has one);
+        - the 3D view beside the tool column: the ``quick`` controls (the main sliders, always shown), then the
+          tools (``{label: [rows]}``) one at a time in tabs, then the message line;
+        - the plots (and ``views``, e.g. the dope sheet) below, each taking the whole width.
+
+        ``tools`` may be a callable ``tools(model)`` giving ``(quick, tools)`` once the binding has set the model
+        from the session (controls whose options depend on it are made then).
+        """
         self.model = model
         self.session = session
         self.view = view
         self.plots = plots
         self.error = ""
-        self.message = widgets.HTML("", layout=widgets.Layout(min_height="20px"))
+        self.message = widgets.HTML("", layout=widgets.Layout(min_height="0"))
+        self.message.add_class("sn-message")
         self.progress = widgets.IntProgress(value=0, min=0, max=1, description="computing",
-                                            layout=widgets.Layout(visibility="hidden", width="300px"))
+                                            layout=widgets.Layout(visibility="hidden", width="260px"))
         self.undo_button = widgets.Button(description="undo", icon="undo", layout=widgets.Layout(width="90px"))
         self.redo_button = widgets.Button(description="redo", icon="repeat", layout=widgets.Layout(width="90px"))
         self.undo_button.on_click(lambda _: self.session.undo())
@@ -260,8 +293,8 @@ class _Editor(widgets.VBox):
             p.observe(self._plot_seeks, names="frame")   # a click on a plot seeks
             if hasattr(view, "link_frame"):   # during browser playback the playheads move without the kernel
                 self._js_links.append(view.link_frame(p, "frame"))
-        if callable(controls):
-            controls = controls(model)
+        if callable(tools):
+            quick, tools = tools(model)
         if model.has_trait("joint") and view.has_trait("selected_joint"):
             view.observe(self._on_picked, names="selected_joint")
         model.observe(self._show_message, names=["message", "notes"])
@@ -271,19 +304,58 @@ class _Editor(widgets.VBox):
         self._warm_futures: list = []
         owned = session if getattr(self, "_owns_session", False) else None
         self._finalizer = weakref.finalize(self, _stop_work, self._warm_futures, owned)
-        for row in controls:   # a row that does not fit wraps (shrunk sliders lose their track at 1280 px)
-            if isinstance(row, widgets.HBox):
-                row.layout.flex_flow = "row wrap"
-        top = widgets.HBox([self.undo_button, self.redo_button, self.progress])
-        # the plots take the width left beside the 3D view, or go below it (wrap) when less than 420 px is left
-        body = widgets.HBox([view, widgets.VBox(plots, layout=widgets.Layout(flex="1 1 420px", min_width="0",
-                                                                           max_width="100%"))],
-                            layout=widgets.Layout(width="100%", flex_flow="row wrap", align_items="flex-start"))
-        self.children = [top, widgets.VBox(controls), self.message, body]
+        # the quality line: the model's plain summary of the edit (shown as it is, when the model has one)
+        self.quality = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 8px"))
+        self.quality.add_class("sn-quality")
+        if model.has_trait("quality"):
+            model.observe(self._show_quality, names="quality")
+            self._show_quality()
+        self.tools = widgets.Tab(children=[widgets.VBox(list(rows)) for rows in tools.values()],
+                                 titles=list(tools), layout=widgets.Layout(width="100%"))
+        self.tools.add_class("sn-tools")
+        for rows in tools.values():   # a row that does not fit wraps (shrunk sliders lose their track)
+            for row in rows:
+                if isinstance(row, widgets.HBox):
+                    row.layout.flex_flow = "row wrap"
+        top = widgets.HBox([self.undo_button, self.redo_button, self.progress, self.quality],
+                           layout=widgets.Layout(align_items="center", flex_flow="row wrap"))
+        side = widgets.VBox([widgets.VBox(list(quick)), self.tools, self.message],
+                            layout=widgets.Layout(flex="1 1 350px", min_width="0", max_width="100%"))
+        side.add_class("sn-tool-column")
+        main = widgets.HBox([view, side], layout=widgets.Layout(width="100%", flex_flow="row wrap",
+                                                                align_items="flex-start"))
+        below = widgets.VBox(list(plots) + list(views), layout=widgets.Layout(width="100%", min_width="0"))
+        self.children = [top, main, below]
         self.shared_models_closed = _share_layouts_and_styles(self, keep=(self.progress,))
         self.add_class(self._css)
         self._update_buttons()
         self._refresh()
+
+    def _show_quality(self, change=None) -> None:
+        """The quality line: the model's summary, each part green or red (``ok`` False: out of bounds)."""
+        q = getattr(self.model, "quality", "") or ""
+        if not isinstance(q, dict):
+            q = {"text": str(q), "ok": True}
+        items = q.get("items") or ([{"text": q["text"], "ok": q.get("ok", True)}] if q.get("text") else [])
+        parts = [f'<span style="color:{"#2f855a" if i.get("ok", True) else "#c53030"}">{html.escape(i["text"])}'
+                 '</span>' for i in items]
+        self.quality.value = (f'<span style="font-size:13px">{" &middot; ".join(parts)}</span>' if parts else "")
+
+    def _quality_later(self, delay: float = 0.3) -> None:
+        """Ask the binding for the edit's quality line ``delay`` s after the last edit (on the kernel's loop,
+        once a drag rests: its ~60 ms on a 2,751-frame clip is not added to each slider move); at once outside
+        a kernel."""
+        handle = self.__dict__.pop("_quality_handle", None)
+        if handle is not None:
+            handle.cancel()
+        me = weakref.ref(self)
+
+        def run():
+            ed = me()
+            if ed is not None and ed._finalizer.alive:
+                ed.__dict__.pop("_quality_handle", None)
+                ed.binding.show_quality()
+        self._quality_handle = _on_kernel_loop_later(delay, run)
 
     def _plot_seeks(self, change) -> None:
         """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink: the Play's

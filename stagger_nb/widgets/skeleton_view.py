@@ -277,6 +277,9 @@ class SkeletonView(widgets.VBox):
                           widgets.HBox([self.camera_toggle, self.ghost_toggle], layout=plain),
                           self.legend, self.conductor], **kwargs)
         self.add_class("sn-skeleton-view")
+        # as wide as its canvas (the legend wraps under it), so a tool column fits beside it
+        self.layout.width = f"{width + 4}px"
+        self.layout.flex = "0 0 auto"
         widgets.link((self.camera_toggle, "value"), (self, "camera"))
         widgets.link((self.ghost_toggle, "value"), (self, "show_ghost"))
         self._push_motion(motion)
@@ -567,7 +570,7 @@ class SkeletonView(widgets.VBox):
             items.append(sw(_POSE, f"staggered pose ({len(self._pose_frames)})", "dot"))
         if self._contacts:
             items.append(sw(_CONTACT, "contact", "dot"))
-        if self._ghost_motion is not None:
+        if self._ghost_motion is not None and self.show_ghost:   # what is drawn
             items.append(sw(_GHOST, "original (ghost)"))
         for i, n in enumerate(self.trail_joints):
             items.append(sw(_TRAILS[i % len(_TRAILS)], f"trail {n} (±{self.trail_seconds:g} s)"))
@@ -611,6 +614,7 @@ class SkeletonView(widgets.VBox):
     @traitlets.observe("show_ghost")
     def _on_ghost(self, change):
         self._push_ghost()
+        self._update_legend()
 
     @traitlets.observe("camera")
     def _on_camera(self, change):

@@ -5,15 +5,19 @@ from __future__ import annotations
 import html
 
 import ipywidgets as widgets
+import traitlets
 
 from ..core.motion import Motion
 from ..session import Session
 from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
+from ..session.timeline import knot_table_of
 from ..plotting import joint_curves_figure, pose_probability_figure
-from ._editor import _STYLE, _Editor, _default_joint, _inert, _link, _session_for, _slider, _x_span
+from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _Editor, _default_joint, _inert, _link, _session_for,
+                      _slider, _x_span)
 from .plots import PlotView
 from .skeleton_view import SkeletonView
+from .timeline import Timeline
 
 __all__ = ["StaggerEditor"]
 
@@ -24,7 +28,7 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
     st = model.step
     c = {}
     c["cull_by"] = widgets.ToggleButtons(options=[("by %", "percent"), ("by count", "count"), ("picked", "keep")],
-                                         description="cull poses", style={**_STYLE, "button_width": "90px"},
+                                         description="cull poses", style={**_STYLE, "button_width": "84px"},
                                          tooltips=["keep a percentage of the poses, by priority",
                                                    "keep a number of poses, by priority",
                                                    "keep the poses you pick (click the probability plot)"])
@@ -32,7 +36,7 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
                            readout_format=".0f")
     c["count"] = widgets.BoundedIntText(min=0, max=10**6, description="keep (0 = all)", **wide,
                                         layout=widgets.Layout(width="230px"))
-    c["keep"] = widgets.SelectMultiple(options=[], rows=4, description="keep poses", **wide,
+    c["keep"] = widgets.SelectMultiple(options=[], rows=3, description="keep poses", **wide,
                                        layout=widgets.Layout(width="260px"))
     c["root"] = widgets.Dropdown(options=names, description="succession root", **wide)
     c["joints"] = widgets.SelectMultiple(options=names, rows=4, description="delayed joints", **wide,
@@ -82,19 +86,23 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
     return c
 
 
-def _rows(c: dict, insert: widgets.Button, delete: widgets.Button) -> list:
-    """The control rows, one tool per row."""
-    return [widgets.HBox([c["cull_by"], c["keep_contacts"]]),
-            widgets.HBox([c["percent"], c["count"], c["keep"]]),
-            widgets.HBox([c["root"], c["s"], c["l"], c["joints"]]),
-            widgets.HBox([c["tau"], c["seed"], c["tau_joints"]]),
-            widgets.HBox([c["w_r"], c["w_r_reference"]]),
-            widgets.HBox([c["propagate"], c["region"], c["region_frame"], c["sigma"]]),
-            widgets.HBox([c["pose"], c["joint"]]),
-            widgets.HBox([c["edit_mode"]]),
-            widgets.HBox([c["rx"], c["ry"], c["rz"]]),
-            widgets.HBox([c["pose_time"], insert, delete]),
-            widgets.HBox([c["ik_joint"], c["ik_x"], c["ik_y"], c["ik_z"]])]
+def _tools(c: dict, insert: widgets.Button, delete: widgets.Button) -> tuple[list, dict]:
+    """(the main sliders, always shown: cull %, s, τ, w_r; the tools, one tab each: their other settings). The
+    propagation of pose edits (issue 24) sits with the pose edits it spreads, the region of the timing edits with
+    the timing; the wand's σ serves both and shows in both tabs (one control, two views)."""
+    quick = [c["percent"], c["s"], c["tau"], c["w_r"]]
+    tools = {"cull": [widgets.HBox([c["cull_by"]]), widgets.HBox([c["count"]]), widgets.HBox([c["keep"]])],
+             "timing": [widgets.HBox([c["root"], c["l"]]), widgets.HBox([c["joints"]]),
+                        widgets.HBox([c["seed"], c["tau_joints"]]), widgets.HBox([c["region"], c["region_frame"]]),
+                        widgets.HBox([c["sigma"]])],
+             "pose": [widgets.HBox([c["pose"], c["joint"]]), widgets.HBox([c["w_r_reference"], c["edit_mode"]]),
+                      widgets.HBox([c["rx"], c["ry"], c["rz"]]), widgets.HBox([c["pose_time"], insert, delete]),
+                      widgets.HBox([c["propagate"], c["sigma"]])],
+             "IK": [widgets.HBox([c["ik_joint"]]), widgets.HBox([c["ik_x"], c["ik_y"], c["ik_z"]])],
+             "contacts": [widgets.HBox([c["keep_contacts"]]),
+                          widgets.HTML('<span style="font-size:12px;color:#4a5568">the source\'s foot contacts, '
+                                       "carried through the timing edits, are held by IK</span>")]}
+    return quick, tools
 
 
 class StaggerEditor(_Editor):
@@ -124,13 +132,17 @@ class StaggerEditor(_Editor):
         self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
         self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
         self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
-        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.curves = PlotView(frame_time=m.frame_time)
         self.probability = PlotView(frame_time=m.frame_time)
         self.probability.on_click(self._on_probability_click)
+        self.timeline = Timeline()
+        self._knots = None   # the KnotTable the dope sheet shows
         self._defer = precompute   # first paint without the staggered plots; the warm-up's extraction draws them
         self.controls = {}
-        self._setup(model, session, view, [self.curves, self.probability], self._make_controls)
+        self._setup(model, session, view, [self.curves, self.probability], self._make_controls,
+                    views=[self.timeline])
+        self._bind_timeline()
         c = self.controls
         # the model first (the binding set it from the session's ops), then the controls attached to it
         for k, w in c.items():
@@ -150,10 +162,87 @@ class StaggerEditor(_Editor):
         if precompute:
             self._warm_positions()
 
-    def _make_controls(self, model: StaggerModel) -> list:
-        """The controls (``self.controls``) and their rows, once the binding has set the model up."""
+    def _make_controls(self, model: StaggerModel) -> tuple[list, dict]:
+        """The controls (``self.controls``), the main sliders and the tools, once the binding has set the model
+        up."""
         self.controls = _controls(self.session.source, list(self.session.source.skeleton.names), model)
-        return _rows(self.controls, self.insert_button, self.delete_button)
+        return _tools(self.controls, self.insert_button, self.delete_button)
+
+    # -- the dope sheet --------------------------------------------------------------------------------
+    def _bind_timeline(self) -> None:
+        """The dope sheet follows the selected pose and joint, the playhead and the timing region; its drags and
+        clicks go to the model (a refused drag says why under the sheet)."""
+        t, m = self.timeline, self.model
+        self._links += [traitlets.dlink((m, "pose"), (t, "selected_pose")),
+                        traitlets.dlink((m, "joint"), (t, "selected_joint")),
+                        traitlets.dlink((m, "frame"), (t, "frame"))]
+        self._js_links.append(self.view.link_frame(t, "frame"))   # browser playback moves its playhead too
+        t.observe(self._timeline_seeks, names="frame")
+        m.observe(self._open_joint_group, names="joint")
+        t.on_refine(self._on_refine)
+        t.on_retime(self._on_retime)
+        t.on_select(self._on_timeline_select)
+        self._show_region()
+
+    def _timeline_seeks(self, change) -> None:
+        if not self.timeline.frame_from_browser:
+            self.model.frame = change["new"]
+
+    def _open_joint_group(self, change=None) -> None:
+        """Every limb group closed but the selected joint's (the sheet stays a few rows tall); after the first
+        time, the user's choice with the selected joint's group opened."""
+        if self._knots is None:
+            return
+        mine = self._knots.groups_of(self.model.joint)
+        if getattr(self, "_groups_set", False):
+            self.timeline.collapsed = [g for g in self.timeline.collapsed if g not in mine]
+        else:
+            self.timeline.collapsed = [label for label, _ in self._knots.groups if label not in mine]
+            self._groups_set = True
+
+    def _on_refine(self, pose: int, joint: str, time: float) -> None:
+        """A knot dropped at ``time``: the model's refine op when the knot stays between its neighbours, else the
+        plain sentence under the sheet (nothing recorded)."""
+        if self._knots is None:
+            return
+        try:
+            op = self._knots.refine_op(pose, joint, self.model.snap_time(time))
+            self.model.joint = joint
+            self.model.refine(op["pose"], op["joint"], op["time"])
+        except (ValueError, traitlets.TraitError) as e:
+            self.timeline.message = plain_message(e)
+
+    def _on_retime(self, pose: int, time: float) -> None:
+        """A pose's tab dropped at ``time``: the pose retimed (the model's retime op), else a sentence."""
+        if self._knots is None:
+            return
+        try:
+            t = self._knots.retime_time(pose, self.model.snap_time(time))
+            self.model.pose = pose
+            self.model.pose_time = t
+        except (ValueError, traitlets.TraitError) as e:
+            self.timeline.message = plain_message(e)
+
+    def _on_timeline_select(self, pose: int, joint: str) -> None:
+        try:
+            if 0 <= pose < len(self.model.pose_times):
+                self.model.pose = pose
+            if joint:
+                self.model.joint = joint
+        except traitlets.TraitError as e:
+            self.timeline.message = plain_message(e)
+
+    def _draw_timeline(self, edited: Motion, sm) -> None:
+        """The dope sheet of ``sm``: sent again only when the knots (or the axis) changed (an exaggeration or a
+        pose edit leaves them: nothing is sent)."""
+        last = self._knots
+        self._knots = knots = knot_table_of(sm, edited.duration)
+        self.timeline.x_range = [float(x) for x in _x_span(edited)]
+        if not knots.same_as(last):
+            self.timeline.set_table(knots)
+        else:
+            self.timeline.message = ""
+        self._open_joint_group()
 
     def _ik_reach(self, axis: str) -> None:
         lo, hi = self.model.ik_range["xyz".index(axis)]
@@ -305,8 +394,10 @@ class StaggerEditor(_Editor):
                 c["w_r_reference"].value = ref
         self._draw_probability(full, sm, _x_span(edited))
         self._draw_curves(edited, sm)
+        self._draw_timeline(edited, sm)
         self._show_motion(edited, pose_frames=self.model.pose_frames(),
                           contacts=list(getattr(sm, "contacts", ()) or ()))
+        self._quality_later()   # the quality line, once the edit rests
 
     def _extraction_ready(self) -> bool:
         """Whether the staggered plots can be drawn now without waiting for the extraction: always without a
@@ -338,6 +429,6 @@ class StaggerEditor(_Editor):
                               self._source_degrees(self.session.source.skeleton.index(name)))
         self.curves.figure = joint_curves_figure(
             v["times"], v["degrees"], v["source_degrees"], v["source_times"], pose_times=v["pose_times"],
-            knot_times=v["knot_times"], title=f"{name}: rotation vector (°), edited vs original",
-            x_range=_x_span(edited))
+            knot_times=v["knot_times"], title=f"{html.escape(name)}: rotation vector (°), edited vs original",
+            x_range=_x_span(edited), height=_PLOT_HEIGHT)
         self.view.highlight_joints([name])

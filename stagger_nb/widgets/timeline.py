@@ -104,6 +104,12 @@ class Timeline(anywidget.AnyWidget):
         finally:
             self._browser_frame = False
 
+    @property
+    def frame_from_browser(self) -> bool:
+        """True while the kernel applies a ``frame`` the browser set on this view (a ``jsdlink`` from a Play):
+        whatever follows the Play gets that frame from the Play's own message."""
+        return self._browser_frame
+
     def _frame_to_store(self, change) -> None:
         if self._browser_frame:
             self.store.set_state({"frame": change["new"]})   # the kernel's copy only

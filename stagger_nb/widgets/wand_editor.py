@@ -10,7 +10,8 @@ from ..session import Session
 from ..session.models import WandModel
 from ..session.models.views import joint_curves_view
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
-from ._editor import _STYLE, _WIDE, _Editor, _default_joint, _inert, _link, _session_for, _slider, _x_span
+from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _default_joint, _inert, _link,
+                      _session_for, _slider, _x_span)
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -74,17 +75,18 @@ class WandEditor(_Editor):
         self.add_button.on_click(lambda _: self.model.add_edit(self.model.frame))
         self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
 
-        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.falloff_plot = PlotView(frame_time=m.frame_time)
         self.curves = PlotView(frame_time=m.frame_time)
-        layout = [widgets.HBox([c["sigma"], c["propagate"], c["repetitions"]]),
-                  widgets.HBox([c["edit_frame"], self.edited_frames, self.add_button, self.remove_button]),
-                  widgets.HBox([self.limit_range, self.range]),
-                  widgets.HBox([c["joint"], c["rx"], c["ry"], c["rz"]]),
-                  widgets.HBox([c["compare"]])]
+        quick = [c["sigma"], c["rx"], c["ry"], c["rz"]]
+        tools = {"edit": [widgets.HBox([c["joint"]]), widgets.HBox([c["edit_frame"]]),
+                          widgets.HBox([self.edited_frames]), widgets.HBox([self.add_button, self.remove_button])],
+                 "propagation": [widgets.HBox([c["propagate"]]), widgets.HBox([c["repetitions"]]),
+                                 widgets.HBox([self.limit_range]), widgets.HBox([self.range])],
+                 "compare": [widgets.HBox([c["compare"]])]}
         c["sigma"].add_class("sn-sigma")
         c["edit_frame"].add_class("sn-edit-frame")
-        self._setup(model, session, view, [self.falloff_plot, self.curves], layout)
+        self._setup(model, session, view, [self.falloff_plot, self.curves], tools, quick=quick)
         if not model.edits and any(rotation):   # an initial rotation becomes the first edit
             model.rx, model.ry, model.rz = (float(r) for r in rotation)
         # slider positions snap to the warmed sigma grid
@@ -142,7 +144,8 @@ class WandEditor(_Editor):
             curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
             self.falloff_plot.figure = falloff_figure(
                 m.times, curves, edited_times=mod.edited_times() or [mod.time_of(f)],
-                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited))
+                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited),
+                height=_PLOT_HEIGHT)
             self._falloff_key = key
         v = joint_curves_view(self.session, edited, mod.joint,
                               source_degrees=self._source_degrees(m.skeleton.index(mod.joint)))

@@ -9,7 +9,7 @@ from ..session import Session, warp_table_key
 from ..session.models import WarpModel
 from ..session.models.views import warp_tables_to_warm, warp_view
 from ..plotting import warp_figure
-from ._editor import _STYLE, _WIDE, _Editor, _inert, _link, _session_for, _slider
+from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _link, _session_for, _slider
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -71,20 +71,22 @@ class WarpEditor(_Editor):
         self.keytimes = widgets.Text(value="", placeholder="in:out, in:out  (seconds)", description="keytimes",
                                      style=_STYLE, layout=_WIDE)
         self.controls = c
-        view = SkeletonView(m, ghost=m, show_ghost=show_ghost)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.warp_plot = PlotView(frame_time=m.frame_time)
-        layout = [widgets.HBox([c["mode"], c["skip"], c["backward"]]), widgets.HBox([c["target"]]),
-                  widgets.HBox([c["duration"], c["free_length"], self.keytimes]),
-                  widgets.HBox([c["reference"], c["segment"]])]
         self.click_keytime = widgets.Checkbox(value=False, indent=False,
                                               description="click the warp plot to add a keytime")
         self.clear_keytimes = widgets.Button(description="clear keytimes", layout=widgets.Layout(width="130px"))
         self.clear_keytimes.on_click(lambda _: setattr(self.model, "keytimes", []))
         self.warp_plot.on_click(self._on_warp_click)
-        layout.append(widgets.HBox([self.click_keytime, self.clear_keytimes]))
+        quick = [c["duration"], c["skip"]]
+        tools = {"warp": [widgets.HBox([c["mode"]]), widgets.HBox([c["target"]]),
+                          widgets.HBox([c["free_length"], c["backward"]])],
+                 "reference": [widgets.HBox([c["reference"]]), widgets.HBox([c["segment"]])],
+                 "keytimes": [widgets.HBox([self.keytimes]), widgets.HBox([self.click_keytime]),
+                              widgets.HBox([self.clear_keytimes])]}
         c["duration"].add_class("sn-duration")
         c["skip"].add_class("sn-skip")
-        self._setup(model, session, view, [self.warp_plot], layout, references=refs)
+        self._setup(model, session, view, [self.warp_plot], tools, references=refs, quick=quick)
         # a reference given to the constructor is the one used (when the session has no warp op yet)
         traitlets.link((model, "reference_options"), (c["reference"], "options"))
         for k in ("mode", "duration", "free_length", "skip", "backward", "reference", "target"):
@@ -143,5 +145,5 @@ class WarpEditor(_Editor):
         v = warp_view(self.session)
         self.warp_plot.figure = warp_figure(v["out_times"], v["warp"], v["speed"], keytimes=self.model.keytimes or None,
                                             title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
-                                                  f"→ {v['out_times'][-1]:.2f} s")
+                                                  f"→ {v['out_times'][-1]:.2f} s", height=_PLOT_HEIGHT + 30)
         self._show_motion(edited)

@@ -8,9 +8,10 @@ change (undo/redo, load, code calling ``set_ops``) back into model traits. Nothi
 Values coming from a session are never clamped: ``skip=100`` stays 100 (a slider's range grows to show it); a
 joint name the skeleton does not have becomes a readable note in ``model.message`` and the op is kept unchanged.
 
-One module per editor: :mod:`.stagger` (Coleman et al. 2008), :mod:`.wand` (Dean et al. 2018), :mod:`.warp`
-(Hsu et al. 2007); :mod:`._base` what they share; :mod:`.binding` the merge of ops and the binding;
-:mod:`.messages` the plain sentences of a refused change; :mod:`.views` the numbers behind the editors' views.
+One module per editor: :mod:`.stagger` (Coleman et al. 2008; its ``params <-> ops`` in :mod:`.stagger_ops`),
+:mod:`.wand` (Dean et al. 2018), :mod:`.warp` (Hsu et al. 2007); :mod:`._base` what they share; :mod:`.merge` an
+editor's ops into the session's list; :mod:`.binding` the binding; :mod:`.messages` the plain sentences of a
+refused change; :mod:`.views` the numbers behind the editors' views.
 """
 from . import views
 from ._base import snap

@@ -1,0 +1,254 @@
+"""The expensive heads of the techniques, each computed once in the session's one cache (:mod:`.cache`) and
+shared by every op list reaching the same state: the staggered extraction and its culls, exaggeration bases,
+forward kinematics, the magic wand's pose graph, eigenbases and falloffs, warp references and guided warping's
+kNN tables.
+
+:class:`Heads` computes and keeps them (the runners read them as ``run.heads``); :class:`CachedHeads` is the
+part of :class:`~stagger_nb.session.Session` that offers them to callers and to the editors' views
+(``precompute_cull``, ``wand_basis``, ``positions``, ``falloff_curves``, ``pose_falloff``, ...).
+"""
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+
+import numpy as np
+
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..io.bvh import read_bvh
+from .cache import Cache
+from .ops import MAX_SKIP
+from .ops.fields import number, optional, text
+from .run import Run, _staggered, _timewarp, _wand
+
+__all__ = ["Heads", "CachedHeads"]
+
+_percent = number(0.0, 100.0, open_lo=True)
+_sigma = optional(number(0.0, open_lo=True))
+
+
+class Heads:
+    """The expensive heads of the techniques, computed once each in ``cache``.
+
+    Parameters
+    ----------
+    cache : Cache
+    source : Motion, the session's source ("self" warp reference; segments are cut from it)
+    extract_options : dict, keyword arguments of ``staggered.extract`` (already checked)
+    """
+
+    def __init__(self, cache: Cache, source: Motion, extract_options: dict):
+        self.cache = cache
+        self.source = source
+        self.extract_options = dict(extract_options)
+        self.memory_references: dict[str, Motion] = {}  # Session.use_reference: never evicted
+        cache.name(source, "source")
+
+    def key(self, obj) -> str:
+        return self.cache.token(obj)
+
+    def extract(self, motion: Motion, progress: Callable | None = None):
+        """``staggered.extract(motion, **extract_options)``, once per motion (``progress(fraction)`` is passed
+        to the computation when this call computes it)."""
+        def make():
+            try:
+                return _staggered().extract(motion, progress=progress, **self.extract_options)
+            except (TypeError, ArithmeticError) as e:  # the options are checked already: a bad value
+                raise ValueError(f"extract_options: {type(e).__name__}: {e}") from None
+        return self.cache.get("extract", self.key(motion), None, make)
+
+    def cull(self, sm, percent: float | None = None, count: int | None = None, progress: Callable | None = None):
+        """``staggered.cull(sm, percent)`` or ``cull(sm, count=count)`` (a refit of the splines, the slow step
+        of the cull slider), once per (representation, kept poses): the entry is keyed by
+        ``staggered.cull_keep`` (cheap), so every percent or count keeping the same poses shares one refit."""
+        st = _staggered()
+        count = None if count is None else int(count)
+        percent = None if count is not None or percent is None else float(percent)
+        keep = tuple(int(k) for k in st.cull_keep(sm, percent, count=count))
+        return self.cache.get("cull", self.key(sm), ("keep", keep),
+                              lambda: st.cull(sm, percent, count=count, progress=progress))
+
+    def offset_basis(self, sm, origin: Motion | None = None):
+        """``staggered.pose_offset_basis(sm, origin)``: the offset-independent half of an exaggeration of ``sm``
+        (§5.1), once per pre-exaggerate state (keyed by its content name): a ``w_r`` slider move reuses it.
+        ``origin``: the Motion ``sm`` was extracted from (it reads the rotations on frames from it while
+        ``sm`` reproduces it; a ``pose_offset_basis`` without that parameter, an older one or a wrapper, is
+        called with ``sm`` alone). None when this version of staggered has no such function."""
+        make = getattr(_staggered(), "pose_offset_basis", None)
+        if make is None:
+            return None
+        try:
+            takes = origin is not None and "reproduced" in inspect.signature(make).parameters
+        except (TypeError, ValueError):
+            takes = False
+        return self.cache.get("offset_basis", self.key(sm), None,
+                              lambda: make(sm, reproduced=origin) if takes else make(sm))
+
+    def positions(self, motion: Motion):
+        """World joint positions ``(F, J, 3)`` of ``motion`` (``forward_kinematics(motion)[0]``, read-only),
+        once per motion: ``keep_contacts`` reads the source's on every replay."""
+        def make():
+            p = forward_kinematics(motion)[0]
+            p.setflags(write=False)
+            return p
+        return self.cache.get("positions", self.key(motion), None, make)
+
+    def wand_graph(self, motion: Motion):
+        """The sigma-independent pose graph of ``motion`` (Dean et al. 2018, §3.1), once per motion."""
+        return self.cache.get("graph", self.key(motion), None, lambda: _wand().pose_graph(motion))
+
+    def wand_basis(self, motion: Motion, sigma: float | None):
+        """The Green's eigenbasis of ``motion`` for ``sigma`` (§3.2), once per (motion, sigma); the graph is
+        shared by every sigma."""
+        sigma = None if sigma is None else float(sigma)
+        return self.cache.get("basis", self.key(motion), sigma,
+                              lambda: self.wand_graph(motion).basis(sigma))
+
+    def falloff(self, motion: Motion, frame: int, sigma: float | None, frame_range=None):
+        """The magic wand's falloff ``(F,)`` of ``motion`` around ``frame`` (Dean et al. 2018, §3.3), from the
+        cached basis of ``sigma``, once per (motion, frame, sigma, frame range): a slider that replays a
+        propagated pose edit or a timing region reads it, it does not recompute it."""
+        sigma = None if sigma is None else float(sigma)
+        fr = None if frame_range is None else (int(frame_range[0]), int(frame_range[1]))
+
+        def make():
+            w = _wand().greens_falloff(self.wand_basis(motion, sigma), int(frame), fr)
+            w.setflags(write=False)
+            return w
+        return self.cache.get("falloff", self.key(motion), (int(frame), sigma, fr), make)
+
+    def reference(self, ref) -> Motion:
+        """The warp reference ``ref`` (``"self"``, ``("segment", a, b)`` or ``("path", p)``) as a Motion."""
+        if ref == "self":
+            return self.source
+        if ref[0] == "path" and ref[1] in self.memory_references:
+            return self.memory_references[ref[1]]
+        return self.cache.get("reference", ref, None, lambda: self._load_reference(ref))
+
+    def _load_reference(self, ref) -> Motion:
+        if ref[0] == "segment":
+            a, b = ref[1:]
+            src = self.source
+            start = max(0, int(round(a / src.frame_time)))
+            stop = min(src.num_frames, int(round(b / src.frame_time)) + 1)
+            if stop - start < 3:
+                raise ValueError(f"reference.segment: [{a}, {b}] s holds fewer than 3 frames")
+            return src.slice(start, stop)
+        try:
+            return read_bvh(ref[1])  # a regular file within the size limit (io._common.read_regular_file)
+        except ValueError as e:
+            raise ValueError(f"reference.path: {e}") from None
+
+    def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3,
+                    progress: Callable | None = None):
+        """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
+        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
+        the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by ``Session.warm``) serves a
+        smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same numbers), uncached."""
+        reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
+        owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        own = self.cache.peek("warp", owner, (rkey, skip) + rest)
+        if own is not None:
+            self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
+            return own
+        for s in range(MAX_SKIP, skip, -1):   # the largest skip a guided_warp op allows
+            big = self.cache.peek("warp", owner, (rkey, s) + rest)
+            if big is not None and big.knn == "exact":
+                self.cache.touch("warp", [(owner, (rkey, s) + rest)])
+                return _timewarp().slice_tables(big, skip)
+        return self.cache.get("warp", owner, (rkey, skip) + rest,
+                              lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
+                                                               reverse=bool(reverse), k=int(k), progress=progress))
+
+
+class CachedHeads:
+    """The cached heads of a :class:`~stagger_nb.session.Session` (a mixin over the session's ``source``, its
+    :class:`Heads` ``_ctx``, its replay and op history)."""
+
+    def precompute_cull(self, percents, stop: Callable | None = None) -> int:
+        """Compute and cache ``cull`` of the source's extraction for each of ``percents`` in this thread;
+        stops early when ``stop()`` is true. Returns how many were computed or already cached.
+        (Prefer :meth:`warm`, which runs on the session's executor.)"""
+        n = 0
+        sm = self.extraction()
+        for pc in percents:
+            if stop is not None and stop():
+                break
+            self._ctx.cull(sm, _percent(pc, "percents[]"))
+            n += 1
+        return n
+
+    def precompute_wand_bases(self, sigmas, stop: Callable | None = None, motion: Motion | None = None) -> int:
+        """Compute and cache the magic-wand eigenbasis for each of ``sigmas`` in this thread; stops early when
+        ``stop()`` is true. Returns how many. (Prefer :meth:`warm`.)"""
+        n = 0
+        for sg in sigmas:
+            if stop is not None and stop():
+                break
+            self.wand_basis(_sigma(sg, "sigmas[]"), motion)
+            n += 1
+        return n
+
+    def use_reference(self, path: str, motion: Motion) -> dict:
+        """Resolve the op reference ``{"path": path}`` to ``motion`` in this session (e.g. an in-memory clip
+        under a name like ``"<memory:name>"``) instead of reading the file; returns that reference.
+        A saved session keeps only the path: a new process reads the file."""
+        if not isinstance(motion, Motion):
+            raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
+        self._ctx.memory_references[text(path, "path")] = motion
+        return {"path": path}
+
+    def wand_basis(self, sigma: float | None = None, motion: Motion | None = None):
+        """The (cached) magic-wand eigenbasis of ``motion`` (default: the source) for ``sigma``."""
+        return self._ctx.wand_basis(self.source if motion is None else motion, sigma)
+
+    def positions(self, motion: Motion | None = None) -> np.ndarray:
+        """World joint positions ``(F, J, 3)`` of ``motion`` (default: the source), ``forward_kinematics``
+        computed once per motion and kept in the session's cache (read-only)."""
+        return self._ctx.positions(self.source if motion is None else motion)
+
+    def wand_graph(self, motion: Motion | None = None):
+        """The (cached) sigma-independent pose graph of ``motion`` (default: the source)."""
+        return self._ctx.wand_graph(self.source if motion is None else motion)
+
+    def falloff_curves(self, frame: int, sigma: float | None = None, frame_range=None, compare=(),
+                       spline_extent: float | None = None, motion: Motion | None = None) -> dict:
+        """Falloff weights around ``frame`` (1 there, 0 far away), each (F,), for the views.
+
+        ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
+        basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
+        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6).
+        """
+        from .. import wand
+        m = self.source if motion is None else motion
+        fr = None if frame_range is None else tuple(frame_range)
+        f = int(frame)
+        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), f, fr)}
+        sg = None if sigma is None else float(sigma)
+        for name in compare:
+            if name == "isomap":
+                make = lambda: 1.0 - wand.normalize_distance(wand.isomap_distance(m, f), fr)  # noqa: E731
+            elif name == "diffusion":
+                make = lambda: 1.0 - wand.normalize_distance(wand.diffusion_distance(m, f, sigma=sg), fr)  # noqa: E731
+            elif name == "spline":
+                extent = spline_extent or max(2.0, m.num_frames / 10)
+                make = lambda extent=extent: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
+            else:
+                raise ValueError(f"compare: unknown curve {name!r}; use 'isomap', 'diffusion', 'spline'")
+            key = (name, f, sg, fr, spline_extent if name == "spline" else None)
+            out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
+        return out
+
+    def pose_falloff(self, frame: int, sigma: float | None = None, frame_range=None):
+        """The magic wand's falloff around source ``frame`` (Dean et al. 2018, §3.3; the cached basis of ``sigma``)
+        read at every pose of :meth:`staggered` at its source time, shape (K,): the weight a timing edit with
+        ``"falloff": {"frame": frame, "sigma": sigma}`` gives each pose's offsets (a region of the clip), and the
+        share a propagated pose edit at that frame's pose gives it. ``frame`` indexes the motion the poses were
+        extracted from (the source, unless a motion op comes first)."""
+        from .runners import falloff_at_poses  # late: the runners import this module
+        sm = self.staggered()
+        fr = None if frame_range is None else tuple(int(x) for x in frame_range)
+        run = Run(self._ctx, self._replay.origin(self._history.ops))
+        return falloff_at_poses(sm, run, int(frame), None if sigma is None else float(sigma), fr, "")

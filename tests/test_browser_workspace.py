@@ -1,0 +1,301 @@
+"""The editors as a workspace, in a real browser (JupyterLab 4 + headless Debian Chromium at 1280x800, the file
+browser sidebar open; harness: tests/browser_harness.py):
+
+- layout: each editor scrolled to its top shows its 3D canvas (drawn), its first plot (drawn) and its main
+  sliders (the StaggerEditor's cull %, s, τ and w_r) inside the notebook area;
+- the dope sheet: a knot of ``.sn-timeline`` dragged with the mouse adds one ``refine`` op for that pose and
+  joint (the knot lands where it was dropped) and the 3D view changes; a drop past a neighbour is refused with
+  a sentence under the sheet and records nothing; pause keeps the frame;
+- after a pose time of 999 is typed, the next cull move still changes the plot.
+
+Every wait is on content (plots drawn and synced, the kernel idle, kernel state through a second client), not on
+sleeps. Screenshots go to ``artifacts/`` (git-ignored); a failure saves its evidence (browser_harness.save_failure).
+Skipped, with the reason, only when /usr/bin/chromium or playwright is missing.
+"""
+from __future__ import annotations
+
+import io
+import json
+
+import browser_harness as bh
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.browser]
+
+DATA = bh.REPO / "data"
+EDITORS = {"stagger": ".sn-stagger-editor", "wand": ".sn-wand-editor", "warp": ".sn-warp-editor"}
+MAIN_SLIDERS = {"stagger": [".sn-cull", ".sn-s", ".sn-tau", ".sn-w-r"], "wand": [".sn-sigma"],
+                "warp": [".sn-duration", ".sn-skip"]}
+
+
+@pytest.fixture
+def lab(tmp_path):
+    reason = bh.skip_reason()
+    if reason:
+        print("SKIP:", reason)
+        pytest.skip(reason)
+    with bh.jupyter_lab(tmp_path, timeout=180) as url:
+        yield url, tmp_path, bh.runtime_dir(tmp_path)
+
+
+def _head(clip: str) -> str:
+    return f"""import sys
+sys.path.insert(0, {str(bh.REPO)!r})
+import stagger_nb as sn
+from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
+m = sn.read_bvh({str(DATA / clip)!r})"""
+
+
+def _canvas(page, sel):
+    """The editor's 3D canvas as an RGB image."""
+    from PIL import Image
+    return Image.open(io.BytesIO(page.locator(f"{sel} canvas").first.screenshot(timeout=30000))).convert("RGB")
+
+
+def _changed(a, b) -> float:
+    """Fraction of the pixels that differ between two same-size images."""
+    x, y = np.asarray(a, dtype=int), np.asarray(b, dtype=int)
+    return 1.0 if x.shape != y.shape else float(np.mean(np.abs(x - y).sum(axis=2) > 30))
+
+
+def _open_walk_editor(page, url, folder, name: str, pose: int) -> str:
+    """A notebook with a StaggerEditor on the procedural walk (pose ``pose`` selected), run and drawn."""
+    cells = [_head("walk.bvh"), f"se = StaggerEditor(m, precompute=False)\nse.model.pose = {pose}\nse",
+             f"print({bh.DONE!r})"]
+    bh.write_notebook(folder / f"{name}.ipynb", cells)
+    sel = EDITORS["stagger"]
+    bh.open_notebook(page, url, f"{name}.ipynb", timeout=180)
+    bh.run_all_cells(page, timeout=300)
+    page.wait_for_selector(f"{sel} canvas", timeout=120000)
+    bh.wait_plots_drawn(page, sel, timeout=180)
+    page.wait_for_selector(f"{sel} .sn-timeline[data-status=drawn]", timeout=60000)
+    bh.wait_kernel_idle(page)
+    return sel
+
+
+_BOXES = """([sel, sliders]) => {
+  const ed = document.querySelector(sel);
+  ed.closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});
+  const box = (e) => { if (!e) return null; const r = e.getBoundingClientRect();
+                       return {left: r.left, top: r.top, right: r.right, bottom: r.bottom}; };
+  const area = document.querySelector('.jp-NotebookPanel-notebook') || document.querySelector('.jp-Notebook');
+  return {area: box(area), editor: box(ed), canvas: box(ed.querySelector('canvas')),
+          plot: box(ed.querySelector('.sn-plot-view')),
+          sliders: Object.fromEntries(sliders.map((s) => [s, box(ed.querySelector(s + ' .slider-container')
+                                                                   || ed.querySelector(s))]))};
+}"""
+
+
+def _inside(b, area, slack=1.0) -> bool:
+    return bool(b) and b["right"] > b["left"] and b["bottom"] > b["top"] and \
+        b["left"] >= area["left"] - slack and b["right"] <= area["right"] + slack and \
+        b["top"] >= area["top"] - slack and b["bottom"] <= area["bottom"] + slack
+
+
+def test_each_editor_shows_its_3d_view_first_plot_and_main_sliders_on_one_screen(lab):
+    url, folder, runtime = lab
+    cells = [_head("cmu_01_01.bvh"), "se = StaggerEditor(m)\nse", "we = WandEditor(m.slice(0, 900))\nwe",
+             "xe = WarpEditor(m.slice(0, 900))\nxe", f"print({bh.DONE!r})"]
+    bh.write_notebook(folder / "layout.ipynb", cells)
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_layout", page, log, runtime, report):
+        bh.open_notebook(page, url, "layout.ipynb", timeout=180)
+        assert bh.sidebar_open(page), "the file browser sidebar should be open"
+        bh.run_all_cells(page, timeout=300)
+        for sel in EDITORS.values():
+            page.wait_for_selector(f"{sel} canvas", timeout=120000)
+            bh.wait_plots_drawn(page, sel, timeout=180)
+        bh.wait_kernel_idle(page, timeout=180)
+        for name, sel in EDITORS.items():
+            boxes = page.evaluate(_BOXES, [sel, MAIN_SLIDERS[name]])
+            page.wait_for_timeout(300)   # the scroll settles
+            boxes = page.evaluate(_BOXES, [sel, MAIN_SLIDERS[name]])
+            report[name] = boxes
+            bh.screenshot(page, f"workspace_{name}_top")
+            area = boxes["area"]
+            assert _inside(boxes["canvas"], area), f"{name}: the 3D canvas is not on the first screen: {boxes}"
+            assert _inside(boxes["plot"], area), f"{name}: the first plot is not on the first screen: {boxes}"
+            for s, b in boxes["sliders"].items():
+                assert _inside(b, area), f"{name}: slider {s} is not on the first screen: {boxes}"
+            from PIL import ImageStat
+            report[name]["canvas_stddev"] = max(ImageStat.Stat(_canvas(page, sel)).stddev)
+            assert report[name]["canvas_stddev"] > 5.0, f"{name}: the 3D canvas is blank ({report[name]})"
+            first = bh.plot_states(page, sel)[0]
+            assert first["draws"] > 0 and first["lines"] + first["points"] > 0, f"{name}: first plot not drawn"
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]
+        assert not bh.console_errors(log), bh.console_errors(log)
+
+
+_KNOT = """([sel, pose, joint]) => { const k = document.querySelector(
+  `${sel} .sn-timeline .sn-knot[data-pose="${pose}"][data-joint="${joint}"]`);
+  if (!k) return null; k.scrollIntoView({block: 'center'}); const r = k.getBoundingClientRect();
+  return {x: r.left + r.width / 2, y: r.top + r.height / 2, time: +k.dataset.time}; }"""
+_SCALE = """(sel) => { const svg = document.querySelector(sel + ' .sn-timeline svg');
+  const ticks = [...svg.querySelectorAll('.sn-pose-col')].map((g) => g.getBoundingClientRect());
+  return ticks.map((r) => r.left + r.width / 2); }"""
+
+
+def _drag(page, x0, y, x1, steps=12):
+    page.mouse.move(x0, y)
+    page.mouse.down()
+    for i in range(1, steps + 1):
+        page.mouse.move(x0 + (x1 - x0) * i / steps, y)
+    page.mouse.up()
+
+
+def test_dragging_a_knot_of_the_dope_sheet_records_one_refine_op_and_moves_the_3d_view(lab):
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_sheet", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "sheet", pose=4)
+        kernel = bh.Kernel(runtime)
+        try:
+            pose, joint = 4, "LeftForeArm"
+            lo, hi = kernel.eval(f"se._knots.knot_range({pose}, {joint!r})")
+            t0 = kernel.eval(f"float(se._knots.knots[{pose}, se._knots.joints.index({joint!r})])")
+            assert kernel.eval("se.session.ops") == []
+            knot = page.evaluate(_KNOT, [sel, pose, joint])
+            assert knot is not None, "the selected joint's knot is not drawn (its limb group should be open)"
+            cols = page.evaluate(_SCALE, sel)
+            times = kernel.eval("[float(t) for t in se._knots.pose_times]")
+            px_per_s = (cols[-1] - cols[0]) / (times[-1] - times[0])
+            target = t0 + 0.5 * (hi - t0)                      # half-way to the next pose's knot
+            canvas0 = _canvas(page, sel)
+            knot = page.evaluate(_KNOT, [sel, pose, joint])    # (scrolled into view)
+            _drag(page, knot["x"], knot["y"], knot["x"] + (target - t0) * px_per_s)
+            bh.wait_kernel(runtime, "any(o['op'] == 'refine' for o in se.session.ops)", timeout=60)
+            bh.wait_kernel_idle(page)
+            ops = kernel.eval("se.session.ops")
+            report["ops"] = ops
+            refines = [o for o in ops if o["op"] == "refine"]
+            assert len(refines) == 1 and (refines[0]["pose"], refines[0]["joint"]) == (pose, joint), ops
+            # dropped where the mouse let go: within two pixels of the target
+            assert abs(refines[0]["time"] - target) <= 2 / px_per_s, (refines[0], target)
+            page.wait_for_function(f"""() => {{ const k = document.querySelector(
+                `{sel} .sn-timeline .sn-knot[data-pose="{pose}"][data-joint="{joint}"]`);
+                return k && Math.abs(+k.dataset.time - {refines[0]['time']}) < 1e-3; }}""", timeout=30000)
+            bh.wait_plots_synced(page, sel)
+            page.locator(f"{sel} canvas").first.scroll_into_view_if_needed()
+            page.wait_for_function(f"""() => {{ const c = document.querySelector('{sel} .sn-conductor');
+                return c && c.dataset.frame === '{kernel.eval("se.view.frame")}'; }}""", timeout=30000)
+            page.wait_for_timeout(300)
+            canvas1 = _canvas(page, sel)
+            report["canvas_changed"] = _changed(canvas0, canvas1)
+            bh.screenshot(page, "workspace_sheet_after_drag")
+            assert report["canvas_changed"] > 0.0002, f"the 3D view did not change ({report})"
+
+            # a drop past the previous pose's knot: refused, said under the sheet, nothing recorded
+            knot = page.evaluate(_KNOT, [sel, pose, joint])
+            _drag(page, knot["x"], knot["y"], knot["x"] - (refines[0]["time"] - lo + 0.15) * px_per_s)
+            page.wait_for_function(f"""() => (document.querySelector('{sel} .sn-timeline-message') || {{}})
+                .textContent.includes('must stay between')""", timeout=30000)
+            bh.wait_kernel_idle(page)
+            assert kernel.eval("se.session.ops") == ops
+            report["refused"] = page.locator(f"{sel} .sn-timeline-message").first.inner_text()
+
+            # pause keeps the frame (the Play's play/pause button; stop would rewind)
+            report["start_frame"] = kernel.eval("se.view.frame")
+            # play, then pause 1.2 s later in the page's own clock (a Python-side wait under load can outlast
+            # the 6 s clip: playwright's click returns only once the busy page has handled it)
+            page.locator(f"{sel} .sn-play button").first.scroll_into_view_if_needed()
+            report["paused_after_ms"] = page.evaluate(f"""async () => {{
+                const b = document.querySelector('{sel} .sn-play button');
+                b.click(); const t0 = performance.now();
+                await new Promise((r) => setTimeout(r, 1200));
+                b.click(); return performance.now() - t0; }}""")
+            bh.wait_kernel(runtime, "not se.view.playing", timeout=30)
+            bh.wait_kernel_idle(page)
+            shown = int(page.evaluate(f"() => document.querySelector('{sel} .sn-conductor').dataset.frame"))
+            page.wait_for_timeout(800)
+            shown_later = int(page.evaluate(f"() => document.querySelector('{sel} .sn-conductor').dataset.frame"))
+            report["paused_at"] = [shown, shown_later, kernel.eval("se.view.frame")]
+            ft, last = kernel.eval("se.view.motion.frame_time"), kernel.eval("se.view.motion.num_frames - 1")
+            # paused where the clock was (0.5 s slack: seen 0.33 s ahead at load 21, the clicks' own latency),
+            # not rewound, not at the end, and it stays there
+            expected = min(report["start_frame"] + report["paused_after_ms"] / 1000 / ft, last)
+            assert abs(shown - expected) <= 0.5 / ft, report
+            assert report["start_frame"] < shown < last and shown == shown_later, report
+            bh.wait_kernel(runtime, f"se.view.frame == {shown}", timeout=30)
+        finally:
+            kernel.close()
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]
+
+
+@pytest.mark.xfail(strict=True, reason="needs the models' refusal at the model / rollback of a failed replay "
+                                       "(issue 22 item 4, engineer 'models'): today the retime op to the clip's "
+                                       "end is recorded, the replay fails and the plots stop following")
+def test_after_a_pose_time_of_999_the_next_cull_move_still_changes_the_plot(lab):
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_lock", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "lock", pose=3)
+        page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="pose").first.click()
+        field = page.locator(f"{sel} .widget-text", has_text="pose time").locator("input").first
+        field.fill("999")
+        field.press("Enter")
+        bh.wait_kernel_idle(page)
+        report["message"] = page.locator(f"{sel} .sn-message").first.inner_text()
+        before = bh.wait_plots_synced(page, sel)
+        handle = page.locator(f"{sel} .sn-cull .noUi-handle").first
+        handle.focus()
+        for _ in range(4):
+            handle.press("ArrowLeft")
+        bh.wait_kernel(runtime, "se.model.percent == 80.0", timeout=60)
+        bh.wait_kernel_idle(page)
+        after = bh.wait_plots_synced(page, sel)
+        report["titles"] = [[s["title"] for s in before], [s["title"] for s in after]]
+        assert [s["line0"] for s in after] != [s["line0"] for s in before] or \
+            [s["title"] for s in after] != [s["title"] for s in before], report
+
+
+_WATCH = """([sel]) => {
+  const ed = document.querySelector(sel);
+  const gd = ed.querySelector('.sn-plot-view .js-plotly-plot');
+  const readout = ed.querySelector('.sn-s .widget-readout');
+  const W = window.__snDrag = { plot: 0, readouts: 0, up: false, plotAfterUp: 0 };
+  new MutationObserver(() => { if (W.up) W.plotAfterUp++; else W.plot++; })
+    .observe(gd, { subtree: true, childList: true, attributes: true, characterData: true });
+  new MutationObserver(() => { W.readouts++; })
+    .observe(readout, { subtree: true, childList: true, characterData: true });
+}"""
+
+
+def test_a_slider_drag_updates_the_plot_while_dragging_and_ends_on_the_last_value(lab):
+    """Live drag (issue 22 item 3): the plot changes before the mouse is released, the kernel applies fewer
+    values than the slider showed (ipywidgets keeps one message in flight per control, the latest value
+    buffered: no pile-up), and the value the kernel ends on is the one the slider shows."""
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_drag", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "drag", pose=0)
+        kernel = bh.Kernel(runtime)
+        kernel.run("_seen = []\nse.model.observe(lambda c: _seen.append(c['new']), names='s')")
+        page.evaluate(_WATCH, [sel])
+        handle = page.locator(f"{sel} .sn-s .noUi-handle").first
+        b = handle.bounding_box()
+        x, y = b["x"] + b["width"] / 2, b["y"] + b["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for i in range(1, 31):   # a 3-second drag to the right, 2 px every 100 ms
+            page.mouse.move(x + 2 * i, y)
+            page.wait_for_timeout(100)
+        during = page.evaluate("() => ({...window.__snDrag})")
+        page.evaluate("() => { window.__snDrag.up = true; }")
+        page.mouse.up()
+        bh.wait_kernel_idle(page)
+        page.wait_for_timeout(1500)
+        bh.wait_kernel_idle(page)
+        readout = float(page.locator(f"{sel} .sn-s .widget-readout").first.inner_text())
+        seen = kernel.eval("list(_seen)")
+        final = kernel.eval("se.model.s")
+        kernel.close()
+        report.update(during=during, readout=readout, seen=seen, final=final)
+        bh.screenshot(page, "workspace_drag")
+        assert during["plot"] >= 1 and len(seen) >= 2, report       # the plot followed before the release
+        assert during["readouts"] >= 10, report                      # the slider moved through many values
+        assert abs(final - readout) < 1e-9 and seen and abs(seen[-1] - readout) < 1e-9, report
+        assert final > 0.0, report
+        print("drag:", {k: report[k] for k in ("during", "readout", "final")}, "kernel applied", len(seen), "values")
