@@ -20,7 +20,7 @@ sys.path.insert(0, str(REPO))
 
 import stagger_nb as sn  # noqa: E402
 from stagger_nb import staggered  # noqa: E402
-from stagger_nb.staggered.contact_layer import apply_contact_constraints  # noqa: E402
+from stagger_nb.staggered.plants import apply_contact_constraints  # noqa: E402
 from stagger_nb.staggered.geometry import edit_pose  # noqa: E402
 from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
 

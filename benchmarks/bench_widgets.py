@@ -87,8 +87,9 @@ def main():
 
     # -- StaggerEditor sliders, 900 frames ---------------------------------------------------------------
     e = StaggerEditor(m900, precompute=False)
-    if "keep_contacts" not in _known_ops(e.session):
-        e.model.keep_contacts = False
+    # the sliders are timed with the contact layer on (issue 20: "<= 50 ms with the layer on"), whatever the
+    # editor's default (off since the layer does not yet meet the issue's figures on every clip)
+    e.model.keep_contacts = "keep_contacts" in _known_ops(e.session)
     cold = []
     for pc in (50.0, 30.0, 70.0):
         cold.append(timed(lambda: setattr(e.model, "percent", pc)))

@@ -285,7 +285,9 @@ def test_stagger_model_pose_and_playhead_follow_each_other():
     m.pose_time = 1.2                           # retime the selected pose
     assert m.retimes == {1: 1.2}
     ops = M.stagger_params_to_ops(m.params())
-    assert {"op": "retime", "pose": 1, "time": 1.2} in ops and ops[-1] == {"op": "keep_contacts"}
+    assert {"op": "retime", "pose": 1, "time": 1.2} in ops and ops[-1]["op"] != "keep_contacts"   # off by default
+    m.keep_contacts = True
+    assert M.stagger_params_to_ops(m.params())[-1] == {"op": "keep_contacts"}
 
 
 def test_a_reloaded_session_restores_every_parameter(walk, tmp_path):

@@ -161,14 +161,14 @@ def test_same_op_on_the_same_state_is_not_recomputed(walk_session, monkeypatch):
     s = _fresh(walk_session, [{"op": "cull", "percent": p1}] + tail)
     first = s.edited()
     calls = []
-    for name in ("succession", "keep_contacts"):
+    for name in ("succession", "hold_plants"):       # the keep_contacts op runs hold_plants (its notes)
         real = getattr(staggered, name)
         monkeypatch.setattr(staggered, name, lambda *a, _r=real, _n=name, **k: calls.append(_n) or _r(*a, **k))
     s.set_ops([{"op": "cull", "percent": p2}] + tail)
     assert s.edited() is first and calls == [] and s.messages() == _fresh(walk_session, s.ops).messages()
     s.set_ops([{"op": "cull", "percent": p3}] + tail)
     third = s.edited()
-    assert calls == ["succession", "keep_contacts"]
+    assert calls == ["succession", "hold_plants"]
     monkeypatch.undo()
     fresh = Session(walk_session.source, s.ops).edited()   # a new cache: computed from scratch
     assert np.array_equal(third.local_quats, fresh.local_quats)

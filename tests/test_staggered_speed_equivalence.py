@@ -19,7 +19,7 @@ from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_bezier, quat_exp, quat_mul
 from references import plateau_weights_reference
-from stagger_nb.staggered import _kernels, contact_layer, geometry, limbs
+from stagger_nb.staggered import _kernels, geometry, limbs, plants
 from stagger_nb.staggered.evaluation import displacement_at, rotation_spline
 
 
@@ -52,11 +52,12 @@ def test_chain_fk_equals_full_fk_on_the_chains(edited):
     np.testing.assert_array_equal(wq[:, done], W[:, done])
 
 
-@pytest.mark.parametrize("opts", [{}, {"carry_by": "limb"}, {"mode": "track"}, {"lower_root": False}])
+@pytest.mark.parametrize("opts", [{}, {"carry_by": "limb"}, {"carry_by": "span"}, {"lower_root": False}])
 def test_keep_contacts_equals_full_fk_version(edited, monkeypatch, opts):
     m, ed = edited
     new = st.keep_contacts(ed, m, **opts)
-    monkeypatch.setattr(contact_layer, "_fk_joints", _full_fk)
+    monkeypatch.setattr(plants, "_fk_joints", _full_fk)
+    plants._SOURCE_CACHE.clear()
     old = st.keep_contacts(ed, m, **opts)
     np.testing.assert_array_equal(new.local_quats, old.local_quats)
     np.testing.assert_array_equal(new.root_positions, old.root_positions)

@@ -320,19 +320,23 @@ def test_warp_editor_keeps_out_of_range_skip(walk):
         e.close()
 
 
-def test_stagger_keep_contacts_on_by_default_and_ik_target_writes_an_op(walk):
+def test_stagger_keep_contacts_off_by_default_and_ik_target_writes_an_op(walk):
+    """keep_contacts is off by default (issue 20 item 4: the layer does not meet the issue's figures on every
+    clip yet); the checkbox turns it on, writing the op after the timing edit."""
     from stagger_nb.widgets import StaggerEditor
     e = StaggerEditor(walk, precompute=False)
     try:
-        assert e.model.keep_contacts and e.controls["keep_contacts"].value and not e.controls["keep_contacts"].disabled
+        assert not e.model.keep_contacts and not e.controls["keep_contacts"].value
+        assert not e.controls["keep_contacts"].disabled
         e.model.s = 0.02
-        assert e.session.ops[-1] == {"op": "keep_contacts"}
-        held = e.session.edited()
-        e.model.keep_contacts = False
         assert [o["op"] for o in e.session.ops] == ["succession"]
-        assert np.abs(held.local_quats - e.session.edited().local_quats).max() > 1e-6   # the constraint acted
+        plain = e.session.edited()
+        e.model.keep_contacts = True
+        assert e.session.ops[-1] == {"op": "keep_contacts"}
+        assert np.abs(plain.local_quats - e.session.edited().local_quats).max() > 1e-6   # the constraint acted
         e.session.undo()
-        assert e.model.keep_contacts and e.controls["keep_contacts"].value
+        assert not e.model.keep_contacts and not e.controls["keep_contacts"].value
+        e.model.keep_contacts = True
         # IK posing: choose the effector (sliders start at its place, no op), move the target
         e.model.pose = 3
         e.model.ik_joint = "LeftHand"

@@ -155,7 +155,13 @@ def _delete_pose(sm, op: O.DeletePose, run):
 
 def _keep_contacts(state, op: O.KeepContacts, run):
     origin = run.origin
-    return _needs("keep_contacts")(state, origin, source_positions=run.heads.positions(origin))
+    hold = getattr(_staggered(), "hold_plants", None)
+    if hold is None:              # a staggered without the plants layer's result form
+        return _needs("keep_contacts")(state, origin, source_positions=run.heads.positions(origin))
+    res = hold(state, origin, source_positions=run.heads.positions(origin))
+    for note in res.notes:        # no legs found, plants out of reach: Session.messages() shows them
+        run.note(note)
+    return res.motion
 
 
 def _ik_pose(sm, op: O.IKPose, run):

@@ -18,8 +18,9 @@ Modules, one job each (paper sections in brackets):
   :func:`random_timing`, :func:`retime`, one knot: :func:`refine`, their saturation :func:`saturate_offsets`,
   the per-joint time warp :func:`warp_times`, §5.2), ``timing_report`` (:func:`timing_warnings`; the one plain
   sentence of a timing edit: :func:`timing_summary`), ``structure`` (:func:`insert_pose`, :func:`delete_pose`).
-* constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the chains that hold a contact),
-  ``contact_layer`` (:func:`keep_contacts`: the source's contacts carried through the timing edits and held).
+* constraints (§3): ``ik`` (:func:`two_bone_ik`, :func:`ik_pose`), ``limbs`` (the limbs that hold a contact, on
+  any rig), ``plants`` (the contact layer, :func:`keep_contacts` / :func:`hold_plants`: the source's contacts
+  carried through the timing edits and held where the source holds them; issue 20).
 
 The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters
 are JSON-serialisable (joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
@@ -32,8 +33,8 @@ times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knot
 """
 from __future__ import annotations
 
-from .contact_layer import (apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
-                            contact_positions, foot_skate, keep_contacts)
+from .plants import (PlantsResult, apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
+                     contact_positions, foot_skate, hold_plants, keep_contacts)
 from .contacts import detect_contacts, end_effectors
 from .evaluation import evaluate, evaluate_arrays
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
@@ -56,4 +57,4 @@ __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detec
            "random_timing",
            "insert_pose", "delete_pose", "mean_pose", "apply_contact_constraints", "two_bone_ik",
            "contact_positions", "contact_errors", "foot_skate", "attenuation_weights", "carry_contacts",
-           "keep_contacts", "IKPoseResult", "ik_pose", "solve_limb"]
+           "keep_contacts", "hold_plants", "PlantsResult", "IKPoseResult", "ik_pose", "solve_limb"]
