@@ -25,8 +25,8 @@ sys.path.insert(0, str(REPO))
 
 from stagger_nb import read_bvh, staggered  # noqa: E402
 from stagger_nb.staggered import _kernels as K  # noqa: E402
-from stagger_nb.staggered import plants as C  # noqa: E402
 from stagger_nb.staggered import evaluation as R  # noqa: E402
+from stagger_nb.staggered import plants as C  # noqa: E402
 
 
 def cpu(f, n=30):

@@ -577,7 +577,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         lo = np.array([plants[i]["start"] for i in pid])
         hi = np.array([plants[i]["stop"] for i in pid])
         at_sig = {}
-        for j, e0, e1, A, B, a, b, _, ci in contacts_of.get(eff, ()):
+        for j, _e0, _e1, A, B, a, b, _, ci in contacts_of.get(eff, ()):
             kA, kB = np.searchsorted(fr, [A, B])
             if kB <= kA:
                 continue
@@ -928,7 +928,7 @@ def apply_contact_constraints(motion: Motion, contacts, reference: Motion | None
         if len(targets) != len(parsed):
             raise ValueError(f"targets: one per contact ({len(parsed)}), got {len(targets)}")
         given = []
-        for (j, a, b), t in zip(parsed, targets):
+        for (_j, a, b), t in zip(parsed, targets):
             t = np.asarray(t, dtype=float)
             if t.shape not in ((3,), (b - a, 3)) or not np.all(np.isfinite(t)):
                 raise ValueError(f"targets: each must be 3 finite numbers or ({b - a}, 3), got shape {t.shape}")
