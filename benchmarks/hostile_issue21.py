@@ -514,7 +514,7 @@ def _forked(calls, timeout=40.0):
                 try:
                     thunk()
                     outcome = "ok"
-                except Exception as e:  # noqa: BLE001
+                except Exception as e:
                     outcome = type(e).__name__
                 os.write(w, f"done {k} {outcome}\n".encode())
         finally:
@@ -712,8 +712,9 @@ def _refused_plainly(ed, label: str, ops0, sentence_words=()) -> str:
 
 def _editor_case(kind: str, action):
     def body(tmp: Path) -> str:
-        import stagger_nb as sn
         import traitlets
+
+        import stagger_nb as sn
         from stagger_nb import widgets
         walk = sn.data.load("walk")
         ed = getattr(widgets, kind)(walk, precompute=False) if kind != "WarpEditor" else widgets.WarpEditor(walk)
@@ -845,7 +846,7 @@ def run_child(name: str, tmp: str) -> int:
         ok = True
     except Fail as e:
         why, ok = str(e), False
-    except BaseException as e:  # noqa: BLE001 - an unexpected exception is the case's failure
+    except BaseException as e:
         import traceback
         tb = traceback.format_exc().strip().splitlines()
         why, ok = f"unexpected {type(e).__name__}: {str(e)[:300]} ({tb[-3].strip() if len(tb) > 2 else ''})", False
