@@ -37,10 +37,11 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "tests"))   # the naive reference lives beside the tests
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import data, quality, staggered  # noqa: E402
-from stagger_nb.core.body import pelvis_joint  # noqa: E402
-from quality_reference import compare_reference  # noqa: E402
+from quality_reference import compare_reference
+
+import stagger_nb as sn
+from stagger_nb import data, quality, staggered
+from stagger_nb.core.body import pelvis_joint
 
 SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared" / "mocap")
 

@@ -23,10 +23,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stagger_nb import read_bvh, staggered  # noqa: E402
-from stagger_nb.staggered import _kernels as K  # noqa: E402
-from stagger_nb.staggered import evaluation as R  # noqa: E402
-from stagger_nb.staggered import plants as C  # noqa: E402
+from stagger_nb import read_bvh, staggered
+from stagger_nb.staggered import _kernels as K
+from stagger_nb.staggered import evaluation as R
+from stagger_nb.staggered import plants as C
 
 
 def cpu(f, n=30):

@@ -18,11 +18,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb import staggered  # noqa: E402
-from stagger_nb.staggered.plants import apply_contact_constraints  # noqa: E402
-from stagger_nb.staggered.geometry import edit_pose  # noqa: E402
-from stagger_nb.staggered.fitting import fit_staggered  # noqa: E402
+import stagger_nb as sn
+from stagger_nb import staggered
+from stagger_nb.staggered.fitting import fit_staggered
+from stagger_nb.staggered.geometry import edit_pose
+from stagger_nb.staggered.plants import apply_contact_constraints
 
 CLIP = Path(os.environ.get("STAGGER_NB_MOCAP") or REPO.parent / "shared" / "mocap") / "cmu_131_01_walk_startstop.bvh"
 

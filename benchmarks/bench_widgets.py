@@ -24,9 +24,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import stagger_nb as sn  # noqa: E402
-from stagger_nb.session import Session  # noqa: E402
-from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor  # noqa: E402
+import stagger_nb as sn
+from stagger_nb.session import Session
+from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
 
 
 def timed(fn):

@@ -19,7 +19,7 @@
 #
 # | technique | paper | what you control |
 # |---|---|---|
-# | staggered poses | Coleman, Bibliowicz, Singh & Gleicher 2008 | a few extreme poses and the *timing* among body parts |
+# | staggered poses | Coleman, Bibliowicz, Singh & Gleicher 2008 | a few extreme poses, the *timing* among body parts |
 # | magic wand | Dean, Lewis & Chalmers 2018 | one edited frame; the data decides how far the edit reaches |
 # | guided time warping | Hsu, da Silva & Popović 2007 | the duration; a reference motion decides the timing |
 #
@@ -37,7 +37,7 @@ import numpy as np
 import plotly.io as pio
 
 import stagger_nb as sn
-from stagger_nb import plotting, staggered, timewarp, wand
+from stagger_nb import plotting, staggered, wand
 from stagger_nb.core.rotations import quat_angle
 
 walk = sn.data.load("walk")            # a sample clip from data/ (made by `make lab` / `make test`)
@@ -75,6 +75,7 @@ pio.show(plotting.skeleton_strobe_figure(positions, walk.skeleton.parents, frame
 
 # %%
 from stagger_nb.widgets import SkeletonView
+
 SkeletonView(walk)
 
 # %% [markdown]
@@ -156,5 +157,6 @@ shutil.rmtree(out_dir)   # a scratch folder: nothing is left behind in notebooks
 
 # %%
 from stagger_nb.widgets import StaggerEditor
+
 editor = StaggerEditor(session)
 editor

@@ -341,7 +341,7 @@ class QualityReport:
         """True when every bounded figure is inside :attr:`bounds`."""
         return not self.failures
 
-    def with_bounds(self, bounds) -> "QualityReport":
+    def with_bounds(self, bounds) -> QualityReport:
         """The same figures judged against other ``bounds`` (a preset name, :class:`Bounds` or dict)."""
         return dataclasses.replace(self, bounds=_bounds(bounds))
 
@@ -373,7 +373,8 @@ class QualityReport:
                                        self.baseline_foot_travel + _BASELINE_SLACK, False, "cm", worst_c.joint))
             if bad_h:
                 part, s = _part(high_c.joint)
-                out.append(SummaryItem("foot_height", f"{part} {_cm(self.foot_height)} off {'their' if s == '' else 'its'} "
+                whose = 'their' if s == '' else 'its'
+                out.append(SummaryItem("foot_height", f"{part} {_cm(self.foot_height)} off {whose} "
                                        "plant", self.foot_height, b.height, False, "cm", high_c.joint))
             if not (bad_t or bad_h or worse):
                 out.append(SummaryItem("foot_travel", "feet held", self.foot_travel, b.travel, True, "cm"))

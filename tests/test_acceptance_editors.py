@@ -13,12 +13,11 @@ import json
 import numpy as np
 import pytest
 import traitlets
+from conftest import shared_clip_path
 
 import stagger_nb as sn
 from stagger_nb import staggered
 from stagger_nb.session import Session
-
-from conftest import shared_clip_path
 
 REAL = ["xia_neutral_walk.bvh", "bandai_walk.bvh", "cmu_131_01_walk_startstop.bvh", "pymo_walk_turnaround.bvh",
         "xia_angry_run.bvh", "bandai_run_cycle.bvh"]

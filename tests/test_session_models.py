@@ -356,6 +356,7 @@ def test_stagger_nudges_follow_a_new_cull_and_undo(walk):
     """Pose edits apply to the state after the cull: after a new cull the nudge is the same change of the new
     pose (not the old absolute value), and undoing the cull restores the first motion exactly."""
     import numpy as np
+
     from stagger_nb import staggered
     s = Session(walk.slice(0, 240))
     m = M.StaggerModel(root="Hips", frame_time=walk.frame_time, keep_contacts=False)

@@ -6,9 +6,14 @@ import pytest
 
 from stagger_nb import Motion, Skeleton, forward_kinematics
 from stagger_nb.core.rotations import quat_angle, quat_normalize, rotvec_to_quat
-from stagger_nb.staggered.plants import (apply_contact_constraints, attenuation_weights, contact_errors,
-                                         contact_positions, foot_skate)
 from stagger_nb.staggered.ik import two_bone_ik
+from stagger_nb.staggered.plants import (
+    apply_contact_constraints,
+    attenuation_weights,
+    contact_errors,
+    contact_positions,
+    foot_skate,
+)
 
 
 def leg_skeleton() -> Skeleton:
@@ -61,7 +66,8 @@ def test_two_bone_ik_reaches_reachable_targets_and_clamps_unreachable():
 
 
 def test_two_bone_ik_straight_leg_uses_fallback_axis():
-    sk = Skeleton(["R", "P", "H", "K", "A"], [-1, 0, 1, 2, 3], [[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, -4, 0], [0, -4, 0]])
+    sk = Skeleton(["R", "P", "H", "K", "A"], [-1, 0, 1, 2, 3],
+                  [[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, -4, 0], [0, -4, 0]])
     m = Motion(sk, 1 / 30, np.zeros((1, 3)), quat_normalize(np.tile([0, 0, 0, 1.0], (1, 5, 1))))
     pos, wq = forward_kinematics(m)
     target = np.array([[0.0, -7.0, 0.0]])  # 1 unit closer: the knee must bend

@@ -11,7 +11,8 @@ from stagger_nb.core.kinematics import forward_kinematics
 
 # Units -> cm. Bandai clips and the procedural clips are in centimetres; the Xia and CMU clips use CMU's
 # ASF length unit, 1/0.45 inch = 2.54 / 0.45 = 5.644 cm (a CMU skeleton is ~25 units tall at rest).
-CLIPS = [("xia_neutral_walk.bvh", 2.54 / 0.45), ("bandai_walk.bvh", 1.0), ("cmu_131_01_walk_startstop.bvh", 2.54 / 0.45)]
+CLIPS = [("xia_neutral_walk.bvh", 2.54 / 0.45), ("bandai_walk.bvh", 1.0),
+         ("cmu_131_01_walk_startstop.bvh", 2.54 / 0.45)]
 SHRINK_S = 0.1     # seconds cut from each end of a contact before measuring (the measure)
 GOAL_CM = 1.0
 
@@ -173,7 +174,8 @@ def test_carry_by_limb_uses_the_hip_timing(walk):
     m, sm = walk
     hips, inner = _delayed(sm, m, "LHipJoint", "LeftUpLeg")
     toes, _ = _delayed(sm, m, "LeftFoot", "LeftToeBase")
-    for edited, by, moves in ((hips, "limb", True), (toes, "limb", False), (hips, "joint", False), (toes, "joint", True)):
+    cases = ((hips, "limb", True), (toes, "limb", False), (hips, "joint", False), (toes, "joint", True))
+    for edited, by, moves in cases:
         got = staggered.carry_contacts(edited, inner, m.frame_time, carry_by=by)
         assert got == [(n, a + 3 * moves, b + 3 * moves) for n, a, b in inner], (by, moves)
     out = staggered.keep_contacts(stagger(sm), m, carry_by="limb")

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from references import plateau_weights_reference
 
 import stagger_nb as sn
 from stagger_nb import staggered as st
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_bezier, quat_exp, quat_mul
-from references import plateau_weights_reference
 from stagger_nb.staggered import _kernels, geometry, limbs, plants
 from stagger_nb.staggered.evaluation import displacement_at, rotation_spline
 

@@ -6,12 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import traitlets
+from editor_helpers import from_browser
 
 import stagger_nb as sn
 from stagger_nb import staggered, timewarp, wand
 from stagger_nb.session import Session, apply_pose_deltas, joint_rotation_degrees
-
-from editor_helpers import from_browser
 
 
 @pytest.fixture(scope="module")
@@ -494,6 +493,7 @@ def test_an_editors_controls_share_equal_layouts_and_styles(walk):
     """Controls with the same layout (or style) settings share one model (fewer models for a page reload to
     restore); a shared model is still open, and the settings each control shows are unchanged."""
     import ipywidgets
+
     from stagger_nb.widgets import StaggerEditor
     e = StaggerEditor(walk.slice(0, 120), precompute=False)
     try:
@@ -518,8 +518,9 @@ def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk)
     jsdlinks, saved inside the Play's change) before the Play's and the slider's own. None of it may come back to
     the Play or the slider (a stale frame from the kernel made the slider jump back under load and left the
     kernel a frame off the browser); a click on a plot still seeks."""
-    from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
     from test_widgets_plots import _sends
+
+    from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
     for make in (lambda: StaggerEditor(walk.slice(0, 120), precompute=False), lambda: WandEditor(walk.slice(0, 120)),
                  lambda: WarpEditor(walk.slice(0, 120))):
         e = make()

@@ -117,7 +117,7 @@ class Manifest:
                           "then replaces none of the files in the folder) or restore it")
 
     @classmethod
-    def load(cls, root: str, shown: str) -> "Manifest":
+    def load(cls, root: str, shown: str) -> Manifest:
         m = cls(root, shown)
         if not os.path.lexists(os.path.join(root, MANIFEST)):
             return m
@@ -150,7 +150,7 @@ class Manifest:
         if not (isinstance(table, list) and len(table) <= 2
                 and all(isinstance(t, str) and _HEX64.fullmatch(t) for t in table)):
             raise m._bad("'table_sha256' is not a list of SHA-256")
-        for n, (rel, entry) in enumerate(clips.items(), 1):
+        for n, entry in enumerate(clips.values(), 1):
             why = _entry_problem(entry)
             if why:
                 raise m._bad(f"entry {n} of {len(clips)}: {why}")

@@ -14,8 +14,7 @@ import time
 
 from ..io._common import WriteError, atomic_write_bytes, read_confined
 from .discover import clip_sha256, find_clips
-from .report import (REPORT_CSV, REPORT_JSON, BatchError, BatchResult, Manifest, report_failure, text_of,
-                     write_reports)
+from .report import REPORT_CSV, REPORT_JSON, BatchError, BatchResult, Manifest, report_failure, text_of, write_reports
 from .tasks import _pose_schema, _run_task, _table_bytes
 
 __all__ = ["run_session_batch", "run_extract_poses", "THREAD_ENV"]
@@ -177,7 +176,7 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
         _give_up(out_real, shown, report, result, str(e), "nothing was run")
     try:
         results = _execute(tasks, executor, workers, scheduler, progress, timeout)
-    except Exception as e:  # noqa: BLE001 - a stopped scheduler, a timeout: said in the report, then raised
+    except Exception as e:
         _give_up(out_real, shown, report, result, f"the run stopped: {type(e).__name__}: {e}",
                  "the clips finished before it stopped are not recorded", cause=e)
     for r in sorted(results, key=lambda r: r["file"]):

@@ -46,7 +46,7 @@ def _run_task(task: dict) -> dict:
         write_confined(task["out_root"], task["out_rel"], data, replace=task["replace"])
         res["output_sha256"] = hashlib.sha256(data).hexdigest()
         res["ok"] = True
-    except Exception as e:  # noqa: BLE001 - recorded per file, the run goes on
+    except Exception as e:
         res["line"] = getattr(e, "line", None)
         res["error"] = f"{type(e).__name__}: {e}" if not isinstance(e, ValueError) else str(e)
         if not isinstance(e, ValueError):
@@ -68,7 +68,7 @@ def _session_bytes(task: dict) -> tuple[bytes, dict]:
     try:
         row = {k: None if isinstance(v, float) and not math.isfinite(v) else v
                for k, v in s.quality().to_row().items()}
-    except Exception as e:  # noqa: BLE001 - the clip is written; what could not be measured is said in its row
+    except Exception as e:
         row = {"error": f"quality: {e}" if isinstance(e, ValueError) else f"quality: {type(e).__name__}: {e}"}
     return data, row
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
+
 from ..core.motion import MAX_FRAME_JOINTS, Motion, check_frame_time
 from ..core.rotations import quat_conj, quat_mul
 from ..core.skeleton import Skeleton

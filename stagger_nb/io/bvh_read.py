@@ -34,8 +34,20 @@ from ..core.accel import NO_ACCEL_ENV, accel_allowed
 from ..core.motion import MAX_FRAME_JOINTS, MAX_FRAME_TIME, MIN_FRAME_TIME, Motion, _continuous_inplace
 from ..core.rotations import quat_continuous
 from ..core.skeleton import Skeleton
-from ._common import (_EULER_BLOCK, MAX_TOKEN, UTF8_BOM, FormatError, decode, euler_components, euler_deg_to_quat,
-                      file_path, finite_number, quarter_tan, read_bytes, split_values)
+from ._common import (
+    _EULER_BLOCK,
+    MAX_TOKEN,
+    UTF8_BOM,
+    FormatError,
+    decode,
+    euler_components,
+    euler_deg_to_quat,
+    file_path,
+    finite_number,
+    quarter_tan,
+    read_bytes,
+    split_values,
+)
 from ._numparse import NUMBER_RE, content_end, parse_lines
 
 try:
@@ -463,7 +475,7 @@ def _pool(workers: int):
     return _POOL
 
 
-def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: "_Layout", out) -> tuple[int, int]:
+def _read_chunks(raw: bytes, pos: int, stop: int, nf: int, C: int, layout: _Layout, out) -> tuple[int, int]:
     """Parse ``raw[pos:stop]`` (``nf`` lines of ``C`` numbers) piece by piece with
     :func:`._numparse.parse_lines`, each piece converted into its frames of ``out`` at once, the pieces
     spread over the CPUs (numpy and pyarrow release the GIL). Returns ``(position, frames)``: where the

@@ -19,8 +19,8 @@ import itertools
 import threading
 import weakref
 from collections import OrderedDict
+from collections.abc import Callable, Hashable
 from concurrent.futures import Future
-from typing import Callable, Hashable
 
 import numpy as np
 

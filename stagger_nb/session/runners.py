@@ -9,15 +9,27 @@ on the poses, issue 24); :mod:`.motion_runners` the motion ops' and the warps'.
 """
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from ..core.motion import Motion
 from . import ops as O
 from .heads import Heads
-from .motion_runners import (MAX_WARP_RATIO, _edit_frame, _edit_frames, _guide_poses, _guided_warp, _linear_warp,
-                             _propagate, _resample, even_upsample, warp_k, warp_size, warp_table_key)
+from .motion_runners import (
+    MAX_WARP_RATIO,
+    _edit_frame,
+    _edit_frames,
+    _guide_poses,
+    _guided_warp,
+    _linear_warp,
+    _propagate,
+    _resample,
+    even_upsample,
+    warp_k,
+    warp_size,
+    warp_table_key,
+)
 from .run import Run, _joint, _list, _needs, _pose, _staggered, apply_pose_deltas, convert
 
 __all__ = ["RUNNERS", "BATCHED", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k",

@@ -12,8 +12,9 @@ import hashlib
 import json
 import os
 import weakref
+from collections.abc import Callable
 from concurrent.futures import Future
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -23,10 +24,20 @@ from ..io._common import atomic_write_bytes, file_path, read_regular_file
 from ..io.bvh import write_bvh
 from .cache import Cache
 from .deprecated import REQUIRED
-from .files import (SESSION_FORMAT, SESSION_VERSION, check_export_target, check_save_target, export_gltf,
-                    motion_from_json, motion_to_json, read_session_json, read_source, session_bytes)
-from .history import Flag, History
+from .files import (
+    SESSION_FORMAT,
+    SESSION_VERSION,
+    check_export_target,
+    check_save_target,
+    export_gltf,
+    motion_from_json,
+    motion_to_json,
+    read_session_json,
+    read_source,
+    session_bytes,
+)
 from .heads import CachedHeads, Heads
+from .history import Flag, History
 from .ops import Op
 from .ops.fields import _fail, _limit, check_extract_options, text
 from .quality import session_quality
@@ -78,7 +89,7 @@ class Session(CachedHeads):
         weakref.finalize(self, self._worker.stop)   # a dropped session leaves no thread behind
 
     @classmethod
-    def from_bvh(cls, path, ops=None, **kwargs) -> "Session":
+    def from_bvh(cls, path, ops=None, **kwargs) -> Session:
         """Read ``path`` as the source motion (remembering the path)."""
         motion, _ = read_source(file_path(path, "path"), "path")
         return cls(motion, ops, source_path=path, **kwargs)
@@ -310,7 +321,7 @@ class Session(CachedHeads):
         atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
 
     @classmethod
-    def from_json(cls, data: Any, source: Motion | None = None) -> "Session":
+    def from_json(cls, data: Any, source: Motion | None = None) -> Session:
         """Validate ``data`` (a parsed session file) and build the session. ``source`` overrides the
         stored source (for a moved file)."""
         if not isinstance(data, dict):
@@ -346,7 +357,7 @@ class Session(CachedHeads):
         return cls(source, ops, source_path=path, extract_options=opts)
 
     @classmethod
-    def load(cls, path, source: Motion | None = None) -> "Session":
+    def load(cls, path, source: Motion | None = None) -> Session:
         """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
         return cls.from_json(read_session_json(path), source=source)
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import Future, InvalidStateError
 from contextlib import contextmanager
-from typing import Callable
 
 import numpy as np
 
@@ -135,7 +135,7 @@ class Worker:
 
 
 def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Future], None]) -> None:
-    done = 0
+    done, n_items = 0, len(items)
     try:
         for item in items:
             label, fn = item[:2]
@@ -146,7 +146,8 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
             report = None
             if progress is not None:
                 progress(done, len(items), label)
-                report = (lambda f, d=done, n=len(items), lb=label: progress(d + min(max(float(f), 0.0), 1.0), n, lb))
+                def report(f, d=done, n=n_items, lb=label):
+                    progress(d + min(max(float(f), 0.0), 1.0), n, lb)
             fn(report)
             done += 1
         if progress is not None:
@@ -154,7 +155,7 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
         fut.set_result(done)
     except InvalidStateError:  # cancelled between the last check and the result
         pass
-    except BaseException as e:  # noqa: BLE001 - handed to whoever waits on the future
+    except BaseException as e:
         try:
             fut.set_exception(e)
         except InvalidStateError:
@@ -164,9 +165,9 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
 def warm_items(session, jobs) -> list:
     """The ``(label, fn[, wait])`` items of :meth:`Session.warm <stagger_nb.session.Session.warm>`'s ``jobs`` on
     ``session`` (each checked now: ValueError naming ``jobs[i]``)."""
+    from .motion_runners import warp_k, warp_size
     from .ops import GuidedWarp
     from .ops.fields import _fail, number, optional
-    from .motion_runners import warp_k, warp_size
     percent, sigma = number(0.0, 100.0, open_lo=True), optional(number(0.0, open_lo=True))
     items = []
     for i, job in enumerate(jobs):

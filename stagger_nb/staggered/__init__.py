@@ -23,8 +23,9 @@ Modules, one job each (paper sections in brackets):
   carried through the timing edits and held where the source holds them; issue 20).
 
 The editing tools (§5): every tool is a pure function ``StaggeredMotion -> StaggeredMotion`` whose parameters
-are JSON-serialisable (joint names, numbers, lists), so an edit session can record ``{"op": "succession", "root": "LeftShoulder",
-"s": 0.03, "l": 2.0}`` and replay it; tools take an optional ``joints=`` subset (partial poses, §6).
+are JSON-serialisable (joint names, numbers, lists), so an edit session can record
+``{"op": "succession", "root": "LeftShoulder", "s": 0.03, "l": 2.0}`` and replay it; tools take an optional
+``joints=`` subset (partial poses, §6).
 
 Notation (as in ``representation``): K poses at times ``t_k``, J joints, refinements ``r[k, i]``, knot
 times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knots ``v⁰[k, i]`` (the true pose at
@@ -33,8 +34,6 @@ times ``T[k, i] = t_k + r[k, i]``, extreme-value knots ``v[k, i]``, editing knot
 """
 from __future__ import annotations
 
-from .plants import (PlantsResult, apply_contact_constraints, attenuation_weights, carry_contacts, contact_errors,
-                     contact_positions, foot_skate, hold_plants, keep_contacts)
 from .contacts import detect_contacts, end_effectors
 from .evaluation import evaluate, evaluate_arrays
 from .extraction import PoseEvidence, cull, cull_keep, extract, locate_poses, pose_priorities
@@ -42,10 +41,30 @@ from .features import motion_trail_curvature
 from .fitting import fit_staggered
 from .geometry import OffsetBasis, edit_pose, exaggerate, mean_pose, pose_offset_basis, spread_offsets
 from .ik import IKPoseResult, ik_pose, solve_limb, two_bone_ik
+from .plants import (
+                     PlantsResult,
+                     apply_contact_constraints,
+                     attenuation_weights,
+                     carry_contacts,
+                     contact_errors,
+                     contact_positions,
+                     foot_skate,
+                     hold_plants,
+                     keep_contacts,
+)
 from .representation import StaggeredMotion, knot_times
 from .structure import delete_pose, insert_pose
-from .timing import (TIMING_LIMIT, random_timing, refine, retime, saturate_offsets, source_knot_times,
-                     source_pose_times, succession, warp_times)
+from .timing import (
+                     TIMING_LIMIT,
+                     random_timing,
+                     refine,
+                     retime,
+                     saturate_offsets,
+                     source_knot_times,
+                     source_pose_times,
+                     succession,
+                     warp_times,
+)
 from .timing_report import TimingWarning, body_part, summarize_timing_warnings, timing_summary, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",

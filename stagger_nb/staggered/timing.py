@@ -20,10 +20,10 @@ import weakref
 import numpy as np
 
 from ..core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT
+from . import timing_report
 from ._checks import _check, _finite, _joint_mask, _pose_index, _pose_mask, _pose_weights
 from .evaluation import evaluate_samples
 from .representation import StaggeredMotion
-from . import timing_report
 from .timing_report import _LazyWarnings
 
 __all__ = ["succession", "random_timing", "retime", "refine", "source_knot_times", "source_pose_times", "warp_times",

@@ -29,14 +29,35 @@ free length and backward use ``u, r = free_length_search(m.frame_time)`` and
 """
 from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
-from .guided import (FREE_K, FREE_UPSAMPLE, WarpSolution, WarpTables, cached_prepare_warp, clear_tables_cache,
-                     free_length_search, guided_warp, penalty_unit, prepare_warp, required_upsample, reverse_motion,
-                     slice_tables, solve_warp, warp_memory)
+from .guided import (
+                     FREE_K,
+                     FREE_UPSAMPLE,
+                     WarpSolution,
+                     WarpTables,
+                     cached_prepare_warp,
+                     clear_tables_cache,
+                     free_length_search,
+                     guided_warp,
+                     penalty_unit,
+                     prepare_warp,
+                     required_upsample,
+                     reverse_motion,
+                     slice_tables,
+                     solve_warp,
+                     warp_memory,
+)
 from .linear import linear_warp, linear_warp_curve
 from .measures import airborne_frames, airborne_speed, intervals, overall_speed, speed_inside
 from .objective import end_scores, knn_scores
-from .postprocess import (apply_warp, meet_keytimes, parse_keytimes, smooth_warp, speed_at_input_times, speed_jumps,
-                          warp_speed)
+from .postprocess import (
+                     apply_warp,
+                     meet_keytimes,
+                     parse_keytimes,
+                     smooth_warp,
+                     speed_at_input_times,
+                     speed_jumps,
+                     warp_speed,
+)
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",

@@ -333,7 +333,7 @@ def prepare_warp(m: Motion, reference: Motion, skip: int = 8, upsample: int = 1,
                       int(candidates) if mode == "approx" else 0, ends, out_step, rev_ref)
 
 
-_TABLES: "OrderedDict[bytes, WarpTables]" = OrderedDict()
+_TABLES: OrderedDict[bytes, WarpTables] = OrderedDict()
 _TABLES_LOCK = threading.Lock()
 
 
@@ -724,7 +724,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         0.1 s box: 0.69 / 1.20 and 0.42 / 1.20); the goal is <= 0.12 / <= 0.25.
     adaptive : adaptive smoothing of the resampled motion under compression (§3.4)
     tables : precomputed :func:`prepare_warp` result to reuse (without it, the tables of the last few calls are
-        reused when the input, reference and objective options are the same: :func:`cached_prepare_warp`); then ``reference``, ``skip``, ``upsample``,
+        reused when the input, reference and objective options are the same: :func:`cached_prepare_warp`); then
+        ``reference``, ``skip``, ``upsample``,
         ``reverse`` and the objective options are the ones the tables were prepared with (the editor's cheap
         tail: cache one table per upsampling factor, :func:`required_upsample` says which one a length needs)
     progress : callable(fraction in [0, 1]) or None

@@ -15,7 +15,8 @@ from scipy.ndimage import uniform_filter1d
 from ..core.motion import Motion
 from ..core.rotations import quat_normalize
 
-__all__ = ["parse_keytimes", "meet_keytimes", "smooth_warp", "warp_speed", "speed_at_input_times", "apply_warp", "speed_jumps",
+__all__ = ["parse_keytimes", "meet_keytimes", "smooth_warp", "warp_speed", "speed_at_input_times", "apply_warp",
+           "speed_jumps",
            "JUMP_INTERVAL"]
 
 JUMP_INTERVAL = 1.0 / 30.0   # seconds: speed changes are measured between output times this far apart

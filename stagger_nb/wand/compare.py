@@ -14,8 +14,14 @@ from scipy.sparse.csgraph import dijkstra
 from ..core.motion import Motion
 from .falloff import check_frame_range, falloff_extent, greens_falloff
 from .greens import GreensBasis, greens_basis
-from .laplacian import (dense_kernel, default_sigma, knn_graph, normalized_adjacency, pairwise_sq_distances,
-                        symmetric_edges)
+from .laplacian import (
+    default_sigma,
+    dense_kernel,
+    knn_graph,
+    normalized_adjacency,
+    pairwise_sq_distances,
+    symmetric_edges,
+)
 from .pose_space import pose_vectors
 
 __all__ = ["isomap_distance", "diffusion_distance", "spline_falloff", "smoothstep", "normalize_distance",

@@ -60,13 +60,27 @@ import scipy.sparse.linalg as spla
 
 from ..core.digest import content_key
 from ..core.motion import Motion
-from .laplacian import (CHAIN_FLOOR, KernelPattern, KnnGraph, _check_sigma, default_sigma, dense_kernel,
-                        distinct_poses, kernel_pattern, knn_graph, normalized_adjacency, normalized_laplacian,
-                        pairwise_sq_distances, quotient_pattern, sparse_kernel)
+from .laplacian import (
+    CHAIN_FLOOR,
+    KernelPattern,
+    KnnGraph,
+    _check_sigma,
+    default_sigma,
+    dense_kernel,
+    distinct_poses,
+    kernel_pattern,
+    knn_graph,
+    normalized_adjacency,
+    normalized_laplacian,
+    pairwise_sq_distances,
+    quotient_pattern,
+    sparse_kernel,
+)
 from .pose_space import pose_vectors
 
 __all__ = ["GreensBasis", "PoseGraph", "pose_graph", "greens_basis", "greens_rows", "NULL_TOL", "GRAPH_CACHE",
-           "DENSE_MAX_FRAMES", "SPARSE_MAX_FRAMES", "MAX_LANDMARKS", "DEFAULT_NUM_EIGS", "DEFAULT_KNN", "cached_pose_graph", "clear_graph_cache"]
+           "DENSE_MAX_FRAMES", "SPARSE_MAX_FRAMES", "MAX_LANDMARKS", "DEFAULT_NUM_EIGS", "DEFAULT_KNN",
+           "cached_pose_graph", "clear_graph_cache"]
 
 NULL_TOL = 1e-9          # eigenvalues of L (in [0, 2]) below this are the null space (connected components)
 DENSE_MAX_FRAMES = 1200  # method="auto": dense eigendecomposition up to this many frames (~0.2 s), sparse above
@@ -463,7 +477,7 @@ def _quotient_graph(X: np.ndarray, method: str, k: int, first, inverse, counts) 
     return PoseGraph(X, None, table, method, landmarks, pattern, nodes, ncount)
 
 
-_GRAPHS: "OrderedDict[bytes, PoseGraph]" = OrderedDict()
+_GRAPHS: OrderedDict[bytes, PoseGraph] = OrderedDict()
 _GRAPHS_LOCK = threading.Lock()
 
 

@@ -32,9 +32,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["pairwise_sq_distances", "KnnGraph", "KernelPattern", "kernel_pattern", "knn_graph", "default_sigma", "dense_kernel",
+__all__ = ["pairwise_sq_distances", "KnnGraph", "KernelPattern", "kernel_pattern", "knn_graph", "default_sigma",
+           "dense_kernel",
            "sparse_kernel", "normalized_adjacency", "normalized_laplacian", "DEFAULT_SIGMA_NEIGHBOURS",
-           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges", "quotient_pattern", "distinct_poses"]
+           "DEFAULT_SIGMA_PERCENTILE", "CHAIN_FLOOR", "KERNEL_CUTOFF", "symmetric_edges", "quotient_pattern",
+           "distinct_poses"]
 
 # Default sigma = this percentile over frames of the distance to the k-th nearest neighbour (see default_sigma).
 DEFAULT_SIGMA_NEIGHBOURS = 8

@@ -2,8 +2,8 @@
 skeleton view and plotly plots updated in place. No math here: numbers come from the technique packages
 and the session."""
 from .export import export_html
-from .skeleton_view import SkeletonView
 from .plots import FalloffPlot, JointCurvesPlot, PlotView, ProbabilityPlot, WarpPlot
+from .skeleton_view import SkeletonView
 
 __all__ = ["SkeletonView", "export_html", "PlotView", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot", "WarpPlot",
            "StaggerEditor", "WandEditor", "WarpEditor"]

@@ -438,7 +438,7 @@ class _Editor(widgets.VBox):
             edited = self.session.edited(progress=self._on_progress)
             self._update_views(edited)
             self.error = ""
-        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+        except Exception as e:
             self.error = plain_message(e)
         self._show_message()
 
@@ -447,7 +447,7 @@ class _Editor(widgets.VBox):
         :meth:`_refresh`, never raised into the front end."""
         try:
             draw(self.session.edited())
-        except Exception as e:  # noqa: BLE001 - the UI boundary: report, never raise into the frontend
+        except Exception as e:
             self.error = plain_message(e)
             self._show_message()
 

@@ -38,7 +38,7 @@ import numpy as np
 from .. import scene3d
 from ..core.motion import Motion
 from ..io._common import atomic_write_bytes, read_file_head
-from .skeleton_view import _PALETTE, _rgb, MESH_JS
+from .skeleton_view import _PALETTE, MESH_JS, _rgb
 
 __all__ = ["export_html", "read_export"]
 

@@ -28,8 +28,8 @@ the former ``update(...)`` methods (deprecated: build with :mod:`stagger_nb.plot
 from __future__ import annotations
 
 import base64
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import anywidget
 import ipywidgets as widgets
@@ -38,7 +38,8 @@ import traitlets as t
 
 from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
 
-__all__ = ["PlotView", "PlotState", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot", "FalloffPlot",
+__all__ = ["PlotView", "PlotState", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot",
+           "FalloffPlot",
            "WarpPlot"]
 
 _JS = (Path(__file__).with_name("plot_view.js")).read_text(encoding="utf-8")

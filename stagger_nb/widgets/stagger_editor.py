@@ -8,13 +8,23 @@ import ipywidgets as widgets
 import traitlets
 
 from ..core.motion import Motion
+from ..plotting import joint_curves_figure, pose_probability_figure
 from ..session import Session
 from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
 from ..session.timeline import knot_table_of
-from ..plotting import joint_curves_figure, pose_probability_figure
-from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _Editor, _default_joint, _inert, _link, _session_for,
-                      _slider, _x_span)
+from ._editor import (
+    _PLOT_HEIGHT,
+    _STYLE,
+    _VIEW_SIZE,
+    _default_joint,
+    _Editor,
+    _inert,
+    _link,
+    _session_for,
+    _slider,
+    _x_span,
+)
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 from .timeline import Timeline

@@ -15,8 +15,8 @@ view itself, so a browser-side ``jsdlink`` from a Play moves the playhead withou
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import anywidget
 import ipywidgets as widgets

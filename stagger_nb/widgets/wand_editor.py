@@ -6,12 +6,23 @@ import math
 import ipywidgets as widgets
 
 from ..core.motion import Motion
+from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
 from ..session import Session
 from ..session.models import WandModel
 from ..session.models.views import joint_curves_view
-from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
-from ._editor import (_PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _default_joint, _inert, _link,
-                      _session_for, _slider, _x_span)
+from ._editor import (
+    _PLOT_HEIGHT,
+    _STYLE,
+    _VIEW_SIZE,
+    _WIDE,
+    _default_joint,
+    _Editor,
+    _inert,
+    _link,
+    _session_for,
+    _slider,
+    _x_span,
+)
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 

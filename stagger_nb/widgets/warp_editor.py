@@ -5,10 +5,10 @@ import ipywidgets as widgets
 import traitlets
 
 from ..core.motion import Motion
+from ..plotting import warp_figure
 from ..session import Session, warp_table_key
 from ..session.models import WarpModel
 from ..session.models.views import warp_tables_to_warm, warp_view
-from ..plotting import warp_figure
 from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _link, _session_for, _slider
 from .plots import PlotView
 from .skeleton_view import SkeletonView

@@ -7,12 +7,12 @@ import contextlib
 import copy
 import json
 import weakref
-from typing import Callable
+from collections.abc import Callable
 
 import traitlets as T
 
-from ..replay import ReplayError
 from ..ops import OPS
+from ..replay import ReplayError
 from ._base import _canon, _Model
 from .merge import _edit_prefix, _stagger_home, _wand_home, _wand_input_frames, _warp_home, merge_ops
 from .messages import plain_message
