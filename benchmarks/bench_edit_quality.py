@@ -165,6 +165,102 @@ def condensed(rows, edits):
             print(f"{c[:26]:26s}" + "".join(f"{fn(idx.get((c, e, layer))):>16s}" for e in edits))
 
 
+# the slider grid for the timing edit alone (layer off): every corner and interior points of the editor's
+# sliders (s in [-0.1, 0.1], l in [0.25, 4], tau in [0, 0.15]), succession from the pelvis and the left shoulder,
+# also scaled by a region falloff (compose's weights: a raised-cosine bump over the middle half of the poses)
+GRID_S = (-0.1, -0.05, -0.02, 0.0, 0.02, 0.05, 0.1)
+GRID_L = (0.25, 1.0, 2.0, 4.0)
+GRID_TAU = (0.0, 0.05, 0.15)
+QUICK_S, QUICK_L, QUICK_TAU = (-0.1, 0.03, 0.1), (0.25, 2.0, 4.0), (0.0, 0.15)
+
+
+def _falloff(K):
+    import numpy as np
+    x = np.linspace(0.0, 1.0, K)
+    return np.where(np.abs(x - 0.5) < 0.25, 0.5 + 0.5 * np.cos(np.pi * (x - 0.5) / 0.25), 0.0)
+
+
+def grid(sm, m, raw: bool, quick: bool):
+    """Worst figures of the timing edit alone over the slider grid: (cells, worst pop, its setting, joints
+    with knots out of order, the worst setting for them, cells that fail their preset's pop bound)."""
+    import numpy as np
+    S, L, TAU = (QUICK_S, QUICK_L, QUICK_TAU) if quick else (GRID_S, GRID_L, GRID_TAU)
+    prep = sn.quality.prepare(m)
+    limit = {"limit": None} if raw else {}
+    pel, sh = m.skeleton.names[pelvis_joint(m.skeleton)], shoulder_of(m.skeleton)
+    w = _falloff(sm.num_poses)
+    n, worst_pop, worst_at, worst_knots, knots_at, fails = 0, 0.0, "", 0, "", 0
+    for root in (pel, sh):
+        for s in S:
+            for l in L:
+                for tau in TAU:
+                    for weights in ((None, w) if not quick or (s, tau) == (S[0], TAU[-1]) else (None,)):
+                        e = staggered.succession(sm, root=root, s=s, l=l, weights=weights, **limit) if s else sm
+                        if tau:
+                            e = staggered.random_timing(e, tau=tau, seed=0, weights=weights, **limit)
+                        T = staggered.knot_times(e)
+                        bad = int((~np.all(np.diff(T, axis=0) > 0, axis=0)).sum())
+                        preset = "mild" if abs(s) <= 0.02 and l <= 1 and tau <= 0.05 else (
+                            "moderate" if abs(s) <= 0.03 and l <= 2 and tau <= 0.1 else "strong")
+                        r = sn.quality.compare(m, staggered.evaluate(e), staggered=e, prepared=prep, bounds=preset)
+                        n += 1
+                        at = (f"{'pelvis' if root == pel else 'shoulder'} s={s:g} l={l:g} tau={tau:g}"
+                              + (" region" if weights is not None else ""))
+                        if r.added_pop > worst_pop:
+                            worst_pop, worst_at = r.added_pop, at
+                        if bad > worst_knots:
+                            worst_knots, knots_at = bad, at
+                        fails += r.added_pop > sn.quality.PRESETS[preset].pop + 1e-9 or bad > 0
+    return n, worst_pop, worst_at, worst_knots, knots_at, fails
+
+
+def goals_table(rows, edits):
+    """The issue's goals per clip: unedited / mild / moderate / strong, layer off and on, ``pass`` or the
+    failing figures (travel, height, floor, pelvis, pop, knots, moved, sliding more than without the layer)."""
+    if not edits or not rows:
+        return
+    idx = {(r["clip"], r.get("edit"), r.get("layer")): r for r in rows}
+    names = list(dict.fromkeys(r["clip"] for r in rows))
+    print()
+    print("the issue's goals per clip (pass, or the figures that fail the edit's bounds; EXC = exception)")
+    cols = [(e, lay) for e in edits for lay in ("off", "on")]
+    print(f"{'clip':26s}" + "".join(f"{e[:8] + ' ' + lay:>20s}" for e, lay in cols))
+    for c in names:
+        cells = []
+        for e, lay in cols:
+            r = idx.get((c, e, lay))
+            if r is None:
+                cells.append("-")
+            elif "error" in r:
+                cells.append("EXC")
+            elif r["report"]["ok"]:
+                cells.append("pass")
+            else:
+                words = []
+                for f in r["report"]["failures"]:
+                    key = ("slides more" if "without the layer" in f else
+                           next((k for k in ("travel", "height", "floor", "pelvis", "pop", "knot", "moved", "detail")
+                                 if k in f.lower()), f.split()[0]))
+                    if key not in words:
+                        words.append(key)
+                cells.append("FAIL " + ",".join(words))
+        print(f"{c[:26]:26s}" + "".join(f"{x[:19]:>20s}" for x in cells))
+
+
+def grid_table(grid_rows, quick):
+    S, L, TAU = (QUICK_S, QUICK_L, QUICK_TAU) if quick else (GRID_S, GRID_L, GRID_TAU)
+    print()
+    print(f"slider grid, timing edit alone (layer off): s in {S}, l in {L}, tau in {TAU}, root pelvis and left "
+          "shoulder, with and without a region falloff; pop bound by the setting's preset (5/5/10 deg)")
+    print(f"{'clip':26s}{'cells':>6s}{'worst pop':>10s}  {'at':44s}{'knots':>6s}  {'at':44s}{'fail':>5s}{'CPU s':>7s}")
+    for name, g, cpu in grid_rows:
+        if isinstance(g, str):
+            print(f"{name[:26]:26s}  ERROR {g[:120]}")
+            continue
+        n, pop, at, knots, kat, fails = g
+        print(f"{name[:26]:26s}{n:6d}{pop:10.1f}  {at[:44]:44s}{knots:6d}  {kat[:44]:44s}{fails:5d}{cpu:7.1f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--clip", help="only clips whose name contains this")
@@ -172,8 +268,13 @@ def main():
     ap.add_argument("--layer", choices=("on", "off", "both"), default="both")
     ap.add_argument("--raw", action="store_true", help="the paper's raw timing offsets (limit=None)")
     ap.add_argument("--json", help="write every report's to_dict() here")
+    ap.add_argument("--quick", action="store_true",
+                    help="the four presets only and a coarse slider grid (a few minutes on every clip)")
+    ap.add_argument("--grid", choices=("on", "off", "only"), default="on",
+                    help="the slider-grid section for the timing edit alone (only: skip the preset sweep)")
     a = ap.parse_args()
-    edits = list(EDITS) if not a.edit else [e.strip() for e in a.edit.split(",")]
+    default = ["unedited", "mild", "moderate", "strong"] if a.quick else list(EDITS)
+    edits = default if not a.edit else [e.strip() for e in a.edit.split(",")]
     bad = [e for e in edits if e not in EDITS]
     if bad:
         ap.error(f"--edit: unknown {bad}; edits are {', '.join(EDITS)}")
@@ -185,7 +286,7 @@ def main():
     head = f"{'clip':28s} {'edit':9s} {'layer':5s}" + "".join(c.rjust(8) for c in COLS) + "   CPU ms  failures"
     print(head)
     print("-" * len(head))
-    rows, tally = [], {}
+    rows, tally, grid_rows = [], {}, []
     for name, load in clips(a.clip):
         try:
             m = sn.quality.scaled(load(), height=sn.quality.BODY_CM)
@@ -196,7 +297,13 @@ def main():
             print(f"{name[:28]:28s} {'-':9s} {'-':5s}  ERROR loading/extracting: {type(exc).__name__}: {exc}")
             rows.append({"clip": name, "error": f"{type(exc).__name__}: {exc}"})
             continue
-        for ename in edits:
+        if a.grid != "off":
+            t = time.process_time()
+            try:
+                grid_rows.append((name, grid(sm, m, a.raw, a.quick), time.process_time() - t))
+            except Exception as exc:  # noqa: BLE001
+                grid_rows.append((name, f"{type(exc).__name__}: {exc}", time.process_time() - t))
+        for ename in (edits if a.grid != "only" else ()):
             spec = EDITS[ename]
             try:
                 t = time.process_time()
@@ -234,6 +341,9 @@ def main():
     for (ename, label), (ok, fail, err) in tally.items():
         print(f"  {ename:9s} layer {label:3s}: {ok:2d} ok, {fail:2d} failing, {err:2d} exceptions")
     condensed(rows, edits)
+    goals_table(rows, [e for e in edits if e in ("unedited", "mild", "moderate", "strong")])
+    if grid_rows:
+        grid_table(grid_rows, a.quick)
     print(f"total CPU {time.process_time() - t_all:.1f} s; load average {os.getloadavg()[0]:.1f}")
     if a.json:
         tmp = Path(a.json).with_suffix(".tmp")
