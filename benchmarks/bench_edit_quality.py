@@ -301,7 +301,7 @@ def main():
             t = time.process_time()
             try:
                 grid_rows.append((name, grid(sm, m, a.raw, a.quick), time.process_time() - t))
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 grid_rows.append((name, f"{type(exc).__name__}: {exc}", time.process_time() - t))
         for ename in (edits if a.grid != "only" else ()):
             spec = EDITS[ename]
