@@ -57,7 +57,7 @@ def _in_child(code: str, timeout: float = 20.0) -> subprocess.CompletedProcess:
 def test_devices_are_refused_at_once(reader, tmp_path):
     asf = tmp_path / "t.asf"
     asf.write_text(TINY_ASF)
-    t0 = time.perf_counter()
+    # "not a regular file" is the refusal before any read (a read of /dev/zero would end in the size limit)
     if reader == "bvh":
         with pytest.raises(BVHError, match="/dev/zero.*not a regular file"):
             sn.read_bvh("/dev/zero")
@@ -67,7 +67,6 @@ def test_devices_are_refused_at_once(reader, tmp_path):
     else:
         with pytest.raises(AMCError, match="/dev/zero.*not a regular file"):
             read_asf_amc(asf, "/dev/zero")
-    assert time.perf_counter() - t0 < 1.0
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
@@ -414,10 +413,8 @@ def test_many_frames_of_many_channel_less_joints_refused_before_allocating():
 def test_hostile_motion_blocks_cost_no_more_than_the_file(body):
     head = b"HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n}\nMOTION\n"
     raw = head + b"Frames: 2\nFrame Time: 0.1\n" + body
-    t0 = time.perf_counter()
     _raises_within(len(raw) // 2, BVHError, r"line 11: expected 3 values on frame 1, found 0|line 10: expected 3 "
                    r"values on frame 0, found more than 3", parse_bvh, raw, "hostile.bvh")
-    assert time.perf_counter() - t0 < 10
 
 
 @pytest.mark.parametrize("junk", ["\n" * (1 << 16), "root " + "0 " * (4 << 20) + "\n"])
