@@ -153,13 +153,13 @@ def test_dragging_a_knot_of_the_dope_sheet_records_one_refine_op_and_moves_the_3
         kernel = bh.Kernel(runtime)
         try:
             pose, joint = 4, "LeftForeArm"
-            lo, hi = kernel.eval(f"se._knots.knot_range({pose}, {joint!r})")
-            t0 = kernel.eval(f"float(se._knots.knots[{pose}, se._knots.joints.index({joint!r})])")
+            lo, hi = kernel.eval(f"se.knot_table.knot_range({pose}, {joint!r})")
+            t0 = kernel.eval(f"float(se.knot_table.knots[{pose}, se.knot_table.joints.index({joint!r})])")
             assert kernel.eval("se.session.ops") == []
             knot = page.evaluate(_KNOT, [sel, pose, joint])
             assert knot is not None, "the selected joint's knot is not drawn (its limb group should be open)"
             cols = page.evaluate(_SCALE, sel)
-            times = kernel.eval("[float(t) for t in se._knots.pose_times]")
+            times = kernel.eval("[float(t) for t in se.knot_table.pose_times]")
             px_per_s = (cols[-1] - cols[0]) / (times[-1] - times[0])
             target = t0 + 0.5 * (hi - t0)                      # half-way to the next pose's knot
             canvas0 = _canvas(page, sel)

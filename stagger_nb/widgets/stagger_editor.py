@@ -172,6 +172,11 @@ class StaggerEditor(_Editor):
         if precompute:
             self._warm_positions()
 
+    @property
+    def knot_table(self):
+        """The KnotTable the dope sheet shows (:class:`stagger_nb.session.timeline.KnotTable`), or None before the first staggered draw."""
+        return self._knots
+
     def _make_controls(self, model: StaggerModel) -> tuple[list, dict]:
         """The controls (``self.controls``), the main sliders and the tools, once the binding has set the model
         up."""
