@@ -174,7 +174,8 @@ class StaggerEditor(_Editor):
 
     @property
     def knot_table(self):
-        """The KnotTable the dope sheet shows (:class:`stagger_nb.session.timeline.KnotTable`), or None before the first staggered draw."""
+        """The :class:`~stagger_nb.session.timeline.KnotTable` the dope sheet shows, or None before the first
+        staggered draw."""
         return self._knots
 
     def _make_controls(self, model: StaggerModel) -> tuple[list, dict]:
