@@ -64,7 +64,8 @@ def test_the_stagger_editor_model_drives_one_session_and_undo_restores_it(walk):
     assert ed.probability.figure["data"][-1]["name"].startswith("region")
     np.testing.assert_allclose(ed.probability.figure["data"][-1]["y"], m.region_weights)
     # the propagated edit and the region both act on the replayed motion: one session, ops in order
-    assert [o["op"] for o in s.ops] == ["edit_pose", "succession", "keep_contacts"]
+    tail = ["keep_contacts"] if m.keep_contacts else []   # the contact layer's op follows the model's default
+    assert [o["op"] for o in s.ops] == ["edit_pose", "succession", *tail]
     assert s.undo() and not m.region and "falloff" not in next(o for o in s.ops if o["op"] == "succession")
     assert s.undo() and s.undo() and m.s == 0.0
     assert s.redo() and s.redo() and s.redo() and m.region and m.propagate
@@ -82,18 +83,19 @@ def test_the_warp_model_retimes_the_staggered_poses_in_a_session_with_staggered_
     w.model.target = "poses"
     w.model.duration = 1.5 * walk.duration
     ops = session.ops
-    assert [o["op"] for o in ops] == ["succession", "guide_poses", "keep_contacts"]   # among the staggered ops
+    tail = ["keep_contacts"] if st_ed.model.keep_contacts else []   # the contact layer follows the model's default
+    assert [o["op"] for o in ops] == ["succession", "guide_poses", *tail]   # among the staggered ops
     assert ops[1]["duration"] == pytest.approx(1.5 * walk.duration) and ops[1]["reference"] == "self"
     sm = session.staggered()
     assert sm.pose_times[-1] == pytest.approx(1.5 * session.extraction().pose_times[-1], abs=walk.frame_time)
     assert session.edited().duration == pytest.approx(1.5 * walk.duration, abs=walk.frame_time)
     # the StaggerEditor's succession is still its own op, editable after the retiming
     st_ed.model.s = 0.02
-    assert [o["op"] for o in session.ops] == ["succession", "guide_poses", "keep_contacts"]
+    assert [o["op"] for o in session.ops] == ["succession", "guide_poses", *tail]
     assert session.ops[0]["s"] == 0.02
     # back to the motion: the guided warp of the edited motion at the end
     w.model.target = "motion"
-    assert [o["op"] for o in session.ops] == ["succession", "keep_contacts", "guided_warp"]
+    assert [o["op"] for o in session.ops] == ["succession", *tail, "guided_warp"]
     p, _, _ = warp_ops_to_params(session.ops, w.model.params(), source_duration=walk.duration)
     assert p["target"] == "motion"
 
