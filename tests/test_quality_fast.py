@@ -14,6 +14,7 @@ from quality_reference import compare_reference
 import stagger_nb as sn
 from stagger_nb import data, quality, staggered
 from stagger_nb.core.body import pelvis_joint
+from stagger_nb.quality.report import _part
 
 
 def _edits(m):
@@ -193,9 +194,9 @@ def test_summary_says_the_layer_own_pelvis_change_and_plural_parts():
     assert r.pelvis_vs_baseline == pytest.approx(4.0) and r.pelvis_vs_baseline_drop == pytest.approx(4.0)
     assert r.items[1].figure == "pelvis_vs_baseline" and r.items[1].text == "pelvis drops 4.0 cm"
     # a plural body part takes a plural verb; a joint with no body-part name keeps its name
-    assert quality._part("RightToeBase") == ("right toes", "")
-    assert quality._part("LeftFoot") == ("left foot", "s")
-    assert quality._part("Prop7") == ("Prop7", "s")
+    assert _part("RightToeBase") == ("right toes", "")
+    assert _part("LeftFoot") == ("left foot", "s")
+    assert _part("Prop7") == ("Prop7", "s")
 
 
 def test_summary_names_crossed_knots_and_lost_detail():
