@@ -21,7 +21,8 @@ __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLO
            "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys",
            "body_size",
            "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
-           "trail_segments", "mesh_index"]
+           "trail_segments", "mesh_index", "hex_rgb", "bone_colours",
+           "triangle_joints"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -375,6 +376,22 @@ def segments(motion: Motion) -> np.ndarray:
     return np.array(out, dtype=int).reshape(-1, 2)
 
 
+def hex_rgb(colour: str) -> list:
+    """``"#rrggbb"`` -> ``[r, g, b]`` in [0, 1]."""
+    return [int(colour[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+
+
+def bone_colours(motion: Motion, segs: np.ndarray | None = None) -> np.ndarray:
+    """``(B, 3)`` float32 RGB in [0, 1] of each bone of ``segs`` (default :func:`segments`): the
+    :data:`SIDE_COLOURS` of its child joint's body side (of its parent's for an End Site). The one definition
+    the 3D view and the exported page both draw."""
+    segs = segments(motion) if segs is None else segs
+    J = motion.num_joints
+    sides = joint_sides(motion.skeleton.names)
+    rgb = [hex_rgb(SIDE_COLOURS[sides[b] if b < J else sides[a]]) for a, b in segs]
+    return np.asarray(rgb, np.float32).reshape(-1, 3)
+
+
 @dataclass(frozen=True)
 class MeshTemplate:
     """Unit shapes the skeleton mesh is made of, each vertex a row ``(x, y, z, nx, ny, nz)`` float32.
@@ -417,6 +434,13 @@ def mesh_index(num_joints: int, num_bones: int, template: MeshTemplate):
     sph = template.sphere_index[None] + (vs * np.arange(num_joints))[:, None, None]
     tub = template.tube_index[None] + (num_joints * vs + vt * np.arange(num_bones))[:, None, None]
     return np.concatenate([sph.reshape(-1, 3), tub.reshape(-1, 3)]).astype(np.uint32)
+
+
+def triangle_joints(num_joints: int, segs: np.ndarray, template: MeshTemplate) -> np.ndarray:
+    """``(T,)`` int: the joint each triangle of the merged mesh (:func:`mesh_index`'s order: the spheres, then
+    the bones' tubes) belongs to, a bone's being its parent joint (what a click on it selects)."""
+    return np.concatenate([np.repeat(np.arange(num_joints), len(template.sphere_index)),
+                           np.repeat(np.asarray(segs, int).reshape(-1, 2)[:, 0], len(template.tube_index))])
 
 
 def joint_states(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),

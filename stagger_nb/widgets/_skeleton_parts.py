@@ -29,8 +29,7 @@ _TEMPLATE = scene3d.mesh_template()
 MESH_JS = _MESH_JS = (Path(__file__).with_name("_skeleton_mesh.js")).read_text(encoding="utf-8")
 
 
-def _rgb(colour: str) -> list:
-    return [int(colour[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+_rgb = scene3d.hex_rgb
 
 
 # joint state -> colour (scene3d.joint_states: 0 plain, 1 staggered pose, 2 contact), then the selected colour

@@ -62,7 +62,6 @@ from ._skeleton_parts import (
     _Conductor,
     _FramePlay,
     _FrameSlider,
-    _rgb,
 )
 from .skeleton_scene import _SceneSender
 
@@ -132,12 +131,8 @@ class SkeletonView(_SceneSender, widgets.VBox):
         self._segs = scene3d.segments(motion)
         index = scene3d.mesh_index(J, len(self._segs), _TEMPLATE)
         vs = len(_TEMPLATE.sphere)
-        tri_s = len(_TEMPLATE.sphere_index)
-        self._tri_joint = np.concatenate([np.repeat(np.arange(J), tri_s),
-                                          np.repeat(self._segs[:, 0], len(_TEMPLATE.tube_index))])
-        sides = scene3d.joint_sides(sk.names)
-        bone_rgb = [_rgb(scene3d.SIDE_COLOURS[sides[b] if b < J else sides[a]]) for a, b in self._segs]
-        self._bone_colours = np.repeat(np.asarray(bone_rgb, np.float32).reshape(-1, 3), len(_TEMPLATE.tube),
+        self._tri_joint = scene3d.triangle_joints(J, self._segs, _TEMPLATE)
+        self._bone_colours = np.repeat(scene3d.bone_colours(motion, self._segs), len(_TEMPLATE.tube),
                                        axis=0)
         self._sphere_vertices = vs
         pos, nrm, col = self._constant_arrays()
