@@ -12,6 +12,7 @@ import pytest
 from conftest import SHARED_CLIPS, shared_clip_path
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from io_samples import TINY
 from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
@@ -23,37 +24,6 @@ from stagger_nb.io._numparse import parse_columns, parse_table
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
 from stagger_nb.io.bvh_block import _parse_motion_lines
 from stagger_nb.io.bvh_header import _normalise_breaks
-
-TINY = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Chest
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 5 0
-    }
-  }
-  JOINT Leg
-  {
-    OFFSET 3 0 0
-    CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation
-    End Site
-    {
-      OFFSET 0 -8 0
-    }
-  }
-}
-MOTION
-Frames: 2
-Frame Time: 0.5
-1 2 3 90 0 0 0 0 0 4 0 0 0 0 0
-0 0 0 0 0 0 0 90 0 0 0 0 0 0 0
-"""
 
 
 def _end_sites_world(m, pos, wq):

@@ -156,7 +156,7 @@ def test_fast_path_errors_name_the_parameter():
 # -- the one-line summary ----------------------------------------------------------------------------------
 
 def test_summary_items_are_the_line_and_say_what_is_out_of_bounds():
-    from test_quality import FEET, F, standing  # the hand-built 170 cm figure (Y up, cm)
+    from quality_figures import FEET, F, standing  # the hand-built 170 cm figure (Y up, cm)
     fine = quality.compare(standing(), standing(), contacts=FEET)
     assert fine.summary == "feet held · pelvis ±0.0 cm · no pops"
     assert [(i.figure, i.ok) for i in fine.items] == [("foot_travel", True), ("pelvis", True), ("added_pop", True)]
@@ -187,7 +187,7 @@ def test_summary_items_are_the_line_and_say_what_is_out_of_bounds():
 
 
 def test_summary_says_the_layer_own_pelvis_change_and_plural_parts():
-    from test_quality import FEET, F, standing
+    from quality_figures import FEET, F, standing
     base = standing(root=np.tile([0.0, 88.0, 0.0], (F, 1)))
     layer = standing(root=np.tile([0.0, 84.0, 0.0], (F, 1)))
     r = quality.compare(standing(), layer, contacts=FEET, baseline=base, bounds={"height": 10, "floor": 10})
