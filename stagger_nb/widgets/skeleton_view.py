@@ -2,9 +2,9 @@
 
 The whole skeleton is ONE indexed triangle mesh (a sphere per joint, an open tube per bone; per-vertex colours),
 its original (the ghost) a second one built only when first shown, the trails one LineSegments + Points, the
-ground one LineSegments: about 45 widget models per view (the previous design, one pythreejs model per bone,
-joint, material and keyframe track, had ~280, and JupyterLab restored ~1,200 of them per notebook on a page
-reload, slowly enough to give up on some: ipywidgets #4026/#4040). The world points of every frame (joints then
+ground one LineSegments: about 45 widget models per view (one pythreejs model per bone, joint, material and
+keyframe track would be ~280, ~1,200 per notebook, which JupyterLab restores on a page reload slowly enough to
+give up on some: ipywidgets #4026/#4040). The world points of every frame (joints then
 End Sites, :func:`stagger_nb.scene3d.skeleton_points`, float32) go to the browser once per edit as one binary
 buffer on a small anywidget clock (``_conductor.js``), with the per-frame joint states (pose / contact colours)
 and the camera rig path; the clock builds the mesh's vertices for each shown frame (``_skeleton_mesh.js``: the
