@@ -23,8 +23,9 @@ the view's pythreejs models in the browser, through three things that are not py
 3. The ``"rerender"`` event triggered on the Scene model: the event the pythreejs ``RendererView`` listens to
    for re-rendering after a change of the scene.
 
-No public way does the job: the public routes all go through the kernel (setting ``BufferAttribute.array``
-or calling ``exec_three_obj_method`` from Python is one kernel round trip and ~0.1 MB per shown frame of a
+No public way does the job: the public routes all go through the kernel (setting ``BufferAttribute.array``,
+what pythreejs's maintainer advises for animating a geometry in pythreejs issues #255 and #292, or calling
+``exec_three_obj_method`` from Python is one kernel round trip and ~0.1 MB per shown frame of a
 31-joint rig, so playback would stop whenever the kernel is busy and could not keep a 120 Hz clip's rate),
 ``jslink`` can drive a trait from a Play but no trait maps a frame index to vertex arrays, pythreejs's keyframe
 animation needs one Object3D model per bone and per track (~280 models, which JupyterLab restores too slowly
