@@ -37,13 +37,18 @@ Rows and goals
              frames within 0.2 s (61 % at 30 Hz), so sigma measures the frame step, not the distance between
              repetitions; the 30 Hz sigma (x2.1) on the 120 Hz graph meets the goal (0.77/0.01) and keeps every
              walk at its file rate (half a stride <= 0.28: walk 60 Hz 0.28, xia neutral 0.17, xia sexy 0.18,
-             iclone 07_01 0.26; one / two strides >= 0.90).  Not
+             iclone 07_01 0.26; one / two strides >= 0.90) - but fails 11 of the 150 wand / compose tests
+             (tried in session 7: every pose graph's default sigma taken on frames 1/30 s apart): the opposite
+             phase of 120 Hz turning walks and runs rises above issue 13's 0.1 (xia_angry_run 0.18, a real
+             turning walk 0.18, the procedural turning walks of test_acceptance_rigs), dense vs sparse on 1,000
+             frames 0.22 apart.  Not
              changed by default: a wider sigma breaks the walks' half-stride goal at 30 Hz (procedural walk 0.28
              -> 0.47 at 1.5x, 0.52 at 2x; iclone 07_01 0.27 -> 0.40), a per-frame (self-tuning) sigma
              exp(-d^2 / 2 s_i s_j) with s_i its 8th-neighbour distance gives the hops 0.77/0.03 but the walks
              0.23-0.33 half a stride away; N = 20 keeps every walk (<= 0.28 at 30 Hz, <= 0.25 at the file rate)
-             but not the 120 Hz hops.  The candidate fix is both (sigma from the clip at <= 30 Hz, N = 20); it
-             changes every falloff of the suite and was not made in session 7.
+             but not the 120 Hz hops (0.55/0.32; with the 30 Hz sigma 0.97/0.01) and fails 2 of those 150 tests
+             (a real turning walk's opposite phase 0.109 > 0.1; bandai_walk's clipped excess 1.06 > 1.03).
+             Both candidates trade one paper claim for another on these clips; neither is the default.
   Dean walk  the falloff of a mid-walk frame one and two strides away >= 0.7, half a stride away <= 0.3
              (``walk_falloffs``: eight frames over the middle stride, the worst printed).  CMU 131_01 (start-stop)
              is 'no gait' at the stride the pose search finds (0.70 s, the end of the lags) and also at the
