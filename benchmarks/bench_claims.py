@@ -21,8 +21,10 @@ Rows and goals
              with FREE_UPSAMPLE 4), so 2/3 speed is a 2:1 mix of 3/4 and 2/4 steps, and the smoothness terms
              favour the constant 3/4 (1.33x).  A limit of the quantised search, within the goal's 10 %.  The
              column "u6" runs ``upsample=6, skip=12`` (speeds a / 6, the same 2x top speed): 4/6 is then a speed
-             of the search and the slower copy comes out 1.49-1.50 (walk, run, jump; the table prints every
-             clip) at about twice the CPU and 1.5 x (12 / 8)^2 = 3.4x the score table; not the default because
+             of the search and the slower copy comes out 1.491-1.500 on all 17 clips (quarters: 1.35-1.45), the
+             faster one 0.666-0.727 (quarters 0.67-0.70; 0.727 on bandai_run_cycle, 23 frames), at 2-8x the CPU
+             (CMU 01_01, 688 frames: 0.4 -> 3.4 s for both copies) and 1.5 x (12 / 8)^2 = 3.4x the score table
+             (measured in session 7, load 40 on 2 cores); not the default because
              the editor's tables are made with skip 8 (a / 6 with skip 8 tops out at 1.33x, so the 1.5x faster
              copy could not be followed) - changing it means the session's tables too (models' area).
   backward   free-length backward warp against the clip itself: 1.0x the length, +-10 %.
