@@ -131,6 +131,9 @@ class _Conductor(anywidget.AnyWidget):
     frame_time = traitlets.Float(1 / 60).tag(sync=True)
     trail_joints = traitlets.List(traitlets.Int()).tag(sync=True)
     trail_window = traitlets.Int(30, help="frames shown each side of the playhead").tag(sync=True)
+    preview = traitlets.Bytes(b"", help="(P, 3) float32 world points of one frame of an edit on its way: drawn at "
+                              "once when that frame is shown and the view is not playing").tag(sync=True)
+    preview_frame = traitlets.Int(-1, help="the frame of ``preview``").tag(sync=True)
 
 
 def _f32(a) -> np.ndarray:
@@ -390,6 +393,19 @@ class SkeletonView(widgets.VBox):
         self._points = scene3d.skeleton_points(motion)
         self._push_motion(motion)
 
+    def preview(self, motion: Motion, frame: int | None = None) -> int:
+        """Show ``motion`` at ``frame`` (default: the shown frame) at once, before the whole clip follows with
+        :meth:`set_motion`: one frame's points (P x 3 float32, under a kilobyte on a 31-joint rig, where the whole
+        clip is F times that), drawn when the view shows that frame and is not playing. Returns the bytes sent."""
+        if not isinstance(motion, Motion) or motion.num_joints != self._motion.num_joints:
+            raise ValueError("motion: expected a Motion of the view's skeleton")
+        f = min(max(0, int(self.frame if frame is None else frame)), motion.num_frames - 1)
+        pts = scene3d.skeleton_points(motion.slice(f, f + 1))[0]
+        with self.conductor.hold_sync():
+            self.conductor.preview = pts.tobytes()
+            self.conductor.preview_frame = f
+        return pts.nbytes
+
     def highlight_joints(self, names) -> None:
         """Draw these joints (names or indices) red and larger (the first becomes ``selected_joint``)."""
         sk = self._motion.skeleton
@@ -479,8 +495,9 @@ class SkeletonView(widgets.VBox):
 
     def _push_camera(self) -> int:
         m = self._motion
-        cam = scene3d.follow_camera(self._points[:, :m.num_joints], m.frame_time, self.camera,
-                                    aspect=self.width / self.height)
+        # every point (the End Sites too: the top of the head) and the joints' spheres stay in the canvas
+        cam = scene3d.follow_camera(self._points, m.frame_time, self.camera, aspect=self.width / self.height,
+                                    pad=self._radius)
         self._camera = cam
         self.three_camera.fov, self.three_camera.near, self.three_camera.far = cam.fov, cam.near, cam.far
         if not getattr(self, "_camera_placed", None) == self.camera:   # keep the user's orbit across edits
