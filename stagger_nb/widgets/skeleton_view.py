@@ -303,6 +303,19 @@ class SkeletonView(_SceneSender, widgets.VBox):
         self._points = scene3d.skeleton_points(motion)
         self._push_motion(motion)
 
+    def preview(self, motion: Motion, frame: int | None = None) -> int:
+        """Show ``motion`` at ``frame`` (default: the shown frame) at once, before the whole clip follows with
+        :meth:`set_motion`: one frame's points (P x 3 float32, under a kilobyte on a 31-joint rig, where the whole
+        clip is F times that), drawn when the view shows that frame and is not playing. Returns the bytes sent."""
+        if not isinstance(motion, Motion) or motion.num_joints != self._motion.num_joints:
+            raise ValueError("motion: expected a Motion of the view's skeleton")
+        f = min(max(0, int(self.frame if frame is None else frame)), motion.num_frames - 1)
+        pts = scene3d.skeleton_points(motion.slice(f, f + 1))[0]
+        with self.conductor.hold_sync():
+            self.conductor.preview = pts.tobytes()
+            self.conductor.preview_frame = f
+        return pts.nbytes
+
     def highlight_joints(self, names) -> None:
         """Draw these joints (names or indices) red and larger (the first becomes ``selected_joint``)."""
         sk = self._motion.skeleton
