@@ -84,6 +84,9 @@ class _Conductor(anywidget.AnyWidget):
     frame_time = traitlets.Float(1 / 60).tag(sync=True)
     trail_joints = traitlets.List(traitlets.Int()).tag(sync=True)
     trail_window = traitlets.Int(30, help="frames shown each side of the playhead").tag(sync=True)
+    preview = traitlets.Bytes(b"", help="(P, 3) float32 world points of one frame of an edit on its way: drawn at "
+                              "once when that frame is shown and the view is not playing").tag(sync=True)
+    preview_frame = traitlets.Int(-1, help="the frame of ``preview``").tag(sync=True)
 
 
 def _f32(a) -> np.ndarray:

@@ -94,8 +94,9 @@ class _SceneSender:
 
     def _push_camera(self) -> int:
         m = self._motion
-        cam = scene3d.follow_camera(self._points[:, :m.num_joints], m.frame_time, self.camera,
-                                    aspect=self.width / self.height)
+        # every point (the End Sites too: the top of the head) and the joints' spheres stay in the canvas
+        cam = scene3d.follow_camera(self._points, m.frame_time, self.camera, aspect=self.width / self.height,
+                                    pad=self._radius)
         self._camera = cam
         self.three_camera.fov, self.three_camera.near, self.three_camera.far = cam.fov, cam.near, cam.far
         if not getattr(self, "_camera_placed", None) == self.camera:   # keep the user's orbit across edits
