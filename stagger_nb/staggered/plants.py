@@ -24,14 +24,23 @@ and heel, moves with it as one foot):
    from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1,
    shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated.
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
-   the edited pose already has, if larger), the root is lowered by the smallest smooth profile above that
-   need (a max filter and a raised-cosine average, ``blend`` wide); legs in the air there keep their feet
-   where the edit put them.
+   the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
+   leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,
+   Dykstra's projections), lowered by at most 2.8 % and moved aside by at most 15 % of a leg, then made smooth
+   (a max filter and a raised-cosine average, ``blend`` wide). When the root is a static joint below the pelvis
+   (Bandai's ``joint_Root`` on the floor) the pelvis moves instead. Legs in the air keep their feet where the
+   edit put them.
 5. **IK.** Hip and knee are solved analytically: the knee turns about its hinge (the current bend plane,
    signed by the knee's hinge axis measured on the source, so a straight leg bends the way it bends) by the
    exact angle that gives the wanted hip-ankle distance, always on the forward-bent branch (no knee flip,
    never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
    The foot takes the target's world orientation; the joints below it take the source's local rotations.
+6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
+   2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped.
+
+Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`.plants_hold` (targets, IK on
+the plants, fades), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root
+shifts), :mod:`.plants_pops` (the pop cap); this module: the public functions.
 
 Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH); lengths in file units, every
 tolerance relative to a bone or the body (the layer is invariant to a uniform scale of the clip).

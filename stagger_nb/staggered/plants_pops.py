@@ -20,21 +20,33 @@ _PASSES = 4
 _MIN_STEP = 1.0      # degrees a frame the displacement may always change
 
 
-def _limit(v: np.ndarray, c: np.ndarray, reverse: bool) -> np.ndarray:
-    """Rate limiter along axis 0 of ``v (F, C, 3)``: step ``n - 1 -> n`` moved by at most ``c[n - 1] (C,)``."""
+def _limit(v: np.ndarray, c: np.ndarray, fast: np.ndarray, reverse: bool) -> np.ndarray:
+    """Rate limiter along axis 0 of ``v (F, C, 3)``: step ``n - 1 -> n`` moved by at most ``c[n - 1] (C,)``.
+    ``fast (F - 1,)``: the steps ``v`` itself takes too fast; the limiter only works from one of them until it
+    has caught up with ``v`` again, and jumps to the next one (elsewhere the result is ``v``)."""
     out = v.copy()
+    F = v.shape[0]
+    bad = np.flatnonzero(fast)
     if reverse:
-        rng, step = range(v.shape[0] - 2, -1, -1), 1
-    else:
-        rng, step = range(1, v.shape[0]), -1
-    for n in rng:
-        d = v[n] - out[n + step]
-        size = np.sqrt(np.einsum("ci,ci->c", d, d))
-        lim = c[min(n, n + step)]
-        over = size > lim
-        if over.any():
-            out[n] = out[n + step] + d * np.where(over, lim / np.maximum(size, 1e-300), 1.0)[:, None]
-    return out
+        out, v, c, bad = out[::-1], v[::-1], c[::-1], (F - 2 - bad)[::-1]
+    k, n = 0, None
+    while k < bad.size:
+        n = int(bad[k]) + 1 if n is None or n <= bad[k] else n
+        while n < F:
+            d = v[n] - out[n - 1]
+            size = np.sqrt(np.einsum("ci,ci->c", d, d))
+            lim = c[n - 1]
+            over = size > lim
+            if not over.any():
+                out[n] = v[n]
+                if n - 1 > bad[k] and np.array_equal(out[n - 1], v[n - 1]):
+                    break
+            else:
+                out[n] = out[n - 1] + d * np.where(over, lim / np.maximum(size, 1e-300), 1.0)[:, None]
+            n += 1
+        while k < bad.size and bad[k] < n:
+            k += 1
+    return out[::-1].copy() if reverse else out
 
 
 def _continuous_log(D: np.ndarray) -> np.ndarray:
@@ -91,12 +103,9 @@ def _cap_pass(held, edit, ch, source_step) -> bool:
     c = np.maximum(jump - excess, np.radians(_MIN_STEP))
     cols = np.flatnonzero(fast.any(axis=0))
     vv, cc = v[:, cols], c[:, cols]
-    # the forward limiter changes frames from the first too-fast step on only, the backward one up to the last
-    bad = np.flatnonzero(fast[:, cols].any(axis=1))
-    lo, hi = int(bad[0]), int(bad[-1]) + 2
-    fwd, bwd = vv.copy(), vv.copy()
-    fwd[lo:] = _limit(vv[lo:], cc[lo:], False)
-    bwd[:hi] = _limit(vv[:hi], cc[:hi - 1], True)
+    f = fast[:, cols].any(axis=1)
+    fwd = _limit(vv, cc, f, False)
+    bwd = _limit(vv, cc, f, True)
     sel = ch[cols]
     held[:, sel] = quat_mul(edit[:, sel], rotvec_to_quat(0.5 * (fwd + bwd)))
     return True

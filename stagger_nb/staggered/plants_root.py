@@ -101,8 +101,15 @@ def _root_shift(F: int, rows: list, pos: np.ndarray, cap_down: float, cap_side: 
         centres.append(c)
         radii.append(rad)
         where.append(np.isfinite(rad))
-    x = np.zeros((F, 3))
-    inc = [np.zeros((F, 3)) for _ in range(len(rows) + 1)]
+    # only frames where some held limb cannot reach from where the edit puts the root need the projections
+    sub = np.flatnonzero(np.any([w & (np.linalg.norm(c, axis=-1) > rad) for c, rad, w in zip(centres, radii, where)],
+                                axis=0))
+    x_all = np.zeros((F, 3))
+    if not sub.size:
+        return x_all
+    centres, radii, where = [c[sub] for c in centres], [r[sub] for r in radii], [w[sub] for w in where]
+    x = np.zeros((sub.size, 3))
+    inc = [np.zeros((sub.size, 3)) for _ in range(len(rows) + 1)]
     for _ in range(_DYKSTRA_STEPS):
         for k, (c, rad, w) in enumerate(zip(centres, radii, where)):
             y = x + inc[k]
@@ -119,6 +126,8 @@ def _root_shift(F: int, rows: list, pos: np.ndarray, cap_down: float, cap_side: 
         z[:, 0] *= scale
         z[:, 2] *= scale
         inc[-1], x = y - z, z
+    x_all[sub] = x
+    x = x_all
     out = np.zeros((F, 3))
     for k in range(3):
         out[:, k] = _envelope(np.maximum(x[:, k], 0.0), nb) - _envelope(np.maximum(-x[:, k], 0.0), nb)
