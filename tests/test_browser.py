@@ -214,7 +214,7 @@ def test_editors_render_resize_respond_and_survive_reload(tmp_path):
 
         report["url_before_reload"] = page.url
         report["reloads"] = bh.save_and_reload(page, bh.plots_drawn_js({EDITORS[k]: PLOTS[k] for k in EDITORS}),
-                                               log=log)
+                                               log=log, runtime=runtime)
         assert bh.sidebar_open(page)
         after = {}
         for name, sel in EDITORS.items():

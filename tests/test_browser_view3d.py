@@ -35,16 +35,19 @@ DATA = os.environ.get("STAGGER_NB_DATA", str(REPO / "data"))
 pytestmark = [pytest.mark.browser]
 
 
+@pytest.fixture(scope="module")
+def _server(tmp_path_factory):
+    """One JupyterLab for the module's tests (tests/browser_harness.py: free port, state in its own folder, the
+    preferred kernel started without a "Select Kernel" dialog)."""
+    with bh.shared_lab(tmp_path_factory) as server:
+        yield server
+
+
 @pytest.fixture
-def lab(tmp_path):
-    """The harness's token-less JupyterLab (tests/browser_harness.py: free port, state under tmp_path, the
-    preferred kernel started without a "Select Kernel" dialog); yields (url, folder, runtime_dir)."""
-    reason = bh.skip_reason()
-    if reason:
-        print("SKIP:", reason)
-        pytest.skip(reason)
-    with bh.jupyter_lab(tmp_path, timeout=180) as url:   # on a loaded machine (load 15 on 2 cores) 60 s was not enough
-        yield url, tmp_path, bh.runtime_dir(tmp_path)
+def lab(_server):
+    """(url, folder, runtime_dir) of the module's JupyterLab; each test's kernels are shut down after it."""
+    with bh.lab_for_test(_server) as lab:
+        yield lab
 
 
 def _write_notebook(path: Path, cells) -> None:
@@ -416,7 +419,7 @@ def bh_eval(page, folder: Path, expr: str):
         k.close()
 
 
-def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tmp_path):
+def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(lab):
     """The three editors' 3D views in one fresh JupyterLab: drawn (not blank); moving each editor's frame slider
     (and the StaggerEditor's cull %, a new edited motion) with the keyboard changes its canvas; after saving and
     reloading the tab (kernel alive), every view is drawn again and
@@ -424,16 +427,13 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
     browser-side clock on its element) are the kernel's current ones, and the frame readout is the moved one.
     A reload that hits JupyterLab's restore race is reloaded again
     (``reloads`` in the report counts them)."""
-    reason = bh.skip_reason()
-    if reason:
-        print("SKIP:", reason)
-        pytest.skip(reason)
     from PIL import ImageStat
-    bh.write_notebook(tmp_path / "editors3d.ipynb", EDITOR_CELLS)
+    url, folder, runtime = lab
+    bh.write_notebook(folder / "editors3d.ipynb", EDITOR_CELLS)
     report, t0 = {"load_average": os.getloadavg()}, time.time()
     ARTIFACTS.mkdir(exist_ok=True)
-    with bh.jupyter_lab(tmp_path) as url, bh.chromium_page(1280, 800) as (page, log), \
-            bh.evidence_on_failure("view3d_editors", page, log, bh.runtime_dir(tmp_path), report):
+    with bh.chromium_page(1280, 800) as (page, log), \
+            bh.evidence_on_failure("view3d_editors", page, log, runtime, report):
         bh.open_notebook(page, url, "editors3d.ipynb")
         bh.run_all_cells(page)
         for sel in EDITOR_SELECTORS.values():
@@ -465,7 +465,7 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
         # user would (the count is in the report: 1 = the first reload restored everything)
         report["reloads"] = bh.save_and_reload(
             page, "() => " + " && ".join(f"!!document.querySelector('{s} canvas')" for s in EDITOR_SELECTORS.values()),
-            timeout=120, log=log)
+            timeout=120, log=log, runtime=runtime)
         report["reload_seconds"] = round(time.time() - t_reload, 1)
         page.wait_for_timeout(3000)
         after = _canvases(page)
@@ -481,7 +481,7 @@ def test_editors_views_show_the_current_data_after_a_slider_move_and_a_reload(tm
         report["kernel"] = {}
         for name, var in zip(EDITOR_SELECTORS, ("se", "we", "xe")):
             report["kernel"][name] = bh_eval(
-                page, tmp_path,
+                page, folder,
                 f"[{var}.view.frame, {var}.view.motion.num_frames, "
                 f"[round(float(x), 2) for x in {var}.view.shown_positions()[0]]]")
         report["reload_vs_moved"] = {k: round(_changed(moved[k], after[k]), 4) for k in after}

@@ -170,13 +170,17 @@ def test_limits_are_the_ops_own(walk):
 
 
 def test_values_are_rounded_to_the_controls_step(walk):
-    """A slider's min + n * step (0.3500000000000001) is shown and saved as 0.35; the pose time is shown to one
-    decimal finer than its step, a frame (11.916666661899999 s at 120 Hz -> 11.9167)."""
+    """A slider's min + n * step (0.3500000000000001) is saved as 0.35 (the readout shows 0.35) and not written
+    back to the control (a write-back is a kernel update the browser applies over the user's next step); a value
+    rounded by more than float noise is written back; the pose time is shown to one decimal finer than its step,
+    a frame (11.916666661899999 s at 120 Hz -> 11.9167)."""
     ed = _stagger(walk)
     try:
         from_browser(ed.controls["w_r"], value=0.3500000000000001)
-        assert ed.model.w_r == 0.35 and ed.controls["w_r"].value == 0.35
+        assert ed.model.w_r == 0.35 and ed.controls["w_r"].value == 0.3500000000000001
         assert [o["w_r"] for o in ed.session.ops if o["op"] == "exaggerate"] == [0.35]
+        from_browser(ed.controls["w_r"], value=0.41234)   # typed between steps: 3 decimals (step 0.05)
+        assert ed.model.w_r == 0.412 and ed.controls["w_r"].value == 0.412
         ed.model.pose = 3
         assert ed.model.pose_time == round(ed.model.pose_times[3], 3) != ed.model.pose_times[3]   # 60 Hz: 3
         assert snap(11.916666661899999, 1 / 120) == 11.9167
