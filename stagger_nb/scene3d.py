@@ -22,7 +22,7 @@ __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLO
            "body_size",
            "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
            "trail_segments", "mesh_index", "hex_rgb", "bone_colours",
-           "triangle_joints"]
+           "triangle_joints", "mesh_constants"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -474,6 +474,22 @@ def triangle_joints(num_joints: int, segs: np.ndarray, template: MeshTemplate) -
     the bones' tubes) belongs to, a bone's being its parent joint (what a click on it selects)."""
     return np.concatenate([np.repeat(np.arange(num_joints), len(template.sphere_index)),
                            np.repeat(np.asarray(segs, int).reshape(-1, 2)[:, 0], len(template.tube_index))])
+
+
+def mesh_constants(num_joints: int, segs: np.ndarray, template: MeshTemplate, joint_rgb, bone_rgb: np.ndarray):
+    """The merged mesh's attribute arrays that do not change with the frame, ``(V, 3)`` float32 each
+    (:func:`mesh_index`'s vertex order: ``num_joints`` spheres, then one tube per bone of ``segs``): positions
+    zero (the browser writes every shown frame's, ``_skeleton_mesh.js``), the spheres' normals (the unit
+    sphere's; the tubes' are per frame too) and the colours (``joint_rgb`` on every sphere, each bone's row of
+    ``bone_rgb (B, 3)`` on its tube)."""
+    J, vs, vt = num_joints, len(template.sphere), len(template.tube)
+    V = J * vs + len(segs) * vt
+    nrm = np.zeros((V, 3), np.float32)
+    nrm[:J * vs] = np.tile(template.sphere[:, 3:], (J, 1))
+    col = np.empty((V, 3), np.float32)
+    col[:J * vs] = np.asarray(joint_rgb, np.float32)
+    col[J * vs:] = np.repeat(np.asarray(bone_rgb, np.float32).reshape(-1, 3), vt, axis=0)
+    return np.zeros((V, 3), np.float32), nrm, col
 
 
 def joint_states(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),

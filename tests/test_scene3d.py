@@ -41,3 +41,21 @@ def test_triangle_joints_follow_the_mesh_index_layout():
             assert v // vs == j
         else:
             assert segs[(v - J * vs) // vt, 0] == j
+
+
+def test_mesh_constants_colour_each_sphere_and_tube_vertex_by_its_owner():
+    tpl = scene3d.mesh_template()
+    J, segs = 3, np.array([[0, 1], [1, 2], [2, 3]])
+    bone_rgb = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    pos, nrm, col = scene3d.mesh_constants(J, segs, tpl, [0.5, 0.5, 0.5], bone_rgb)
+    vs, vt = len(tpl.sphere), len(tpl.tube)
+    V = J * vs + len(segs) * vt
+    assert pos.shape == nrm.shape == col.shape == (V, 3) and not pos.any()
+    assert int(scene3d.mesh_index(J, len(segs), tpl).max()) == V - 1          # the index addresses every vertex
+    for v in range(V):                                                        # vertex by vertex
+        if v < J * vs:
+            np.testing.assert_array_equal(nrm[v], tpl.sphere[v % vs, 3:].astype(np.float32))
+            np.testing.assert_array_equal(col[v], np.float32([0.5, 0.5, 0.5]))
+        else:
+            assert not nrm[v].any()
+            np.testing.assert_array_equal(col[v], bone_rgb[(v - J * vs) // vt])

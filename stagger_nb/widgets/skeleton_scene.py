@@ -21,12 +21,7 @@ class _SceneSender:
         """The mesh's attribute arrays as the kernel holds them, (V, 3) float32 each: positions zero (the browser's
         clock writes every shown frame's, ``_skeleton_mesh.js``), the spheres' normals (the unit sphere's) and the
         constant colours (joints plain, bones by side). Sent once, with the mesh; never per edit."""
-        J, vs = len(self._names), self._sphere_vertices
-        V = J * vs + len(self._segs) * len(_TEMPLATE.tube)
-        nrm = np.zeros((V, 3), np.float32)
-        nrm[:J * vs] = np.tile(_TEMPLATE.sphere[:, 3:], (J, 1))
-        col = np.concatenate([np.tile(np.asarray(_PALETTE[0], np.float32), (J * vs, 1)), self._bone_colours])
-        return np.zeros((V, 3), np.float32), nrm, np.ascontiguousarray(col, np.float32)
+        return scene3d.mesh_constants(len(self._names), self._segs, _TEMPLATE, _PALETTE[0], self._bone_colours)
 
     @staticmethod
     def _contact_list(contacts, motion):

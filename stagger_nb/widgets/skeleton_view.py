@@ -133,9 +133,7 @@ class SkeletonView(_SceneSender, widgets.VBox):
         index = scene3d.mesh_index(J, len(self._segs), _TEMPLATE)
         vs = len(_TEMPLATE.sphere)
         self._tri_joint = scene3d.triangle_joints(J, self._segs, _TEMPLATE)
-        self._bone_colours = np.repeat(scene3d.bone_colours(motion, self._segs), len(_TEMPLATE.tube),
-                                       axis=0)
-        self._sphere_vertices = vs
+        self._bone_colours = scene3d.bone_colours(motion, self._segs)
         pos, nrm, col = self._constant_arrays()
         self._index = _attr(index.reshape(-1))
         self.skeleton_mesh = three.Mesh(
