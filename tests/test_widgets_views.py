@@ -439,3 +439,22 @@ def test_the_ground_follows_an_edit_by_its_position_and_stays_under_the_feet(rec
     v.set_motion(far)
     seg = np.asarray(v.grid.geometry.attributes["position"].array)
     assert seg[:, 0].min() <= 500.0 and seg[:, 0].max() >= 500.0 + m.root_positions[:, 0].max()
+
+
+def test_preview_sends_the_shown_frame_of_an_edit_as_the_whole_clip_would_draw_it():
+    """SkeletonView.preview (what a slider move sends the 3D view at once): the points of one frame, equal to
+    that frame of the whole clip's points (what set_motion sends later), a few hundred bytes."""
+    m = sn.data.load("walk")
+    v = SkeletonView(m)
+    edited = m.slice(m.num_frames // 2)   # another motion of the same skeleton: frame 7 is another pose
+    v.frame = 7
+    nbytes = v.preview(edited)
+    whole = scene3d.skeleton_points(edited)
+    got = np.frombuffer(v.conductor.preview, dtype=np.float32).reshape(-1, 3)
+    np.testing.assert_allclose(got, whole[7], atol=1e-5)
+    assert np.abs(got - scene3d.skeleton_points(m)[7]).max() > 1.0   # not the shown clip's frame
+    assert v.conductor.preview_frame == 7 and nbytes == whole[7].nbytes == len(v.conductor.preview)
+    assert nbytes * 50 < whole.nbytes
+    assert v.motion is m   # the clip itself is sent by set_motion, not by the preview
+    v.preview(edited, frame=10 ** 6)   # clamped to the edit's last frame
+    assert v.conductor.preview_frame == edited.num_frames - 1
