@@ -38,7 +38,7 @@ sys.path.insert(0, str(REPO))
 
 import stagger_nb as sn
 from stagger_nb.io._numparse import parse_table
-from stagger_nb.io.bvh_read import _parse_motion_lines
+from stagger_nb.io.bvh_block import _parse_motion_lines
 
 
 def _find_clip(tmp: Path) -> tuple[Path, Path | None]:
@@ -163,7 +163,8 @@ def _run(args) -> None:
         tabbed.write_bytes(raw[:start] + block.replace(b" ", b"\t"))
         tab_block = block.replace(b" ", b"\t")
         assert np.array_equal(parse_table(tab_block, m.num_frames, C), ref)
-        from stagger_nb.io import bvh_read as bvh_mod
+        from stagger_nb.core.accel import NO_ACCEL_ENV
+        from stagger_nb.io import bvh_block as bvh_mod
         cpus = bvh_mod._cpus
 
         def one_thread():
@@ -173,11 +174,11 @@ def _run(args) -> None:
             finally:
                 bvh_mod._cpus = cpus
         def fallback():
-            os.environ[bvh_mod.NO_ACCEL_ENV] = "1"
+            os.environ[NO_ACCEL_ENV] = "1"
             try:
                 return sn.read_bvh(path)
             finally:
-                del os.environ[bvh_mod.NO_ACCEL_ENV]
+                del os.environ[NO_ACCEL_ENV]
         path_used = "C accelerator" if bvh_mod.accelerated() else "FALLBACK (numpy + pyarrow; no C accelerator)"
         print(f"read_bvh parses the motion block with: {path_used}")
         fns = {

@@ -10,10 +10,12 @@ are made one at a time; for each press the page records, with ``performance.now(
 - ``send``: the first websocket message the page sends after it (the slider's new value to the kernel);
 - ``recv``: the first message the page receives after that (the kernel's first answer);
 - ``figure``: the first plot's new figure arriving (``PlotView``'s ``data-figure-at``), ``react``: how long
-  its ``Plotly.react`` took (``data-react-ms``);
+  its ``Plotly.react`` took (``data-react-ms``), or ``fast``: its fast redraw (new x/y of line traces written
+  into their SVG paths on the drawn axes, ``data-fast-ms``; the Plotly.react follows once the figure rests);
 - ``plot``: the first mutation inside the first plot's plotly element (a MutationObserver: what a user sees);
-- ``data3d``: the 3D view's new points arriving (the conductor's ``data-data-at``), ``gl``: the first WebGL
-  draw call after it (``drawElements`` / ``drawArrays`` wrapped by an init script): the 3D view redrawn;
+- ``data3d``: the 3D view's new points arriving (the conductor's ``data-data-at``: the shown frame's points,
+  ``SkeletonView.preview``, sent before the clip's), ``gl``: the first WebGL draw call after it
+  (``drawElements`` / ``drawArrays`` wrapped by an init script): the 3D view redrawn;
 
 then waits until the kernel is idle and every plot shows its store's figure before the next press. The kernel
 side is timed too (the editor's replay ``session.edited`` and its ``_update_views``, wrapped in the notebook:
@@ -79,7 +81,7 @@ ARM = """([sel]) => {
   const conductor = ed.querySelector('.sn-conductor');
   Object.assign(W, { key: null, send: null, recv: null, plot: null, gl: null, data3d: null, figure: null,
                      figure0: plot.dataset.figureAt || null, data0: conductor ? conductor.dataset.dataAt : null,
-                     cond: conductor });
+                     cond: conductor, fast0: +(plot.dataset.fastDraws || 0) });
   if (W.observer) W.observer.disconnect();
   W.observer = new MutationObserver(() => { if (W.key !== null && W.plot === null) W.plot = performance.now(); });
   W.observer.observe(gd, { subtree: true, childList: true, attributes: true, characterData: true });
@@ -88,6 +90,7 @@ ARM = """([sel]) => {
     const at = conductor && conductor.dataset.dataAt;
     if (at && at !== W.data0) W.data3d = +at;
     W.react = +(plot.dataset.reactMs || 0);
+    W.fast = +(plot.dataset.fastDraws || 0) !== W.fast0 ? +(plot.dataset.fastMs || 0) : null;
   };
   if (!W.timer) W.timer = setInterval(() => W.poll && W.poll(), 5);
   W.armed = true;
@@ -95,7 +98,7 @@ ARM = """([sel]) => {
 
 DONE = """() => { const W = window.__snLat; W.poll && W.poll(); return W.plot !== null && W.gl !== null; }"""
 READ = """() => { const W = window.__snLat; W.poll && W.poll(); W.armed = false;
-  const r = {}; for (const k of ['key', 'send', 'recv', 'figure', 'react', 'plot', 'data3d', 'gl']) r[k] = W[k];
+  const r = {}; for (const k of ['key', 'send', 'recv', 'figure', 'react', 'fast', 'plot', 'data3d', 'gl']) r[k] = W[k];
   return r; }"""
 
 KERNEL_TIMING = """
@@ -110,6 +113,7 @@ def _timed(name, fn):
             _lat.append((name, 1000 * (_t.perf_counter() - w), 1000 * (_t.process_time() - c)))
     return run
 se.session.edited = _timed("replay", se.session.edited)
+se.session.check_ops = _timed("replay", se.session.check_ops)
 se._update_views = _timed("views", se._update_views)
 """
 
@@ -223,7 +227,8 @@ def _summarise(samples) -> dict:
             "steps": {"key->send": _stats([_d(r, "key", "send") for r in moved]),
                       "send->first answer": _stats([_d(r, "send", "recv") for r in moved]),
                       "send->figure": _stats([_d(r, "send", "figure") for r in moved]),
-                      "plotly.react": _stats([r["react"] for r in moved]),
+                      "plotly.react": _stats([r["react"] for r in moved if r.get("fast") is None]),
+                      "fast redraw": _stats([r["fast"] for r in moved if r.get("fast") is not None]),
                       "figure->plot DOM": _stats([_d(r, "figure", "plot") for r in moved]),
                       "3D data->WebGL draw": _stats([_d(r, "data3d", "gl") for r in moved]),
                       "kernel replay wall": _stats([r["kernel"]["replay"][0] for r in moved]),

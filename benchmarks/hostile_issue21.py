@@ -549,9 +549,9 @@ def _forked(calls, timeout=40.0):
 def c_entry_points_hostile_sizes(tmp: Path) -> str:
     import numpy as np
 
-    from stagger_nb.io import bvh_read
+    from stagger_nb.io import bvh_block
     from stagger_nb.staggered import _kernels
-    cparse, cspline = bvh_read._cparse, _kernels._cspline
+    cparse, cspline = bvh_block._cparse, _kernels._cspline
     if cparse is None or cspline is None:
         raise Fail("NOT RUN: the C extensions are not built")
 

@@ -163,7 +163,9 @@ pio.show(plotting.lines_figure({"defaults": (hops.times, plain), "region and 2σ
 # "Make this punch lag" should make this punch and the similar ones lag, and leave the rest of the clip's
 # timing alone. `"falloff": {"frame": f, "sigma": σ}` on a succession (or a random timing) scales each
 # pose's offsets `s d(i)^l` by the falloff around frame `f` read at the pose's time, before the timing
-# saturation keeps every joint's knots in order.
+# saturation keeps every joint's knots in order. Where the region's edge squeezes a segment (a pose of weight 1
+# next to one of weight 0.1), the saturation gives way on the side of the lower weight: the poses the region
+# selects keep their delay, the transition moves outward.
 #
 # **Check:** where the falloff is at least 0.9 the refinements change by at least 0.8 of what the same
 # succession changes them without the region, and by at most 0.1 of it where the falloff is at most 0.05.

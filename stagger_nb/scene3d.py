@@ -21,7 +21,8 @@ __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLO
            "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments", "highlight_keys",
            "body_size",
            "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
-           "trail_segments", "mesh_index"]
+           "trail_segments", "mesh_index", "hex_rgb", "bone_colours",
+           "triangle_joints"]
 
 SIDE_COLOURS = {"left": "#2b6cb0", "right": "#c53030", "centre": "#4a5568"}
 _STATIC_TOL = 1e-6
@@ -226,14 +227,37 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
 _VIEW_DIR = np.array([0.62, 0.28, 0.73])   # from the target towards the camera: front-right, slightly above
 
 
+def _fit_distance(corners: np.ndarray, d: np.ndarray, fov: float, aspect: float, margin: float) -> float:
+    """The smallest distance along the unit direction ``d`` from the origin at which a camera looking at the
+    origin sees every point of ``corners (N, 3)`` inside the canvas, ``margin`` (a fraction of each half side)
+    left free at the edges (bisection on the projected extent, which shrinks as the camera backs off)."""
+    def fits(dist):
+        eye = d * dist
+        rel = corners - eye
+        if np.any(rel @ (-d) <= 1e-9):   # a corner beside or behind the camera
+            return False
+        px = project(corners, eye, np.zeros(3), fov, 1000.0 * aspect, 1000.0)
+        lim_x, lim_y = 500.0 * aspect * margin, 500.0 * margin
+        return bool(np.all(np.abs(px[:, 0] - 500.0 * aspect) <= lim_x) and np.all(np.abs(px[:, 1] - 500.0) <= lim_y))
+    lo, hi = 1e-9, max(float(np.linalg.norm(corners, axis=1).max()), 1e-6)
+    while not fits(hi):
+        hi *= 2
+    for _ in range(48):
+        mid = (lo + hi) / 2
+        lo, hi = (lo, mid) if fits(mid) else (mid, hi)
+    return hi
+
+
 def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow", aspect: float = 480 / 380,
-                  fov: float = 40.0, fill: float = 0.62, smooth_s: float = 0.5) -> Camera:
-    """Camera framing for ``positions (F, J, 3)``.
+                  fov: float = 40.0, fill: float = 0.62, smooth_s: float = 0.5, pad: float = 0.0) -> Camera:
+    """Camera framing for ``positions (F, P, 3)`` (joints, and the End Sites when given: the top of the head).
 
     ``mode="follow"``: the rig follows the root's ground track (x, z) smoothed by a Gaussian of σ = ``smooth_s``
     seconds (centred, so a steady run is tracked without lag) and the camera stands at the distance where the
-    body's height (:func:`body_size`) fills ``fill`` of the canvas height. ``mode="all"``: a fixed rig at the
-    centre of everything the clip covers, far enough for the bounding sphere to fit.
+    body's height (:func:`body_size`) fills ``fill`` of the canvas height, or further when the box every frame
+    covers around the rig (ground to the highest point of the clip, ``pad`` added on each side: the joints'
+    spheres) would not fit the canvas: nothing of the skeleton leaves the view in any frame. ``mode="all"``: a
+    fixed rig at the centre of everything the clip covers, far enough for the bounding sphere to fit.
     """
     if mode not in ("follow", "all"):
         raise ValueError(f"mode: expected 'follow' or 'all', got {mode!r}")
@@ -254,11 +278,21 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
         rig = np.zeros((F, 3))
         rig[:, [0, 2]] = _smooth(P[:, 0, [0, 2]], sigma)
         rig[:, 1] = ground
-        # the body's vertical centre above the ground, from all frames: steady, no bobbing camera
-        centre_y = float(np.median((top + bottom) / 2)) - ground
+        # the box of the clip around the rig: ground to the highest point of any frame (the head is never cut);
+        # sideways the reach from the track of 96 % of the points (a turn the smoothed track cuts short would
+        # otherwise shrink every frame's figure for the few frames it lasts)
+        rel_x, rel_z = P[..., 0] - rig[:, None, 0], P[..., 2] - rig[:, None, 2]
+        (x0, x1), (z0, z1) = np.percentile(rel_x, [2, 98]), np.percentile(rel_z, [2, 98])
+        box_lo = np.array([float(x0) - pad, -pad, float(z0) - pad])
+        box_hi = np.array([float(x1) + pad, float(top.max()) - ground + pad, float(z1) + pad])
+        # its vertical centre: steady (no bobbing camera), the whole clip's box, not the median pose's
+        centre_y = float(box_lo[1] + box_hi[1]) / 2
         dist = h / (2 * fill * np.tan(half))
         dist = max(dist, h * 0.5 / (fill * np.tan(half) * aspect))   # a tall narrow canvas: fit the width too
         target = np.array([0.0, centre_y, 0.0])
+        corners = np.array([[x, y, z] for x in (box_lo[0], box_hi[0]) for y in (box_lo[1], box_hi[1])
+                            for z in (box_lo[2], box_hi[2])]) - target
+        dist = max(dist, _fit_distance(corners, d, fov, aspect, margin=0.94))
     else:
         c = (lo + hi) / 2
         rig = np.tile([c[0], ground, c[2]], (F, 1))
@@ -375,6 +409,22 @@ def segments(motion: Motion) -> np.ndarray:
     return np.array(out, dtype=int).reshape(-1, 2)
 
 
+def hex_rgb(colour: str) -> list:
+    """``"#rrggbb"`` -> ``[r, g, b]`` in [0, 1]."""
+    return [int(colour[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+
+
+def bone_colours(motion: Motion, segs: np.ndarray | None = None) -> np.ndarray:
+    """``(B, 3)`` float32 RGB in [0, 1] of each bone of ``segs`` (default :func:`segments`): the
+    :data:`SIDE_COLOURS` of its child joint's body side (of its parent's for an End Site). The one definition
+    the 3D view and the exported page both draw."""
+    segs = segments(motion) if segs is None else segs
+    J = motion.num_joints
+    sides = joint_sides(motion.skeleton.names)
+    rgb = [hex_rgb(SIDE_COLOURS[sides[b] if b < J else sides[a]]) for a, b in segs]
+    return np.asarray(rgb, np.float32).reshape(-1, 3)
+
+
 @dataclass(frozen=True)
 class MeshTemplate:
     """Unit shapes the skeleton mesh is made of, each vertex a row ``(x, y, z, nx, ny, nz)`` float32.
@@ -417,6 +467,13 @@ def mesh_index(num_joints: int, num_bones: int, template: MeshTemplate):
     sph = template.sphere_index[None] + (vs * np.arange(num_joints))[:, None, None]
     tub = template.tube_index[None] + (num_joints * vs + vt * np.arange(num_bones))[:, None, None]
     return np.concatenate([sph.reshape(-1, 3), tub.reshape(-1, 3)]).astype(np.uint32)
+
+
+def triangle_joints(num_joints: int, segs: np.ndarray, template: MeshTemplate) -> np.ndarray:
+    """``(T,)`` int: the joint each triangle of the merged mesh (:func:`mesh_index`'s order: the spheres, then
+    the bones' tubes) belongs to, a bone's being its parent joint (what a click on it selects)."""
+    return np.concatenate([np.repeat(np.arange(num_joints), len(template.sphere_index)),
+                           np.repeat(np.asarray(segs, int).reshape(-1, 2)[:, 0], len(template.tube_index))])
 
 
 def joint_states(num_frames: int, frame_time: float, num_joints: int, pose_frames=(), contacts=(),

@@ -50,7 +50,7 @@ def skeleton_mesh(points: np.ndarray, segs: np.ndarray, num_joints: int, joint_r
 
 _SCRIPT = __import__("pathlib").Path(__file__).with_name("node") / "conductor_frame.mjs"
 _REFS = ("player", "scene", "rig", "skeleton", "ghost", "trails", "layout", "tabbable", "tooltip")
-_BUFFERS = ("points", "template", "states", "rig_path", "ghost_points")
+_BUFFERS = ("points", "template", "states", "rig_path", "ghost_points", "preview")
 
 
 def browser_mesh(view, frame, tmp_path):

@@ -18,11 +18,10 @@ from stagger_nb.quality import (
     SOURCE_SHRINK,
     ContactFigures,
     QualityReport,
-    _as_motion,
-    _bounds,
-    _check_contacts,
 )
 from stagger_nb.quality import body_height as body_height_of
+from stagger_nb.quality.bounds import _bounds
+from stagger_nb.quality.inputs import _as_motion, _check_contacts
 
 __all__ = ["compare_reference"]
 

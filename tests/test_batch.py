@@ -37,7 +37,7 @@ def clips(tmp_path):
 
 def write_asf_amc(folder, frames=30):
     """``folder/07.asf`` (the tiny skeleton of test_io_asfamc) and ``folder/07_01.amc`` with a smooth swing."""
-    from test_io_asfamc import TINY_ASF
+    from io_samples import TINY_ASF
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "07.asf").write_text(TINY_ASF)
     rows = [":FULLY-SPECIFIED", ":DEGREES"]

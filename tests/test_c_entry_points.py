@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from conftest import run_forked
 
-from stagger_nb.io import bvh_read
+from stagger_nb.io import bvh_block
 from stagger_nb.staggered import _kernels
 
-cparse = bvh_read._cparse
+cparse = bvh_block._cparse
 cspline = _kernels._cspline
 needs_c = pytest.mark.skipif(cparse is None or cspline is None, reason="the C extensions are not built here")
 

@@ -121,10 +121,15 @@ def test_timing_weights_scale_each_poses_offsets_before_the_saturation(sm, rng, 
     assert np.array_equal(run(weights=np.ones(sm.num_poses)).refinements, plain.refinements)
     assert run(weights=np.zeros(sm.num_poses)) is sm
     sat = run(weights=w).refinements - sm.refinements
-    assert np.all(sat[[3, 7]] == 0.0)
-    # the saturation only takes away from the scaled offsets, never adds: |kept| <= w |asked|
-    asked = w[:, None] * (raw.refinements - sm.refinements)
-    assert np.all(np.abs(sat) <= np.abs(asked) + 1e-12) and np.all(sat * asked >= 0)
+    # equal weights: the saturation only takes away from the scaled offsets, never adds: |kept| <= w |asked|
+    asked = 0.6 * (raw.refinements - sm.refinements)
+    even = run(weights=np.full(sm.num_poses, 0.6)).refinements - sm.refinements
+    assert np.all(np.abs(even) <= np.abs(asked) + 1e-12) and np.all(even * asked >= 0)
+    # unequal: where a region's edge squeezes a segment the lower-weight knot gives way (it may move more than
+    # asked), and still every joint's knots stay in order, no segment plays more than the limit (1.5) faster
+    src = sm.pose_times[:, None] + sm.refinements
+    seg = np.diff(sm.pose_times[:, None] + sm.refinements + sat, axis=0)
+    assert np.all(seg >= np.diff(src, axis=0) / st.TIMING_LIMIT - 1e-12)
 
 
 def test_weights_are_checked(sm):
@@ -151,3 +156,41 @@ def test_source_pose_times_follow_retiming_insertion_deletion_and_cull(sm):
     culled = st.cull(moved, count=6)                                          # a subset of the poses at their times
     rows = np.searchsorted(moved.pose_times, culled.pose_times)
     np.testing.assert_allclose(st.source_pose_times(culled), t0[rows], atol=1e-12)
+
+
+# -- the saturation at a region's edge: the knot of lower weight gives way ---------------------------------
+def _ramp(o, priority=None):
+    knots = np.arange(7.0)[:, None]                       # one column, segments of 1 s, floor 1 / 1.5
+    return st.saturate_offsets(knots, np.asarray(o, float)[:, None], 1.5, priority=priority)[:, 0]
+
+
+def test_a_delays_falling_edge_gives_way_on_the_low_weight_side():
+    o = [0.0, 0.5, 0.5, 0.0, 0.0, 0.0, 0.0]                # segment 2-3 squeezed to 0.5 s (< 1 / 1.5)
+    old, new = _ramp(o), _ramp(o, priority=[0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+    assert old[2] < 0.45                                   # the plain rule cuts the delay the squeeze came from
+    assert new[1] == 0.5 and new[2] == 0.5                 # the region's poses keep theirs, bit for bit
+    assert new[3] > 0.05 and new[0] == 0.0 and new[6] == 0.0   # the outside knot moved later; the ends stay
+    seg = np.diff(np.arange(7.0) + new)
+    assert np.all(seg >= 1 / 1.5 - 1e-12)                  # no segment faster than the limit
+    assert np.diff(np.arange(7.0) + old)[2] == pytest.approx(seg[2], abs=1e-12)   # the same floored length
+
+
+def test_a_leads_rising_edge_gives_way_before_it():
+    o = [0.0, 0.0, 0.0, 0.0, -0.5, -0.5, 0.0]              # segment 3-4 squeezed by knot 4 moving earlier
+    old, new = _ramp(o), _ramp(o, priority=[0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0])
+    assert old[4] > -0.45
+    assert new[4] == -0.5 and new[5] == -0.5 and new[3] < -0.05
+    assert np.all(np.diff(np.arange(7.0) + new) >= 1 / 1.5 - 1e-12)
+
+
+def test_priority_none_or_equal_is_the_plain_rule_and_the_share_is_continuous(rng):
+    knots = np.cumsum(rng.uniform(0.2, 1.0, (9, 3)), axis=0)
+    o = rng.uniform(-0.3, 0.3, (9, 3))
+    plain = st.saturate_offsets(knots, o, 1.5)
+    assert np.array_equal(st.saturate_offsets(knots, o, 1.5, priority=np.full(9, 0.7)), plain)
+    p = rng.uniform(0.0, 1.0, 9)
+    a = st.saturate_offsets(knots, o, 1.5, priority=p)
+    b = st.saturate_offsets(knots, o, 1.5, priority=p + 1e-7 * rng.standard_normal(9))
+    assert np.abs(a - b).max() < 1e-5                      # no jump as a sigma slider moves the weights
+    with pytest.raises(ValueError, match=r"^priority must be 9 finite numbers"):
+        st.saturate_offsets(knots, o, 1.5, priority=np.ones(4))

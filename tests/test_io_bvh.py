@@ -12,6 +12,7 @@ import pytest
 from conftest import SHARED_CLIPS, shared_clip_path
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from io_samples import TINY
 from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
@@ -21,38 +22,8 @@ from stagger_nb.io._common import euler_deg_to_quat
 from stagger_nb.io._numformat import format_table
 from stagger_nb.io._numparse import parse_columns, parse_table
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
-from stagger_nb.io.bvh_read import _normalise_breaks, _parse_motion_lines
-
-TINY = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Chest
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 5 0
-    }
-  }
-  JOINT Leg
-  {
-    OFFSET 3 0 0
-    CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation
-    End Site
-    {
-      OFFSET 0 -8 0
-    }
-  }
-}
-MOTION
-Frames: 2
-Frame Time: 0.5
-1 2 3 90 0 0 0 0 0 4 0 0 0 0 0
-0 0 0 0 0 0 0 90 0 0 0 0 0 0 0
-"""
+from stagger_nb.io.bvh_block import _parse_motion_lines
+from stagger_nb.io.bvh_header import _normalise_breaks
 
 
 def _end_sites_world(m, pos, wq):
@@ -490,7 +461,7 @@ def _pieces_file(rng, F=40, rot="Zrotation Xrotation Yrotation"):
 def test_pieces_on_threads_give_the_same_motion_as_the_line_parser(monkeypatch, rng, cpus):
     """Tiny pieces (a few lines each) spread over up to 4 threads: every frame lands in its place, bit for
     bit the motion the line-by-line parser gives."""
-    from stagger_nb.io import bvh_read as bvh_mod
+    from stagger_nb.io import bvh_block as bvh_mod
     head, body = _pieces_file(rng)
     whole = parse_bvh(head + body, "x.bvh")
     monkeypatch.setattr(bvh_mod, "_cpus", lambda: cpus)
@@ -508,7 +479,7 @@ def test_pieces_on_threads_give_the_same_motion_as_the_line_parser(monkeypatch, 
 
 @pytest.mark.parametrize("bad_line", [0, 17, 39])
 def test_a_bad_line_in_any_piece_is_reported_with_its_line(monkeypatch, rng, bad_line):
-    from stagger_nb.io import bvh_read as bvh_mod
+    from stagger_nb.io import bvh_block as bvh_mod
     head, body = _pieces_file(rng)
     lines = body.splitlines()
     lines[bad_line] = lines[bad_line].replace(" ", " x", 1)
@@ -534,7 +505,7 @@ def test_concurrent_reads_share_the_pool(rng):
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform")
 def test_read_in_a_forked_child_after_the_parent_used_its_threads(rng):
     """Threads do not survive fork: a child (Dask/multiprocessing workers) must not wait on the parent's pool."""
-    from stagger_nb.io import bvh_read as bvh_mod
+    from stagger_nb.io import bvh_block as bvh_mod
     text = "".join(_pieces_file(rng, F=6000))
     expect = parse_bvh(text, "x.bvh").local_quats  # the parent's pool exists now (2+ CPUs)
     r, w = os.pipe()
@@ -559,7 +530,7 @@ def test_read_in_a_forked_child_after_the_parent_used_its_threads(rng):
 def test_padded_blocks_take_the_fast_path(monkeypatch, rng, pad, end):
     """Tabs and runs of blanks between values (and CR before the line break) are read by the vectorised
     parser, not the line-by-line fallback."""
-    from stagger_nb.io import bvh_read as bvh_mod
+    from stagger_nb.io import bvh_block as bvh_mod
     head, body = _pieces_file(rng, F=50)
     expect = parse_bvh(head + body, "x.bvh")
     padded = "\n".join(pad.join(line.split(" ")) + end for line in body.splitlines())
@@ -576,7 +547,7 @@ def test_padded_blocks_take_the_fast_path(monkeypatch, rng, pad, end):
 def test_the_line_parser_takes_over_only_from_the_first_uncertified_piece(monkeypatch, rng, case):
     """A long take with a bad last line costs one piece of slow parsing, not the whole file: the line-by-line
     parser starts at the failing piece, with its frame and line numbers right."""
-    from stagger_nb.io import bvh_read as bvh_mod
+    from stagger_nb.io import bvh_block as bvh_mod
     head, body = _pieces_file(rng, F=60)
     lines = body.splitlines()
     if case == "truncated last line":
@@ -620,7 +591,7 @@ def test_the_first_read_in_a_process_uses_the_fast_path_on_every_thread():
     import subprocess
     import sys
     code = ("import numpy as np\n"
-            "from stagger_nb.io import bvh_read as bvh\n"
+            "from stagger_nb.io import bvh_block as bvh, bvh_read\n"
             "bvh._cpus = lambda: 4\n"
             "bvh._MIN_PIECE_BYTES, bvh._PIECE_BYTES = 64, 300\n"
             "def boom(*a, **k):\n"
@@ -630,7 +601,7 @@ def test_the_first_read_in_a_process_uses_the_fast_path_on_every_thread():
             "head = ('HIERARCHY\\nROOT a\\n{\\nOFFSET 0 0 0\\nCHANNELS 6 Xposition Yposition Zposition Zrotation "
             "Xrotation Yrotation\\nJOINT b\\n{\\nOFFSET 0 1 0\\nCHANNELS 3 Zrotation Xrotation Yrotation\\n}\\n}\\n"
             "MOTION\\nFrames: 200\\nFrame Time: 0.01\\n')\n"
-            "print(bvh.parse_bvh(head + rows + '\\n', 'x').num_frames)\n")
+            "print(bvh_read.parse_bvh(head + rows + '\\n', 'x').num_frames)\n")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).resolve().parents[1]),
                                                          os.environ.get("PYTHONPATH", "")])}
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)

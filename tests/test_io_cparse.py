@@ -12,9 +12,10 @@ import pytest
 from conftest import SHARED_MOCAP
 
 import stagger_nb as sn
+from stagger_nb.io import bvh_block
 from stagger_nb.io import bvh_read as bvh
 
-cparse = bvh._cparse
+cparse = bvh_block._cparse
 needs_c = pytest.mark.skipif(cparse is None, reason="the C accelerator was not built here (no compiler at install)")
 DATA = Path(os.environ.get("STAGGER_NB_DATA") or Path(__file__).resolve().parents[1] / "data")
 
@@ -167,8 +168,8 @@ def test_every_clip_reads_bit_identically_with_and_without_it(monkeypatch, tmp_p
     if not clips:
         pytest.skip(f"no clips in {DATA} or {SHARED_MOCAP} (make data writes data/*.bvh)")
     used = []
-    real = bvh._Layout.read_accelerated
-    monkeypatch.setattr(bvh._Layout, "read_accelerated", lambda *a: used.append(real(*a)) or used[-1])
+    real = bvh_block._Layout.read_accelerated
+    monkeypatch.setattr(bvh_block._Layout, "read_accelerated", lambda *a: used.append(real(*a)) or used[-1])
     for p in clips:
         written = tmp_path / p.name
         sn.write_bvh(sn.read_bvh(p), written)
@@ -285,7 +286,7 @@ def test_c_continuity_is_quat_continuous_bit_for_bit():
     quaternions with random sign flips, dot products at rounding level of zero (where the summation
     order decides), exact zeros and signed zeros, one frame, one joint; bit for bit, -0.0 included."""
     from stagger_nb.core.rotations import quat_continuous
-    if not bvh._c_continuity():
+    if not bvh_block._c_continuity():
         pytest.skip("numpy sums einsum's dot products in another order on this machine: the reader keeps numpy's")
     rng = np.random.default_rng(11)
     for F, J in ((1, 3), (2, 1), (257, 1), (300, 31), (41, 7)):
@@ -363,17 +364,17 @@ def test_a_continuity_summing_in_another_order_is_not_used(monkeypatch):
 
     fake = types.SimpleNamespace(parse_rows=cparse.parse_rows, quats_from_tangents=cparse.quats_from_tangents,
                                  make_continuous=sequential)
-    monkeypatch.setattr(bvh, "_cparse", fake)
-    monkeypatch.setattr(bvh, "_C_CONTINUITY", [])
-    assert not bvh._c_continuity()
+    monkeypatch.setattr(bvh_block, "_cparse", fake)
+    monkeypatch.setattr(bvh_block, "_C_CONTINUITY", [])
+    assert not bvh_block._c_continuity()
     rng = np.random.default_rng(9)
     vals = rng.uniform(-2000, 2000, (30, 12)).round(6)
     text = _tiny(("\n".join(" ".join(f"{v:.6f}" for v in r) for r in vals) + "\n").encode(), 30)
     a, b = _both(lambda: bvh.parse_bvh(text, "order.bvh"), monkeypatch)
     assert _same_motion(a, b)
-    monkeypatch.setattr(bvh, "_C_CONTINUITY", [])
-    monkeypatch.setattr(bvh, "_cparse", cparse)
-    assert bvh._c_continuity()
+    monkeypatch.setattr(bvh_block, "_C_CONTINUITY", [])
+    monkeypatch.setattr(bvh_block, "_cparse", cparse)
+    assert bvh_block._c_continuity()
 
 
 # -- the sign of zero (issue 21): "bit-identical" includes np.signbit of every component -------------------
@@ -386,9 +387,9 @@ def _same_bits(a, b) -> bool:
 
 def _cut_small(monkeypatch, cpus=4):
     """The fallback's block cut into many small pieces over ``cpus`` threads (another machine's cut)."""
-    monkeypatch.setattr(bvh, "_cpus", lambda: cpus)
-    monkeypatch.setattr(bvh, "_MIN_PIECE_BYTES", 512)
-    monkeypatch.setattr(bvh, "_PIECE_BYTES", 2000)
+    monkeypatch.setattr(bvh_block, "_cpus", lambda: cpus)
+    monkeypatch.setattr(bvh_block, "_MIN_PIECE_BYTES", 512)
+    monkeypatch.setattr(bvh_block, "_PIECE_BYTES", 2000)
 
 
 @pytest.mark.parametrize("cpus", [1, 2, 4])

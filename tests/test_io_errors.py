@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_io_asfamc import TINY_AMC, TINY_ASF
-from test_io_bvh import TINY
+from io_samples import TINY, TINY_AMC, TINY_ASF
 
 from stagger_nb.core.motion import Motion
 from stagger_nb.io.asfamc import AMCError, asf_amc_to_motion, parse_amc, parse_asf

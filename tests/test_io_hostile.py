@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_io_asfamc import TINY_AMC, TINY_ASF
-from test_io_bvh import TINY
+from io_samples import TINY, TINY_AMC, TINY_ASF
 
 import stagger_nb as sn
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height

@@ -34,7 +34,7 @@ UI_LIBRARIES = {"ipywidgets", "pythreejs", "anywidget"}   # only widgets/ draws
 
 
 def _part(path: Path) -> str:
-    return path.relative_to(PKG).with_suffix("").parts[0]   # "staggered", or "quality" for quality.py
+    return path.relative_to(PKG).with_suffix("").parts[0]   # "staggered", or "scene3d" for scene3d.py
 
 
 def _imports(path: Path, root: Path = PKG):

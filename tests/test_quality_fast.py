@@ -14,6 +14,7 @@ from quality_reference import compare_reference
 import stagger_nb as sn
 from stagger_nb import data, quality, staggered
 from stagger_nb.core.body import pelvis_joint
+from stagger_nb.quality.report import _part
 
 
 def _edits(m):
@@ -155,7 +156,7 @@ def test_fast_path_errors_name_the_parameter():
 # -- the one-line summary ----------------------------------------------------------------------------------
 
 def test_summary_items_are_the_line_and_say_what_is_out_of_bounds():
-    from test_quality import FEET, F, standing  # the hand-built 170 cm figure (Y up, cm)
+    from quality_figures import FEET, F, standing  # the hand-built 170 cm figure (Y up, cm)
     fine = quality.compare(standing(), standing(), contacts=FEET)
     assert fine.summary == "feet held · pelvis ±0.0 cm · no pops"
     assert [(i.figure, i.ok) for i in fine.items] == [("foot_travel", True), ("pelvis", True), ("added_pop", True)]
@@ -186,16 +187,16 @@ def test_summary_items_are_the_line_and_say_what_is_out_of_bounds():
 
 
 def test_summary_says_the_layer_own_pelvis_change_and_plural_parts():
-    from test_quality import FEET, F, standing
+    from quality_figures import FEET, F, standing
     base = standing(root=np.tile([0.0, 88.0, 0.0], (F, 1)))
     layer = standing(root=np.tile([0.0, 84.0, 0.0], (F, 1)))
     r = quality.compare(standing(), layer, contacts=FEET, baseline=base, bounds={"height": 10, "floor": 10})
     assert r.pelvis_vs_baseline == pytest.approx(4.0) and r.pelvis_vs_baseline_drop == pytest.approx(4.0)
     assert r.items[1].figure == "pelvis_vs_baseline" and r.items[1].text == "pelvis drops 4.0 cm"
     # a plural body part takes a plural verb; a joint with no body-part name keeps its name
-    assert quality._part("RightToeBase") == ("right toes", "")
-    assert quality._part("LeftFoot") == ("left foot", "s")
-    assert quality._part("Prop7") == ("Prop7", "s")
+    assert _part("RightToeBase") == ("right toes", "")
+    assert _part("LeftFoot") == ("left foot", "s")
+    assert _part("Prop7") == ("Prop7", "s")
 
 
 def test_summary_names_crossed_knots_and_lost_detail():

@@ -6,17 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.stats import wasserstein_distance
+from timewarp_clips import airborne
 
 from stagger_nb import data, positions_in_root_frame, timewarp
-from stagger_nb.core.kinematics import forward_kinematics
-
-
-def _airborne(m):
-    """Frames where both toes are more than 5 cm above the ground level (5th percentile of the lower toe)."""
-    p, _ = forward_kinematics(m)
-    names = m.skeleton.names
-    toes = p[:, [names.index("LeftToeBase"), names.index("RightToeBase")], 1].min(axis=1)
-    return toes > np.percentile(toes, 5) + 5.0
 
 
 @pytest.mark.shared
@@ -24,7 +16,7 @@ def test_self_reference_preserves_ballistic_timing_cmu_01_01():
     if not data.path("cmu_01_01").is_file():
         pytest.skip("data/cmu_01_01.bvh not prepared (python -m stagger_nb.data.prepare)")
     m = data.load("cmu_01_01").resample(1 / 30)          # the paper works at 30 Hz; 688 frames, 5 forward jumps
-    air = _airborne(m)
+    air = airborne(m)
     assert 60 < air.sum() < 200                          # the detector finds the flights, not the walking
     num = int(round(0.65 * (m.num_frames - 1))) + 1
     out, warp = timewarp.guided_warp(m, m, num)

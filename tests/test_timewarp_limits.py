@@ -6,7 +6,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
-from test_timewarp_eval import _airborne
+from timewarp_clips import airborne
 
 from stagger_nb import data, timewarp, wand
 
@@ -76,7 +76,7 @@ def test_self_reference_compression_has_no_speed_pops_cmu_01_01():
     warp, j, paper = _smooth_enough(m)
     assert np.percentile(paper, 95) > 0.3          # the bursts the measure is there to catch
     assert np.percentile(j, 95) <= 0.12 and j.max() <= 0.25, (np.percentile(j, 95), j.max())
-    air = _airborne(m)
+    air = airborne(m)
     g = timewarp.speed_at_input_times(warp, m.frame_time, m.times)
     assert abs(np.median(g[air]) - 1.0) <= 0.15 and np.median(g[~air]) > 1.3
 

@@ -1,7 +1,7 @@
 """ISOMAP / diffusion / spline curves of §4 (Figure 3) against brute force, and the Figure 3b smoothness."""
 import numpy as np
 import pytest
-from test_wand_synth import cyclic_motion
+from wand_motions import cyclic_motion
 
 from stagger_nb import wand
 from stagger_nb.wand.laplacian import pairwise_sq_distances

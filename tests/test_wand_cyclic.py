@@ -3,7 +3,7 @@ control frame dips again at the same phase of later cycles, and an edit there pr
 with >= 80 % of its magnitude and <= 10 % at the opposite phase (issue 5)."""
 import numpy as np
 import pytest
-from test_wand_synth import loop_motion
+from wand_motions import loop_motion
 
 from stagger_nb import wand
 from stagger_nb.core.rotations import quat_mul, rotvec_to_quat

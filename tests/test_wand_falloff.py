@@ -1,7 +1,7 @@
 """Falloff weights of §3.3: [0, 1], 1 at the edited frame, 0 at the most dissimilar frame of the range."""
 import numpy as np
 import pytest
-from test_wand_synth import cyclic_motion
+from wand_motions import cyclic_motion
 
 from stagger_nb import wand
 from stagger_nb.wand import normalize_row
@@ -68,7 +68,7 @@ def test_falloff_rejects_bad_ranges():
 
 
 def test_static_clip_and_tiny_clips():
-    from test_wand_synth import chain_skeleton
+    from wand_motions import chain_skeleton
 
     from stagger_nb import Motion
     static = Motion(chain_skeleton(3), 0.1, np.zeros((10, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (10, 3, 1)))

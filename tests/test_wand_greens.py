@@ -1,7 +1,7 @@
 """Green's function of the pose Laplacian (Dean et al. 2018, §3.1-3.2): known answers and dense vs sparse."""
 import numpy as np
 import pytest
-from test_wand_synth import cyclic_motion
+from wand_motions import cyclic_motion
 
 from stagger_nb import wand
 from stagger_nb.wand import PoseGraph, knn_graph

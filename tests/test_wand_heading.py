@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_core_body import static_root_rig
+from rigs import static_root_rig
 
 from stagger_nb import data, wand
 from stagger_nb.core.rotations import quat_mul, quat_rotate, rotvec_to_quat

@@ -1,7 +1,7 @@
 """Pose vectors of the magic wand: log map about a per-joint reference, q / -q invariance, weights."""
 import numpy as np
 import pytest
-from test_wand_synth import cyclic_motion
+from wand_motions import cyclic_motion
 
 from stagger_nb.core.rotations import quat_angle, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat
 from stagger_nb.wand import mean_rotations, pose_exps, pose_logs, pose_vectors

@@ -1,7 +1,7 @@
 """Edit propagation, Eqs. 4-5 of Dean et al. 2018."""
 import numpy as np
 import pytest
-from test_wand_synth import cyclic_motion
+from wand_motions import cyclic_motion
 
 from stagger_nb import wand
 from stagger_nb.core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, quat_mul, rotvec_to_quat

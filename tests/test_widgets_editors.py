@@ -518,7 +518,7 @@ def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk)
     jsdlinks, saved inside the Play's change) before the Play's and the slider's own. None of it may come back to
     the Play or the slider (a stale frame from the kernel made the slider jump back under load and left the
     kernel a frame off the browser); a click on a plot still seeks."""
-    from test_widgets_plots import _sends
+    from widget_messages import sends
 
     from stagger_nb.widgets import StaggerEditor, WandEditor, WarpEditor
     for make in (lambda: StaggerEditor(walk.slice(0, 120), precompute=False), lambda: WandEditor(walk.slice(0, 120)),
@@ -526,7 +526,7 @@ def test_keyboard_frames_from_the_browser_are_not_written_back_to_the_play(walk)
         e = make()
         try:
             play, slider = e.view.player, e.view.frame_slider
-            logs = [_sends(play), _sends(slider)]
+            logs = [sends(play), sends(slider)]
             start = e.model.frame
             for f in range(start + 1, start + 6):
                 for p in e.plots:

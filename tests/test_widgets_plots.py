@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 import traitlets
+from widget_messages import sends
 
 from stagger_nb import plotting
 from stagger_nb.widgets import FalloffPlot, JointCurvesPlot, PlotView, ProbabilityPlot, WarpPlot
@@ -18,18 +19,6 @@ T = np.arange(31) / 30
 
 def _decode(spec):
     return np.frombuffer(base64.b64decode(spec["bdata"]), dtype="<" + spec["dtype"])
-
-
-def _sends(widget):
-    """Messages the kernel sends for ``widget`` (its comm's ``send`` wrapped)."""
-    log, orig = [], widget.comm.send
-
-    def send(data=None, metadata=None, buffers=None):
-        log.append(data)
-        return orig(data=data, metadata=metadata, buffers=buffers)
-
-    widget.comm.send = send
-    return log
 
 
 def test_state_holds_the_current_figure_as_typed_arrays():
@@ -80,7 +69,7 @@ def test_plotly_js_is_sent_on_request_never_in_the_state():
 
 def test_frame_from_the_browser_is_not_echoed_and_updates_are_one_message():
     v = PlotView(plotting.falloff_figure(T, {"green": T}), frame_time=1 / 30)
-    log, stored = _sends(v), _sends(v.store)
+    log, stored = sends(v), sends(v.store)
     for f in range(1, 31):   # what a jsdlink from a Play widget sends during playback
         v.set_state({"frame": f})
     # drawn in the browser already: nothing goes back, and the store's kernel copy (what a reload draws) follows

@@ -20,20 +20,35 @@ def _asf_for(amc: str) -> str | None:
     return os.path.join(folder, asfs[0]) if len(asfs) == 1 else None
 
 
-def find_clips(input_dir, exclude=None) -> list[str]:
+def find_clips(input_dir, exclude=None, *, unlisted: list | None = None) -> list[str]:
     """Relative paths (``/``-separated, sorted) of the ``.bvh`` and ``.amc`` files under ``input_dir``;
-    ``exclude`` (a folder) is skipped, e.g. an output folder inside the input folder."""
+    ``exclude`` (a folder) is skipped, e.g. an output folder inside the input folder.
+
+    A sub-folder that cannot be listed (permission denied) is never left out silently: with ``unlisted`` (a
+    list) each is appended as ``(rel + "/", message)``; without it, ``ValueError`` naming it. ``input_dir``
+    itself unlisted is a ``ValueError``."""
     root = os.path.abspath(os.fspath(input_dir))
     if not os.path.isdir(root):
         raise ValueError(f"input_dir: {input_dir} is not a folder")
     skip = os.path.realpath(exclude) if exclude is not None else None
-    found = []
-    for folder, dirs, files in os.walk(root):
+    found, errors = [], []
+
+    def listing_failed(e: OSError) -> None:
+        path = e.filename if isinstance(e.filename, str) else root
+        errors.append((path, f"folder {path}: cannot list: {e.strerror or e}"))
+
+    for folder, dirs, files in os.walk(root, onerror=listing_failed):
         dirs[:] = sorted(d for d in dirs if not d.startswith(".")
                          and os.path.realpath(os.path.join(folder, d)) != skip)
         for f in files:
             if f.lower().endswith((".bvh", ".amc")) and not f.startswith("."):
                 found.append(os.path.relpath(os.path.join(folder, f), root).replace(os.sep, "/"))
+    for path, message in errors:
+        if os.path.abspath(path) == root:
+            raise ValueError(f"input_dir: {message}")
+        if unlisted is None:
+            raise ValueError(message)
+        unlisted.append((os.path.relpath(path, root).replace(os.sep, "/") + "/", message))
     return sorted(found)
 
 

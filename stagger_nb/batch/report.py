@@ -83,9 +83,25 @@ def terminal_text(name: str) -> str:
 
 
 def _cell(value) -> str:
-    """A CSV cell a spreadsheet shows as text: ``'`` before a leading ``= + - @``, tab or carriage return."""
+    """A CSV cell a spreadsheet shows as text: ``'`` before a leading ``= + - @``, tab or carriage return. A
+    number (``-1.250``) is written as it is; a non-finite one (NaN, inf) as an empty cell."""
+    if isinstance(value, float):
+        return f"{value:.3f}" if math.isfinite(value) else ""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
     s = "" if value is None else text_of(str(value))
     return "'" + s if s[:1] in ("=", "+", "-", "@", "\t", "\r") else s
+
+
+def _finite(value):
+    """``value`` with every non-finite float (NaN, inf) inside it replaced by None: strict JSON."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def _rows_text(rows: list) -> list:
@@ -244,22 +260,16 @@ def clip_rows(report: dict) -> list:
     return sorted(rows, key=lambda r: (str(r.get("file")), r["status"]))
 
 
-def _value(v) -> str | None:
-    if isinstance(v, float):
-        return f"{v:.3f}"
-    return v
-
-
 def _csv_bytes(rows: list, quote_all: bool = False) -> bytes:
     buf = io.StringIO()
     w = csv.writer(buf, quoting=csv.QUOTE_ALL if quote_all else csv.QUOTE_MINIMAL)
     w.writerow(CSV_COLUMNS)
-    w.writerows([_cell(_value(r.get(c))) for c in CSV_COLUMNS] for r in rows)
+    w.writerows([_cell(r.get(c)) for c in CSV_COLUMNS] for r in rows)
     return buf.getvalue().encode("utf-8")
 
 
 def _json_bytes(report: dict) -> bytes:
-    report = dict(report)
+    report = _finite(dict(report))   # NaN / inf figures as null: strict JSON
     for k in ("done", "skipped"):
         if k in report:
             report[k] = [text_of(r) for r in report[k]]

@@ -111,7 +111,8 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
     if os.path.realpath(in_root) == out_real:
         raise ValueError(f"output: {shown} is the input folder; choose another folder (inputs are never replaced)")
     t0 = time.perf_counter()
-    rels = find_clips(in_root, exclude=out_real)
+    unlisted = []   # sub-folders that cannot be listed: failed rows, never left out silently
+    rels = find_clips(in_root, exclude=out_real, unlisted=unlisted)
     manifest = Manifest.load(out_real, shown) if os.path.isdir(out_real) else Manifest(out_real, shown)
     for name in (REPORT_JSON, REPORT_CSV):
         st = _lstat(os.path.join(out_real, name))
@@ -127,6 +128,7 @@ def _run(kind: str, job: dict, input_dir, out_root: str, out_name, *, executor, 
     job_hash = hashlib.sha256(json.dumps(job, sort_keys=True).encode()).hexdigest()
     inputs = {os.path.realpath(os.path.join(in_root, r)) for r in rels}
     result, tasks, keys, before = BatchResult(), [], {}, {}
+    result.failed += [{"file": rel, "line": None, "error": message} for rel, message in unlisted]
     for rel in rels:
         src = os.path.join(in_root, rel)
         out_rel = out_name(rel)

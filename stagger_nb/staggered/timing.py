@@ -225,7 +225,7 @@ _FAST_FLOOR = 0.9      # the fastest segment of a joint keeps at least this shar
 
 
 def saturate_offsets(knots, offsets, limit: float = TIMING_LIMIT, *, source_knots=None,
-                     floors=None) -> np.ndarray:
+                     floors=None, priority=None) -> np.ndarray:
     """Timing offsets ``offsets (K, C)`` (seconds) saturated smoothly so that no segment between two knots
     of a column shrinks below its floor: the edited knots ``knots + result`` stay strictly increasing, and
     no segment plays more than ``1 / floor`` times faster than in the source.
@@ -258,6 +258,14 @@ def saturate_offsets(knots, offsets, limit: float = TIMING_LIMIT, *, source_knot
     floors : ndarray (K - 1, C) in (0, 1), optional
         Per-segment floor ``a`` (e.g. higher where a joint moves fast: :func:`succession` uses the segment's
         speed); default ``1 / limit``.
+    priority : array_like (K,), optional
+        Per knot (pose), how much it holds its offsets when a segment is squeezed (magnitudes): a floored
+        segment between knots of priorities ``p0, p1`` gives its excess back on the side of the lower one (that
+        knot gives way), whichever way the knots moved: with ``d = (p1 - p0) / (p0 + p1)`` the share sent back
+        moves linearly from the rule above (``d = 0``) to all of it (``d = 1``), forward at ``d = -1``. With a
+        region's weights (``succession(weights=...)``) the poses the region selects keep their offsets and the
+        transition to the poses it leaves alone moves outward (they may then move more than asked). Default
+        (None) or equal priorities: the rule above.
 
     Returns
     -------
@@ -295,7 +303,18 @@ def saturate_offsets(knots, offsets, limit: float = TIMING_LIMIT, *, source_knot
     # delay stretched), one squeezed by its last knot moving earlier after it; both: in proportion
     wb, wf = np.maximum(o[:-1], 0.0), np.maximum(-o[1:], 0.0)
     tot = wb + wf
-    back = excess * np.where(tot > 0, wb / np.where(tot > 0, tot, 1.0), 0.5)
+    share = np.where(tot > 0, wb / np.where(tot > 0, tot, 1.0), 0.5)
+    if priority is not None:
+        p = np.asarray(priority, dtype=float).reshape(-1)
+        if p.shape != (T.shape[0],) or not np.all(np.isfinite(p)):
+            raise ValueError(f"priority must be {T.shape[0]} finite numbers (one per knot), got shape {p.shape}")
+        p = np.abs(p)
+        tp = p[:-1] + p[1:]
+        d = np.where(tp > 0, (p[1:] - p[:-1]) / np.where(tp > 0, tp, 1.0), 0.0)[:, None]   # in [-1, 1]
+        # d > 0: the first knot holds less, it gives way (the excess goes back, share -> 1 at d = 1); d < 0: the
+        # last knot gives way (forward, share -> 0); linear in d: continuous as a sigma slider moves the weights
+        share = np.where(d > 0, share + d * (1.0 - share), share + d * share)
+    back = excess * share
     fwd = excess - back
     carry = np.zeros(cols.size)
     want = x.copy()                                   # each segment's length before its floor
@@ -363,12 +382,12 @@ def _segment_floors(sm: StaggeredMotion, source: np.ndarray, limit: float) -> np
 
 
 def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray, ease_ends: bool = False,
-                 limit: float | None = None, op: str = "") -> StaggeredMotion:
+                 limit: float | None = None, op: str = "", priority=None) -> StaggeredMotion:
     """Add refinement offsets ``dr (K, J)`` (exactly with ``limit=None``; else soft-clipped by
     :func:`saturate_offsets`, the knots noticeably limited recorded in ``metadata["timing_limits"]`` for
     :func:`timing_summary`; with ``ease_ends``, interior knots that would reach the clip's ends are eased,
     :func:`inside_ends`); the root translation follows the root rotation if joint 0 is selected (both are the
-    root's timing)."""
+    root's timing). ``priority`` (K,): a region's weights, passed to :func:`saturate_offsets`."""
     if not np.any(dr):
         return sm
     t = sm.pose_times
@@ -386,7 +405,7 @@ def _with_timing(sm: StaggeredMotion, dr: np.ndarray, joint_mask: np.ndarray, ea
         src = source_knot_times(sm)
         ok = src.shape == knots.shape
         kept = saturate_offsets(knots, wanted, limit, source_knots=src if ok else None,
-                                floors=_segment_floors(sm, src, limit) if ok else None)
+                                floors=_segment_floors(sm, src, limit) if ok else None, priority=priority)
         dr, dr0 = kept[:, :J], kept[:, J]
         # per joint, the typical (mean) offset over the moved knots, asked and kept: a delay that is kept
         # through the clip and eased only over its last segments is not "limited"
@@ -449,7 +468,9 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     weights : array_like (K,), optional
         Scale of each pose's offsets, ``weights[k] s d(i)^l``: a region of the clip, e.g. a magic-wand falloff
         (Dean et al. 2018, §3.3) read at the pose times, so that the poses it selects get the succession and the
-        others keep their timing (0). The offsets are scaled before the saturation (``limit``) and the easing.
+        others keep their timing (0). The offsets are scaled before the saturation (``limit``) and the easing;
+        where the region's edge squeezes a segment, the saturation gives way on the side of the lower weight
+        (``saturate_offsets(priority=weights)``): the poses the region selects keep their offsets.
     """
     _check(sm)
     limit = _check_limit(limit)
@@ -472,7 +493,9 @@ def succession(sm: StaggeredMotion, root="LeftShoulder", s: float = 0.03, l: flo
     jm = _joint_mask(sm, joints, default=sub)
     pm = _pose_mask(sm, poses, interior_default=True)
     dr = np.where(pm[:, None] & jm[None, :], s * d[None, :] ** l, 0.0)
-    return _with_timing(sm, _scaled(sm, dr, weights), jm, bool(ease_ends), limit, "succession")
+    w = _pose_weights(sm, weights)
+    return _with_timing(sm, _scaled(sm, dr, w), jm, bool(ease_ends), limit, "succession",
+                        priority=None if w is None else np.abs(w))
 
 
 def _scaled(sm: StaggeredMotion, dr: np.ndarray, weights) -> np.ndarray:
@@ -515,8 +538,9 @@ def random_timing(sm: StaggeredMotion, joints=None, tau: float = 0.05, seed: int
     jm = _joint_mask(sm, joints)
     pm = _pose_mask(sm, poses, interior_default=True)
     u = np.random.default_rng(int(seed)).uniform(-tau, tau, size=(sm.num_poses, sm.num_joints))
-    dr = _scaled(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), weights)
-    return _with_timing(sm, dr, jm, bool(ease_ends), limit, "random_timing")
+    w = _pose_weights(sm, weights)
+    dr = _scaled(sm, np.where(pm[:, None] & jm[None, :], u, 0.0), w)
+    return _with_timing(sm, dr, jm, bool(ease_ends), limit, "random_timing", priority=None if w is None else np.abs(w))
 
 
 def retime(sm: StaggeredMotion, pose_times) -> StaggeredMotion:

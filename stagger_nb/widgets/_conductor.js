@@ -282,6 +282,25 @@ function initialize({ model }) {
     onPlaying();
   }
 
+  // an edit's frame at the playhead, sent before the whole clip (`preview`, `preview_frame`): drawn at once when
+  // that frame is shown and the clock is stopped; the clip's points replace it when they arrive
+  function onPreview() {
+    const f = model.get("preview_frame");
+    const pts = floats(model.get("preview"));
+    if (!st.player || st.playing || f !== st.player.get("value")) return;
+    if (!st.data) decode();
+    const d = st.data, sk = st.skeleton && st.skeleton.obj;
+    if (!sk || pts.length !== d.P * 3) return;
+    st.dataAt = performance.now();
+    d.buf.set(pts);
+    writeMesh(sk, d.buf, d.selected);
+    writeColours(sk, Math.min(f, d.F - 1));
+    if (st.scene) st.scene.trigger("rerender", st.scene, {});
+    model.set("shown", { frame: f, root: [d.buf[0], d.buf[1], d.buf[2]], frames: d.F, at: performance.now(),
+                         dataAt: st.dataAt, preview: true });
+  }
+  model.on("change:preview", onPreview);
+
   // data changes (one message per edit, several traits): decode and redraw once, after the message is applied
   function onData() {
     st.data = null;
@@ -299,6 +318,7 @@ function initialize({ model }) {
   bind();
   return () => {
     st.playing = false;
+    model.off("change:preview", onPreview);
     if (st.raf) cancelAnimationFrame(st.raf);
     if (st.pending) clearTimeout(st.pending);
     if (st.player) {

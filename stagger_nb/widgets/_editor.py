@@ -289,8 +289,11 @@ class _Editor(widgets.VBox):
         self.error = ""
         self.message = widgets.HTML("", layout=widgets.Layout(min_height="0"))
         self.message.add_class("sn-message")
+        # the label whole ("extracting poses", "culling poses"): its own width, the bar takes the rest
         self.progress = widgets.IntProgress(value=0, min=0, max=1, description="computing",
-                                            layout=widgets.Layout(visibility="hidden", width="260px"))
+                                            style={"description_width": "initial"},
+                                            layout=widgets.Layout(visibility="hidden", width="280px",
+                                                                  flex="0 0 auto"))
         self.undo_button = widgets.Button(description="undo", icon="undo", layout=widgets.Layout(width="90px"))
         self.redo_button = widgets.Button(description="redo", icon="repeat", layout=widgets.Layout(width="90px"))
         self.undo_button.on_click(lambda _: self.session.undo())
@@ -319,7 +322,9 @@ class _Editor(widgets.VBox):
         owned = session if getattr(self, "_owns_session", False) else None
         self._finalizer = weakref.finalize(self, _stop_work, self._warm_futures, owned)
         # the quality line: the model's plain summary of the edit (shown as it is, when the model has one)
-        self.quality = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 8px"))
+        # one line: a long summary ends in an ellipsis, the whole text in its tooltip (the view never moves down)
+        self.quality = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 8px", flex="1 1 0%", min_width="0",
+                                                              overflow="hidden"))
         self.quality.add_class("sn-quality")
         if model.has_trait("quality"):
             model.observe(self._show_quality, names="quality")
@@ -332,7 +337,8 @@ class _Editor(widgets.VBox):
                 if isinstance(row, widgets.HBox):
                     row.layout.flex_flow = "row wrap"
         top = widgets.HBox([self.undo_button, self.redo_button, self.progress, self.quality],
-                           layout=widgets.Layout(align_items="center", flex_flow="row wrap"))
+                           layout=widgets.Layout(align_items="center", flex_flow="row nowrap", width="100%"))
+        top.add_class("sn-top-bar")
         side = widgets.VBox([widgets.VBox(list(quick)), self.tools, self.message],
                             layout=widgets.Layout(flex="1 1 350px", min_width="0", max_width="100%"))
         side.add_class("sn-tool-column")
@@ -353,12 +359,16 @@ class _Editor(widgets.VBox):
         items = q.get("items") or ([{"text": q["text"], "ok": q.get("ok", True)}] if q.get("text") else [])
         parts = [f'<span style="color:{"#2f855a" if i.get("ok", True) else "#c53030"}">{html.escape(i["text"])}'
                  '</span>' for i in items]
-        self.quality.value = (f'<span style="font-size:13px">{" &middot; ".join(parts)}</span>' if parts else "")
+        tip = " · ".join(i["text"] for i in items)
+        self.quality.tooltip = tip or None
+        self.quality.value = (f'<div title="{html.escape(tip)}" style="font-size:13px;white-space:nowrap;'
+                              f'overflow:hidden;text-overflow:ellipsis">{" &middot; ".join(parts)}</div>'
+                              if parts else "")
 
-    def _quality_later(self, delay: float = 0.3) -> None:
+    def _quality_later(self, delay: float = 0.5) -> None:
         """Ask the binding for the edit's quality line ``delay`` s after the last edit (on the kernel's loop,
-        once a drag rests: its ~60 ms on a 2,751-frame clip is not added to each slider move); at once outside
-        a kernel."""
+        once a drag rests: its ~55 ms CPU on a 2,751-frame clip is not added to each slider move, nor to key
+        presses a few tenths of a second apart); at once outside a kernel."""
         handle = self.__dict__.pop("_quality_handle", None)
         if handle is not None:
             handle.cancel()
@@ -382,15 +392,47 @@ class _Editor(widgets.VBox):
         if change["new"] and change["new"] in self.model.joint_names:
             self.model.joint = change["new"]
 
+    #: seconds an edit rests before the work a user does not see at once runs (the whole clip's points for the
+    #: 3D view, the dope sheet): a drag sends the plot and the 3D view's shown frame for every value the kernel
+    #: takes, and the rest once, when it pauses
+    _REST_S = 0.05
+
+    def _later(self, key: str, fn, delay: float | None = None) -> None:
+        """``fn()`` on the kernel's loop once edits have rested ``delay`` s (default ``_REST_S``), replacing the
+        one pending under ``key``; at once outside a kernel (scripts, tests)."""
+        pending = self.__dict__.setdefault("_pending", {})
+        handle = pending.pop(key, None)
+        if handle is not None:
+            handle.cancel()
+        me = weakref.ref(self)
+
+        def run():
+            ed = me()
+            if ed is not None and ed._finalizer.alive:
+                ed._pending.pop(key, None)
+                try:
+                    fn()
+                except Exception as e:   # never raised into the kernel's loop: shown as a replay error is
+                    ed.error = plain_message(e)
+                    ed._show_message()
+        h = _on_kernel_loop_later(self._REST_S if delay is None else delay, run)
+        if h is not None:
+            pending[key] = h
+
     def _show_motion(self, edited: Motion, pose_frames=None, contacts=None) -> None:
         """Send the edited motion to the 3D view once per edit (not again for a view-only change); the pose
-        frames and contacts only when they changed (each is a set of highlight tracks to rebuild)."""
+        frames and contacts only when they changed (each is a set of highlight tracks to rebuild). In a kernel
+        the shown frame goes at once (``SkeletonView.preview``: a few hundred bytes) and the whole clip once the
+        edit rests (:meth:`_later`: a drag does not send megabytes per value)."""
         pf = None if pose_frames is None else tuple(int(f) for f in pose_frames)
         ct = None if contacts is None else tuple(tuple(c) for c in contacts)
         last = getattr(self, "_shown", (None, None))   # the highlights last sent (the motion: view.motion)
         pf_new = pf if pf is not None and pf != last[0] else None
         ct_new = ct if ct is not None and ct != last[1] else None
         self.model.num_frames = edited.num_frames   # the playhead's range (a longer frame is refused)
+        pending = self.__dict__.get("_pending", {}).pop("motion", None) if self.view.motion is edited else None
+        if pending is not None:   # back to what is shown before an edit on its way was sent: not sent
+            pending.cancel()
         if self.view.motion is edited and pf_new is None and ct_new is None:
             return
         self._shown = (pf if pf is not None else last[0], ct if ct is not None else last[1])
@@ -400,7 +442,10 @@ class _Editor(widgets.VBox):
             if ct_new is not None:
                 self.view.set_contacts(ct_new)
             return
-        self.view.set_motion(edited, pose_frames=pf_new, contacts=ct_new)
+        if hasattr(self.view, "preview") and not self.view.playing:
+            self.view.preview(edited)
+        pfs, cts = self._shown
+        self._later("motion", lambda: self.view.set_motion(edited, pose_frames=pfs, contacts=cts))
 
     def _source_degrees(self, j: int):
         """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""

@@ -38,7 +38,7 @@ import numpy as np
 from .. import scene3d
 from ..core.motion import Motion
 from ..io._common import atomic_write_bytes, read_file_head
-from .skeleton_view import _PALETTE, MESH_JS, _rgb
+from .skeleton_view import _PALETTE, MESH_JS
 
 __all__ = ["export_html", "read_export"]
 
@@ -218,9 +218,6 @@ def _pack_of(motion: Motion, ghost: Motion | None, figures: list, pose_frames, c
     tpl = scene3d.mesh_template()
     sk = motion.skeleton
     contact_idx = [(sk.index(j) if isinstance(j, str) else int(j), int(a), int(b)) for j, a, b in contacts]
-    sides = scene3d.joint_sides(sk.names)
-    bone_rgb = np.asarray([_rgb(scene3d.SIDE_COLOURS[sides[b] if b < J else sides[a]]) for a, b in segs],
-                          np.float32).reshape(-1, 3)
     step = scene3d.body_size(pts[:, :J]) / _STEPS
     pack.add("points", pts, "q16d2", step)
     pack.add("rig", -cam.rig, "q16d2", step)
@@ -228,7 +225,7 @@ def _pack_of(motion: Motion, ghost: Motion | None, figures: list, pose_frames, c
     pack.add("template", np.concatenate([tpl.sphere, tpl.tube]).astype(np.float32))
     pack.add("sphere_index", tpl.sphere_index.reshape(-1).astype(np.uint32))
     pack.add("tube_index", tpl.tube_index.reshape(-1).astype(np.uint32))
-    pack.add("bone_colours", bone_rgb)
+    pack.add("bone_colours", scene3d.bone_colours(motion, segs))
     pack.add("grid", scene3d.ground_segments(pts[:, :J], cell, 2 * size, cam.ground))
     has_ghost = ghost is not None and ghost.num_joints == J
     if has_ghost:

@@ -2,9 +2,9 @@
 
 The whole skeleton is ONE indexed triangle mesh (a sphere per joint, an open tube per bone; per-vertex colours),
 its original (the ghost) a second one built only when first shown, the trails one LineSegments + Points, the
-ground one LineSegments: about 45 widget models per view (the previous design, one pythreejs model per bone,
-joint, material and keyframe track, had ~280, and JupyterLab restored ~1,200 of them per notebook on a page
-reload, slowly enough to give up on some: ipywidgets #4026/#4040). The world points of every frame (joints then
+ground one LineSegments: about 45 widget models per view (one pythreejs model per bone, joint, material and
+keyframe track would be ~280, ~1,200 per notebook, which JupyterLab restores on a page reload slowly enough to
+give up on some: ipywidgets #4026/#4040). The world points of every frame (joints then
 End Sites, :func:`stagger_nb.scene3d.skeleton_points`, float32) go to the browser once per edit as one binary
 buffer on a small anywidget clock (``_conductor.js``), with the per-frame joint states (pose / contact colours)
 and the camera rig path; the clock builds the mesh's vertices for each shown frame (``_skeleton_mesh.js``: the
@@ -23,8 +23,9 @@ the view's pythreejs models in the browser, through three things that are not py
 3. The ``"rerender"`` event triggered on the Scene model: the event the pythreejs ``RendererView`` listens to
    for re-rendering after a change of the scene.
 
-No public way does the job: the public routes all go through the kernel (setting ``BufferAttribute.array``
-or calling ``exec_three_obj_method`` from Python is one kernel round trip and ~0.1 MB per shown frame of a
+No public way does the job: the public routes all go through the kernel (setting ``BufferAttribute.array``,
+what pythreejs's maintainer advises for animating a geometry in pythreejs issues #255 and #292, or calling
+``exec_three_obj_method`` from Python is one kernel round trip and ~0.1 MB per shown frame of a
 31-joint rig, so playback would stop whenever the kernel is busy and could not keep a 120 Hz clip's rate),
 ``jslink`` can drive a trait from a Play but no trait maps a frame index to vertex arrays, pythreejs's keyframe
 animation needs one Object3D model per bone and per track (~280 models, which JupyterLab restores too slowly
@@ -46,102 +47,29 @@ everything (``camera="all"``) with orbit controls, the original as a translucent
 """
 from __future__ import annotations
 
-import html
-from pathlib import Path
-
-import anywidget
 import ipywidgets as widgets
 import numpy as np
 import pythreejs as three
 import traitlets
-from ipywidgets import widget_serialization
 
 from .. import scene3d
 from ..core.motion import Motion
+from ._skeleton_parts import (
+    _PALETTE,
+    _TEMPLATE,
+    _TICK_S,
+    MESH_JS,  # noqa: F401 (widgets/export.py reads it here)
+    _attr,
+    _Conductor,
+    _FramePlay,
+    _FrameSlider,
+)
+from .skeleton_scene import _SceneSender
 
 __all__ = ["SkeletonView"]
 
-_JOINT = "#2d3748"
-_POSE = "#dd6b20"
-_CONTACT = "#38a169"
-_SELECTED = "#e53e3e"
-_GHOST = "#a0aec0"
-_TRAILS = ("#805ad5", "#d69e2e", "#319795", "#d53f8c", "#3182ce", "#718096")
-_TICK_S = 0.1          # the Play's tick: the kernel hears at most ~1 / _TICK_S frame updates a second
-_SELECTED_SCALE = 1.6  # a selected joint's sphere is this much larger (and red)
-_TEMPLATE = scene3d.mesh_template()
-#: The one builder of the skeleton mesh (plain JS functions), prepended to the clock's module and inlined in the
-#: exported page's player.
-MESH_JS = _MESH_JS = (Path(__file__).with_name("_skeleton_mesh.js")).read_text(encoding="utf-8")
 
-
-def _rgb(colour: str) -> list:
-    return [int(colour[i:i + 2], 16) / 255 for i in (1, 3, 5)]
-
-
-# joint state -> colour (scene3d.joint_states: 0 plain, 1 staggered pose, 2 contact), then the selected colour
-_PALETTE = [_rgb(_JOINT), _rgb(_POSE), _rgb(_CONTACT), _rgb(_SELECTED)]
-
-
-class _FramePlay(widgets.Play):
-    """ipywidgets Play whose value is not echoed back to the browser (ipywidgets 8 echoes every front-end
-    update by default: one kernel→browser message per tick)."""
-    value = traitlets.CInt(0, help="current frame").tag(sync=True, echo_update=False)
-
-
-class _FrameSlider(widgets.IntSlider):
-    """IntSlider (CSS class ``sn-frame``) whose value is not echoed back to the browser."""
-    value = traitlets.CInt(0, help="current frame").tag(sync=True, echo_update=False)
-
-
-def _ref(cls):
-    return traitlets.Instance(cls, allow_none=True).tag(sync=True, **widget_serialization)
-
-
-class _Conductor(anywidget.AnyWidget):
-    """The browser-side clock and mesh builder (see ``_conductor.js``): the data of the shown motion as binary
-    buffers, and references to the pythreejs models it updates."""
-    _esm = _MESH_JS + (Path(__file__).with_name("_conductor.js")).read_text(encoding="utf-8")
-    player = _ref(widgets.Play)
-    scene = _ref(three.Scene)
-    rig = _ref(three.Object3D)
-    skeleton = _ref(three.Mesh)
-    ghost = _ref(three.Mesh)
-    trails = _ref(three.LineSegments)
-    points = traitlets.Bytes(b"", help="(F, P, 3) float32 world points: joints, then End Sites").tag(sync=True)
-    num_frames = traitlets.Int(1).tag(sync=True)
-    num_points = traitlets.Int(1).tag(sync=True)
-    num_joints = traitlets.Int(1).tag(sync=True)
-    ghost_points = traitlets.Bytes(b"", help="(Fg, P, 3) float32, the ghost's points (sent once shown)").tag(
-        sync=True)
-    ghost_frames = traitlets.Int(0).tag(sync=True)
-    segments = traitlets.List(traitlets.Int(), help="bones as flattened point-index pairs").tag(sync=True)
-    template = traitlets.Bytes(b"", help="float32 rows (x, y, z, nx, ny, nz): unit sphere, then unit tube").tag(
-        sync=True)
-    sphere_vertices = traitlets.Int(0).tag(sync=True)
-    tube_vertices = traitlets.Int(0).tag(sync=True)
-    joint_radius = traitlets.Float(1.0).tag(sync=True)
-    bone_radius = traitlets.Float(0.5).tag(sync=True)
-    selected = traitlets.List(traitlets.Int()).tag(sync=True)
-    selected_scale = traitlets.Float(_SELECTED_SCALE).tag(sync=True)
-    states = traitlets.Bytes(b"", help="(F, J) uint8 joint states: 0 plain, 1 pose, 2 contact").tag(sync=True)
-    palette = traitlets.List(help="RGB in [0, 1] of the states 0, 1, 2 and of a selected joint").tag(sync=True)
-    rig_path = traitlets.Bytes(b"", help="(F, 3) float32 position of the rig (minus the follow path)").tag(
-        sync=True)
-    frame_time = traitlets.Float(1 / 60).tag(sync=True)
-    trail_joints = traitlets.List(traitlets.Int()).tag(sync=True)
-    trail_window = traitlets.Int(30, help="frames shown each side of the playhead").tag(sync=True)
-
-
-def _f32(a) -> np.ndarray:
-    return np.ascontiguousarray(np.asarray(a, dtype=np.float32))
-
-
-def _attr(array) -> three.BufferAttribute:
-    return three.BufferAttribute(array=array, normalized=False, dynamic=True)
-
-
-class SkeletonView(widgets.VBox):
+class SkeletonView(_SceneSender, widgets.VBox):
     """3D view with a Play button, a frame slider (CSS class ``sn-frame``) and a legend.
 
     Parameters
@@ -204,12 +132,8 @@ class SkeletonView(widgets.VBox):
         self._segs = scene3d.segments(motion)
         index = scene3d.mesh_index(J, len(self._segs), _TEMPLATE)
         vs = len(_TEMPLATE.sphere)
-        tri_s = len(_TEMPLATE.sphere_index)
-        self._tri_joint = np.concatenate([np.repeat(np.arange(J), tri_s),
-                                          np.repeat(self._segs[:, 0], len(_TEMPLATE.tube_index))])
-        sides = scene3d.joint_sides(sk.names)
-        bone_rgb = [_rgb(scene3d.SIDE_COLOURS[sides[b] if b < J else sides[a]]) for a, b in self._segs]
-        self._bone_colours = np.repeat(np.asarray(bone_rgb, np.float32).reshape(-1, 3), len(_TEMPLATE.tube),
+        self._tri_joint = scene3d.triangle_joints(J, self._segs, _TEMPLATE)
+        self._bone_colours = np.repeat(scene3d.bone_colours(motion, self._segs), len(_TEMPLATE.tube),
                                        axis=0)
         self._sphere_vertices = vs
         pos, nrm, col = self._constant_arrays()
@@ -292,17 +216,6 @@ class SkeletonView(widgets.VBox):
         """Play step (frames) and interval (ms): ~_TICK_S per tick, an exact multiple of the frame time."""
         step = max(1, int(round(_TICK_S / frame_time)))
         return step, max(10, int(round(step * frame_time * 1000)))
-
-    def _constant_arrays(self):
-        """The mesh's attribute arrays as the kernel holds them, (V, 3) float32 each: positions zero (the browser's
-        clock writes every shown frame's, ``_skeleton_mesh.js``), the spheres' normals (the unit sphere's) and the
-        constant colours (joints plain, bones by side). Sent once, with the mesh; never per edit."""
-        J, vs = len(self._names), self._sphere_vertices
-        V = J * vs + len(self._segs) * len(_TEMPLATE.tube)
-        nrm = np.zeros((V, 3), np.float32)
-        nrm[:J * vs] = np.tile(_TEMPLATE.sphere[:, 3:], (J, 1))
-        col = np.concatenate([np.tile(np.asarray(_PALETTE[0], np.float32), (J * vs, 1)), self._bone_colours])
-        return np.zeros((V, 3), np.float32), nrm, np.ascontiguousarray(col, np.float32)
 
     # -- public ------------------------------------------------------------------------------------------
     @property
@@ -390,6 +303,19 @@ class SkeletonView(widgets.VBox):
         self._points = scene3d.skeleton_points(motion)
         self._push_motion(motion)
 
+    def preview(self, motion: Motion, frame: int | None = None) -> int:
+        """Show ``motion`` at ``frame`` (default: the shown frame) at once, before the whole clip follows with
+        :meth:`set_motion`: one frame's points (P x 3 float32, under a kilobyte on a 31-joint rig, where the whole
+        clip is F times that), drawn when the view shows that frame and is not playing. Returns the bytes sent."""
+        if not isinstance(motion, Motion) or motion.num_joints != self._motion.num_joints:
+            raise ValueError("motion: expected a Motion of the view's skeleton")
+        f = min(max(0, int(self.frame if frame is None else frame)), motion.num_frames - 1)
+        pts = scene3d.skeleton_points(motion.slice(f, f + 1))[0]
+        with self.conductor.hold_sync():
+            self.conductor.preview = pts.tobytes()
+            self.conductor.preview_frame = f
+        return pts.nbytes
+
     def highlight_joints(self, names) -> None:
         """Draw these joints (names or indices) red and larger (the first becomes ``selected_joint``)."""
         sk = self._motion.skeleton
@@ -411,173 +337,6 @@ class SkeletonView(widgets.VBox):
         """``[(joint_name, start_frame, end_frame), ...]`` (half-open): those joints are green while in contact."""
         self._contacts = self._contact_list(contacts, self._motion)
         self._push_highlights()
-
-    # -- sending -----------------------------------------------------------------------------------------
-    @staticmethod
-    def _contact_list(contacts, motion):
-        sk = motion.skeleton
-        return [(sk.index(n) if isinstance(n, str) else int(n), int(a), int(b)) for n, a, b in contacts]
-
-    def _states_array(self) -> np.ndarray:
-        m = self._motion
-        return scene3d.joint_states(m.num_frames, m.frame_time, m.num_joints, self._pose_frames, self._contacts)
-
-    def _push_motion(self, motion: Motion) -> None:
-        F = motion.num_frames
-        step, interval = self._tick(motion.frame_time)
-        pts = self._points.tobytes()
-        self._states = self._states_array()
-        with self.hold_trait_notifications():
-            if self.frame > F - 1:
-                self.frame = F - 1
-            states = self._states.tobytes()
-            nbytes = (len(pts) if pts != self.conductor.points else 0) + \
-                (len(states) if states != self.conductor.states else 0)   # traitlets sends changes only
-            with self.conductor.hold_sync():
-                self.conductor.points = pts
-                self.conductor.num_frames = F
-                self.conductor.states = states
-                self.conductor.frame_time = motion.frame_time
-                self.conductor.trail_window = max(1, int(round(self.trail_seconds / motion.frame_time)))
-                nbytes += self._push_camera()
-                nbytes += self._push_ghost()
-            nbytes += self._push_trails()
-            self.player.max = self.frame_slider.max = F - 1
-            self.player.step, self.player.interval = step, interval
-        self.edit_bytes = int(nbytes + self._update_grid())
-        self._update_legend()
-
-    def _push_ghost(self) -> int:
-        """Build (first time), fill and send the ghost, only while it is shown. Returns the bytes sent."""
-        if not self.show_ghost or self._ghost_motion is None:
-            if self.ghost_mesh is not None:
-                self.ghost_mesh.visible = False
-            return 0
-        nbytes = 0
-        if self._ghost_points is None:
-            self._ghost_points = scene3d.skeleton_points(self._ghost_motion) + self._ghost_offset.astype(np.float32)
-            gp = self._ghost_points.tobytes()
-            with self.conductor.hold_sync():
-                self.conductor.ghost_points = gp
-                self.conductor.ghost_frames = len(self._ghost_points)
-            nbytes += len(gp)
-        if self.ghost_mesh is None:   # the same constant arrays; the browser's clock writes its frames
-            pos, nrm, _ = self._constant_arrays()
-            geom = three.BufferGeometry(attributes={"position": _attr(pos), "normal": _attr(nrm)}, index=self._index)
-            mat = three.MeshLambertMaterial(color=_GHOST, transparent=True, opacity=0.35, depthWrite=False)
-            self.ghost_mesh = three.Mesh(geom, mat, name="ghost", frustumCulled=False)
-            self.rig.children = tuple(self.rig.children) + (self.ghost_mesh,)
-            self.conductor.ghost = self.ghost_mesh
-            nbytes += pos.nbytes + nrm.nbytes
-        self.ghost_mesh.visible = True
-        return nbytes
-
-    def _push_highlights(self) -> None:
-        self._states = self._states_array()
-        self.conductor.states = self._states.tobytes()
-        self._update_legend()
-
-    def _push_camera(self) -> int:
-        m = self._motion
-        cam = scene3d.follow_camera(self._points[:, :m.num_joints], m.frame_time, self.camera,
-                                    aspect=self.width / self.height)
-        self._camera = cam
-        self.three_camera.fov, self.three_camera.near, self.three_camera.far = cam.fov, cam.near, cam.far
-        if not getattr(self, "_camera_placed", None) == self.camera:   # keep the user's orbit across edits
-            self.three_camera.position = cam.position
-            self.controls.target = cam.target
-            self.three_camera.quaternion = scene3d.look_at_quaternion(cam.position, cam.target)
-            self._camera_placed = self.camera
-        self.rig.position = tuple(-float(x) for x in cam.rig[min(self.frame, m.num_frames - 1)])
-        path = _f32(-cam.rig).tobytes()
-        nbytes = len(path) if path != self.conductor.rig_path else 0
-        self.conductor.rig_path = path
-        return nbytes
-
-    def _push_trails(self) -> int:
-        """Trails of ``trail_joints``: one LineSegments and one Points sharing a geometry of ``2 window``
-        segments per joint, filled around the playhead (browser-side per frame; here for the current frame)."""
-        idx = [self._names.index(n) for n in self.trail_joints]
-        old = list(self.trails_group.children)
-        w = self.conductor.trail_window
-        if not idx:
-            self.trails_group.children = ()
-            self.conductor.trails = None
-            self.conductor.trail_joints = []
-            nbytes = 0
-        else:
-            seg = scene3d.trail_segments(self._points, idx, self.frame, w)
-            col = np.repeat(np.asarray([_rgb(_TRAILS[i % len(_TRAILS)]) for i in range(len(idx))], np.float32),
-                            4 * w, axis=0)
-            geom = three.BufferGeometry(attributes={"position": _attr(seg), "color": _attr(col)})
-            line = three.LineSegments(geom, three.LineBasicMaterial(vertexColors="VertexColors"),
-                                      frustumCulled=False)
-            dots = three.Points(geom, three.PointsMaterial(vertexColors="VertexColors", size=self._radius * 0.6),
-                                frustumCulled=False)
-            self.trails_group.children = (line, dots)
-            with self.conductor.hold_sync():
-                self.conductor.trail_joints = idx
-                self.conductor.trails = line
-            nbytes = seg.nbytes + col.nbytes
-        for o in old:
-            if isinstance(o, three.LineSegments):
-                for w_ in (*o.geometry.attributes.values(), o.geometry, o.material):
-                    w_.close()
-            else:
-                o.material.close()
-            o.close()
-        return nbytes
-
-    def _update_grid(self) -> int:
-        """The ground: cell-edge line segments over the clip's ground track (see scene3d.ground_segments), built at
-        height 0 and lifted to the ground by the grid's position; the segments are replaced only when the extent
-        changes (an edit moving the lowest point moves the grid: one small message). Returns the bytes sent."""
-        lo, hi, cell = scene3d.ground_extent(self._points, scene3d.grid_cell(self._size), 2 * self._size)
-        ground = (0.0, float(self._camera.ground), 0.0)
-        key = (tuple(lo), tuple(hi), cell)
-        if key == getattr(self, "_grid_key", None):
-            if tuple(self.grid.position) != ground:
-                self.grid.position = ground
-            return 0
-        seg = scene3d.ground_grid(lo, hi, cell, 0.0)
-        if self.grid is not None and self.grid.geometry.attributes["position"].array.shape == seg.shape:
-            with self.grid.hold_sync():
-                self.grid.geometry.attributes["position"].array = seg   # same size: the array only, in place
-                self.grid.position = ground
-        else:
-            old = self.grid
-            self.grid = three.LineSegments(three.BufferGeometry(attributes={"position": three.BufferAttribute(seg)}),
-                                           three.LineBasicMaterial(color="#cbd5e0"), name="ground", position=ground)
-            self.rig.children = tuple(ch for ch in self.rig.children if ch is not old) + (self.grid,)
-            if old is not None:   # its geometry, array and material too (not left behind)
-                for w in (old.geometry.attributes["position"], old.geometry, old.material, old):
-                    w.close()
-        self._grid_key, self._grid_cell = key, cell
-        return seg.nbytes
-
-    def _update_legend(self) -> None:
-        def sw(colour, label, shape="bar"):
-            style = ("width:14px;height:5px;border-radius:2px" if shape == "bar" else
-                     "width:9px;height:9px;border-radius:50%")
-            return (f'<span style="display:inline-flex;align-items:center;margin-right:10px;white-space:nowrap">'
-                    f'<span style="display:inline-block;{style};background:{colour};margin-right:4px"></span>'
-                    f'{html.escape(label)}</span>')
-        items = [sw(scene3d.SIDE_COLOURS["left"], "left"), sw(scene3d.SIDE_COLOURS["right"], "right"),
-                 sw(scene3d.SIDE_COLOURS["centre"], "centre"), sw(_JOINT, "joint (click to select)", "dot")]
-        if self._selected:
-            items.append(sw(_SELECTED, "selected: " + ", ".join(self._names[j] for j in self._selected), "dot"))
-        if len(self._pose_frames):
-            items.append(sw(_POSE, f"staggered pose ({len(self._pose_frames)})", "dot"))
-        if self._contacts:
-            items.append(sw(_CONTACT, "contact", "dot"))
-        if self._ghost_motion is not None and self.show_ghost:   # what is drawn
-            items.append(sw(_GHOST, "original (ghost)"))
-        for i, n in enumerate(self.trail_joints):
-            items.append(sw(_TRAILS[i % len(_TRAILS)], f"trail {n} (±{self.trail_seconds:g} s)"))
-        # one unit: an entry moves to the next line whole, never split ("grid" | "square: 5 units" was seen)
-        items.append(f'<span style="color:#718096;display:inline-block;white-space:nowrap">'
-                     f'grid square: {getattr(self, "_grid_cell", 0):g} units</span>')
-        self.legend.value = '<div style="font-size:12px;line-height:18px">' + "".join(items) + "</div>"
 
     # -- events ------------------------------------------------------------------------------------------
     @traitlets.validate("frame")

@@ -96,7 +96,7 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
     return c
 
 
-def _tools(c: dict, insert: widgets.Button, delete: widgets.Button) -> tuple[list, dict]:
+def _tools(c: dict, insert: widgets.Button, delete: widgets.Button, note=None) -> tuple[list, dict]:
     """(the main sliders, always shown: cull %, s, τ, w_r; the tools, one tab each: their other settings). The
     propagation of pose edits (issue 24) sits with the pose edits it spreads, the region of the timing edits with
     the timing; the wand's σ serves both and shows in both tabs (one control, two views)."""
@@ -107,6 +107,7 @@ def _tools(c: dict, insert: widgets.Button, delete: widgets.Button) -> tuple[lis
                         widgets.HBox([c["sigma"]])],
              "pose": [widgets.HBox([c["pose"], c["joint"]]), widgets.HBox([c["w_r_reference"], c["edit_mode"]]),
                       widgets.HBox([c["rx"], c["ry"], c["rz"]]), widgets.HBox([c["pose_time"], insert, delete]),
+                      *([widgets.HBox([note])] if note is not None else []),
                       widgets.HBox([c["propagate"], c["sigma"]])],
              "IK": [widgets.HBox([c["ik_joint"]]), widgets.HBox([c["ik_x"], c["ik_y"], c["ik_z"]])],
              "contacts": [widgets.HBox([c["keep_contacts"]]),
@@ -182,7 +183,16 @@ class StaggerEditor(_Editor):
         """The controls (``self.controls``), the main sliders and the tools, once the binding has set the model
         up."""
         self.controls = _controls(self.session.source, list(self.session.source.skeleton.names), model)
-        return _tools(self.controls, self.insert_button, self.delete_button)
+        # a refused pose time says why beside the field it was typed in (and in the message line)
+        self.pose_time_note = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 124px", min_height="0"))
+        self.pose_time_note.add_class("sn-pose-time-note")
+        model.observe(self._show_pose_time_note, names="notes")
+        return _tools(self.controls, self.insert_button, self.delete_button, self.pose_time_note)
+
+    def _show_pose_time_note(self, change=None) -> None:
+        text = self.model.notes.get("pose_time", "")
+        self.pose_time_note.value = (f'<span style="color:#c53030;font-size:12px">&#9888; {html.escape(text)}</span>'
+                                     if text else "")
 
     # -- the dope sheet --------------------------------------------------------------------------------
     def _bind_timeline(self) -> None:
@@ -389,6 +399,10 @@ class StaggerEditor(_Editor):
         self._last_staggered = sm
         K = sm.num_poses
         self.binding.show_staggered(sm)   # pose times, their source frames, the region's weights
+        # what a slider move shows first: the plot, then the 3D view's shown frame; the rest after
+        self._draw_curves(edited, sm)
+        self._show_motion(edited, pose_frames=self.model.pose_frames(),
+                          contacts=list(getattr(sm, "contacts", ()) or ()))
         c = self.controls
         c["pose"].max = max(K - 1, c["pose"].max if self.model.pose >= K else 0)
         opts = [(f"{k}: {t:.2f} s", k) for k, t in enumerate(self.model.candidate_times)]
@@ -409,10 +423,7 @@ class StaggerEditor(_Editor):
                 c["w_r_reference"].options = refs
                 c["w_r_reference"].value = ref
         self._draw_probability(full, sm, _x_span(edited))
-        self._draw_curves(edited, sm)
-        self._draw_timeline(edited, sm)
-        self._show_motion(edited, pose_frames=self.model.pose_frames(),
-                          contacts=list(getattr(sm, "contacts", ()) or ()))
+        self._later("timeline", lambda: self._draw_timeline(edited, sm))   # the dope sheet, once the edit rests
         self._quality_later()   # the quality line, once the edit rests
 
     def _extraction_ready(self) -> bool:

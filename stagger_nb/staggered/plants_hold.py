@@ -1,0 +1,361 @@
+"""Holding the plants (the contact layer's core, :mod:`stagger_nb.staggered.plants`): the target of each held foot
+(the source's own foot replayed on the edited timing), exact IK on the plants' frames, C1 fades of the IK
+displacement around them, the root's shift, and the legs in the air kept where the edit puts them.
+"""
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from ..core.body import pelvis_joint
+from ..core.motion import Motion
+from ..core.rotations import (
+    quat_angle,
+    quat_between_vectors,
+    quat_conj,
+    quat_mul,
+    quat_rotate,
+    quat_to_rotvec,
+    rotvec_to_quat,
+    slerp,
+)
+from .limbs import Limb, _fk_joints
+from .plants_carry import _source_frames
+from .plants_ik import _capped, _hinge_local, _no_hyperextension, _pivot, _solve, _solve_rows, _unit
+from .plants_pops import cap_pops, source_steps
+from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _envelope, _reach, _root_shift, _vertical_need
+
+_ID = np.array([0.0, 0.0, 0.0, 1.0])
+_MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
+_MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel lift) beyond the source's
+_SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
+_FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
+
+def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``arr (F, ...)`` positions at fractional frames ``f (n,)`` (linear; clamped to the clip)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 1))
+    return arr[i0] * (1 - w) + arr[i1] * w
+
+
+def _sample_quats(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``arr (F, ..., 4)`` unit quaternions at fractional frames ``f (n,)`` (slerp; clamped)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
+    return slerp(arr[i0], arr[i1], np.broadcast_to(w, arr[i0].shape[:-1]))
+
+
+def _raised_cosine(d: np.ndarray, n: int) -> np.ndarray:
+    """C1 fade ``(1 + cos(pi d / (n + 1))) / 2`` for ``0 <= d <= n`` frames, 0 beyond."""
+    d = np.asarray(d, dtype=float)
+    return np.where((d >= 0) & (d <= n), 0.5 * (1.0 + np.cos(np.pi * np.minimum(d, n + 1) / (n + 1))), 0.0)
+
+
+def _sample_rows(arr, f, cols):
+    """``arr (F, J, 3)`` at fractional frames ``f (n,)`` and joints ``cols (n,)`` (linear; clamped)."""
+    f = np.clip(f, 0, arr.shape[0] - 1)
+    i0 = np.floor(f).astype(np.int64)
+    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
+    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
+    return arr[i0, cols] * (1 - w) + arr[i1, cols] * w
+
+
+def _length(pos, lim: Limb) -> np.ndarray:
+    """The limb's two bones' length on every frame ``(F,)`` (file units; animated translations may change it)."""
+    return (np.linalg.norm(pos[:, lim.mid] - pos[:, lim.upper], axis=-1)
+            + np.linalg.norm(pos[:, lim.eff] - pos[:, lim.mid], axis=-1))
+
+
+_SOURCE_CACHE = weakref.WeakKeyDictionary()
+
+def _source_tables(source: Motion, limbs: dict):
+    """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
+    positions and rotations of the limbs' and feet's chains, the share of each limb's length it uses per
+    frame, each limb's hinge axis, and the floor (the lowest height of the feet's joints)."""
+    key = tuple(sorted((lim.upper, lim.mid, lim.eff) + lim.foot for lim in limbs.values()))
+    per = _SOURCE_CACHE.setdefault(source, {})
+    if key not in per:
+        joints = {x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot}
+        spos, swq = _fk_joints(source, joints)
+        share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
+                 for e, lim in limbs.items()}
+        hinges = {e: _hinge_local(spos, swq, lim) for e, lim in limbs.items()}
+        feet = [x for lim in limbs.values() if lim.leg for x in (lim.eff,) + lim.foot]
+        floor = float(np.min(spos[:, feet, 1])) if feet else -np.inf
+        if len(per) > 8:
+            per.clear()
+        per[key] = (spos, swq, share, hinges, floor)
+    return per[key]
+
+
+def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
+          share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
+          above_floor: bool = True, cap: bool = True):
+    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
+    sk = motion.skeleton
+    F = motion.num_frames
+    ft, ft_s = motion.frame_time, source.frame_time
+    t0, tables = timeline[0], timeline[3]
+    nb = int(round(blend / ft))
+    nc = max(1, nb)                                         # fade of one contact's correction inside a plant
+    legs = [lim for lim in limbs.values() if lim.leg]
+    joints = set()
+    for lim in limbs.values():
+        joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
+    pos, wq = _fk_joints(motion, joints)
+    spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
+    slq = source.local_quats
+    length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
+    # -- each plant's frames: the source time sigma (the effector's own inverse warp, kept inside the plant's
+    # source frames) and the source foot there --------------------------------------------------------------
+    P = len(plants)
+    sizes = np.array([p["stop"] - p["start"] for p in plants])
+    in_fr = np.concatenate([np.arange(p["start"], p["stop"]) for p in plants])
+    in_pid = np.repeat(np.arange(P), sizes)
+    effs = np.array([p["eff"] for p in plants])
+    e_of, u_of = effs[in_pid], np.array([limbs[e].upper for e in effs])[in_pid]
+    in_sig = np.empty(in_fr.size)
+    for e in limbs:
+        sel = e_of == e
+        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, e, in_fr[sel])
+    s_lo, s_hi = np.array([p["s_lo"] for p in plants]), np.array([p["s_hi"] for p in plants])
+    in_sig = np.clip(in_sig, s_lo[in_pid], s_hi[in_pid])
+    base = _sample_rows(spos, in_sig, e_of)                                  # (n, 3) source foot at sigma
+    hip, cur = pos[in_fr, u_of], pos[in_fr, e_of]
+    L_in = np.concatenate([length[p["eff"]][p["start"]:p["stop"]] for p in plants])
+    s_in = np.empty(in_fr.size)
+    for e in limbs:
+        sel = e_of == e
+        s_in[sel] = _sample(src_share[e], in_sig[sel])
+    R_in = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_in)
+    d0 = np.zeros((P, 3))
+    np.add.at(d0, in_pid, cur - base)
+    d0 /= sizes[:, None]
+    lengths = np.array([float(np.median(length[e])) for e in effs])
+    shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths) if shift_plants else np.zeros((P, 3))
+    contacts_of: dict[int, list] = {}
+    for c in carried:
+        contacts_of.setdefault(c[7], []).append(c)
+    rows = []
+    need = np.zeros(F)
+    f_all = np.arange(F)
+    for eff, lim in limbs.items():
+        sel = np.flatnonzero(e_of == eff)
+        if not sel.size:
+            continue
+        fr, sig, pid = in_fr[sel], in_sig[sel], in_pid[sel]
+        d = shift[pid]
+        # the plant's own frames: the source foot at sigma, shifted, each contact joint then put where the
+        # source has it at that joint's own time (w_j^-1), faded (C1) over nc frames inside the plant
+        p_ref = _sample(spos[:, eff], sig) + d
+        q_ref = _sample_quats(swq[:, eff], sig)
+        n = fr.size
+        da, wa = np.zeros((n, 3)), np.zeros(n)
+        dt_sum, pt_sum, wt_sum, wt = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n)
+        lo = np.array([plants[i]["start"] for i in pid])
+        hi = np.array([plants[i]["stop"] for i in pid])
+        at_sig = {}
+        for j, _e0, _e1, A, B, a, b, _, ci in contacts_of.get(eff, ()):
+            kA, kB = np.searchsorted(fr, [A, B])
+            if kB <= kA:
+                continue
+            own = fr[kA:kB]
+            if j not in at_sig:
+                at_sig[j] = _sample(spos[:, j], sig)
+            if targets is not None and targets[ci] is not None:     # given: where the joint must be
+                delta = np.broadcast_to(targets[ci], (B - A, 3)) - at_sig[j][kA:kB] - d[kA:kB]
+            else:
+                ts = np.clip(_source_frames(tables, t0, ft, ft_s, j, own), a, b - 1)
+                delta = _sample(spos[:, j], ts) - at_sig[j][kA:kB]
+            k0, k1 = np.searchsorted(fr, [A - nc, B + nc])
+            seg = np.arange(k0, k1)
+            seg = seg[(lo[seg] <= A) & (hi[seg] >= B)]         # this contact's plant only
+            f_seg = fr[seg]
+            dist = np.where(f_seg < A, A - f_seg, np.where(f_seg >= B, f_seg - (B - 1), 0))
+            om = _raised_cosine(dist, nc)
+            dseg = delta[np.clip(np.searchsorted(own, f_seg), 0, own.size - 1)]
+            if j == eff:
+                take = om > wa[seg]
+                wa[seg] = np.where(take, om, wa[seg])
+                da[seg] = np.where(take[:, None], dseg, da[seg])
+            else:
+                dt_sum[seg] += om[:, None] * dseg
+                pt_sum[seg] += om[:, None] * (at_sig[j][seg] + d[seg])
+                wt_sum[seg] += om
+                wt[seg] = np.maximum(wt[seg], om)
+        has_t = wt_sum > 0
+        dt = np.where(has_t[:, None], dt_sum / np.where(has_t, wt_sum, 1.0)[:, None], 0.0)
+        pt = np.where(has_t[:, None], pt_sum / np.where(has_t, wt_sum, 1.0)[:, None], p_ref)
+        ankle = p_ref + wa[:, None] * da + ((1 - wa) * wt)[:, None] * dt
+        both = (wa * wt) > 0
+        if both.any():
+            # heel and toe held at once, each at its own joint's time: the toe aimed at its plant by turning
+            # the foot about the ankle, and what the rigid foot's length cannot fit shared by the two
+            toe_t = pt[both] + dt[both]
+            v = toe_t - ankle[both]
+            foot = np.linalg.norm(pt[both] - p_ref[both], axis=-1)
+            gap = (np.linalg.norm(v, axis=-1) - foot) * 0.5 * (wa * wt)[both]
+            ankle[both] += gap[:, None] * _unit(v)
+            turn = _capped(quat_between_vectors(pt[both] - p_ref[both], toe_t - ankle[both]), _MAX_AIM)
+            q_ref[both] = quat_mul(slerp(np.broadcast_to(_ID, turn.shape), turn, (wa * wt)[both]), q_ref[both])
+        e_cur = pos[fr, eff]
+        h = pos[fr, lim.upper]
+        R = _reach(reach, length[eff][fr], np.linalg.norm(e_cur - h, axis=-1), _sample(src_share[eff], sig))
+        toe_only = (wt * (1 - wa)) > 0
+        if toe_only.any():
+            # only the toe held (heel-off): where the leg cannot reach the ankle, the foot turns further about
+            # the toe towards the hip (the heel lifts more), by the least angle that brings the ankle in reach
+            k = np.flatnonzero(toe_only)
+            toe_t = pt[k] + dt[k]
+            off = ankle[k] - toe_t
+            turn = _capped(quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k])), _MAX_PIVOT)
+            turn = slerp(np.broadcast_to(_ID, turn.shape), turn, (wt * (1 - wa))[k])
+            ankle[k] = toe_t + quat_rotate(turn, off)
+            q_ref[k] = quat_mul(turn, q_ref[k])
+        np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
+        foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
+        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig))
+    notes = []
+    shift = np.zeros((F, 3))
+    if share > 0 and max_drop > 0 and np.any(need > 0):
+        leg = float(min(lengths))
+        shift = _root_shift(F, rows, pos, max_drop * leg, _MAX_SIDE * leg, nb) * share
+        left = np.zeros(F)
+        for r in rows:
+            h = pos[r["fr"], r["lim"].upper] + shift[r["fr"]]
+            np.maximum.at(left, r["fr"], np.linalg.norm(r["g"] - h, axis=-1) - r["R"])
+        short = int(np.sum(left > 1e-3 * leg))
+        if short:
+            notes.append(f"keep_contacts: on {short} frame{'s' if short > 1 else ''} a held leg cannot reach its "
+                         f"plant with the pelvis at most {100 * max_drop * share:.1f} % of a leg lower and "
+                         f"{100 * _MAX_SIDE * share:.0f} % of a leg aside: the foot stops short of the plant there")
+    drop = np.maximum(-shift[:, 1], 0.0)
+    rp = motion.root_positions
+    lowered = pos
+    lt = motion.local_translations
+    if np.any(shift != 0):
+        lowered = pos + shift[:, None, :]
+        pel = pelvis_joint(sk)
+        par = int(sk.parents[pel])
+        if pel == 0 or par < 0 or not all(_below(sk, lim.upper, pel) for lim in limbs.values()):
+            rp = np.array(rp) + shift
+        else:
+            # a static root joint below the pelvis (Bandai's joint_Root on the floor): the pelvis moves, not it
+            lt = np.array(np.broadcast_to(sk.offsets, (F,) + sk.offsets.shape) if lt is None else lt)
+            lt[:, pel] += quat_rotate(quat_conj(wq[:, par]), shift)
+    lq = motion.local_quats
+    out = np.array(lq)
+    # the plants' own frames: exact IK
+    for r in rows:
+        lim, fr = r["lim"], r["fr"]
+        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff])
+        out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+        for k, fq in zip(lim.foot, r["foot"]):
+            out[fr, k] = fq
+    # around them: the boundary solution's displacement (each joint's rotation against the edit's), faded
+    # out with a C1 raised cosine (Coleman et al. §3) over a window long enough that the fade turns no joint
+    # faster than _FADE_RATE on top of the edit; between two plants the two displacements are interpolated
+    fade_w = {}
+    for r in rows:
+        lim, fr = r["lim"], r["fr"]
+        inside = np.zeros(F, bool)
+        inside[fr] = True
+        starts = np.flatnonzero(inside & ~np.r_[False, inside[:-1]])
+        ends = np.flatnonzero(inside & ~np.r_[inside[1:], False])
+        bnd = np.r_[starts, ends]
+        ch = np.array([lim.upper, lim.mid, lim.eff] + list(lim.foot))
+        disp = quat_mul(quat_conj(lq[bnd][:, ch]), out[bnd][:, ch])                    # (boundaries, C, 4)
+        # ... and its rate there (per frame, towards the outside: from the plant's second frame to its first,
+        # from its second-last to its last), carried on, damped, so the fade starts with the plant's slope (C1)
+        inner = np.r_[np.minimum(starts + 1, F - 1), np.maximum(ends - 1, 0)]
+        inner = np.where(inside[inner], inner, bnd)
+        rate = quat_to_rotvec(quat_mul(quat_conj(quat_mul(quat_conj(lq[inner][:, ch]), out[inner][:, ch])), disp))
+        size = quat_angle(disp)                                                         # (boundaries, C) radians
+        angle = size.max(axis=1)
+        width = np.clip(np.ceil(angle * np.pi / (2 * np.radians(_FADE_RATE) * ft)) - 1, nb, 4 * nb).astype(np.int64)
+        w_start, w_end = width[:starts.size], width[starts.size:]
+        li = np.searchsorted(ends, f_all, side="right") - 1
+        ri = np.searchsorted(starts, f_all, side="right")
+        li_, ri_ = np.maximum(li, 0), np.minimum(ri, starts.size - 1)
+        has_l, has_r = (li >= 0) & ~inside, (ri < starts.size) & ~inside
+        dl = np.where(has_l, f_all - ends[li_], 0)
+        dr = np.where(has_r, starts[ri_] - f_all, 0)
+        wl = np.where(has_l, _raised_cosine(dl, w_end[li_]), 0.0)
+        wr = np.where(has_r, _raised_cosine(dr, w_start[ri_]), 0.0)
+        win = np.flatnonzero((wl > 0) | (wr > 0))
+        if not win.size:
+            continue
+        wl_, wr_ = wl[win], wr[win]
+        # the right plant's share: its weight over its distance against the left's (1 next to the right plant,
+        # 0 next to the left one, and continuous where either fade begins)
+        ql, qr = wl_ / np.maximum(dl[win], 1), wr_ / np.maximum(dr[win], 1)
+        al = qr / (ql + qr)
+        w = wl_ + wr_ - wl_ * wr_
+        kl, kr = starts.size + li_[win], ri_[win]
+        fade_w[lim.eff] = (win, w)
+        tau_l = np.maximum(w_end[li_[win]], 1) / 3.0
+        tau_r = np.maximum(w_start[ri_[win]], 1) / 3.0
+        s_l = (tau_l * -np.expm1(-dl[win] / tau_l))[:, None]          # ~ frames out, levelling off
+        s_r = (tau_r * -np.expm1(-dr[win] / tau_r))[:, None]
+        # the carried-on rate turns the displacement by at most its own size, and never past 0.9 pi (a turn
+        # beyond half a revolution would flip to the other way round)
+        size = np.minimum(size, np.maximum(0.9 * np.pi - size, 0.0))
+        r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
+        r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None],
+                                                          1e-300))[..., None]
+        r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
+                                                          1e-300))[..., None]
+        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None]))
+        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
+        shape = d_l.shape[:-1]
+        dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
+        dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
+        out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
+        _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
+    # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
+    # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
+    # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
+    # towards the plants (whose own frames sit on the ground)
+    if legs:
+        held = {r["lim"].eff: r["fr"] for r in rows}
+        leg_joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
+                                                   int(sk.parents[lim.eff])) + lim.foot}
+        p_u, w_u = _fk_joints(motion, leg_joints, local_quats=out)       # the root not lowered
+        for lim in legs:
+            free = np.ones(F, bool)
+            if lim.eff in held:
+                free[held[lim.eff]] = False
+            wf = np.zeros(F)
+            if lim.eff in fade_w:
+                wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
+            down = wf[:, None] * shift                        # how far the foot goes with the root
+            low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
+            deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
+            lift = np.zeros(F)
+            if above_floor and np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
+                lift = _envelope(deficit, nb) * (1.0 - wf)
+                lift[~free] = 0.0
+            tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
+            moved = np.linalg.norm(shift, axis=-1)
+            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny)))
+            if not fr.size:
+                continue
+            p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
+            p3 += shift[fr, None, :]
+            tgt = p_u[fr, lim.eff] + down[fr]
+            tgt[:, 1] += lift[fr]
+            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, w_u[fr, lim.eff],
+                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+            out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+    # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
+    if cap:
+        chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
+        cap_pops(out, lq, chains, source_steps(slq, ft / ft_s))
+    return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
+
+

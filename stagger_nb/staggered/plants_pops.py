@@ -1,0 +1,111 @@
+"""The contact layer's pop cap (:mod:`stagger_nb.staggered.plants`): no corrected joint turns from one frame to
+the next faster than the source ever turns it plus a margin (or than the edit itself turns it there).
+
+A held joint may turn by ``max(S + margin, e(n) + _MIN_STEP)`` from frame ``n`` to ``n + 1`` (``S``: its
+largest frame-to-frame turn in the source, per edited frame; ``e(n)``: the edit's own turn there). Where it
+turns faster (a fade or a plant boundary), the step of its IK displacement ``D(n) = q_edit(n)^-1 q_held(n)`` is
+cut by the excess and the displacement ramped instead: the mean of a forward and a backward rate limiter on its
+rotation vector (the exponential map is 1-Lipschitz, so a ramp of the rotation vector is one of the rotation).
+Where the displacement already
+changes slowly enough both limiters are the displacement itself: an unedited motion, and the plants' own
+frames away from a too-fast step, are left exactly as they are."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.rotations import quat_angle, quat_conj, quat_mul, rotvec_to_quat
+
+POP_MARGIN = 2.5     # degrees a frame a held joint may turn beyond the source's fastest turn of it
+_PASSES = 4
+_MIN_STEP = 1.0      # degrees a frame the displacement may always change
+
+
+def _limit(v: np.ndarray, c: np.ndarray, fast: np.ndarray, reverse: bool) -> np.ndarray:
+    """Rate limiter along axis 0 of ``v (F, C, 3)``: step ``n - 1 -> n`` moved by at most ``c[n - 1] (C,)``.
+    ``fast (F - 1,)``: the steps ``v`` itself takes too fast; the limiter only works from one of them until it
+    has caught up with ``v`` again, and jumps to the next one (elsewhere the result is ``v``)."""
+    out = v.copy()
+    F = v.shape[0]
+    bad = np.flatnonzero(fast)
+    if reverse:
+        out, v, c, bad = out[::-1], v[::-1], c[::-1], (F - 2 - bad)[::-1]
+    k, n = 0, None
+    while k < bad.size:
+        n = int(bad[k]) + 1 if n is None or n <= bad[k] else n
+        while n < F:
+            d = v[n] - out[n - 1]
+            size = np.sqrt(np.einsum("ci,ci->c", d, d))
+            lim = c[n - 1]
+            over = size > lim
+            if not over.any():
+                out[n] = v[n]
+                if n - 1 > bad[k] and np.array_equal(out[n - 1], v[n - 1]):
+                    break
+            else:
+                out[n] = out[n - 1] + d * np.where(over, lim / np.maximum(size, 1e-300), 1.0)[:, None]
+            n += 1
+        while k < bad.size and bad[k] < n:
+            k += 1
+    return out[::-1].copy() if reverse else out
+
+
+def _continuous_log(D: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(F, C, 3)`` of ``D (F, C, 4)`` that change continuously along axis 0: the quaternions
+    made sign-continuous first (so a displacement through half a turn goes on beyond pi instead of jumping to
+    the other side; a mean of two such vectors then stays near both)."""
+    D = np.array(D)
+    D[0] = np.where(D[0, :, 3:] < 0, -D[0], D[0])
+    if D.shape[0] > 1:
+        flip = np.einsum("fci,fci->fc", D[1:], D[:-1]) < 0
+        sign = np.where(np.cumsum(flip, axis=0) % 2 == 1, -1.0, 1.0)
+        D[1:] *= sign[..., None]
+    xyz = D[..., :3]
+    s = np.linalg.norm(xyz, axis=-1)
+    angle = 2.0 * np.arctan2(s, D[..., 3])
+    return xyz * np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)[..., None]
+
+
+def source_steps(source_quats: np.ndarray, scale: float) -> np.ndarray:
+    """Each joint's largest frame-to-frame turn ``(J,)`` (radians) in the source's local rotations
+    ``(F_s, J, 4)``, times ``scale`` (edited frame time over the source's)."""
+    if source_quats.shape[0] < 2:
+        return np.zeros(source_quats.shape[1])
+    return quat_angle(source_quats[:-1], source_quats[1:]).max(axis=0) * scale
+
+
+def cap_pops(held: np.ndarray, edit: np.ndarray, joints, source_step: np.ndarray) -> np.ndarray:
+    """``held (F, J, 4)`` local rotations with the displacement from ``edit (F, J, 4)`` of ``joints`` rate
+    limited as the module says (in place; returned). ``source_step (J,)``: :func:`source_steps`. A pass cuts
+    each too-fast step of the rotation vector by the excess; where the rotation vector changes more than the
+    rotation (far from the identity) one pass is not enough, so up to ``_PASSES`` are made."""
+    ch = np.array(sorted(set(int(j) for j in joints)), dtype=np.int64)
+    if ch.size == 0 or held.shape[0] < 2:
+        return held
+    for _ in range(_PASSES):
+        if not _cap_pass(held, edit, ch, source_step):
+            break
+    return held
+
+
+def _cap_pass(held, edit, ch, source_step) -> bool:
+    """One pass of :func:`cap_pops` (in place); False when nothing was too fast."""
+    e = quat_angle(edit[:-1, ch], edit[1:, ch])                                   # (F - 1, C)
+    allowed = np.maximum(source_step[ch][None, :] + np.radians(POP_MARGIN), e + np.radians(_MIN_STEP))
+    excess = quat_angle(held[:-1, ch], held[1:, ch]) - allowed
+    fast = excess > 1e-6
+    if not fast.any():
+        return False
+    D = quat_mul(quat_conj(edit[:, ch]), held[:, ch])
+    v = _continuous_log(D)
+    jump = np.linalg.norm(np.diff(v, axis=0), axis=-1)
+    # the displacement's step is cut by the excess where the held joint turns too fast, and may grow by the room
+    # left elsewhere (so a ramp catches up no faster than the joint may turn)
+    c = np.maximum(jump - excess, np.radians(_MIN_STEP))
+    cols = np.flatnonzero(fast.any(axis=0))
+    vv, cc = v[:, cols], c[:, cols]
+    f = fast[:, cols].any(axis=1)
+    fwd = _limit(vv, cc, f, False)
+    bwd = _limit(vv, cc, f, True)
+    sel = ch[cols]
+    held[:, sel] = quat_mul(edit[:, sel], rotvec_to_quat(0.5 * (fwd + bwd)))
+    return True
