@@ -204,9 +204,10 @@ def wait_kernel_idle(page, timeout: float = 90.0) -> None:
                            timeout=timeout * 1000)
 
 
-def open_notebook(page, url: str, name: str, timeout: float = 90.0) -> None:
+def open_notebook(page, url: str, name: str, timeout: float = 240.0) -> None:
     """Open ``name`` in JupyterLab (a reset workspace: the file browser sidebar open) and wait for its
-    kernel to be idle."""
+    kernel to be idle. ``timeout`` per wait: 90 s was too short at load 41 on 2 cores (the notebook was
+    visible, the wait still ran out: the page's main thread answered too late)."""
     page.goto(f"{url}/lab/tree/{name}?reset", wait_until="domcontentloaded", timeout=timeout * 1000)
     page.wait_for_selector(".jp-Notebook", timeout=timeout * 1000)
     _accept_kernel_dialog(page)
@@ -262,7 +263,7 @@ MODEL_NOT_FOUND = "Error displaying widget: model not found"
 FIRST_RELOAD_FAILURES: list[dict] = []   # every reload that showed MODEL_NOT_FOUND (save_and_reload), for reports
 
 
-def save_and_reload(page, ready: str, timeout: float = 90.0, attempts: int = 12, log: dict | None = None,
+def save_and_reload(page, ready: str, timeout: float = 180.0, attempts: int = 12, log: dict | None = None,
                     runtime: Path | None = None, overall: float = 420.0) -> int:
     """Save the notebook (so its outputs, the widget views, come back), reload the tab with the kernel
     alive and wait until the JS condition ``ready`` holds (e.g. every editor's plots drawn).
