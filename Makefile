@@ -28,8 +28,13 @@ lab: setup
 	@echo "Starting JupyterLab on notebooks/ (open the URL printed below; Ctrl-C stops it)"
 	$(VENV)/bin/jupyter lab --no-browser --ip 127.0.0.1 --port $(PORT) --notebook-dir notebooks $(ROOTFLAG)
 
+# TEST_WORKERS=2: two pytest-xdist workers (one per core), each file on one worker (--dist loadfile: a notebook's
+# cells run in order in one kernel, a module's fixtures are built once), one BLAS thread per worker. Default 0:
+# everything in this one process, as before (two workers are not yet checked by a full CI run on a quiet machine).
+TEST_WORKERS ?= 0
 test: setup
-	$(PY) -m pytest tests notebooks --nbval-lax --nbval-current-env -p no:cacheprovider
+	$(if $(filter-out 0,$(TEST_WORKERS)),OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1) $(PY) -m pytest tests notebooks \
+	  --nbval-lax --nbval-current-env -p no:cacheprovider -n $(TEST_WORKERS) --dist loadfile
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -81,7 +81,8 @@ def jupyter_lab(folder: Path, timeout: float = 180.0):
     proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
                              "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
                              f"--ServerApp.root_dir={folder}", "--LabApp.news_url=None",
-                             "--ServerApp.disable_check_xsrf=True"],
+                             "--ServerApp.disable_check_xsrf=True",
+                             "--ServerApp.port_retries=0"],  # a taken port fails here, never serves elsewhere
                             cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     url = f"http://127.0.0.1:{port}"
     try:
