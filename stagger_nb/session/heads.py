@@ -141,14 +141,16 @@ class Heads:
             raise ValueError(f"reference.path: {e}") from None
 
     def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3,
-                    progress: Callable | None = None):
+                    progress: Callable | None = None, out_step: int = 1):
         """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
-        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
-        the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by ``Session.warm``) serves a
-        smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same numbers), uncached."""
+        reference, skip, upsampling, direction, kNN count, output step); not per duration: a duration change
+        re-runs only the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by
+        ``Session.warm``) serves a smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same
+        numbers), uncached."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
         owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
-        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
+            (() if out_step == 1 else (("step", int(out_step)),))
         own = self.cache.peek("warp", owner, (rkey, skip) + rest)
         if own is not None:
             self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
@@ -160,7 +162,8 @@ class Heads:
                 return _timewarp().slice_tables(big, skip)
         return self.cache.get("warp", owner, (rkey, skip) + rest,
                               lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
-                                                               reverse=bool(reverse), k=int(k), progress=progress))
+                                                               reverse=bool(reverse), k=int(k),
+                                                               out_step=int(out_step), progress=progress))
 
 
 class CachedHeads:

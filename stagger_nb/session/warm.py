@@ -165,7 +165,7 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
 def warm_items(session, jobs) -> list:
     """The ``(label, fn[, wait])`` items of :meth:`Session.warm <stagger_nb.session.Session.warm>`'s ``jobs`` on
     ``session`` (each checked now: ValueError naming ``jobs[i]``)."""
-    from .motion_runners import warp_k, warp_size
+    from .motion_runners import warp_k, warp_search
     from .ops import GuidedWarp
     from .ops.fields import _fail, number, optional
     percent, sigma = number(0.0, 100.0, open_lo=True), optional(number(0.0, open_lo=True))
@@ -197,9 +197,12 @@ def warm_items(session, jobs) -> list:
                                     f"{where}[1][{k}]")
                 if not isinstance(op, GuidedWarp):
                     _fail(f"{where}[1][{k}]", "a guided_warp op", w)
-                items.append((f"warp tables {k}", lambda r, op=op: session._ctx.warp_tables(
-                    session.source, op.reference, op.skip, warp_size(session.source, op)[1], op.backward,
-                    warp_k(warp_size(session.source, op)[0]), r)))
+                try:   # checked now: an op the session cannot search is refused here, naming the job
+                    n, u, step = warp_search(session.source, op)
+                except ValueError as e:
+                    raise ValueError(f"{where}[1][{k}]: {e}") from None
+                items.append((f"warp tables {k}", lambda r, op=op, n=n, u=u, step=step: session._ctx.warp_tables(
+                    session.source, op.reference, op.skip, u, op.backward, warp_k(n), r, out_step=step)))
         else:
             _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("warp_tables", warps) or '
                          '("replay", op_lists)', job)
