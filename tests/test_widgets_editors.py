@@ -218,15 +218,14 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.model.compare = ["isomap", "spline"]
         names = [d["name"] for d in e.falloff_plot.figure["data"]]
         assert len(names) >= 3 and all(names)   # a legend entry on every curve
-        ops0 = e.session.ops
-        with pytest.raises(traitlets.TraitError, match="frame_range"):   # a range without the edited frame:
-            e.model.frame_range = [0, 10]                                # refused, said, the session as it was
-        assert "frame_range" in e.message.value and e.model.frame_range == [] and e.session.ops == ops0
+        e.model.frame_range = [0, 10]   # a range without the edited frame 40: widened to hold it, and said (issue 26)
+        assert e.model.frame_range == [0, 41] and e.session.ops[1]["frame_range"] == [0, 41]
+        assert "edit range must hold the edited frame 40" in e.message.value and e.session.edited() is not None
         e.limit_range.value = False
         assert e.model.frame_range == [] and e.range.disabled
         e.model.propagate = False                                        # the next change applies, the note goes
         assert e.session.ops[1]["op"] == "edit_frame" and e.controls["sigma"].disabled
-        assert "frame_range" not in e.message.value
+        assert "edit range" not in e.message.value and e.limit_range.disabled
     finally:
         e.close()
 

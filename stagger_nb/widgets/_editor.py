@@ -120,6 +120,13 @@ class _ControlLink:
         self.control.unobserve(self._to_model, names="value")
 
 
+def _wide(cls, description, **kw):
+    """A slider 480 px wide: its track ~300 px beside its 120 px label and readout (a new Layout each: equal
+    layouts are shared later by ``_share_layouts_and_styles``)."""
+    return cls(description=description, continuous_update=True, style=_STYLE, layout=widgets.Layout(width="480px"),
+               **kw)
+
+
 def _link(model, name, control, log=False, transform=(None, None)):
     if hasattr(control, "max") and hasattr(control, "min") and not isinstance(control, widgets.IntRangeSlider):
         _grow_range(model, name, control, log=log)
