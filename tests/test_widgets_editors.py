@@ -230,6 +230,28 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.close()
 
 
+def test_wand_frame_sliders_in_seconds_follow_the_model_in_frames(run):
+    """The edited-frame and edit-range sliders show seconds (issue 26: 2,751 frames on one track) while the model
+    and its ops keep frames; a frame set from code moves the slider to its time and never grows the track past
+    the clip (the range-growing link reads the value in the slider's unit)."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(run, frame=20, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        ft, F = run.frame_time, run.num_frames
+        c = e.controls["edit_frame"]
+        assert c.max == pytest.approx((F - 1) * ft, abs=1e-4) and c.value == pytest.approx(20 * ft, abs=1e-4)
+        e.model.edit_frame = F - 3
+        assert c.value == pytest.approx((F - 3) * ft, abs=1e-4) and c.max == pytest.approx((F - 1) * ft, abs=1e-4)
+        c.value = 30 * ft + 0.3 * ft               # a drag between frames: the nearest frame
+        assert e.model.edit_frame == 30 and e.session.ops[-1]["frame"] == 30
+        e.limit_range.value = True
+        e.range.value = (10 * ft, 50 * ft)
+        assert e.model.frame_range == [10, 50] and e.session.ops[-1]["frame_range"] == [10, 50]
+        assert e.range.max == pytest.approx(F * ft, abs=1e-4)
+    finally:
+        e.close()
+
+
 def test_wand_several_edited_frames(run):
     from stagger_nb.widgets import WandEditor
     e = WandEditor(run, frame=20, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
