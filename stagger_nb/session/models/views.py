@@ -135,9 +135,13 @@ def warp_tables_first_changes(binding, max_skip: int) -> list:
     fixed = {k: v for k, v in base.items() if k not in ("free_length", "duration")}
     free = dict(fixed, free_length=True)                     # free length chooses the duration itself
     timed = dict(fixed, free_length=False, duration=base.get("duration", model.duration))
-    ops = [base, timed if base.get("free_length") else free, dict(base, backward=not base.get("backward", False))]
+    # backward and the lengthening at the skip the first toggle replays at: their tables may be approximate
+    # kNN (an upsampled search), which a larger skip's tables do not serve (CMU 01_01: both rebuilt, 1.6-3.3 s)
+    now = int(model.skip)
+    ops = [base, timed if base.get("free_length") else free,
+           dict(base, skip=now, backward=not base.get("backward", False))]
     if not any(o["op"] == "guided_warp" for o in session.ops):
-        ops.append(dict(fixed, free_length=False, duration=1.1 * D))
+        ops.append(dict(fixed, skip=now, free_length=False, duration=1.1 * D))
     out, seen = [], set()
     for op in ops:
         try:
