@@ -128,3 +128,14 @@ def test_the_tables_warmed_on_open_are_those_the_first_changes_use(walk, monkeyp
         assert s.edited().num_frames > 1
     assert calls == []
     assert s.ops[-1]["duration"] == pytest.approx(round(1.1 * D, 3)) and s.ops[-1]["backward"] is False
+
+
+def test_a_first_backward_toggle_at_the_source_duration_uses_the_warmed_tables(walk, monkeypatch):
+    from stagger_nb import timewarp
+    s, w, b = _warp(walk)
+    s.warm(("warp_tables", warp_tables_first_changes(b, 16))).result()
+    calls = []
+    real = timewarp.prepare_warp
+    monkeypatch.setattr(timewarp, "prepare_warp", lambda *a, **k: calls.append(a[2:]) or real(*a, **k))
+    assert w.set_control("backward", True) == "" and s.ops[-1]["backward"] is True
+    assert s.edited().num_frames == walk.num_frames and calls == []

@@ -139,7 +139,9 @@ def warp_tables_first_changes(binding, max_skip: int) -> list:
     # kNN (an upsampled search), which a larger skip's tables do not serve (CMU 01_01: both rebuilt, 1.6-3.3 s)
     now = int(model.skip)
     ops = [base, timed if base.get("free_length") else free,
-           dict(base, skip=now, backward=not base.get("backward", False))]
+           dict(base if base.get("free_length") else dict(timed, duration=model.duration), skip=now,
+                backward=not base.get("backward", False)),   # the toggle keeps the model's duration (no warp yet: D)
+           dict(base, skip=now, backward=not base.get("backward", False))]   # ... or after the first duration key
     if not any(o["op"] == "guided_warp" for o in session.ops):
         ops.append(dict(fixed, skip=now, free_length=False, duration=1.1 * D))
     out, seen = [], set()
