@@ -34,7 +34,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-import plotly.io as pio
 
 import stagger_nb as sn
 from stagger_nb import plotting, staggered, wand
@@ -69,9 +68,12 @@ for name in sn.data.REAL[1:]:
 # scrubs time).
 
 # %%
+from stagger_nb.widgets import PlotView
+
 positions, world_quats = sn.forward_kinematics(walk)          # (F, J, 3) cm, (F, J, 4)
 frames = np.linspace(0, walk.num_frames - 1, 6).astype(int)
-pio.show(plotting.skeleton_strobe_figure(positions, walk.skeleton.parents, frames, title="walk: six frames"))
+PlotView(plotting.skeleton_strobe_figure(positions, walk.skeleton.parents, frames, title="walk: six frames"),
+         show_playhead=False)   # a figure drawn by the page itself (offline), as the editors draw theirs
 
 # %%
 from stagger_nb.widgets import SkeletonView

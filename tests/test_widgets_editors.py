@@ -218,15 +218,36 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.model.compare = ["isomap", "spline"]
         names = [d["name"] for d in e.falloff_plot.figure["data"]]
         assert len(names) >= 3 and all(names)   # a legend entry on every curve
-        ops0 = e.session.ops
-        with pytest.raises(traitlets.TraitError, match="frame_range"):   # a range without the edited frame:
-            e.model.frame_range = [0, 10]                                # refused, said, the session as it was
-        assert "frame_range" in e.message.value and e.model.frame_range == [] and e.session.ops == ops0
+        e.model.frame_range = [0, 10]   # a range without the edited frame 40: widened to hold it, and said (issue 26)
+        assert e.model.frame_range == [0, 41] and e.session.ops[1]["frame_range"] == [0, 41]
+        assert "edit range must hold the edited frame 40" in e.message.value and e.session.edited() is not None
         e.limit_range.value = False
         assert e.model.frame_range == [] and e.range.disabled
         e.model.propagate = False                                        # the next change applies, the note goes
         assert e.session.ops[1]["op"] == "edit_frame" and e.controls["sigma"].disabled
-        assert "frame_range" not in e.message.value
+        assert "edit range" not in e.message.value and e.limit_range.disabled
+    finally:
+        e.close()
+
+
+def test_wand_frame_sliders_in_seconds_follow_the_model_in_frames(run):
+    """The edited-frame and edit-range sliders show seconds (issue 26: 2,751 frames on one track) while the model
+    and its ops keep frames; a frame set from code moves the slider to its time and never grows the track past
+    the clip (the range-growing link reads the value in the slider's unit)."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(run, frame=20, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        ft, F = run.frame_time, run.num_frames
+        c = e.controls["edit_frame"]
+        assert c.max == pytest.approx((F - 1) * ft, abs=1e-4) and c.value == pytest.approx(20 * ft, abs=1e-4)
+        e.model.edit_frame = F - 3
+        assert c.value == pytest.approx((F - 3) * ft, abs=1e-4) and c.max == pytest.approx((F - 1) * ft, abs=1e-4)
+        c.value = 30 * ft + 0.3 * ft               # a drag between frames: the nearest frame
+        assert e.model.edit_frame == 30 and e.session.ops[-1]["frame"] == 30
+        e.limit_range.value = True
+        e.range.value = (10 * ft, 50 * ft)
+        assert e.model.frame_range == [10, 50] and e.session.ops[-1]["frame_range"] == [10, 50]
+        assert e.range.max == pytest.approx(F * ft, abs=1e-4)
     finally:
         e.close()
 

@@ -35,6 +35,7 @@ BOUNDS = {
     "warp": 8,        # guided-warp kNN tables
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
+    "compare": 8,     # their frame-independent heads: ISOMAP's kNN graph, diffusion coordinates per sigma
     "falloff": 64,    # Green's falloffs (F floats) of the pose edits and timing regions that propagate
     "offset_basis": 8,  # exaggeration bases, one per pre-exaggerate state (~100 B per grid sample)
     "positions": 4,   # forward kinematics of a source motion (keep_contacts' targets)
@@ -47,7 +48,7 @@ BOUNDS = {
 
 #: Bytes of arrays kept per kind (finished entries), besides the count bound: replay states are whole motions
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
-BUDGETS = {"state": 384 * 2**20}
+BUDGETS = {"state": 384 * 2**20, "compare": 128 * 2**20}
 
 # not reported to ``busy`` (replay steps and heads about one evaluate long, a falloff one row product: the replay
 # reports its own progress)

@@ -22,7 +22,10 @@ from .ops import MAX_SKIP
 from .ops.fields import number, optional, text
 from .run import Run, _staggered, _timewarp, _wand
 
-__all__ = ["Heads", "CachedHeads"]
+__all__ = ["Heads", "CachedHeads", "DIFFUSION_TOL", "DIFFUSION_MAX_FRAMES"]
+
+DIFFUSION_TOL = 1e-8  # diffusion comparison: coordinates weighted below this fraction are left out (Heads.diffusion)
+DIFFUSION_MAX_FRAMES = 6000  # ... and clips longer than this are refused (a dense F x F kernel: 0.27 GiB here)
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = optional(number(0.0, open_lo=True))
@@ -105,6 +108,25 @@ class Heads:
         return self.cache.get("basis", self.key(motion), sigma,
                               lambda: self.wand_graph(motion).basis(sigma))
 
+    def isomap_graph(self, motion: Motion):
+        """The ISOMAP comparison's kNN graph of ``motion`` (Dean et al. 2018, §4, Fig. 3), once per motion: each
+        edited frame's curve is then one Dijkstra (~1 ms on 2,751 frames instead of ~0.1 s)."""
+        return self.cache.get("compare", self.key(motion), "isomap", lambda: _wand().isomap_graph(motion))
+
+    def diffusion(self, motion: Motion, sigma: float | None):
+        """The diffusion-map comparison's coordinates of ``motion`` for ``sigma`` (§4, Fig. 3), once per (motion,
+        sigma): the dense eigendecomposition (seconds on 2,751 frames) is frame-independent, each edited frame's
+        curve is one norm. The coordinates whose weight ``mu^steps`` is below :data:`DIFFUSION_TOL` are left out
+        (distances within that fraction; 373 of 2,751 kept on CMU 01_01). Refused (ValueError) past
+        :data:`DIFFUSION_MAX_FRAMES` frames: the kernel is a dense F x F matrix."""
+        if motion.num_frames > DIFFUSION_MAX_FRAMES:
+            raise ValueError(f"compare: the diffusion comparison builds a dense {motion.num_frames:,} x "
+                             f"{motion.num_frames:,} kernel (about {8 * motion.num_frames ** 2 / 2**30:.1f} GiB); it "
+                             f"takes clips of up to {DIFFUSION_MAX_FRAMES:,} frames: slice the clip to compare")
+        sg = None if sigma is None else float(sigma)
+        return self.cache.get("compare", self.key(motion), ("diffusion", sg),
+                              lambda: _wand().diffusion_coordinates(motion, sigma=sg, tol=DIFFUSION_TOL))
+
     def falloff(self, motion: Motion, frame: int, sigma: float | None, frame_range=None):
         """The magic wand's falloff ``(F,)`` of ``motion`` around ``frame`` (Dean et al. 2018, §3.3), from the
         cached basis of ``sigma``, once per (motion, frame, sigma, frame range): a slider that replays a
@@ -141,14 +163,16 @@ class Heads:
             raise ValueError(f"reference.path: {e}") from None
 
     def warp_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool = False, k: int = 3,
-                    progress: Callable | None = None):
+                    progress: Callable | None = None, out_step: int = 1):
         """Guided time warping's features and kNN score tables (Hsu et al. 2007, §3.2), once per (input,
-        reference, skip, upsampling, direction, kNN count); not per duration: a duration change re-runs only
-        the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by ``Session.warm``) serves a
-        smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same numbers), uncached."""
+        reference, skip, upsampling, direction, kNN count, output step); not per duration: a duration change
+        re-runs only the DP. A finished exact table of a larger skip (e.g. the slider's largest, warmed by
+        ``Session.warm``) serves a smaller skip by slicing (:func:`~stagger_nb.timewarp.slice_tables`, the same
+        numbers), uncached."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
         owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
-        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),))
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
+            (() if out_step == 1 else (("step", int(out_step)),))
         own = self.cache.peek("warp", owner, (rkey, skip) + rest)
         if own is not None:
             self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
@@ -160,7 +184,8 @@ class Heads:
                 return _timewarp().slice_tables(big, skip)
         return self.cache.get("warp", owner, (rkey, skip) + rest,
                               lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
-                                                               reverse=bool(reverse), k=int(k), progress=progress))
+                                                               reverse=bool(reverse), k=int(k),
+                                                               out_step=int(out_step), progress=progress))
 
 
 class CachedHeads:
@@ -219,7 +244,9 @@ class CachedHeads:
 
         ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
         basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
-        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6).
+        and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6). Their
+        frame-independent heads (ISOMAP's graph, the diffusion coordinates per sigma) are cached: a new frame
+        costs a Dijkstra or a norm; :meth:`falloff_ready` says which are computed, :meth:`warm` fills them.
         """
         from .. import wand
         m = self.source if motion is None else motion
@@ -229,9 +256,11 @@ class CachedHeads:
         sg = None if sigma is None else float(sigma)
         for name in compare:
             if name == "isomap":
-                make = lambda: 1.0 - wand.normalize_distance(wand.isomap_distance(m, f), fr)  # noqa: E731
+                g = self._ctx.isomap_graph(m)
+                make = lambda g=g: 1.0 - wand.normalize_distance(wand.isomap_distance(m, f, graph=g), fr)  # noqa: E731
             elif name == "diffusion":
-                make = lambda: 1.0 - wand.normalize_distance(wand.diffusion_distance(m, f, sigma=sg), fr)  # noqa: E731
+                c = self._ctx.diffusion(m, sg)
+                make = lambda c=c: 1.0 - wand.normalize_distance(np.linalg.norm(c - c[f], axis=1), fr)  # noqa: E731
             elif name == "spline":
                 extent = spline_extent or max(2.0, m.num_frames / 10)
                 make = lambda extent=extent: wand.spline_falloff(m.num_frames, f, extent)  # noqa: E731
@@ -240,6 +269,18 @@ class CachedHeads:
             key = (name, f, sg, fr, spline_extent if name == "spline" else None)
             out[name] = self._ctx.cache.get("curve", self._ctx.key(m), key, make)
         return out
+
+    def falloff_ready(self, sigma: float | None = None, compare=(), motion: Motion | None = None) -> list:
+        """The curves among ``"green"`` and ``compare`` that :meth:`falloff_curves` can draw for ``sigma`` without
+        a long computation (their heads are cached: the basis for ``sigma``, ISOMAP's graph, the diffusion
+        coordinates for ``sigma``; a spline always), in the order given. An editor draws these at once and
+        warms the others (``warm(("wand_basis", [sigma]), ("compare", [(name, sigma)]))``)."""
+        m = self.source if motion is None else motion
+        cache, owner = self._ctx.cache, self._ctx.key(m)
+        sg = None if sigma is None else float(sigma)
+        heads = {"green": ("basis", sg), "isomap": ("compare", "isomap"), "diffusion": ("compare", ("diffusion", sg))}
+        return [n for n in ["green", *compare] if n not in heads or cache.peek(heads[n][0], owner, heads[n][1])
+                is not None]
 
     def pose_falloff(self, frame: int, sigma: float | None = None, frame_range=None):
         """The magic wand's falloff around source ``frame`` (Dean et al. 2018, §3.3; the cached basis of ``sigma``)

@@ -12,7 +12,7 @@ from ..core.rotations import quat_mul, quat_normalize, rotvec_to_quat
 from . import ops as O
 from .run import _frame, _joint, _staggered, _timewarp, _wand, apply_pose_deltas
 
-__all__ = ["MAX_WARP_RATIO", "warp_size", "warp_table_key", "warp_k", "even_upsample"]
+__all__ = ["MAX_WARP_RATIO", "warp_size", "warp_search", "warp_table_key", "warp_k", "even_upsample"]
 
 MAX_WARP_RATIO = 100  # output frames per input frame: far past the papers' 10x slow motion
 
@@ -83,26 +83,44 @@ def _propagate(m, op: O.Propagate, run):
                              repetitions=op.repetitions == "keep", basis=run.heads.wand_basis(m, op.sigma))
 
 
-def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
-    """``(output frames or None for free length, upsampling factor)`` of a guided warp of ``m``."""
+def warp_search(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int, int]:
+    """``(output frames or None for free length, upsampling factor, output step)`` of the search a guided warp
+    of ``m`` runs: what :func:`~stagger_nb.timewarp.guided_warp` chooses for the same request. Free length:
+    :func:`~stagger_nb.timewarp.free_length_search` (at 120 Hz the input as it is, output frames searched every
+    1/30 s: 2,751 searched frames on CMU 01_01 instead of 11,001). A duration: ``required_upsample`` with the
+    keytimes, so a keytime that asks for slower than real time upsamples even inside a compression (the
+    paper's expansions, §4.1 V3; issue 26: 22.83 s with 2 s -> 1.5 s on CMU 01_01 needs 3). An op's own
+    ``upsample`` is kept (output step 1)."""
+    tw = _timewarp()
     n = None if op.free_length else _warp_frames(m, op.duration)
-    u = op.upsample
+    u, step = op.upsample, 1
     if u is None:
-        u = _timewarp().required_upsample(m.num_frames, n)
-        if n == m.num_frames:
-            u = max(u, 2)  # same duration: without upsampling the only warp is the identity (§3.1)
+        if n is None:
+            u, step = tw.free_length_search(m.frame_time)
+        else:
+            u = tw.required_upsample(m.num_frames, n, keytimes=_pairs(op.keytimes), frame_time=m.frame_time,
+                                     skip=op.skip)
+            if n == m.num_frames:
+                u = max(u, 2)  # same duration: without upsampling the only warp is the identity (§3.1)
     if n is not None and n > (m.num_frames - 1) * u + 1:
         raise ValueError(f"upsample: {u} gives {(m.num_frames - 1) * u + 1} searched frames, fewer than the "
                          f"{n} output frames of duration {op.duration:g} s")
-    return n, u
+    return n, u, step
+
+
+def warp_size(m: Motion, op: O.GuidedWarp) -> tuple[int | None, int]:
+    """``(output frames or None for free length, upsampling factor)`` of a guided warp of ``m`` (see
+    :func:`warp_search`, which also gives the output step)."""
+    return warp_search(m, op)[:2]
 
 
 def warp_table_key(m: Motion, op) -> tuple:
-    """``(reference JSON, upsample, backward, k)``: what chooses a guided warp's tables besides the skip (an
-    editor re-warms its skip slider's tables only when this changes). ``op`` is a guided_warp dict or op."""
+    """``(reference JSON, upsample, backward, k[, output step])``: what chooses a guided warp's tables besides the
+    skip (an editor re-warms its skip slider's tables only when this changes). ``op`` is a guided_warp dict or
+    op."""
     op = op if isinstance(op, O.GuidedWarp) else O.Op.from_json(dict(op, op="guided_warp"), "op")
-    n, u = warp_size(m, op)
-    return (repr(op.to_json().get("reference")), u, bool(op.backward), warp_k(n))
+    n, u, step = warp_search(m, op)
+    return (repr(op.to_json().get("reference")), u, bool(op.backward), warp_k(n)) + ((step,) if step != 1 else ())
 
 
 def warp_k(num_frames: int | None) -> int:
@@ -112,11 +130,11 @@ def warp_k(num_frames: int | None) -> int:
 
 def _guided_warp(m, op: O.GuidedWarp, run):
     tw = _timewarp()
-    n, u = warp_size(m, op)
+    n, u, step = warp_search(m, op)
     p = run.progress
     k = warp_k(n)
     tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward, k,
-                                   None if p is None else (lambda f: p(0.9 * f)))
+                                   None if p is None else (lambda f: p(0.9 * f)), out_step=step)
     out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
                                upsample=u, reverse=op.backward, k=k, tables=tables, progress=p)  # 0.9 .. 1 here
     run.warp = warp
@@ -149,13 +167,13 @@ def _guide_poses(sm, op: O.GuidePoses, run):
     origin = run.origin
     reference = run.heads.reference(op.reference)
     wop = op.warp_op(reference.duration)
-    n, u = warp_size(origin, wop)
+    n, u, step = warp_search(origin, wop)
     if n is not None and op.upsample is None:
         u = even_upsample(origin.num_frames, n, u)
     k = warp_k(n)
     p = run.progress
     tables = run.heads.warp_tables(origin, wop.reference, wop.skip, u, False, k,
-                                   None if p is None else (lambda f: p(0.9 * f)))
+                                   None if p is None else (lambda f: p(0.9 * f)), out_step=step)
     _, warp = tw.guided_warp(origin, tables.reference, n, skip=wop.skip, keytimes=_pairs(wop.keytimes),
                              upsample=u, k=k, tables=tables, progress=p)
     run.warp = warp

@@ -27,13 +27,14 @@ from .motion_runners import (
     _resample,
     even_upsample,
     warp_k,
+    warp_search,
     warp_size,
     warp_table_key,
 )
 from .run import Run, _joint, _list, _needs, _pose, _staggered, apply_pose_deltas, convert
 
-__all__ = ["RUNNERS", "BATCHED", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_k",
-           "warp_table_key", "pose_spread", "falloff_at_poses", "even_upsample", "MAX_WARP_RATIO"]
+__all__ = ["RUNNERS", "BATCHED", "Heads", "Run", "convert", "apply_pose_deltas", "warp_size", "warp_search",
+           "warp_k", "warp_table_key", "pose_spread", "falloff_at_poses", "even_upsample", "MAX_WARP_RATIO"]
 
 
 def _extract(st, op, run):

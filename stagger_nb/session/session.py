@@ -266,6 +266,8 @@ class Session(CachedHeads):
         - ``("cull", percents)``: ``cull`` of that extraction for each percent (a slider's positions);
         - ``("wand_basis", sigmas)``: the magic wand's pose graph of the source, then its basis per sigma
           (``None`` = the default sigma);
+        - ``("compare", [(name, sigma), ...])``: the heads of :meth:`falloff_curves`' comparison curves,
+          ``"isomap"`` (its graph; sigma ignored) or ``"diffusion"`` (its coordinates for sigma);
         - ``("warp_tables", warps)``: guided warping's kNN tables of the source for each warp, a
           ``guided_warp`` op (dict or :class:`~.ops.GuidedWarp`) whose reference, skip, duration, free_length,
           backward and upsample choose the table; a table also serves every smaller skip (sliced), so an

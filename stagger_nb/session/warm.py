@@ -165,7 +165,8 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
 def warm_items(session, jobs) -> list:
     """The ``(label, fn[, wait])`` items of :meth:`Session.warm <stagger_nb.session.Session.warm>`'s ``jobs`` on
     ``session`` (each checked now: ValueError naming ``jobs[i]``)."""
-    from .motion_runners import warp_k, warp_size
+    from .heads import DIFFUSION_MAX_FRAMES
+    from .motion_runners import warp_k, warp_search
     from .ops import GuidedWarp
     from .ops.fields import _fail, number, optional
     percent, sigma = number(0.0, 100.0, open_lo=True), optional(number(0.0, open_lo=True))
@@ -186,6 +187,21 @@ def warm_items(session, jobs) -> list:
             items.append(("pose graph", lambda r: session.wand_graph()))
             items += [(f"basis sigma={'default' if s is None else format(s, 'g')}",
                        lambda r, s=s: session.wand_basis(s)) for s in sgs]
+        elif name == "compare" and isinstance(values, (list, tuple)):
+            for k, pair in enumerate(values):
+                if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and pair[0] in ("isomap", "diffusion")):
+                    _fail(f"{where}[1][{k}]", '("isomap", None) or ("diffusion", sigma)', pair)
+                what, sg = pair[0], sigma(pair[1], f"{where}[1][{k}][1]")
+                if what == "isomap":
+                    items.append(("isomap graph", lambda r: session._ctx.isomap_graph(session.source)))
+                else:
+                    if session.source.num_frames > DIFFUSION_MAX_FRAMES:   # refused now, as on demand
+                        try:
+                            session._ctx.diffusion(session.source, sg)
+                        except ValueError as e:
+                            raise ValueError(f"{where}[1][{k}]: {e}") from None
+                    items.append((f"diffusion sigma={'default' if sg is None else format(sg, 'g')}",
+                                  lambda r, sg=sg: session._ctx.diffusion(session.source, sg)))
         elif name == "replay" and isinstance(values, (list, tuple)):
             for k, ops in enumerate(values):
                 typed = session._typed_list(ops, f"{where}[1][{k}]")
@@ -197,10 +213,13 @@ def warm_items(session, jobs) -> list:
                                     f"{where}[1][{k}]")
                 if not isinstance(op, GuidedWarp):
                     _fail(f"{where}[1][{k}]", "a guided_warp op", w)
-                items.append((f"warp tables {k}", lambda r, op=op: session._ctx.warp_tables(
-                    session.source, op.reference, op.skip, warp_size(session.source, op)[1], op.backward,
-                    warp_k(warp_size(session.source, op)[0]), r)))
+                try:   # checked now: an op the session cannot search is refused here, naming the job
+                    n, u, step = warp_search(session.source, op)
+                except ValueError as e:
+                    raise ValueError(f"{where}[1][{k}]: {e}") from None
+                items.append((f"warp tables {k}", lambda r, op=op, n=n, u=u, step=step: session._ctx.warp_tables(
+                    session.source, op.reference, op.skip, u, op.backward, warp_k(n), r, out_step=step)))
         else:
-            _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("warp_tables", warps) or '
-                         '("replay", op_lists)', job)
+            _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("compare", pairs), '
+                         '("warp_tables", warps) or ("replay", op_lists)', job)
     return items

@@ -16,7 +16,16 @@ Comparisons of §4 / Figure 3: ``isomap_distance``, ``diffusion_distance``, ``sp
 normalised curves at once with ``figure3_curves(m, frame)``.
 Frames are 0-based indices; ranges half-open; quaternions (x, y, z, w).
 """
-from .compare import diffusion_distance, figure3_curves, isomap_distance, normalize_distance, smoothstep, spline_falloff
+from .compare import (
+                      diffusion_coordinates,
+                      diffusion_distance,
+                      figure3_curves,
+                      isomap_distance,
+                      isomap_graph,
+                      normalize_distance,
+                      smoothstep,
+                      spline_falloff,
+)
 from .falloff import falloff, falloff_extent, greens_distance, greens_falloff, normalize_row
 from .greens import GreensBasis, PoseGraph, cached_pose_graph, clear_graph_cache, greens_basis, greens_rows, pose_graph
 from .laplacian import default_sigma, dense_kernel, knn_graph, normalized_laplacian, sparse_kernel
@@ -29,4 +38,4 @@ __all__ = ["falloff", "propagate", "greens_falloff", "greens_distance", "falloff
            "default_sigma", "dense_kernel",
            "knn_graph", "normalized_laplacian", "sparse_kernel", "mean_rotations", "pose_exps", "pose_logs",
            "pose_vectors", "propagate_logs", "isomap_distance", "diffusion_distance", "spline_falloff",
-           "smoothstep", "normalize_distance"]
+           "smoothstep", "normalize_distance", "diffusion_coordinates", "isomap_graph"]

@@ -65,13 +65,16 @@ def _slider(cls, description, **kw):
                **kw)
 
 
-def _grow_range(model, name, control, log=False):
+def _grow_range(model, name, control, log=False, to_control=None):
     """Let ``control``'s range grow to show whatever value the model holds (a session's skip = 100 is shown as
-    100, never clamped and written back). Registered before the link, so it runs first."""
+    100, never clamped and written back). Registered before the link, so it runs first. ``to_control``: the
+    link's model -> control transform (a frame shown in seconds grows the range in seconds)."""
     def grow(change=None):
         v = getattr(model, name)
         if not isinstance(v, (int, float)) or isinstance(v, bool):
             return
+        if to_control is not None:
+            v = to_control(v)
         x = math.log10(v) if log and v > 0 else v
         if x > control.max:
             control.max = x
@@ -136,7 +139,7 @@ class _ControlLink:
 
 def _link(model, name, control, log=False, transform=(None, None)):
     if hasattr(control, "max") and hasattr(control, "min") and not isinstance(control, widgets.IntRangeSlider):
-        _grow_range(model, name, control, log=log)
+        _grow_range(model, name, control, log=log, to_control=transform[0])
     return _ControlLink(model, name, control, transform)
 
 

@@ -1,6 +1,7 @@
 """The magic-wand editor (Dean et al. 2018) over a :class:`~stagger_nb.session.models.WandModel`."""
 from __future__ import annotations
 
+import html
 import math
 
 import ipywidgets as widgets
@@ -8,6 +9,7 @@ import ipywidgets as widgets
 from ..core.motion import Motion
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
 from ..session import Session
+from ..session.heads import DIFFUSION_MAX_FRAMES
 from ..session.models import WandModel
 from ..session.models.views import joint_curves_view
 from ._editor import (
@@ -25,6 +27,8 @@ from ._editor import (
 )
 from .plots import PlotView
 from .skeleton_view import SkeletonView
+
+_TOGGLES = {"description_width": "120px", "button_width": "72px"}   # the label and its buttons on one line
 
 __all__ = ["WandEditor"]
 
@@ -54,7 +58,7 @@ class WandEditor(_Editor):
         super().__init__(**kwargs)
         session = _session_for(self, motion, session, source_path)
         m = session.source
-        F = m.num_frames
+        F, ft = m.num_frames, m.frame_time
         names = list(m.skeleton.names)
         s0 = float(session.wand_graph().default_sigma)
         f0 = F // 2 if frame is None else int(frame)
@@ -65,25 +69,32 @@ class WandEditor(_Editor):
         c = {}
         grid = model.sigma_grid   # FloatLogSlider's min, max and step are base-10 exponents
         c["sigma"] = widgets.FloatLogSlider(base=10, min=math.log10(grid[0]), max=math.log10(grid[-1]),
-                                            step=model.SIGMA_STEP, description="σ", readout_format=".3g",
-                                            continuous_update=True, style=_STYLE, layout=_WIDE)
-        c["edit_frame"] = _slider(widgets.IntSlider, "edited frame", min=0, max=F - 1)
+                                            step=model.SIGMA_STEP, description="falloff width σ",
+                                            readout_format=".3g", continuous_update=True, style=_STYLE,
+                                            layout=_WIDE,
+                                            tooltip="σ of the pose-space kernel (Dean et al. 2018, §3.3, pose-vector "
+                                                    "units): larger reaches more frames")
+        # the edited frame in seconds (2,751 frames on CMU 01_01): one arrow key = one frame, a drag = coarse
+        c["edit_frame"] = _slider(widgets.FloatSlider, "edited frame (s)", min=0.0, max=round((F - 1) * ft, 4),
+                                  step=ft, readout_format=".2f")
         c["propagate"] = widgets.Checkbox(description="propagate (off: edit the frames only)", indent=False)
         c["repetitions"] = widgets.ToggleButtons(options=["keep", "discard"], description="repetitions",
-                                                 style=_STYLE, tooltips=["propagate to repeats of the edited pose",
-                                                                         "edit only the neighbourhood (§3.3)"])
+                                                 style=_TOGGLES, tooltips=["propagate to repeats of the edited pose",
+                                                                           "edit only the neighbourhood (§3.3)"])
         c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
-        for a in "xyz":
-            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-90.0, max=90.0, step=model.step("r" + a))
+        for a in "xyz":   # +-60 on a wide track (a drag 0.2 deg/px, a key 1 deg); a typed value past it grows it
+            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-60.0, max=60.0, step=model.step("r" + a),
+                                 readout_format=".0f")
         c["compare"] = widgets.SelectMultiple(options=["isomap", "diffusion", "spline"], rows=3,
                                               description="compare with", style=_STYLE)
         self.controls = c
         self.limit_range = widgets.Checkbox(value=False, description="limit edit range", indent=False)
-        self.range = _slider(widgets.IntRangeSlider, "range [start, stop)", min=0, max=F, value=(0, F))
+        self.range = _slider(widgets.FloatRangeSlider, "edit range (s)", min=0.0, max=round(F * ft, 4), step=ft,
+                             value=(0.0, round(F * ft, 4)), readout_format=".2f")
         self.edited_frames = widgets.Dropdown(options=[], description="edited frames", style=_STYLE)
         self.add_button = widgets.Button(description="add edit at playhead", layout=widgets.Layout(width="180px"))
         self.remove_button = widgets.Button(description="remove this edit", layout=widgets.Layout(width="150px"))
-        self.add_button.on_click(lambda _: self.model.add_edit(self.model.frame))
+        self.add_button.on_click(lambda _: self._add_at_playhead())
         self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
@@ -102,25 +113,52 @@ class WandEditor(_Editor):
             model.rx, model.ry, model.rz = (float(r) for r in rotation)
         # slider positions snap to the warmed sigma grid
         self._links.append(_link(model, "sigma", c["sigma"], log=True, transform=(float, model.snap_sigma)))
-        for k in ("edit_frame", "propagate", "repetitions", "joint", "rx", "ry", "rz"):
+        for k in ("propagate", "repetitions", "joint", "rx", "ry", "rz"):
             self._links.append(_link(model, k, c[k]))
+        # frames <-> seconds on the slider (the model keeps frames: the ops index frames)
+        self._links.append(_link(model, "edit_frame", c["edit_frame"],
+                                 transform=(lambda f: round(model.time_of(f), 4), model.frame_at)))
         self._links.append(_link(model, "compare", c["compare"], transform=(tuple, list)))
-        self._links.append(_link(model, "frame_range", self.range,
-                                 transform=(lambda v: tuple(v) if v else (0, F), list)))
+        self._links.append(_link(model, "frame_range", self.range, transform=(
+            model.range_seconds, model.range_frames)))
         self.limit_range.value = bool(model.frame_range)
         self.limit_range.observe(self._on_limit, names="value")
         self._range_link_paused = False
         model.observe(self._on_edits, names=["edits", "edit_frame"])
         model.observe(self._on_inert, names=["propagate", "frame_range"])
-        model.observe(self._on_view_state, names=["compare", "joint"])
+        # what the plots show besides the ops: a change that writes no op (sigma, the range or the edited frame
+        # before any rotation, an empty edit) still redraws them (the drawn key skips a second draw)
+        model.observe(self._on_view_state, names=["compare", "joint", "sigma", "frame_range", "edit_frame", "edits",
+                                                  "repetitions", "propagate"])
         self.edited_frames.observe(self._on_pick_edit, names="value")
         self._on_edits()
         self._on_inert()
-        if precompute:
-            self._warm(("wand_basis", model.sigmas_nearest_first()))
+        if precompute:   # after first paint: the sigma slider's nearest positions, the comparisons' heads (a
+            # first "compare" choice then draws at once), then the other positions; cancellable, yields to the user
+            sigmas = model.sigmas_nearest_first()
+            heads = [("isomap", None)] + ([("diffusion", float(model.sigma))] if F <= DIFFUSION_MAX_FRAMES else [])
+            self._warm(("wand_basis", sigmas[:5]), ("compare", heads), ("wand_basis", sigmas[5:]))
 
     def _on_limit(self, change) -> None:
-        self.model.frame_range = list(self.range.value) if change["new"] else []
+        m = self.model
+        if change["new"] and not m.frame_range:
+            t = self.range.value
+            m.set_control("frame_range", m.range_frames(t))
+        elif not change["new"] and m.frame_range:
+            m.set_control("frame_range", [])
+
+    def _add_at_playhead(self) -> None:
+        """"add edit at playhead": a new edited frame at the playhead (the falloff plot moves there; rotate a
+        joint to edit it), or the edit already there selected; said in the message line either way."""
+        m, f = self.model, int(self.model.frame)
+        if f in m.edits:
+            m.edit_frame = f
+            self._add_note = f"frame {f} ({m.time_of(f):.2f} s) is already edited: selected"
+        else:
+            m.add_edit(f)
+            self._add_note = (f"frame {f} ({m.time_of(f):.2f} s) added as an edited frame: rotate a joint to edit "
+                              "it (the falloff plot shows its reach)")
+        self._show_message()
 
     def _on_pick_edit(self, change) -> None:
         if change["new"] is not None:
@@ -136,28 +174,48 @@ class WandEditor(_Editor):
         c, m = self.controls, self.model
         _inert(c["sigma"], not m.propagate, "σ sets the propagation's falloff: inert while propagate is off")
         _inert(c["repetitions"], not m.propagate, "repetitions apply to the propagation: inert while it is off")
-        _inert(self.range, not m.frame_range, "tick 'limit edit range' to restrict the propagation")
+        _inert(self.limit_range, not m.propagate, "the edit range limits the propagation: tick 'propagate' first")
+        _inert(self.range, not (m.propagate and m.frame_range),
+               "tick 'propagate' first" if not m.propagate else "tick 'limit edit range' to restrict the propagation")
         self.limit_range.value = bool(m.frame_range)
 
+    def _warnings_html(self) -> str:
+        note = getattr(self, "_add_note", "")
+        return f'<div style="color:#2b6cb0">{html.escape(note)}</div>' if note else ""
+
     def _on_view_state(self, change=None) -> None:
+        if change is not None and change["name"] not in ("edits", "edit_frame"):
+            self._add_note = ""
         self._redraw(self._update_views)
 
     def _update_views(self, edited: Motion) -> None:
         m = self.session.source
         mod = self.model
+        compare = list(mod.compare)
+        # the comparison curves whose heads are computed draw now; the others (ISOMAP's graph, the diffusion
+        # coordinates of this sigma: seconds on long clips) are warmed and drawn when ready (yielding to the user)
+        ready = self.session.falloff_ready(mod.sigma, compare)
+        pending = [c for c in compare if c not in ready]
+        drawn = (id(edited), self.session.typed_ops, mod.joint, float(mod.sigma), tuple(mod.frame_range),
+                 tuple(compare), tuple(ready), int(mod.edit_frame), tuple(mod.edited_frames), mod.repetitions)
+        if drawn == getattr(self, "_drawn", None):
+            return   # the same views (a model change and the session change it caused, drawn once)
+        self._drawn = drawn
         f = int(mod.edit_frame)
         fr = mod.frame_range or None
-        compare = list(mod.compare)
         # the falloff depends on the source and these only (not on the rotation): rebuilt when they change
-        key = (f, float(mod.sigma), None if fr is None else tuple(fr), tuple(compare), tuple(mod.edited_frames),
-               _x_span(edited))
+        key = (f, float(mod.sigma), None if fr is None else tuple(fr), tuple(compare), tuple(ready),
+               tuple(mod.edited_frames), _x_span(edited))
         if f < m.num_frames and (key != getattr(self, "_falloff_key", None) or not self.falloff_plot.figure):
-            curves = self.session.falloff_curves(f, mod.sigma, fr, compare=compare)
+            curves = self.session.falloff_curves(f, mod.sigma, fr, compare=[c for c in compare if c in ready])
+            wait = f"; computing {', '.join(pending)}…" if pending else ""
             self.falloff_plot.figure = falloff_figure(
                 m.times, curves, edited_times=mod.edited_times() or [mod.time_of(f)],
-                title=f"Green's falloff from frame {f} (σ = {mod.sigma:.3g})", x_range=_x_span(edited),
-                height=_PLOT_HEIGHT)
+                title=f"Green's falloff from frame {f} ({m.times[f]:.2f} s), σ = {mod.sigma:.3g}{wait}",
+                x_range=_x_span(edited), height=_PLOT_HEIGHT)
             self._falloff_key = key
+            if pending:
+                self._warm(("compare", [(c, float(mod.sigma)) for c in pending]), then=self._on_compared)
         v = joint_curves_view(self.session, edited, mod.joint,
                               source_degrees=self._source_degrees(m.skeleton.index(mod.joint)))
         self.curves.figure = joint_curves_figure(
@@ -166,3 +224,7 @@ class WandEditor(_Editor):
             title=f"{mod.joint}: rotation vector (°), edited vs original", x_range=_x_span(edited))
         self._show_motion(edited, pose_frames=mod.edited_frames or [f])
         self.view.highlight_joints([mod.joint])
+
+    def _on_compared(self) -> None:
+        """A comparison's heads are warm: draw it (if it is still asked for)."""
+        self._redraw(self._update_views)

@@ -8,7 +8,7 @@ from ..core.motion import Motion
 from ..plotting import warp_figure
 from ..session import Session, warp_table_key
 from ..session.models import WarpModel
-from ..session.models.views import warp_tables_to_warm, warp_view
+from ..session.models.views import warp_tables_first_changes, warp_view
 from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _link, _session_for, _slider
 from .plots import PlotView
 from .skeleton_view import SkeletonView
@@ -53,12 +53,19 @@ class WarpEditor(_Editor):
         D = m.duration
         model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, round(D / 2, 6)])
         c = {}
-        c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="warp", style=_STYLE)
-        c["duration"] = _slider(widgets.FloatSlider, "duration (s)", min=round(D / 8 + m.frame_time, 3),
+        c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="time warp",
+                                          style={**_STYLE, "button_width": "72px"},
+                                          tooltips=["guided by a reference's timing (Hsu et al. 2007)",
+                                                    "piecewise linear through the keytimes"])
+        # 1/8x .. 2x the clip; a key moves one frame; the readout takes a typed value (the track grows to show it)
+        c["duration"] = _slider(widgets.FloatSlider, "output duration (s)", min=round(D / 8 + m.frame_time, 3),
                                 max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f")
-        c["free_length"] = widgets.Checkbox(description="free length", indent=False)
-        c["skip"] = _slider(widgets.IntSlider, "skip s", min=1, max=16)
-        c["backward"] = widgets.Checkbox(description="backward", indent=False)
+        c["free_length"] = widgets.Checkbox(description="free length (the reference's timing chooses it)",
+                                            indent=False)
+        c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16,
+                            tooltip="skip limit s (§3.1): at most s input frames per output frame, so the warp plays "
+                                    "at most s times real time; a shorter output needs a larger s")
+        c["backward"] = widgets.Checkbox(description="backward (play the clip in reverse)", indent=False)
         c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("the staggered poses", "poses")],
                                             description="retime", style={**_STYLE, "button_width": "140px"},
                                             tooltips=["warp the edited motion (guided_warp)",
@@ -66,10 +73,13 @@ class WarpEditor(_Editor):
                                                       "and the staggered edits stay, still editable"])
         c["target"].add_class("sn-warp-target")
         c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
-        c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
-                               step=model.step("segment"), readout_format=".2f")
-        self.keytimes = widgets.Text(value="", placeholder="in:out, in:out  (seconds)", description="keytimes",
-                                     style=_STYLE, layout=_WIDE)
+        c["segment"] = _slider(widgets.FloatRangeSlider, "reference segment (s)", min=0.0, max=round(D, 3),
+                               step=model.step("segment"), readout_format=".1f")
+        # applied on Enter or when the box loses focus (continuous_update off): a half-typed entry ('99:') is
+        # never read; a complete one that cannot apply is refused then, in a sentence
+        self.keytimes = widgets.Text(value="", placeholder="input s:output s, ...  (e.g. 2:1.5)",
+                                     description="keytimes (in:out s)", style=_STYLE,
+                                     layout=_WIDE, continuous_update=False)
         self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.warp_plot = PlotView(frame_time=m.frame_time)
@@ -105,17 +115,18 @@ class WarpEditor(_Editor):
 
     def _warm_skip_tables(self) -> None:
         """Warm (``Session.warm``) the kNN tables of the skip slider's largest value for the current reference,
-        direction and upsampling: the session slices every smaller skip from them, so a skip move re-runs only
-        the DP. With no warp yet, the tables of a compression (the first duration move's). Submitted again only
-        when what chooses the tables changes; long clips (approximate kNN, not sliced) are not warmed."""
-        op = warp_tables_to_warm(self.binding, self.controls["skip"].max)
-        if op is None:
+        direction and upsampling, then those of the first free-length and backward toggles (and with no warp
+        yet of a lengthening): ``models.views.warp_tables_first_changes`` chooses them. The session slices every
+        smaller skip from them, so a skip move re-runs only the DP. Submitted again only when what chooses the
+        tables changes; long clips (approximate kNN, not sliced) are not warmed."""
+        ops = warp_tables_first_changes(self.binding, self.controls["skip"].max)
+        if not ops:
             return
         try:
-            key = warp_table_key(self.session.source, op) + (op["skip"],)
+            key = tuple(warp_table_key(self.session.source, op) + (op["skip"],) for op in ops)
             if key == self._warmed_tables:
                 return
-            self._warm(("warp_tables", [op]))
+            self._warm(("warp_tables", ops))
             self._warmed_tables = key
         except ValueError:
             pass   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there

@@ -321,7 +321,8 @@ class ModelBinding:
         return self.session.extraction() if n == 0 else self.session.states()[n - 1]
 
     def _show(self) -> None:
-        self.model.message = "; ".join([self._error] + self._notes if self._error else self._notes)
+        notes = self._notes + [n for n in (getattr(self.model, "range_note", ""),) if n]   # WandModel's standing note
+        self.model.message = "; ".join([self._error] + notes if self._error else notes)
 
 
 def _weak_listener(method, session) -> Callable:

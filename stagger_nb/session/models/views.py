@@ -15,7 +15,7 @@ from ...core.motion import Motion
 from ..session import joint_rotation_degrees
 
 __all__ = ["ik_effectors", "stagger_state", "probability_view", "joint_curves_view", "place_ik_target",
-           "warp_view", "warp_tables_to_warm"]
+           "warp_view", "warp_tables_to_warm", "warp_tables_first_changes"]
 
 _TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
 
@@ -116,3 +116,41 @@ def warp_tables_to_warm(binding, max_skip: int) -> dict | None:
     if not ops:
         return None
     return dict(ops[-1], skip=max(int(max_skip), int(ops[-1].get("skip", 8))))
+
+
+def warp_tables_first_changes(binding, max_skip: int) -> list:
+    """The ``guided_warp`` ops whose kNN tables a WarpEditor warms on open (one ``Session.warm(("warp_tables",
+    ops))`` job, in this order) so that each first change replays only a DP (issue 26: the first free-length
+    toggle took 0.96-4.5 s, backward 0.78-2.0 s, the first duration key 1.1-2.3 s CPU on CMU 01_01's 2,751
+    frames): :func:`warp_tables_to_warm`'s op (the current warp, or the first compression), then the same op
+    with free length toggled, with backward toggled, and with no warp yet a lengthening (1.1 x the source's
+    duration: an expansion upsamples, another table). Ops that choose the same tables are listed once; ``[]``
+    where :func:`warp_tables_to_warm` gives None."""
+    from ..motion_runners import warp_table_key
+    base = warp_tables_to_warm(binding, max_skip)
+    if base is None:
+        return []
+    session, model = binding.session, binding.model
+    D = session.source.duration
+    fixed = {k: v for k, v in base.items() if k not in ("free_length", "duration")}
+    free = dict(fixed, free_length=True)                     # free length chooses the duration itself
+    timed = dict(fixed, free_length=False, duration=base.get("duration", model.duration))
+    # backward and the lengthening at the skip the first toggle replays at: their tables may be approximate
+    # kNN (an upsampled search), which a larger skip's tables do not serve (CMU 01_01: both rebuilt, 1.6-3.3 s)
+    now = int(model.skip)
+    ops = [base, timed if base.get("free_length") else free,
+           dict(base if base.get("free_length") else dict(timed, duration=model.duration), skip=now,
+                backward=not base.get("backward", False)),   # the toggle keeps the model's duration (no warp yet: D)
+           dict(base, skip=now, backward=not base.get("backward", False))]   # ... or after the first duration key
+    if not any(o["op"] == "guided_warp" for o in session.ops):
+        ops.append(dict(fixed, skip=now, free_length=False, duration=1.1 * D))
+    out, seen = [], set()
+    for op in ops:
+        try:
+            key = warp_table_key(session.source, op) + (op["skip"],)
+        except ValueError:
+            continue   # an op the session cannot search: computed on demand and refused there
+        if key not in seen:
+            seen.add(key)
+            out.append(op)
+    return out

@@ -51,6 +51,20 @@ class WandModel(_Model):
         """Seconds of source frame ``frame``."""
         return frame * self.frame_time
 
+    def frame_at(self, seconds: float) -> int:
+        """The source frame nearest ``seconds`` (a slider in seconds writes frames: the ops index frames)."""
+        return int(round(float(seconds) / self.frame_time)) if self.frame_time > 0 else int(seconds)
+
+    def range_seconds(self, frame_range) -> tuple:
+        """``[start, stop)`` frames as seconds (``[]``: the whole clip, ``input_frames`` long)."""
+        v = list(frame_range) or [0, self.input_frames]
+        return (round(self.time_of(v[0]), 4), round(self.time_of(v[1]), 4))
+
+    def range_frames(self, seconds) -> list:
+        """A range in seconds as ``[start, stop)`` frames, at least one frame long."""
+        a, b = self.frame_at(seconds[0]), self.frame_at(seconds[1])
+        return [a, max(a + 1, b)]
+
     def edited_times(self) -> list:
         """Seconds of each edited frame (sorted)."""
         return [self.time_of(f) for f in self.edited_frames]
@@ -95,13 +109,50 @@ class WandModel(_Model):
     def _v_joint_name(self, p):
         return p["value"] if p["value"] == "" else self._known_joint("joint", p["value"])
 
+    range_note = T.Unicode("", help="why frame_range is wider than the range last asked for ('' when it is the "
+                                    "range asked for): it always holds every edited frame (set by the model)")
+
     @T.validate("frame_range")
     def _v_range(self, p):
-        v = p["value"]
+        v = [int(x) for x in p["value"]]
         if v and (len(v) != 2 or not 0 <= v[0] < v[1] or 0 < self.input_frames < v[1]):
             top = f" <= {self.input_frames}" if self.input_frames else ""
             raise T.TraitError(f"frame_range: expected [] or [start, stop) with 0 <= start < stop{top}, got {v}")
-        return v
+        if self._loading:   # as the session holds it
+            return v
+        held = self._holding(v)
+        self.range_note = "" if held == v else self._range_sentence(v, held)
+        return held
+
+    def _edited(self) -> list:
+        """The frames holding a non-zero edit (what a propagation must start from)."""
+        return sorted(f for f, d in self.edits.items() if any(any(x) for x in d.values()))
+
+    def _holding(self, v: list) -> list:
+        """The range ``v`` widened to hold every edited frame (the propagation starts from them: a range that
+        leaves one out cannot apply)."""
+        frames = self._edited()
+        if not v or not frames:
+            return v
+        return [min(v[0], frames[0]), max(v[1], frames[-1] + 1)]
+
+    def _range_sentence(self, asked: list, held: list) -> str:
+        out = [f for f in self._edited() if not asked[0] <= f < asked[1]]
+        which = ", ".join(f"{f} ({self.time_of(f):.2f} s)" for f in out[:3]) + (" …" if len(out) > 3 else "")
+        return (f"the edit range must hold the edited frame{'s' if len(out) > 1 else ''} {which}: it runs from frame "
+                f"{held[0]} ({self.time_of(held[0]):.2f} s) to {held[1]} ({self.time_of(held[1]):.2f} s) instead of "
+                f"{asked[0]} to {asked[1]}; move or remove the edit to limit it further")
+
+    @T.observe("edits")
+    def _range_follows_edits(self, change):
+        """An edit added or moved outside the edit range widens it (said in :attr:`range_note`)."""
+        if self._loading or not self.frame_range:
+            return
+        held = self._holding(list(self.frame_range))
+        if held != list(self.frame_range):
+            asked = list(self.frame_range)
+            self.frame_range = held
+            self.range_note = self._range_sentence(asked, held)
 
     @T.validate("rx", "ry", "rz")
     def _v_rotation(self, p):

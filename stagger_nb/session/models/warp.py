@@ -3,6 +3,7 @@ keytimes §4.2, reference)."""
 from __future__ import annotations
 
 import copy
+import math
 from typing import Any
 
 import traitlets as T
@@ -45,14 +46,44 @@ class WarpModel(_Model):
     def _v_duration(self, p):
         lo, _, open_lo = limits(LinearWarp, "duration")
         hi = MAX_WARP_RATIO * self.source_duration if self.source_duration > 0 else None   # the runner's limit
-        return self._number(p, lo, hi, open_lo, unit=" s")
+        v = self._number(p, lo, hi, open_lo, unit=" s")
+        if not self._loading:
+            self._reachable(self.skip, v, "duration")
+        return v
 
     @T.validate("skip")
     def _v_skip(self, p):
         lo, hi, _ = limits(GuidedWarp, "skip")
         if not lo <= p["value"] <= hi:
             raise T.TraitError(f"skip must lie between {lo} and {hi} input frames per output frame, got {p['value']}")
+        if not self._loading:
+            self._reachable(p["value"], self.duration, "skip")
         return p["value"]
+
+    def shortest(self, skip: int) -> float:
+        """The shortest duration (seconds) a guided warp with ``skip`` reaches: it plays at most ``skip`` input
+        frames per output frame (Hsu et al. 2007, §3.1), so ``(n - 1) skip >= N - 1`` frames (0 = unknown)."""
+        if not (self.frame_time > 0 and self.source_duration > 0):
+            return 0.0
+        frames = round(self.source_duration / self.frame_time)   # N - 1
+        return math.ceil(frames / max(1, int(skip))) * self.frame_time
+
+    def _reachable(self, skip: int, duration: float, what: str) -> None:
+        """Refuse, in one sentence saying what to do, a skip and duration no guided warp can meet (a compression
+        faster than ``skip`` times real time); free length and linear warps have no such bound."""
+        if self.mode != "guided" or self.free_length:
+            return
+        need = self.shortest(skip)
+        if need and duration < need - 1e-9:
+            frames = round(self.source_duration / self.frame_time)
+            least = math.ceil(frames / max(1, round(duration / self.frame_time)))
+            if what == "skip":
+                raise T.TraitError(f"skip {skip} cannot shorten the clip to {duration:.2f} s: it plays at most "
+                                   f"{skip}x real time, {need:.2f} s at the shortest; raise skip to {least} or more, "
+                                   "or lengthen the duration")
+            raise T.TraitError(f"a duration of {duration:.2f} s needs a skip of {least} or more (skip {skip} plays at "
+                               f"most {skip}x real time: {need:.2f} s at the shortest); raise skip or lengthen the "
+                               "duration")
 
     @T.validate("segment")
     def _v_segment(self, p):

@@ -1,0 +1,107 @@
+"""First changes of the wand and warp editors' models on CMU 01_01 (2,751 frames at 120 Hz), issue 26: each
+first toggle or choice <= 300 ms CPU once the editor's open-time warm-up has run.
+
+Each change is timed on a model bound to a fresh Session (``ModelBinding``, no widgets): ``cold`` without any
+warm-up (the baseline, same process), ``warm`` after the jobs the editors submit on open have finished
+(``models.views.warp_tables_first_changes`` for the warp; the wand's sigma grid and comparison heads). A change
+is the model trait set as a control does (``set_control``) plus the replay it causes (``session.edited()``).
+CPU time (``time.process_time``, every thread of the process: the warm-up has finished before timing) and wall
+time, with the load average (the machine is shared).
+
+Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_editor_first_changes.py [warp] [wand]``
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import stagger_nb as sn
+from stagger_nb.session import Session
+from stagger_nb.session import models as M
+from stagger_nb.session.heads import DIFFUSION_MAX_FRAMES
+from stagger_nb.session.models.views import warp_tables_first_changes
+
+BUDGET = 0.3
+MAX_SKIP = 16   # the WarpEditor's skip slider's largest value
+
+
+def timed(fn):
+    w, c = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - w, time.process_time() - c
+
+
+def warp_changes(cmu, warm: bool) -> dict:
+    """The first duration key (down and up), the first free-length toggle and the first backward toggle, each on
+    a fresh session (so each is a first change)."""
+    D = cmu.duration
+    changes = {"duration -10 %": [("duration", round(0.9 * D, 3))],
+               "duration +10 %": [("duration", round(1.1 * D, 3))],
+               "free length on": [("free_length", True)],
+               "backward on": [("backward", True)]}
+    out = {}
+    for name, steps in changes.items():
+        s = Session(cmu)
+        w = M.WarpModel()
+        b = M.ModelBinding(w, s)
+        if warm:
+            s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP))).result()
+
+        def change(steps=steps, w=w, s=s):
+            for k, v in steps:
+                why = w.set_control(k, v)
+                assert not why, why
+            s.edited()
+        out[name] = timed(change)
+        s.close()
+    return out
+
+
+def wand_changes(cmu, warm: bool) -> dict:
+    """The first sigma move, "compare + isomap" and "compare + diffusion" (each on a fresh session)."""
+    out = {}
+    for name in ("sigma", "compare isomap", "compare diffusion"):
+        s = Session(cmu)
+        s0 = float(s.wand_graph().default_sigma)   # as the WandEditor opens (its first paint, not timed)
+        w = M.WandModel(joint="LeftUpLeg", sigma=s0, default_sigma=s0, frame_time=cmu.frame_time)
+        M.ModelBinding(w, s)
+        sigmas = w.sigmas_nearest_first()
+        if warm:   # what WandEditor warms on open: the nearest sigma positions, then the comparisons' heads
+            heads = [("isomap", None)] + ([("diffusion", float(w.sigma))]
+                                          if cmu.num_frames <= DIFFUSION_MAX_FRAMES else [])
+            s.warm(("wand_basis", sigmas[:5]), ("compare", heads)).result()
+        s.falloff_curves(int(w.edit_frame), w.sigma)    # the first paint's falloff (not timed)
+        if name == "sigma":
+            target = sigmas[1]
+            out[name] = timed(lambda: (w.set_control("sigma", target),
+                                       s.falloff_curves(int(w.edit_frame), w.sigma)))
+        else:
+            kind = name.split()[1]
+            out[name] = timed(lambda: s.falloff_curves(int(w.edit_frame), w.sigma, compare=[kind]))
+        s.close()
+    return out
+
+
+def main():
+    only = sys.argv[1:] or ["warp", "wand"]
+    cmu = sn.io.read_bvh(str(REPO / "data" / "cmu_01_01.bvh"))
+    print(f"CMU 01_01: {cmu.num_frames} frames, {cmu.duration:.2f} s; load {os.getloadavg()[0]:.1f}")
+    for label, fn in (("warp", warp_changes), ("wand", wand_changes)):
+        if label not in only:
+            continue
+        cold, warm = fn(cmu, False), fn(cmu, True)
+        for name in cold:
+            (cw, cc), (ww, wc) = cold[name], warm[name]
+            print(f"{label} {name:18s} cold cpu {cc * 1e3:7.0f} ms (wall {cw * 1e3:6.0f})  warm cpu {wc * 1e3:5.0f} ms "
+                  f"(wall {ww * 1e3:6.0f})   warm/cold {wc / max(cc, 1e-9):.2f}   "
+                  f"{'ok' if wc <= BUDGET else 'OVER'} (<= {BUDGET * 1e3:.0f} ms)")
+    print(f"load {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
