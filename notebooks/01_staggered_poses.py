@@ -279,7 +279,8 @@ pio.show(strobe([get_down, out, get_down, out], [f_low, f_low, f_rise, f_rise],
 # contact through the edit and holds it. A deliberately rough edit (succession from the hips + random
 # timing everywhere) makes the feet slide on the real hops; `keep_contacts` plants them again, each contact
 # on its own joint's timing, where the source holds it (its heel-toe roll kept), the pelvis lowered by at
-# most 2.8 % of a leg.
+# most 2.8 % of a leg and moved aside by at most 15 % (no held joint turns over 2.5° a frame faster than in the
+# source).
 #
 # **Check** (`sn.quality.compare`, cm of a 170 cm body): inside the contacts carried by each joint's own
 # timing, the layer removes at least 80 % of the feet's sliding against the source's own motion there, and
