@@ -248,6 +248,9 @@ def test_highlight_keys_mark_contacts_and_pose_frames():
     v = SkeletonView(m)
     v.set_motion(m, pose_frames=[10], contacts=[("j2", 0, 5)])
     assert "staggered pose" in v.legend.value and "contact" in v.legend.value
+    w = SkeletonView(m, pose_label="edited frame")   # the wand's word for its marked frames
+    w.set_motion(m, pose_frames=[10, 20])
+    assert "edited frame (2)" in w.legend.value and "staggered pose" not in w.legend.value
 
 
 @pytest.mark.parametrize("name", ["run", "cmu_01_01", "walk", "jump"])

@@ -178,7 +178,7 @@ class _SceneSender:
         if self._selected:
             items.append(sw(_SELECTED, "selected: " + ", ".join(self._names[j] for j in self._selected), "dot"))
         if len(self._pose_frames):
-            items.append(sw(_POSE, f"staggered pose ({len(self._pose_frames)})", "dot"))
+            items.append(sw(_POSE, f"{self.pose_label} ({len(self._pose_frames)})", "dot"))
         if self._contacts:
             items.append(sw(_CONTACT, "contact", "dot"))
         if self._ghost_motion is not None and self.show_ghost:   # what is drawn

@@ -103,16 +103,18 @@ class SkeletonView(_SceneSender, widgets.VBox):
     _GHOST_TIP = {False: "show the original motion as a translucent ghost",
                   True: "no original to show: pass ghost=<Motion> (the editors pass the unedited clip)"}
     show_ghost = traitlets.Bool(False, help="show the translucent original")
+    pose_label = traitlets.Unicode("staggered pose", help="the legend's word for the marked frames' joints")
 
     def __init__(self, motion: Motion, ghost: Motion | None = None, width: int = 480, height: int = 380,
                  ghost_offset=None, show_ghost: bool = True, camera: str = "follow", trail_joints=(),
-                 trail_seconds: float = 0.6, **kwargs):
+                 trail_seconds: float = 0.6, pose_label: str = "staggered pose", **kwargs):
         if not isinstance(motion, Motion):
             raise ValueError(f"motion: expected a Motion, got {type(motion).__name__}")
         if ghost is not None and ghost.num_joints != motion.num_joints:
             raise ValueError(f"ghost: has {ghost.num_joints} joints, the motion {motion.num_joints}")
         self.width, self.height = int(width), int(height)
         self.trail_seconds = float(trail_seconds)
+        self.pose_label = str(pose_label)
         self._motion = motion
         self._points = scene3d.skeleton_points(motion)
         self._ghost_motion = ghost

@@ -120,7 +120,8 @@ class StaggerEditor(_Editor):
     """Staggered-pose editor (Coleman et al. 2008): cull by %, count or picked poses (§4.3); succession root,
     joint subset, ``s``, ``l`` and random ``τ`` with joints and seed (§5.2); exaggeration ``w_r`` against the
     previous / next / mean / a chosen pose (§5.3); geometric pose edits in staggered or non-staggered mode, retime,
-    insert and delete a pose (§5.1, Fig. 6); keep contacts (on by default); IK posing of a hand or foot.
+    insert and delete a pose (§5.1, Fig. 6); keep contacts (off by default: the layer misses issue 20's goals at
+    moderate edits); IK posing of a hand or foot.
 
     ``editor.model`` is a :class:`~stagger_nb.session.models.StaggerModel`; ``editor.session`` the Session.
     With ``precompute`` the extraction, every cull position and the replay of the current edit at each position

@@ -97,7 +97,7 @@ class WandEditor(_Editor):
         self.add_button.on_click(lambda _: self._add_at_playhead())
         self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
 
-        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
+        view = SkeletonView(m, ghost=m, show_ghost=show_ghost, pose_label="edited frame", **_VIEW_SIZE)
         self.falloff_plot = PlotView(frame_time=m.frame_time)
         self.curves = PlotView(frame_time=m.frame_time)
         quick = [c["sigma"], c["rx"], c["ry"], c["rz"]]
