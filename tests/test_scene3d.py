@@ -59,3 +59,26 @@ def test_mesh_constants_colour_each_sphere_and_tube_vertex_by_its_owner():
         else:
             assert not nrm[v].any()
             np.testing.assert_array_equal(col[v], bone_rgb[(v - J * vs) // vt])
+
+
+def _fits(corners, d, dist, fov, aspect, margin):
+    """Brute force: every corner projects inside the canvas (``margin`` of each half side) at this distance."""
+    eye = d * dist
+    if np.any((corners - eye) @ (-d) <= 1e-9):
+        return False
+    px = scene3d.project(corners, eye, np.zeros(3), fov, 1000.0 * aspect, 1000.0)
+    return bool(np.all(np.abs(px[:, 0] - 500.0 * aspect) <= 500.0 * aspect * margin + 1e-6)
+                and np.all(np.abs(px[:, 1] - 500.0) <= 500.0 * margin + 1e-6))
+
+
+def test_fit_distance_is_the_smallest_distance_at_which_every_corner_is_inside_the_canvas():
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        d = rng.normal(size=3)
+        d[1] = abs(d[1]) * 0.5          # a camera above or beside the subject, never straight overhead
+        d /= np.linalg.norm(d)
+        corners = rng.normal(size=(8, 3)) * rng.uniform(0.1, 3.0, size=3)
+        fov, aspect, margin = rng.uniform(20, 70), rng.uniform(0.5, 2.5), rng.uniform(0.7, 1.0)
+        dist = scene3d.fit_distance(corners, d, fov, aspect, margin)
+        assert _fits(corners, d, dist, fov, aspect, margin)
+        assert not _fits(corners, d, dist * (1 - 1e-6) - 1e-9, fov, aspect, margin)   # and no nearer one
