@@ -93,6 +93,15 @@ def _source_tables(source: Motion, limbs: dict):
     return per[key]
 
 
+def _source_steps(source: Motion) -> np.ndarray:
+    """:func:`source_steps` of the source's local rotations (scale 1), once per source (the slider's replays
+    share it; the caller scales it by the edited frame time over the source's)."""
+    per = _SOURCE_CACHE.setdefault(source, {})
+    if "steps" not in per:
+        per["steps"] = source_steps(source.local_quats, 1.0)
+    return per["steps"]
+
+
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
           share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
           above_floor: bool = True, cap: bool = True):
@@ -355,7 +364,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
         chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        cap_pops(out, lq, chains, source_steps(slq, ft / ft_s))
+        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s))
     return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
 
 
