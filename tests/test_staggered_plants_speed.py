@@ -99,3 +99,27 @@ def test_cached_source_tables_change_nothing(hops):
         assert np.array_equal(w.motion.root_positions, c.motion.root_positions)
         assert np.array_equal(w.drop, c.drop) and w.notes == c.notes and w.plants == c.plants
     assert cold[0].plants > 0 and not np.array_equal(cold[0].motion.local_quats, cold[1].motion.local_quats)
+
+
+@pytest.mark.parametrize("carry_by", ["joint", "span", "limb"])
+def test_carried_contacts_equal_one_warp_per_contact(hops, carry_by):
+    """carry_contacts (one warp call per clock over all contacts) against warp_times of each contact's ends
+    through each of its clocks, one at a time, and the frames rounded as its docstring says."""
+    m, edits = hops
+    e = edits[1]
+    sk = m.skeleton
+    contacts = list(e.contacts) or staggered.detect_contacts(m)
+    got = staggered.carry_contacts(e, contacts, m.frame_time, carry_by=carry_by)
+    t0, ft = float(e.pose_times[0]), e.frame_time
+    want = []
+    for name, a, b in contacts:
+        j = sk.index(name)
+        lim = plants.find_limb(sk, j)
+        clocks = {"joint": [j], "limb": [lim.upper if lim else j], "span": [j, lim.mid if lim else j]}[carry_by]
+        w = np.array([staggered.warp_times(e, np.array([a, b - 1]) * m.frame_time, c) for c in clocks])
+        e0, e1 = (np.array([w[:, 0].min(), w[:, 1].max()]) - t0) / ft
+        start = max(int(np.ceil(e0 - 1e-6)), 0)
+        stop = min(int(np.floor(e1 + 1e-6)) + 1, staggered.evaluate(e).num_frames)
+        if stop > start:
+            want.append((name, start, stop))
+    assert len(want) > 4 and got == want
