@@ -29,6 +29,8 @@ ALLOWED = {
     "batch": {"core", "io", "data", "quality", "session"} | TECHNIQUES,
     # the views show what the session and its models computed: no technique package, no maths of their own
     "widgets": {"core", "io", "data", "plotting", "scene3d", "session"},
+    # `python -m stagger_nb.app NB`: starts Voila on a notebook (the notebooks' layer); imports no part of the package
+    "app": set(),
 }
 UI_LIBRARIES = {"ipywidgets", "pythreejs", "anywidget"}   # only widgets/ draws
 
