@@ -65,17 +65,28 @@ def _carried(edited, parsed, source_frame_time: float, carry_by: str, timeline=N
     t0, ft, F, tables = _timeline(edited) if timeline is None else timeline
     sk = edited.skeleton
     out = []
-    for i, (j, a, b) in enumerate(parsed):
-        times = np.array([a, b - 1], dtype=float) * source_frame_time
-        if tables is not None:
+    ends = np.array([[a, b - 1] for _, a, b in parsed], dtype=float).reshape(-1, 2) * source_frame_time
+    if tables is not None:
+        clocks = []
+        for j, _a, _b in parsed:
             lim = find_limb(sk, j) if carry_by != "joint" else None
             if carry_by == "limb":
-                clocks = [lim.upper if lim is not None else j]
+                clocks.append([lim.upper if lim is not None else j])
             elif carry_by == "span":
-                clocks = [j, lim.mid if lim is not None else j]
+                clocks.append([j, lim.mid if lim is not None else j])
             else:
-                clocks = [j]
-            w = np.array([_warp_column(*tables, c, times) for c in clocks])
+                clocks.append([j])
+        # one warp per clock over every contact it carries (the warp is elementwise: the same numbers)
+        warped = [np.empty((len(c), 2)) for c in clocks]
+        for c in {c for cs in clocks for c in cs}:
+            who = [(i, k) for i, cs in enumerate(clocks) for k, x in enumerate(cs) if x == c]
+            w = _warp_column(*tables, c, ends[[i for i, _ in who]]).reshape(-1, 2)
+            for (i, k), row in zip(who, w):
+                warped[i][k] = row
+    for i, (j, a, b) in enumerate(parsed):
+        times = ends[i]
+        if tables is not None:
+            w = warped[i]
             times = np.array([w[:, 0].min(), w[:, 1].max()])
         e0, e1 = (times - t0) / ft
         start = max(int(np.ceil(e0 - 1e-6)), 0)

@@ -93,6 +93,15 @@ def _source_tables(source: Motion, limbs: dict):
     return per[key]
 
 
+def _source_steps(source: Motion) -> np.ndarray:
+    """:func:`source_steps` of the source's local rotations (scale 1), once per source (the slider's replays
+    share it; the caller scales it by the edited frame time over the source's)."""
+    per = _SOURCE_CACHE.setdefault(source, {})
+    if "steps" not in per:
+        per["steps"] = source_steps(source.local_quats, 1.0)
+    return per["steps"]
+
+
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
           share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
           above_floor: bool = True, cap: bool = True):
@@ -136,7 +145,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     d0 = np.zeros((P, 3))
     np.add.at(d0, in_pid, cur - base)
     d0 /= sizes[:, None]
-    lengths = np.array([float(np.median(length[e])) for e in effs])
+    med = {e: float(np.median(length[e])) for e in limbs}
+    lengths = np.array([med[e] for e in effs])
+    p_start, p_stop = np.array([p["start"] for p in plants]), np.array([p["stop"] for p in plants])
     shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths) if shift_plants else np.zeros((P, 3))
     contacts_of: dict[int, list] = {}
     for c in carried:
@@ -157,11 +168,21 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         n = fr.size
         da, wa = np.zeros((n, 3)), np.zeros(n)
         dt_sum, pt_sum, wt_sum, wt = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n)
-        lo = np.array([plants[i]["start"] for i in pid])
-        hi = np.array([plants[i]["stop"] for i in pid])
+        lo, hi = p_start[pid], p_stop[pid]
         at_sig = {}
-        for j, _e0, _e1, A, B, a, b, _, ci in contacts_of.get(eff, ()):
-            kA, kB = np.searchsorted(fr, [A, B])
+        mine = contacts_of.get(eff, ())
+        ks = np.searchsorted(fr, [x for c in mine for x in (c[3], c[4])]).reshape(-1, 2)
+        # each contact joint's own source times, one inverse warp per joint over all its contacts' frames
+        own_t = {}
+        for j in {c[0] for c in mine}:
+            idx = [i for i, c in enumerate(mine) if c[0] == j and ks[i, 1] > ks[i, 0]
+                   and (targets is None or targets[c[8]] is None)]
+            if idx:
+                t_all = _source_frames(tables, t0, ft, ft_s, j, np.concatenate([fr[ks[i, 0]:ks[i, 1]] for i in idx]))
+                cut = np.cumsum([ks[i, 1] - ks[i, 0] for i in idx])[:-1]
+                own_t.update(zip(idx, np.split(t_all, cut)))
+        for i, (j, _e0, _e1, A, B, a, b, _, ci) in enumerate(mine):
+            kA, kB = ks[i]
             if kB <= kA:
                 continue
             own = fr[kA:kB]
@@ -170,7 +191,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             if targets is not None and targets[ci] is not None:     # given: where the joint must be
                 delta = np.broadcast_to(targets[ci], (B - A, 3)) - at_sig[j][kA:kB] - d[kA:kB]
             else:
-                ts = np.clip(_source_frames(tables, t0, ft, ft_s, j, own), a, b - 1)
+                ts = np.clip(own_t[i], a, b - 1)
                 delta = _sample(spos[:, j], ts) - at_sig[j][kA:kB]
             k0, k1 = np.searchsorted(fr, [A - nc, B + nc])
             seg = np.arange(k0, k1)
@@ -337,7 +358,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
             deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
             lift = np.zeros(F)
-            if above_floor and np.any(deficit > _TOL * float(np.median(length[lim.eff]))):
+            if above_floor and np.any(deficit > _TOL * med[lim.eff]):
                 lift = _envelope(deficit, nb) * (1.0 - wf)
                 lift[~free] = 0.0
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
@@ -355,7 +376,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
         chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        cap_pops(out, lq, chains, source_steps(slq, ft / ft_s))
+        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s))
     return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
 
 

@@ -81,31 +81,35 @@ def cap_pops(held: np.ndarray, edit: np.ndarray, joints, source_step: np.ndarray
     ch = np.array(sorted(set(int(j) for j in joints)), dtype=np.int64)
     if ch.size == 0 or held.shape[0] < 2:
         return held
-    for _ in range(_PASSES):
-        if not _cap_pass(held, edit, ch, source_step):
-            break
-    return held
-
-
-def _cap_pass(held, edit, ch, source_step) -> bool:
-    """One pass of :func:`cap_pops` (in place); False when nothing was too fast."""
+    # the edit's own turn (and so each step's allowance) is the same on every pass; a pass changes only the
+    # columns it ramps, so only theirs are measured again
     e = quat_angle(edit[:-1, ch], edit[1:, ch])                                   # (F - 1, C)
     allowed = np.maximum(source_step[ch][None, :] + np.radians(POP_MARGIN), e + np.radians(_MIN_STEP))
     excess = quat_angle(held[:-1, ch], held[1:, ch]) - allowed
+    for k in range(_PASSES):
+        cols = _cap_pass(held, edit, ch, excess)
+        if cols is None or k == _PASSES - 1:
+            break
+        sel = ch[cols]
+        excess[:, cols] = quat_angle(held[:-1, sel], held[1:, sel]) - allowed[:, cols]
+    return held
+
+
+def _cap_pass(held, edit, ch, excess):
+    """One pass of :func:`cap_pops` (in place) given each step's ``excess (F - 1, C)`` over its allowance;
+    returns the columns of ``ch`` it ramped, None when nothing was too fast."""
     fast = excess > 1e-6
     if not fast.any():
-        return False
-    D = quat_mul(quat_conj(edit[:, ch]), held[:, ch])
-    v = _continuous_log(D)
-    jump = np.linalg.norm(np.diff(v, axis=0), axis=-1)
+        return None
+    cols = np.flatnonzero(fast.any(axis=0))
+    sel = ch[cols]
+    vv = _continuous_log(quat_mul(quat_conj(edit[:, sel]), held[:, sel]))      # only the too-fast columns
+    jump = np.linalg.norm(np.diff(vv, axis=0), axis=-1)
     # the displacement's step is cut by the excess where the held joint turns too fast, and may grow by the room
     # left elsewhere (so a ramp catches up no faster than the joint may turn)
-    c = np.maximum(jump - excess, np.radians(_MIN_STEP))
-    cols = np.flatnonzero(fast.any(axis=0))
-    vv, cc = v[:, cols], c[:, cols]
+    cc = np.maximum(jump - excess[:, cols], np.radians(_MIN_STEP))
     f = fast[:, cols].any(axis=1)
     fwd = _limit(vv, cc, f, False)
     bwd = _limit(vv, cc, f, True)
-    sel = ch[cols]
     held[:, sel] = quat_mul(edit[:, sel], rotvec_to_quat(0.5 * (fwd + bwd)))
-    return True
+    return cols
