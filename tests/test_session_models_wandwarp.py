@@ -106,6 +106,27 @@ def test_skip_that_cannot_shorten_the_clip_is_refused_in_a_sentence_and_the_sess
     assert "needs a skip of 5 or more" in why and not _RAW.search(why) and s.ops[-1]["duration"] == short
     assert w.set_control("free_length", True) == ""          # free length has no such bound
     assert w.set_control("skip", 1) == "" and s.ops[-1]["free_length"] is True
+    # turning free length off at skip 1 and that duration cannot apply: refused at the control, in a sentence
+    before = s.ops
+    why = w.set_control("free_length", False)
+    assert why.startswith("a fixed length at") and "raise skip to 4 or more first" in why and not _RAW.search(why)
+    assert w.free_length is True and s.ops == before and s.edited() is not None
+    assert w.set_control("skip", 4) == "" and w.set_control("free_length", False) == ""    # then it applies
+    assert s.ops[-1]["skip"] == 4 and not s.ops[-1].get("free_length")
+
+
+def test_switching_to_guided_at_a_skip_that_cannot_reach_the_duration_is_refused(walk):
+    """A linear warp has no skip bound; switching it to guided at skip 1 and a short duration is refused at the
+    mode control (not at replay, where the runner's message names its parameters) and the linear warp stays."""
+    s, w, _ = _warp(walk)
+    assert w.set_control("mode", "linear") == "" and w.set_control("skip", 1) == ""
+    assert w.set_control("duration", round(w.shortest(4) + walk.frame_time, 6)) == ""
+    before = s.ops
+    why = w.set_control("mode", "guided")
+    assert why.startswith("a guided warp at") and "skip of 4 or more" in why and not _RAW.search(why)
+    assert w.mode == "linear" and s.ops == before and s.ops[-1]["op"] == "linear_warp" and s.edited() is not None
+    assert w.set_control("skip", 4) == "" and w.set_control("mode", "guided") == ""
+    assert s.ops[-1]["op"] == "guided_warp" and s.edited().num_frames == round(w.duration / walk.frame_time) + 1
 
 
 def test_the_tables_warmed_on_open_are_those_the_first_changes_use(walk, monkeypatch):

@@ -68,15 +68,37 @@ class WarpModel(_Model):
         frames = round(self.source_duration / self.frame_time)   # N - 1
         return math.ceil(frames / max(1, int(skip))) * self.frame_time
 
-    def _reachable(self, skip: int, duration: float, what: str) -> None:
+    @T.validate("mode")
+    def _v_mode(self, p):
+        if not self._loading:
+            self._reachable(self.skip, self.duration, "mode", mode=p["value"])
+        return p["value"]
+
+    @T.validate("free_length")
+    def _v_free_length(self, p):
+        if not self._loading:
+            self._reachable(self.skip, self.duration, "free_length", free_length=p["value"])
+        return p["value"]
+
+    def _reachable(self, skip: int, duration: float, what: str, mode: str | None = None,
+                   free_length: bool | None = None) -> None:
         """Refuse, in one sentence saying what to do, a skip and duration no guided warp can meet (a compression
-        faster than ``skip`` times real time); free length and linear warps have no such bound."""
-        if self.mode != "guided" or self.free_length:
+        faster than ``skip`` times real time); free length and linear warps have no such bound. ``mode`` and
+        ``free_length`` are the values asked for (default: the current ones): switching to guided, or turning
+        free length off, at a skip that cannot reach the duration is refused the same way."""
+        mode = self.mode if mode is None else mode
+        free_length = self.free_length if free_length is None else free_length
+        if mode != "guided" or free_length:
             return
         need = self.shortest(skip)
         if need and duration < need - 1e-9:
             frames = round(self.source_duration / self.frame_time)
             least = math.ceil(frames / max(1, round(duration / self.frame_time)))
+            if what in ("mode", "free_length"):
+                how = "a guided warp" if what == "mode" else "a fixed length"
+                raise T.TraitError(f"{how} at {duration:.2f} s needs a skip of {least} or more (skip {skip} plays at "
+                                   f"most {skip}x real time: {need:.2f} s at the shortest); raise skip to {least} or "
+                                   "more first, or lengthen the duration")
             if what == "skip":
                 raise T.TraitError(f"skip {skip} cannot shorten the clip to {duration:.2f} s: it plays at most "
                                    f"{skip}x real time, {need:.2f} s at the shortest; raise skip to {least} or more, "
