@@ -13,7 +13,7 @@ import pytest
 import stagger_nb as sn
 from stagger_nb.session import Session
 from stagger_nb.session import models as M
-from stagger_nb.session.models.views import warp_tables_first_changes
+from stagger_nb.session.models.views import warp_tables_first_changes, warp_view
 from stagger_nb.session.motion_runners import warp_table_key
 
 _RAW = re.compile(r"ops\[\d+\]|[A-Z][a-z]+Error|Exception|Traceback")
@@ -160,3 +160,39 @@ def test_a_first_backward_toggle_at_the_source_duration_uses_the_warmed_tables(w
     monkeypatch.setattr(timewarp, "prepare_warp", lambda *a, **k: calls.append(a[2:]) or real(*a, **k))
     assert w.set_control("backward", True) == "" and s.ops[-1]["backward"] is True
     assert s.edited().num_frames == walk.num_frames and calls == []
+
+
+@pytest.fixture(scope="module")
+def cmu():
+    return sn.data.load("cmu_01_01")
+
+
+def test_cmu_skip_1_at_2_87_s_is_refused_plainly_and_the_session_replays(cmu):
+    """Issue 26's held-out case on CMU 01_01 (2,751 frames): skip 1 at 2.87 s, by the skip control, by switching
+    a linear warp to guided and by turning free length off, is refused in a sentence; the session replays."""
+    s, w, _ = _warp(cmu)
+    assert w.set_control("duration", 2.87) == ""
+    before = s.ops
+    why = w.set_control("skip", 1)
+    assert "raise skip to 8" in why and not _RAW.search(why) and s.ops == before
+    assert s.edited().num_frames == round(2.87 / cmu.frame_time) + 1
+    assert w.set_control("free_length", True) == "" and w.set_control("skip", 1) == ""
+    why = w.set_control("free_length", False)
+    assert "raise skip to 8 or more first" in why and not _RAW.search(why) and s.edited() is not None
+    assert w.set_control("mode", "linear") == "" and w.free_length is True
+    why = w.set_control("mode", "guided")          # back to guided: free length still on, no bound: applies
+    assert why == "" and s.ops[-1]["free_length"] is True and s.edited() is not None
+
+
+def test_cmu_a_keytime_inside_the_clip_gives_a_warp_through_it(cmu):
+    """The keytime 2.0 s -> 1.5 s at 22.83 s (issue 26): the warp passes through it (within one input frame at
+    the output frame nearest 1.5 s) and ends at the clip's end."""
+    s, w, _ = _warp(cmu)
+    assert w.set_control("duration", 22.83) == "" and w.set_control("keytimes_text", "2:1.5") == ""
+    assert s.ops[-1]["keytimes"] == [[2.0, 1.5]]
+    v = warp_view(s)
+    ft = cmu.frame_time
+    k = int(round(1.5 / ft))
+    assert abs(v["warp"][k] - 2.0) <= ft + 1e-9
+    assert v["out_times"][-1] == pytest.approx(22.83, abs=ft) and v["warp"][-1] == pytest.approx(cmu.duration, abs=ft)
+    assert np.all(np.diff(v["warp"]) >= -1e-12)
