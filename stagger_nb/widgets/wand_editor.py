@@ -5,6 +5,7 @@ import html
 import math
 
 import ipywidgets as widgets
+import traitlets
 
 from ..core.motion import Motion
 from ..plotting import EDIT_COLOUR, falloff_figure, joint_curves_figure
@@ -31,6 +32,18 @@ from .skeleton_view import SkeletonView
 _TOGGLES = {"description_width": "120px", "button_width": "72px"}   # the label and its buttons on one line
 
 __all__ = ["WandEditor"]
+
+_SIGMA_TIP = ("σ, the width of the pose-space kernel (Dean et al. 2018, §3.3; pose-vector units): it sets how far "
+              "the edit reaches; the falloff plot shows the reach of each σ (not always wider for a larger σ: on "
+              "CMU 01_01 x4 reaches about half as far as x1)")
+
+
+class _RotateSlider(widgets.FloatSlider):
+    """A rotate slider whose values from the browser are not echoed back (``echo_update=False``): during a drag
+    the kernel's echo of an older value would pull the handle back, and the next move then jumps (a 60 px drag
+    landed on 90°). The model's own changes (a rounded or refused value) are still sent."""
+
+    value = traitlets.CFloat(0.0, help="Float value").tag(sync=True, echo_update=False)
 
 
 class WandEditor(_Editor):
@@ -71,9 +84,7 @@ class WandEditor(_Editor):
         c["sigma"] = widgets.FloatLogSlider(base=10, min=math.log10(grid[0]), max=math.log10(grid[-1]),
                                             step=model.SIGMA_STEP, description="falloff width σ",
                                             readout_format=".3g", continuous_update=True, style=_STYLE,
-                                            layout=_WIDE,
-                                            tooltip="σ of the pose-space kernel (Dean et al. 2018, §3.3, pose-vector "
-                                                    "units): larger reaches more frames")
+                                            layout=_WIDE, tooltip=_SIGMA_TIP)
         # the edited frame in seconds (2,751 frames on CMU 01_01): one arrow key = one frame, a drag = coarse
         c["edit_frame"] = _slider(widgets.FloatSlider, "edited frame (s)", min=0.0, max=round((F - 1) * ft, 4),
                                   step=ft, readout_format=".2f")
@@ -83,7 +94,7 @@ class WandEditor(_Editor):
                                                                            "edit only the neighbourhood (§3.3)"])
         c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
         for a in "xyz":   # +-60 on a wide track (a drag 0.2 deg/px, a key 1 deg); a typed value past it grows it
-            c["r" + a] = _slider(widgets.FloatSlider, f"rotate {a} (°)", min=-60.0, max=60.0, step=model.step("r" + a),
+            c["r" + a] = _slider(_RotateSlider, f"rotate {a} (°)", min=-60.0, max=60.0, step=model.step("r" + a),
                                  readout_format=".0f")
         c["compare"] = widgets.SelectMultiple(options=["isomap", "diffusion", "spline"], rows=3,
                                               description="compare with", style=_STYLE)
@@ -172,7 +183,8 @@ class WandEditor(_Editor):
 
     def _on_inert(self, change=None) -> None:
         c, m = self.controls, self.model
-        _inert(c["sigma"], not m.propagate, "σ sets the propagation's falloff: inert while propagate is off")
+        _inert(c["sigma"], not m.propagate, "σ sets the propagation's falloff: inert while propagate is off",
+               _SIGMA_TIP)
         _inert(c["repetitions"], not m.propagate, "repetitions apply to the propagation: inert while it is off")
         _inert(self.limit_range, not m.propagate, "the edit range limits the propagation: tick 'propagate' first")
         _inert(self.range, not (m.propagate and m.frame_range),

@@ -1,6 +1,8 @@
 """The guided time-warping editor (Hsu et al. 2007) over a :class:`~stagger_nb.session.models.WarpModel`."""
 from __future__ import annotations
 
+import math
+
 import ipywidgets as widgets
 import traitlets
 
@@ -14,6 +16,10 @@ from .plots import PlotView
 from .skeleton_view import SkeletonView
 
 __all__ = ["WarpEditor"]
+
+_SKIP_TIP = ("skip limit s (Hsu et al. 2007, §3.1): at most s input frames per output frame, so the warp plays at "
+             "most s times real time; a shorter output needs a larger s")
+_DURATION_TIP = "the output's length in seconds: arrow keys move one frame, a drag is coarse, ±1 s beside it"
 
 
 class WarpEditor(_Editor):
@@ -58,13 +64,22 @@ class WarpEditor(_Editor):
                                           tooltips=["guided by a reference's timing (Hsu et al. 2007)",
                                                     "piecewise linear through the keytimes"])
         # 1/8x .. 2x the clip; a key moves one frame; the readout takes a typed value (the track grows to show it)
-        c["duration"] = _slider(widgets.FloatSlider, "output duration (s)", min=round(D / 8 + m.frame_time, 3),
-                                max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f")
+        # the track's positions are min + n * step (the browser snaps to them): min is a whole number of frames
+        # below the source's duration, so the opening value reads as the title does (22.92, not 22.91)
+        ft = model.step("duration")
+        lo = round(D - math.floor((D - D / 8 - ft) / ft) * ft, 6)
+        c["duration"] = _slider(widgets.FloatSlider, "output duration (s)", min=lo,
+                                max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f",
+                                tooltip=_DURATION_TIP)
+        # a coarse step beside the slider (its keys move one frame): -1 s / +1 s, clamped to the slider's range
+        self.duration_steps = [widgets.Button(description=f"{d:+d} s", layout=widgets.Layout(width="52px"),
+                                              tooltip=f"{'shorten' if d < 0 else 'lengthen'} the output by 1 s")
+                               for d in (-1, 1)]
+        for b, d in zip(self.duration_steps, (-1.0, 1.0)):
+            b.on_click(lambda _, d=d: self._step_duration(d))
         c["free_length"] = widgets.Checkbox(description="free length (the reference's timing chooses it)",
                                             indent=False)
-        c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16,
-                            tooltip="skip limit s (§3.1): at most s input frames per output frame, so the warp plays "
-                                    "at most s times real time; a shorter output needs a larger s")
+        c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16, tooltip=_SKIP_TIP)
         c["backward"] = widgets.Checkbox(description="backward (play the clip in reverse)", indent=False)
         c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("the staggered poses", "poses")],
                                             description="retime", style={**_STYLE, "button_width": "140px"},
@@ -88,7 +103,7 @@ class WarpEditor(_Editor):
         self.clear_keytimes = widgets.Button(description="clear keytimes", layout=widgets.Layout(width="130px"))
         self.clear_keytimes.on_click(lambda _: setattr(self.model, "keytimes", []))
         self.warp_plot.on_click(self._on_warp_click)
-        quick = [c["duration"], c["skip"]]
+        quick = [widgets.HBox([c["duration"], *self.duration_steps]), c["skip"]]
         tools = {"warp": [widgets.HBox([c["mode"]]), widgets.HBox([c["target"]]),
                           widgets.HBox([c["free_length"], c["backward"]])],
                  "reference": [widgets.HBox([c["reference"]]), widgets.HBox([c["segment"]])],
@@ -131,6 +146,15 @@ class WarpEditor(_Editor):
         except ValueError:
             pass   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there
 
+    def _step_duration(self, seconds: float) -> None:
+        """-1 s / +1 s: the duration moved by ``seconds`` within the slider's range (a refused value is said in
+        the message line, as from the slider)."""
+        c = self.controls["duration"]
+        v = round(min(max(self.model.duration + seconds, c.min), c.max), 6)
+        if v != self.model.duration:
+            self.model.set_control("duration", v)
+            self._show_message()
+
     def _on_warp_click(self, x, y, frame) -> None:
         """With "click to add a keytime" on, a click on the warp plot at (output time x, input time y) adds
         the keytime [y, x] (Hsu et al. 2007, §4.2)."""
@@ -142,11 +166,15 @@ class WarpEditor(_Editor):
         _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment")
         linear = m.mode == "linear"
         for k in ("skip", "reference", "backward", "free_length"):
-            _inert(c[k], linear, f"{k} applies to guided warps only")
+            _inert(c[k], linear, f"{k} applies to guided warps only", _SKIP_TIP if k == "skip" else "")
         if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
             _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
                                     "change the duration, the reference or a keytime first")
-        _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration")
+        _inert(c["duration"], m.free_length and not linear, "free length: the warp chooses its duration",
+               _DURATION_TIP)
+        for b in self.duration_steps:
+            b.disabled = c["duration"].disabled
+            b.tooltip = c["duration"].tooltip if b.disabled else f"{b.description} on the output's duration"
         _inert(c["target"], linear or not (m.has_staggered or m.target == "poses"),
                "the staggered pose times can be warped in a session holding staggered edits (guided mode)")
         _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")

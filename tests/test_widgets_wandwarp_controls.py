@@ -1,0 +1,93 @@
+"""Issue 26's controls without a browser: the wand's rotate sliders take a drag's values without echoing each back
+(a stale echo pulled the handle and the next move jumped), σ's tooltip says what σ does and stays when the
+slider is re-enabled, the warp's duration has -1 s / +1 s beside it and opens on the source's duration as the
+title reads it, and the skip tooltip survives the inert toggles."""
+from __future__ import annotations
+
+import ipywidgets as widgets
+import numpy as np
+import pytest
+
+import stagger_nb as sn
+from stagger_nb import wand
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return sn.data.load("walk")
+
+
+def _y(plot):
+    return np.asarray(plot.figure["data"][0]["y"], dtype=float)
+
+
+def _sent(control):
+    out = []
+    control._send = lambda msg, buffers=None: out.append(msg)   # the comm: what the kernel would send back
+    return out
+
+
+def test_rotate_sliders_apply_a_browser_value_without_echoing_it(walk):
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", precompute=False)
+    try:
+        plain = widgets.FloatSlider(min=-60, max=60)
+        plain_sent = _sent(plain)
+        plain.set_state({"value": 12.0})
+        assert any(m.get("method") == "echo_update" for m in plain_sent)      # what a plain slider does
+        for a, v in zip("xyz", (12.0, -7.0, 3.0)):
+            sent = _sent(e.controls["r" + a])
+            e.controls["r" + a].set_state({"value": v})
+            assert not any(m.get("method") == "echo_update" for m in sent)
+            assert getattr(e.model, "r" + a) == v
+        op = e.session.ops[-1]
+        assert op["op"] == "propagate" and op["deltas"]["LeftUpLeg"] == [12.0, -7.0, 3.0]
+        e.model.rx = 20.0                                                     # a model change still reaches it
+        assert e.controls["rx"].value == 20.0
+    finally:
+        e.close()
+
+
+def test_sigma_tooltip_says_what_sigma_does_and_survives_the_propagate_toggle(walk):
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        tip = e.controls["sigma"].tooltip
+        assert "how far" in tip and "§3.3" in tip and "falloff plot" in tip
+        e.model.propagate = False
+        assert e.controls["sigma"].disabled and "propagate is off" in e.controls["sigma"].tooltip
+        e.model.propagate = True
+        assert not e.controls["sigma"].disabled and e.controls["sigma"].tooltip == tip
+        # what the tooltip claims: σ changes the reach, in no fixed direction (walk: x4 reaches further than
+        # x0.4; CMU 01_01: the other way, measured in the helper's report), and the plot shows each σ's
+        grid = e.model.sigma_grid
+        small, large = wand.falloff(walk, 40, sigma=grid[5]), wand.falloff(walk, 40, sigma=grid[-5])
+        assert np.abs(large - small).max() > 0.05
+        e.model.sigma = e.model.snap_sigma(grid[-5])
+        np.testing.assert_allclose(_y(e.falloff_plot), large, atol=1e-5)
+    finally:
+        e.close()
+
+
+def test_duration_steps_move_one_second_and_are_disabled_with_the_slider(walk):
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        c = e.controls["duration"]
+        n = round((walk.duration - c.min) / c.step)          # the browser snaps to min + n * step
+        assert f"{c.min + n * c.step:.2f}" == f"{walk.duration:.2f}" and abs(c.min + n * c.step - walk.duration) < 1e-6
+        minus, plus = e.duration_steps
+        d0 = e.model.duration
+        minus.click()
+        assert e.model.duration == pytest.approx(d0 - 1.0) and e.session.ops[-1]["duration"] == pytest.approx(d0 - 1)
+        assert e.session.edited().num_frames == round((d0 - 1.0) / walk.frame_time) + 1
+        plus.click()
+        plus.click()
+        assert e.model.duration == pytest.approx(d0 + 1.0)
+        e.model.free_length = True
+        assert minus.disabled and plus.disabled and "free length" in minus.tooltip
+        e.model.free_length = False
+        assert not minus.disabled and not c.disabled and "arrow keys" in c.tooltip
+        assert "§3.1" in e.controls["skip"].tooltip                       # not wiped by the inert toggles
+    finally:
+        e.close()
