@@ -91,3 +91,28 @@ def test_duration_steps_move_one_second_and_are_disabled_with_the_slider(walk):
         assert "§3.1" in e.controls["skip"].tooltip                       # not wiped by the inert toggles
     finally:
         e.close()
+
+
+def test_the_wand_says_what_it_prepares_until_the_warm_up_is_done(walk, monkeypatch):
+    """The status line under σ names the background warm-up while it runs and is empty once it is done."""
+    from concurrent.futures import Future
+
+    from stagger_nb.session import Session
+    from stagger_nb.widgets import WandEditor
+    s = Session(walk)
+    pending = []
+
+    def warm(*jobs, progress=None):   # the session's warm-up held until the test lets it finish
+        f = Future()
+        pending.append(f)
+        return f
+    monkeypatch.setattr(s, "warm", warm)
+    e = WandEditor(s, frame=40, joint="LeftUpLeg")
+    try:
+        assert pending and "preparing in the background" in e.status.value
+        assert f"{walk.num_frames} frames" in e.status.value
+        for f in pending:
+            f.set_result(None)
+        assert e.status.value == ""
+    finally:
+        e.close()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import html
 import math
+import weakref
 
 import ipywidgets as widgets
 import traitlets
@@ -22,6 +23,7 @@ from ._editor import (
     _Editor,
     _inert,
     _link,
+    _on_kernel_thread,
     _session_for,
     _slider,
     _x_span,
@@ -44,6 +46,12 @@ class _RotateSlider(widgets.FloatSlider):
     landed on 90°). The model's own changes (a rounded or refused value) are still sent."""
 
     value = traitlets.CFloat(0.0, help="Float value").tag(sync=True, echo_update=False)
+
+
+def _clear_status(ref) -> None:
+    ed = ref()
+    if ed is not None:
+        ed.status.value = ""
 
 
 class WandEditor(_Editor):
@@ -111,7 +119,10 @@ class WandEditor(_Editor):
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, pose_label="edited frame", **_VIEW_SIZE)
         self.falloff_plot = PlotView(frame_time=m.frame_time)
         self.curves = PlotView(frame_time=m.frame_time)
-        quick = [c["sigma"], c["rx"], c["ry"], c["rz"]]
+        # what the background warm-up is computing (seconds on a long clip): said until it is done
+        self.status = widgets.HTML("", layout=widgets.Layout(min_height="0"))
+        self.status.add_class("sn-wand-status")
+        quick = [c["sigma"], self.status, c["rx"], c["ry"], c["rz"]]
         tools = {"edit": [widgets.HBox([c["joint"]]), widgets.HBox([c["edit_frame"]]),
                           widgets.HBox([self.edited_frames]), widgets.HBox([self.add_button, self.remove_button])],
                  "propagation": [widgets.HBox([c["propagate"]]), widgets.HBox([c["repetitions"]]),
@@ -148,7 +159,12 @@ class WandEditor(_Editor):
             # first "compare" choice then draws at once), then the other positions; cancellable, yields to the user
             sigmas = model.sigmas_nearest_first()
             heads = [("isomap", None)] + ([("diffusion", float(model.sigma))] if F <= DIFFUSION_MAX_FRAMES else [])
-            self._warm(("wand_basis", sigmas[:5]), ("compare", heads), ("wand_basis", sigmas[5:]))
+            self.status.value = (f'<span style="color:#2b6cb0">preparing in the background ({F} frames): the '
+                                 "falloff for the σ positions nearest yours, then the comparison curves; a σ move "
+                                 "or compare choice meanwhile computes its own</span>")
+            fut = self._warm(("wand_basis", sigmas[:5]), ("compare", heads), ("wand_basis", sigmas[5:]))
+            me = weakref.ref(self)
+            fut.add_done_callback(lambda f: _on_kernel_thread(_clear_status, me))
 
     def _on_limit(self, change) -> None:
         m = self.model
