@@ -40,17 +40,25 @@ def warp_changes(cmu, warm: bool) -> dict:
     """The first duration key (down and up), the first free-length toggle and the first backward toggle, each on
     a fresh session (so each is a first change)."""
     D = cmu.duration
-    changes = {"duration -10 %": [("duration", round(0.9 * D, 3))],
-               "duration +10 %": [("duration", round(1.1 * D, 3))],
-               "free length on": [("free_length", True)],
-               "backward on": [("backward", True)]}
+    changes = {"duration -10 %": ([], [("duration", round(0.9 * D, 3))]),
+               "duration +10 %": ([], [("duration", round(1.1 * D, 3))]),
+               "free length on": ([], [("free_length", True)]),
+               "backward on": ([], [("backward", True)]),
+               # backward after a first duration key (untimed), the editor's re-warm for it done
+               "backward at -10 %": ([("duration", round(0.9 * D, 3))], [("backward", True)]),
+               "backward at +10 %": ([("duration", round(1.1 * D, 3))], [("backward", True)])}
     out = {}
-    for name, steps in changes.items():
+    for name, (pre, steps) in changes.items():
         s = Session(cmu)
         w = M.WarpModel()
         b = M.ModelBinding(w, s)
         if warm:
             s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP))).result()
+        for k, v in pre:
+            w.set_control(k, v)
+            s.edited()
+            if warm:   # the WarpEditor re-warms when the duration changes
+                s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP))).result()
 
         def change(steps=steps, w=w, s=s):
             for k, v in steps:
