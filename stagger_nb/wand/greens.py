@@ -420,8 +420,9 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         Measured (session 8, ``benchmarks/bench_claims.py`` docstring): CMU 01_01 at 120 Hz hop apex falloff
         0.50 / 0.04 -> 0.77 / 0.01 (goal >= 0.7 / <= 0.3); issue 24's propagated arm edit opposite phase
         0.55 -> 0.19 but same phase 0.83 -> 0.66 (goal >= 0.8); the opposite phase of 120 Hz turning walks and
-        runs rises to ~0.18 (issue 13's tests bound it at 0.1).  Opt-in, not the default, until that trade is
-        decided.
+        runs rises to 0.17-0.33 (issue 13's tests bound it at 0.1).  Tried as the default it failed 16 of 400
+        wand / compose / session tests, among them dense vs sparse agreement and two of issue 24's held-out
+        rows that pass today, so it stays opt-in.
     """
     if sigma_rate is not None:
         sigma_rate = float(sigma_rate)
