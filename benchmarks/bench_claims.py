@@ -3,6 +3,7 @@ previous ones (the papers' and issue 13's forms, reached by flags), printed as t
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_claims.py            # everything, ~10-15 min
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_claims.py --quick    # no 20,000-frame takes
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_claims.py --wand     # the Dean rows only
 
 Clips: the set-up clips (``data/``: procedural walk, run, jump; CMU 01_01 hops; MocapBank get-down; FreeBVH
 step) and every ``../shared/mocap`` clip, plus built cases: *standing jumps* (the procedural jump's crouch ..
@@ -51,6 +52,18 @@ Rows and goals
              but not the 120 Hz hops (0.55/0.32; with the 30 Hz sigma 0.97/0.01) and fails 2 of those 150 tests
              (a real turning walk's opposite phase 0.109 > 0.1; bandai_walk's clipped excess 1.06 > 1.03).
              Both candidates trade one paper claim for another on these clips; neither is the default.
+             Issue 24's propagated +20 deg arm edit with the 30 Hz-equivalent sigma (x2.1, measured in
+             session 8 on the held-out test's phase marks): CMU 01_01 at 120 Hz opposite phase
+             0.55 -> 0.19 (goal <= 0.2) but same phase 0.83 -> 0.66 (goal >= 0.8); CMU 131_01 start-stop
+             opposite 0.94 -> 0.80, same 0.32 -> 0.45.  The wider sigma fixes neither of #24's xfails.
+             ``pose_graph(sigma_rate=30)`` (opt-in since session 8; ``--wand`` prints its column): 30 Hz
+             unchanged by construction; CMU 01_01 at 120 Hz 0.55/0.31 -> 0.77/0.01 (10 of 10 apexes); every
+             straight walk still <= 0.28 half a stride away at both rates.  Made the default as a trial
+             (session 8) it failed 16 of 400 wand / compose / session / rig tests, not only issue 13's
+             opposite-phase 0.1 bounds (turning walks 0.17-0.33): dense vs sparse on 1,000 frames 0.22 apart
+             (bound 1e-3), the 20,000-frame repeated take's landmarks, xia_angry_run same phase 0.7996 < 0.8,
+             and two #24 held-out rows that pass today (CMU 01_01 propagation vs falloff 0.27 > 0.2;
+             iclone 07_01 region succession).  Reverted: it trades passing rows for one hop row.
   Dean walk  the falloff of a mid-walk frame one and two strides away >= 0.7, half a stride away <= 0.3
              (``walk_falloffs``: eight frames over the middle stride, the worst printed).  CMU 131_01 (start-stop)
              is 'no gait' at the stride the pose search finds (0.70 s, the end of the lags) and also at the
@@ -193,11 +206,11 @@ def row_free(all30: dict) -> None:
 def row_hops(cases: dict) -> None:
     print("\nDean: falloff of a flight apex at the other apexes (goal >= 0.7) and at the crouches (goal <= 0.3); "
           "per apex the median over the others, worst apex shown (and the share of apexes meeting both)")
-    print(f"{'clip':38s} {'rate':>5s} {'apexes':>6s} {'before':>18s} {'now':>18s}  goal")
+    print(f"{'clip':38s} {'rate':>5s} {'apexes':>6s} {'before':>18s} {'now':>18s} {'sigma_rate=30':>18s}  goal")
     for name, m in cases.items():
         for label, mm in (("30", m.resample(RATE)), ("file", m)):
             res = {}
-            for key, kw in (("before", dict(distinct=False)), ("now", {})):
+            for key, kw in (("before", dict(distinct=False)), ("now", {}), ("r30", dict(sigma_rate=1.0 / RATE))):
                 rows = hop_falloffs(mm, **kw)
                 if not rows:
                     break
@@ -221,7 +234,8 @@ def row_hops(cases: dict) -> None:
                         break
                 else:
                     note = "  (no sigma up to 4x meets it)"
-            print(f"{name:38s} {label:>5s} {res['now'][3]:6d} {cell['before']:>18s} {cell['now']:>18s}  "
+            print(f"{name:38s} {label:>5s} {res['now'][3]:6d} {cell['before']:>18s} {cell['now']:>18s} "
+                  f"{cell['r30']:>18s}  "
                   f"{ok(good)}{note}")
 
 
@@ -230,7 +244,8 @@ def row_walks(walks: dict) -> None:
           "(goal <= 0.3); the worst of eight frames over the middle stride")
     print("(a clip whose poses do not repeat has no stride to test: contrast = distance a stride apart / half a "
           "stride apart > 0.5, or the stride at the end of the 0.7-1.6 s lags searched -> 'no gait', not a miss)")
-    print(f"{'clip':30s} {'rate':>5s} {'stride s':>8s} {'contr.':>6s} {'high':>6s} {'low':>6s}  goal")
+    print(f"{'clip':30s} {'rate':>5s} {'stride s':>8s} {'contr.':>6s} {'high':>6s} {'low':>6s}  goal   "
+          "(sigma_rate=30: high low)")
     for name, m in walks.items():
         for label, mm in (("30", m.resample(RATE)), ("file", m)):
             rows, T = walk_falloffs(mm)
@@ -239,7 +254,9 @@ def row_walks(walks: dict) -> None:
             c = stride_contrast(mm, T)
             edge = T <= round(0.7 / mm.frame_time) or T >= round(1.6 / mm.frame_time)
             verdict = "no gait" if (c > 0.5 or edge) else ok(hi >= 0.7 and lo <= 0.3)
-            print(f"{name:30s} {label:>5s} {T * mm.frame_time:8.2f} {c:6.2f} {hi:6.2f} {lo:6.2f}  {verdict}")
+            r30, _ = walk_falloffs(mm, stride=T, sigma_rate=1.0 / RATE)
+            print(f"{name:30s} {label:>5s} {T * mm.frame_time:8.2f} {c:6.2f} {hi:6.2f} {lo:6.2f}  {verdict:7s}  "
+                  f"{np.nanmin([r[1] for r in r30]):6.2f} {max(r[2] for r in r30):6.2f}")
 
 
 def long_clip(kind: str, F: int = 20000) -> Motion:
@@ -335,9 +352,15 @@ def row_cost(cmu: Motion) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="skip the 20,000-frame long takes")
+    ap.add_argument("--wand", action="store_true", help="only the Dean rows (hops, walks)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     every = clips()
+    if args.wand:
+        row_hops({k: m for k, m in every.items() if has_hops(m) and len(hop_falloffs(m.resample(RATE))) >= 2})
+        row_walks({k: every[k] for k in STRAIGHT_WALKS if k in every})
+        print(f"\n({time.perf_counter() - t0:.0f} s)")
+        return 0
     all30 = {k: m.resample(RATE) for k, m in every.items()}
     built = built_cases(all30["jump"], all30["cmu_01_01"])
     print(f"{len(every)} clips ({', '.join(every)}); {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")

@@ -40,7 +40,8 @@ def test_free_length_with_sixths_still_follows_a_faster_reference(walk30):
 
 
 @pytest.mark.xfail(strict=True, reason="issue 25: the default sigma halves at 60 Hz (0.086 vs 0.166 at 30 Hz); "
-                   "measured on 30 Hz frames it fails 11 wand tests (opposite phase > 0.1 at 120 Hz)")
+                   "measured on 30 Hz frames (pose_graph(sigma_rate=30), opt-in) it fails 16 of 400 wand / compose / "
+                   "session tests (session 8; benchmarks/bench_claims.py docstring)")
 def test_default_sigma_does_not_depend_on_the_frame_rate():
     m = data.load("walk")                              # 60 Hz
     s_file = wand.pose_graph(m).basis().sigma

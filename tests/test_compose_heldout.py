@@ -32,7 +32,8 @@ PROPAGATE_FAILS = {
     "cmu_01_01": "the wand's falloff at the default sigma: from the edited pose (frame 1595, 27 frames after the apex "
                  "at 1568) it is 0.51-0.55 at the ground frames half-way between apexes, and the arm moves "
                  "0.52-0.55 there (the propagation follows the falloff: test_..._by_the_falloffs_share); from the "
-                 "apex itself 0.29-0.31; 1.4x the default sigma at the apex: 0.13-0.17 (same phase >= 0.84)",
+                 "apex itself 0.29-0.31; 1.4x the default sigma at the apex: 0.13-0.17 (same phase >= 0.84); "
+                 "2.1x (the 30 Hz-equivalent sigma) from the pose: opposite 0.19, same phase 0.66",
     "cmu_131_01_walk_startstop.bvh": "the wand's falloff does not tell this walk's left and right steps apart: "
                                      "0.76-0.95 at the opposite phase, 0.16 at the same phase of the first step "
                                      "(the start, frame 259); the arm moves 0.74-0.94 and 0.32 there",

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -217,6 +217,7 @@ class PoseGraph:
     pattern: KernelPattern | None = None
     nodes: np.ndarray | None = None
     counts: np.ndarray | None = None
+    sigma_knn: KnnGraph | None = None
 
     @property
     def num_frames(self) -> int:
@@ -224,8 +225,9 @@ class PoseGraph:
 
     @property
     def default_sigma(self) -> float:
-        """See :func:`.laplacian.default_sigma` (median distance to the 8th nearest neighbour)."""
-        return default_sigma(knn=self.knn)
+        """See :func:`.laplacian.default_sigma` (median distance to the 8th nearest neighbour); with
+        ``pose_graph(..., sigma_rate=r)`` measured on frames ``1 / r`` s apart (``sigma_knn``)."""
+        return default_sigma(knn=self.knn if self.sigma_knn is None else self.sigma_knn)
 
     def basis(self, sigma: float | None = None, num_eigs: int | None = None, self_term: bool = False,
               normalization: str = "random_walk", chain_floor: float = CHAIN_FLOOR) -> GreensBasis:
@@ -385,7 +387,7 @@ def _sparse_eigs(K, N: int):
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
                time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True,
-               flips: str = "drop") -> PoseGraph:
+               flips: str = "drop", sigma_rate: float | None = None) -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -410,7 +412,22 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         Poses a clip repeats exactly (a take concatenated with itself) form one node each on the sparse paths,
         and the default sigma is taken over distinct poses (default; :func:`_quotient_graph`, measured there).
         ``False``: one node per frame, as Eq. 1 is written (the graphs of such clips then depend on k).
+    sigma_rate : float or None
+        None (default, the paper's data-derived form): the default sigma from every frame's 8th nearest
+        neighbour, so it shrinks with the capture rate (at 120 Hz 95 % of those neighbours are the frame's own
+        neighbours in time: CMU 01_01 sigma 0.112 at 120 Hz, 0.235 resampled to 30 Hz).  A rate ``r`` (e.g. 30)
+        takes it on frames ``round(1 / (r * frame_time))`` apart, so it no longer depends on the capture rate.
+        Measured (session 8, ``benchmarks/bench_claims.py`` docstring): CMU 01_01 at 120 Hz hop apex falloff
+        0.50 / 0.04 -> 0.77 / 0.01 (goal >= 0.7 / <= 0.3); issue 24's propagated arm edit opposite phase
+        0.55 -> 0.19 but same phase 0.83 -> 0.66 (goal >= 0.8); the opposite phase of 120 Hz turning walks and
+        runs rises to 0.17-0.33 (issue 13's tests bound it at 0.1).  Tried as the default it failed 16 of 400
+        wand / compose / session tests, among them dense vs sparse agreement and two of issue 24's held-out
+        rows that pass today, so it stays opt-in.
     """
+    if sigma_rate is not None:
+        sigma_rate = float(sigma_rate)
+        if not np.isfinite(sigma_rate) or sigma_rate <= 0:
+            raise ValueError(f"sigma_rate must be a finite rate in Hz > 0 or None, got {sigma_rate!r}")
     if method not in ("auto", "dense", "sparse", "landmarks"):
         raise ValueError(f"method must be 'auto', 'dense', 'sparse' or 'landmarks', got {method!r}")
     X = pose_vectors(motion, joint_weights=joint_weights, time_weight=time_weight, reference=reference,
@@ -424,25 +441,36 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         first, inverse, counts = distinct_poses(X)
     else:
         first, inverse, counts = np.arange(F), np.arange(F), np.ones(F, dtype=np.int64)
+    sigma_knn = None if sigma_rate is None else _sigma_table(X, motion.frame_time, sigma_rate)
     if method == "dense":
         D2 = pairwise_sq_distances(X)
         # the default sigma from distinct poses: a take repeated 20 times gives every frame 19 equal poses, whose
         # 8th nearest is at distance 0 (sigma = the 1e-9 floor)
         U = X if first.size == F else X[first]
         table = knn_graph(U, min(8, U.shape[0] - 1)) if U.shape[0] > 1 else knn_graph(X, min(8, F - 1))
-        return PoseGraph(X, D2, table, "dense")
+        return PoseGraph(X, D2, table, "dense", sigma_knn=sigma_knn)
     k = int(knn)
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
     if first.size < F and first.size >= 2:
-        return _quotient_graph(X, method, k, first, inverse, counts)
+        return replace(_quotient_graph(X, method, k, first, inverse, counts), sigma_knn=sigma_knn)
     if method == "sparse":
         table = knn_graph(X, min(k, F - 1))
-        return PoseGraph(X, None, table, "sparse", pattern=kernel_pattern(table))
+        return PoseGraph(X, None, table, "sparse", pattern=kernel_pattern(table), sigma_knn=sigma_knn)
     stride = max(1, -(-F // MAX_LANDMARKS))
     frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
     table = knn_graph(X[frames], min(k, frames.size - 1))
-    return PoseGraph(X, None, table, "landmarks", frames, kernel_pattern(table))
+    return PoseGraph(X, None, table, "landmarks", frames, kernel_pattern(table), sigma_knn=sigma_knn)
+
+
+def _sigma_table(X: np.ndarray, frame_time: float, rate: float) -> KnnGraph:
+    """The 8-neighbour table of the distinct poses of every ``round(1 / (rate * frame_time))``-th frame."""
+    step = max(1, int(round(1.0 / (rate * frame_time))))
+    U = X[::step]
+    first, _, _ = distinct_poses(U)
+    if first.size > 1:
+        U = U[first]
+    return knn_graph(U, min(8, U.shape[0] - 1))
 
 
 def _quotient_graph(X: np.ndarray, method: str, k: int, first, inverse, counts) -> PoseGraph:
@@ -519,7 +547,8 @@ def clear_graph_cache() -> None:
 def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | None = None, method: str = "auto",
                  knn: int = DEFAULT_KNN, self_term: bool = False, normalization: str = "random_walk",
                  chain_floor: float = CHAIN_FLOOR, joint_weights=None, time_weight: float = 0.0,
-                 reference="mean", heading: str = "remove", distinct: bool = True, flips: str = "drop") -> GreensBasis:
+                 reference="mean", heading: str = "remove", distinct: bool = True, flips: str = "drop",
+                 sigma_rate: float | None = None) -> GreensBasis:
     """Eigenpairs of the pose Laplacian of ``motion`` for one ``sigma`` (§3.1-3.2).
 
     For a sigma slider build :func:`pose_graph` once and call ``graph.basis(sigma)`` per value; this one-call
@@ -535,13 +564,14 @@ def greens_basis(motion: Motion, sigma: float | None = None, num_eigs: int | Non
         See the module docstring.
     chain_floor : float in [0, 1]
         Minimum kernel value between consecutive frames (:mod:`.laplacian`); 0 = plain Eq. 1.
-    method, knn, joint_weights, time_weight, reference, heading, distinct, flips
+    method, knn, joint_weights, time_weight, reference, heading, distinct, flips, sigma_rate
         See :func:`pose_graph`.
     """
     if sigma is not None:
         _check_sigma(sigma)
     g = cached_pose_graph(motion, method=method, knn=knn, joint_weights=joint_weights, time_weight=time_weight,
-                          reference=reference, heading=heading, distinct=distinct, flips=flips)
+                          reference=reference, heading=heading, distinct=distinct, flips=flips,
+                          sigma_rate=sigma_rate)
     return g.basis(sigma=sigma, num_eigs=num_eigs, self_term=self_term, normalization=normalization,
                    chain_floor=chain_floor)
 
