@@ -2,12 +2,10 @@
 §5.3, pose edits §5.1 Fig. 6, IK posing); its ``params <-> ops`` functions are in :mod:`.stagger_ops`."""
 from __future__ import annotations
 
-import copy
-
 import traitlets as T
 
 from ..ops import MAX_DEGREES, MAX_WORLD, Cull, Exaggerate, RandomTiming, Retime, Succession, limits
-from ._base import _finite, _g, _Model, _within, snap
+from ._base import _finite, _g, _int_within, _Model, _with_rotation, _within, snap
 from .stagger_ops import STAGGER_OPS, stagger_ops_to_params, stagger_params_to_ops
 
 __all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
@@ -105,9 +103,7 @@ class StaggerModel(_Model):
     @T.validate("seed")
     def _v_seed(self, p):
         lo, hi, _ = limits(RandomTiming, "seed")
-        if not lo <= p["value"] <= hi:
-            raise T.TraitError(f"seed must lie between {lo} and {hi}, got {p['value']}")
-        return p["value"]
+        return _int_within("seed", p["value"], lo, hi)
 
     @T.validate("keep")
     def _v_keep(self, p):
@@ -309,16 +305,8 @@ class StaggerModel(_Model):
     @T.observe("rx", "ry", "rz")
     def _nudge(self, change):
         v = [self.rx, self.ry, self.rz]
-        if v == self._selected_nudge() or not self.joint:
-            return
-        edits = copy.deepcopy(self.pose_edits)
-        d = edits.setdefault(self.pose, {})
-        d[self.joint] = v
-        if not any(v):
-            del d[self.joint]
-            if not d:
-                del edits[self.pose]
-        self.pose_edits = edits
+        if v != self._selected_nudge() and self.joint:
+            self.pose_edits = _with_rotation(self.pose_edits, self.pose, self.joint, v)
 
     def ik_entry(self) -> dict | None:
         """The IK edit of the selected pose and effector (``{pose, joint, target}``), None when there is none."""
