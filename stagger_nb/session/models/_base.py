@@ -42,7 +42,7 @@ def _int_within(name: str, v: int, lo: int, hi: int, unit: str = "") -> int:
     return v
 
 
-def _index_below(field: str, v: int, n: int, noun: str = "an index", of: str = "") -> int:
+def _frame_index(field: str, v: int, n: int, noun: str = "an index", of: str = "") -> int:
     """An index ``v >= 0`` and, once there are ``n > 0`` items, ``< n``; else a TraitError naming ``field``."""
     if v < 0 or 0 < n <= v:
         top = f" and < {n}{of}" if n else ""
@@ -116,7 +116,7 @@ class _Model(T.HasTraits):
 
     @T.validate("frame")
     def _v_frame(self, proposal):
-        return _index_below("frame", proposal["value"], self.num_frames, of=" (the edited motion's frames)")
+        return _frame_index("frame", proposal["value"], self.num_frames, of=" (the edited motion's frames)")
 
     def _known_joint(self, field: str, name) -> str:
         """``name`` if this skeleton has it (or the names are not known yet), else a TraitError naming ``field``."""

@@ -85,10 +85,15 @@ class StaggerModel(_Model):
     region_weights = T.List(T.Float(), help="the region's falloff at each current pose, in [0, 1] (set by the "
                                             "binding; [] while the region is off): what the timeline shows")
 
-    @T.validate("percent")
-    def _v_percent(self, p):
-        lo, hi, open_lo = limits(Cull, "percent")
-        return self._number(p, lo, hi, open_lo, unit=" %")
+    # the numbers bounded by an op field's limits (declared once, with the op): trait -> (op, field, unit)
+    _OP_NUMBERS = {"percent": (Cull, "percent", " %"), "l": (Succession, "l", ""), "s": (Succession, "s", " s"),
+                   "tau": (RandomTiming, "tau", " s"), "w_r": (Exaggerate, "w_r", "")}
+
+    @T.validate(*_OP_NUMBERS)
+    def _v_op_number(self, p):
+        op, field, unit = self._OP_NUMBERS[p["trait"].name]
+        lo, hi, open_lo = limits(op, field)
+        return self._number(p, lo, hi, open_lo, unit=unit)
 
     @T.validate("count")
     def _v_count(self, p):
@@ -112,26 +117,6 @@ class StaggerModel(_Model):
         if bad and not self._loading:
             raise T.TraitError(f"keep: pose {bad[0]} is not one of the {K} poses extracted")
         return sorted(set(int(k) for k in p["value"]))
-
-    @T.validate("l")
-    def _v_l(self, p):
-        lo, hi, open_lo = limits(Succession, "l")
-        return self._number(p, lo, hi, open_lo)
-
-    @T.validate("s")
-    def _v_s(self, p):
-        lo, hi, open_lo = limits(Succession, "s")
-        return self._number(p, lo, hi, open_lo, unit=" s")
-
-    @T.validate("tau")
-    def _v_tau(self, p):
-        lo, hi, open_lo = limits(RandomTiming, "tau")
-        return self._number(p, lo, hi, open_lo, unit=" s")
-
-    @T.validate("w_r")
-    def _v_w_r(self, p):
-        lo, hi, open_lo = limits(Exaggerate, "w_r")
-        return self._number(p, lo, hi, open_lo)
 
     @T.validate("rx", "ry", "rz")
     def _v_nudge(self, p):

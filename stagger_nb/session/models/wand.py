@@ -7,7 +7,7 @@ import math
 import traitlets as T
 
 from ..ops import MAX_DEGREES, Propagate, limits
-from ._base import _index_below, _Model, _with_rotation
+from ._base import _frame_index, _Model, _with_rotation
 
 __all__ = ["WandModel", "WAND_OPS", "wand_params_to_ops", "wand_ops_to_params"]
 
@@ -96,7 +96,7 @@ class WandModel(_Model):
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
-        return _index_below("edit_frame", p["value"], self.input_frames, noun="a frame index")
+        return _frame_index("edit_frame", p["value"], self.input_frames, noun="a frame index")
 
     @T.validate("edits")
     def _v_edits(self, p):
