@@ -38,6 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the hand-written rigs' builders
+from io_samples import ASF_ROOT, FEMUR_LIMITS, asf_bone, bvh_hierarchy
+
 MAX_SECONDS = 10.0
 MAX_BYTES = 500 << 20
 AS_LIMIT = 6 << 30  # numpy / pyarrow thread arenas reserve address space: the RSS check is the 500 MB bound
@@ -45,36 +48,8 @@ AS_LIMIT = 6 << 30  # numpy / pyarrow thread arenas reserve address space: the R
 # --------------------------------------------------------------------------------------------------
 # BVH material
 # --------------------------------------------------------------------------------------------------
-HEAD = """HIERARCHY
-ROOT Hips
-{
-\tOFFSET 0 0 0
-\tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-\tJOINT Chest
-\t{
-\t\tOFFSET 0 12 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tJOINT Neck
-\t\t{
-\t\t\tOFFSET 0 8 1
-\t\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\t\tEnd Site
-\t\t\t{
-\t\t\t\tOFFSET 0 4 0
-\t\t\t}
-\t\t}
-\t}
-\tJOINT Leg
-\t{
-\t\tOFFSET 3 -2 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tEnd Site
-\t\t{
-\t\t\tOFFSET 0 -15 0
-\t\t}
-\t}
-}
-"""
+HEAD = bvh_hierarchy(("Hips", "0 0 0", [("Chest", "0 12 0", [("Neck", "0 8 1", "0 4 0")]),
+                                        ("Leg", "3 -2 0", "0 -15 0")]))
 NCH = 15
 ROWS = ["1 90 2 10 20 30 1 2 3 4 5 6 7 8 9", "1.5 91 2.5 11 21 31 2 3 4 5 6 7 8 9 10",
         "2 92 3 12 22 32 3 4 5 6 7 8 9 10 11", "2.5 93 3.5 13 23 33 4 5 6 7 8 9 10 11 12"]
@@ -424,56 +399,12 @@ def _gimbal():
 # --------------------------------------------------------------------------------------------------
 # ASF / AMC material
 # --------------------------------------------------------------------------------------------------
-ASF = """# a comment
-:version 1.10
-:name heldout
-:units
-  mass 1.0
-  length 0.45
-  angle deg
-:documentation
-  held-out corpus
-:root
-  order TX TY TZ RX RY RZ
-  axis XYZ
-  position 0 0 0
-  orientation 0 0 0
-:bonedata
-  begin
-    id 1
-    name lhipjoint
-    direction 0.6 -0.7 0.3
-    length 2.4
-    axis 0 0 -20 XYZ
-  end
-  begin
-    id 2
-    name lfemur
-    direction 0.34 -0.93 0
-    length 7.1
-    axis 0 0 20 XYZ
-    dof rx ry rz
-    limits (-160.0 20.0)
-           (-70.0 70.0)
-           (-60.0 70.0)
-  end
-  begin
-    id 3
-    name lowerback
-    direction 0 1 0
-    length 2
-    axis 0 0 0 XYZ
-    dof rx ry rz
-    limits (-20 20)
-           (-20 20)
-           (-20 20)
-  end
-:hierarchy
-  begin
-    root lhipjoint lowerback
-    lhipjoint lfemur
-  end
-"""
+ASF = ("# a comment\n:version 1.10\n:name heldout\n:units\n  mass 1.0\n  length 0.45\n  angle deg\n:documentation\n"
+       "  held-out corpus\n" + ASF_ROOT + ":bonedata\n"
+       + asf_bone(1, "lhipjoint", "0.6 -0.7 0.3", 2.4, "0 0 -20 XYZ")
+       + asf_bone(2, "lfemur", "0.34 -0.93 0", 7.1, "0 0 20 XYZ", "rx ry rz", FEMUR_LIMITS)
+       + asf_bone(3, "lowerback", "0 1 0", 2, "0 0 0 XYZ", "rx ry rz", ("(-20 20)",) * 3)
+       + ":hierarchy\n  begin\n    root lhipjoint lowerback\n    lhipjoint lfemur\n  end\n")
 AMC = ":FULLY-SPECIFIED\n:DEGREES\n" + "".join(
     f"{f}\nroot {f} 16 {f} 1 2 3\nlfemur 10 20 {f}\nlowerback 1 2 {f}\n" for f in range(1, 5))
 

@@ -48,6 +48,9 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))   # the snapshot test_hostile_batch takes, beside the tests
+import tree_snapshot
+
 MARKER = "MARKER-21c0-not-a-clip"
 SECRET = f"{MARKER} root:*:20228:0:99999:7:::\nsecond line {MARKER}\n"
 TIMEOUT = 60.0
@@ -114,22 +117,7 @@ def job(tmp: Path, n_clips: int = 2):
 
 def snapshot(root: Path, skip: Path | None = None) -> dict:
     """Every entry under ``root`` (links not followed, FIFOs not opened): path -> (kind, hash / target, mtime)."""
-    out = {}
-    for folder, dirs, files in os.walk(root):
-        if skip is not None and os.path.realpath(folder) == os.path.realpath(skip):
-            dirs[:] = []
-            continue
-        for name in dirs + files:
-            p = os.path.join(folder, name)
-            st = os.lstat(p)
-            if stat.S_ISLNK(st.st_mode):
-                out[p] = ("link", os.readlink(p))
-            elif stat.S_ISREG(st.st_mode):
-                with open(p, "rb") as f:
-                    out[p] = ("file", hashlib.sha256(f.read()).hexdigest(), st.st_mtime_ns)
-            else:
-                out[p] = ("dir" if stat.S_ISDIR(st.st_mode) else "other",)
-    return out
+    return tree_snapshot.snapshot(root, skip, mtimes=True)
 
 
 def no_marker_under(out: Path):

@@ -77,38 +77,47 @@ def jupyter_lab(folder: Path, timeout: float = 180.0):
         p.write_text(json.dumps(value))
     port = free_port()
     log_path = folder / "lab.log"
-    log = open(log_path, "w")
-    proc = subprocess.Popen([str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
-                             "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
-                             f"--ServerApp.root_dir={folder}", "--LabApp.news_url=None",
-                             "--ServerApp.disable_check_xsrf=True",
-                             "--ServerApp.port_retries=0"],  # a taken port fails here, never serves elsewhere
-                            cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    argv = [str(Path(sys.executable).parent / "jupyter"), "lab", "--no-browser", f"--port={port}",
+            "--ip=127.0.0.1", "--ServerApp.token=", "--ServerApp.password=", "--allow-root",
+            f"--ServerApp.root_dir={folder}", "--LabApp.news_url=None", "--ServerApp.disable_check_xsrf=True",
+            "--ServerApp.port_retries=0"]  # a taken port fails here, never serves elsewhere
     url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + timeout
-        while True:
-            try:
-                urllib.request.urlopen(url + "/api/status", timeout=2)
-                break
-            except Exception:
-                if proc.poll() is not None:
-                    raise RuntimeError("jupyter lab exited: " + log_path.read_text()[-2000:]) from None
-                if time.monotonic() > deadline:
-                    raise RuntimeError(f"jupyter lab did not answer within {timeout} s: "
-                                       + log_path.read_text()[-2000:]) from None
-                time.sleep(0.5)
+    with served(argv, cwd=folder, env=env, log_path=log_path, what="jupyter lab", timeout=timeout,
+                ready=lambda: urllib.request.urlopen(url + "/api/status", timeout=2)):
         yield url
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
+
+
+@contextlib.contextmanager
+def served(argv: list[str], *, cwd, env: dict, log_path: Path, what: str, timeout: float, ready):
+    """Run the server ``argv`` in its own process group (its output in ``log_path``) until the block ends; wait
+    first until ``ready()`` returns without raising, at most ``timeout`` s (a server that exits, or does not answer
+    in time, raises with its log's tail, naming it by ``what``). Stops the whole group after (SIGTERM; SIGKILL
+    20 s later): the server's kernels too."""
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(argv, cwd=cwd, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
+            deadline = time.monotonic() + timeout
+            while True:
+                try:
+                    ready()
+                    break
+                except Exception:
+                    if proc.poll() is not None:
+                        raise RuntimeError(f"{what} exited: " + log_path.read_text()[-2000:]) from None
+                    if time.monotonic() > deadline:
+                        raise RuntimeError(f"{what} did not answer within {timeout} s: "
+                                           + log_path.read_text()[-2000:]) from None
+                    time.sleep(0.5)
+            yield
+        finally:
             with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(timeout=10)
-        log.close()
+                os.killpg(proc.pid, signal.SIGTERM)
+            try:
+                proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(timeout=10)
 
 
 def shutdown_kernels(url: str, timeout: float = 60.0) -> int:

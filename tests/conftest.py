@@ -35,6 +35,23 @@ def _close_widgets_at_the_end():
         sys.modules["ipywidgets"].Widget.close_all()
 
 
+@pytest.fixture(scope="module")
+def _server(tmp_path_factory):
+    """One JupyterLab for a browser test module (tests/browser_harness.py: free port, state in its own folder, the
+    preferred kernel started without a "Select Kernel" dialog); started only by a module whose tests use ``lab``."""
+    import browser_harness as bh
+    with bh.shared_lab(tmp_path_factory) as server:
+        yield server
+
+
+@pytest.fixture
+def lab(_server):
+    """(url, folder, runtime_dir) of the module's JupyterLab; each test's kernels are shut down after it."""
+    import browser_harness as bh
+    with bh.lab_for_test(_server) as lab:
+        yield lab
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

@@ -21,6 +21,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from io_samples import ASF_ROOT, FEMUR_LIMITS, asf_bone, bvh_hierarchy
 
 MAX_SECONDS = 10.0
 MAX_BYTES = 500 << 20
@@ -28,27 +29,7 @@ MAX_BYTES = 500 << 20
 # --------------------------------------------------------------------------------------------------
 # BVH material
 # --------------------------------------------------------------------------------------------------
-HEAD = """HIERARCHY
-ROOT Hips
-{
-\tOFFSET 0 0 0
-\tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-\tJOINT Spine
-\t{
-\t\tOFFSET 0 10 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tJOINT Head
-\t\t{
-\t\t\tOFFSET 0 10 0
-\t\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\t\tEnd Site
-\t\t\t{
-\t\t\t\tOFFSET 0 5 0
-\t\t\t}
-\t\t}
-\t}
-}
-"""
+HEAD = bvh_hierarchy(("Hips", "0 0 0", [("Spine", "0 10 0", [("Head", "0 10 0", "0 5 0")])]))
 ROWS = ["1 90 2 10 20 30 1 2 3 4 5 6", "1.5 91 2.5 11 21 31 2 3 4 5 6 7", "2 92 3 12 22 32 3 4 5 6 7 8"]
 
 
@@ -224,46 +205,11 @@ def bvh_odd_valid() -> list[tuple[str, bytes, dict]]:
 # --------------------------------------------------------------------------------------------------
 # ASF / AMC material
 # --------------------------------------------------------------------------------------------------
-ASF = """:version 1.10
-:name test
-:units
-  mass 1.0
-  length 1.0
-  angle deg
-:documentation
-  hostile corpus
-:root
-  order TX TY TZ RX RY RZ
-  axis XYZ
-  position 0 0 0
-  orientation 0 0 0
-:bonedata
-  begin
-    id 1
-    name lfemur
-    direction 0 -1 0
-    length 10
-    axis 0 0 0 XYZ
-    dof rx ry rz
-    limits (-160.0 20.0)
-           (-70.0 70.0)
-           (-60.0 70.0)
-  end
-  begin
-    id 2
-    name ltibia
-    direction 0 -1 0
-    length 10
-    axis 0 0 0 XYZ
-    dof rx
-    limits (-10.0 170.0)
-  end
-:hierarchy
-  begin
-    root lfemur
-    lfemur ltibia
-  end
-"""
+ASF = (":version 1.10\n:name test\n:units\n  mass 1.0\n  length 1.0\n  angle deg\n:documentation\n  hostile corpus\n"
+       + ASF_ROOT + ":bonedata\n"
+       + asf_bone(1, "lfemur", "0 -1 0", 10, "0 0 0 XYZ", "rx ry rz", FEMUR_LIMITS)
+       + asf_bone(2, "ltibia", "0 -1 0", 10, "0 0 0 XYZ", "rx", ("(-10.0 170.0)",))
+       + ":hierarchy\n  begin\n    root lfemur\n    lfemur ltibia\n  end\n")
 AMC = ":FULLY-SPECIFIED\n:DEGREES\n" + "".join(f"{f}\nroot 0 {f} 0 1 2 3\nlfemur 10 20 30\nltibia {f * 5}\n"
                                                for f in range(1, 4))
 

@@ -86,3 +86,46 @@ Frame Time: 0.5
 1 2 3 90 0 0 0 0 0 4 0 0 0 0 0
 0 0 0 0 0 0 0 90 0 0 0 0 0 0 0
 """
+
+
+# builders of the hand-written hierarchies the hostile sets start from (tests/hostile_corpus.py,
+# tests/test_hostile_heldout.py, benchmarks/hostile_heldout.py): each set writes its own small rig and then
+# breaks it by text replacement, so the text is built to the letter (tabs, line numbers) of a file written by hand
+ZXY = "Zrotation Xrotation Yrotation"
+ROOT_CHANNELS = "Xposition Yposition Zposition " + ZXY
+
+
+def bvh_hierarchy(root, tab: str = "\t") -> str:
+    """The HIERARCHY part of a BVH text (up to ``MOTION``) of the nested joints ``(name, offset, below)`` or
+    ``(name, offset, below, channels)``: ``below`` the child joints (a list) or, for a leaf, its End Site's offset
+    (a string); ``channels`` by default :data:`ROOT_CHANNELS` for the root, :data:`ZXY` below it. One ``tab`` per
+    depth."""
+    lines = ["HIERARCHY"]
+
+    def joint(node, depth: int) -> None:
+        name, offset, below, *channels = node
+        chans = channels[0] if channels else (ROOT_CHANNELS if depth == 0 else ZXY)
+        pad, inner = tab * depth, tab * (depth + 1)
+        lines.extend([f"{pad}{'JOINT' if depth else 'ROOT'} {name}", pad + "{", f"{inner}OFFSET {offset}",
+                      f"{inner}CHANNELS {len(chans.split())} {chans}"])
+        if isinstance(below, str):
+            lines.extend([f"{inner}End Site", inner + "{", f"{inner}{tab}OFFSET {below}", inner + "}"])
+        else:
+            for child in below:
+                joint(child, depth + 1)
+        lines.append(pad + "}")
+
+    joint(root, 0)
+    return "\n".join(lines) + "\n"
+
+
+FEMUR_LIMITS = ("(-160.0 20.0)", "(-70.0 70.0)", "(-60.0 70.0)")   # a CMU femur's rx ry rz limits
+ASF_ROOT = ":root\n  order TX TY TZ RX RY RZ\n  axis XYZ\n  position 0 0 0\n  orientation 0 0 0\n"
+
+
+def asf_bone(id: int, name: str, direction: str, length, axis: str, dof: str = "", limits=()) -> str:
+    """One ``begin .. end`` block of an ASF ``:bonedata`` section (``limits``: one ``(lo hi)`` text per dof)."""
+    rows = [f"    id {id}", f"    name {name}", f"    direction {direction}", f"    length {length}",
+            f"    axis {axis}"] + ([f"    dof {dof}"] if dof else [])
+    rows += [("    limits " if i == 0 else "           ") + lim for i, lim in enumerate(limits)]
+    return "  begin\n" + "\n".join(rows) + "\n  end\n"

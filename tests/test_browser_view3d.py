@@ -35,21 +35,6 @@ DATA = os.environ.get("STAGGER_NB_DATA", str(REPO / "data"))
 pytestmark = [pytest.mark.browser]
 
 
-@pytest.fixture(scope="module")
-def _server(tmp_path_factory):
-    """One JupyterLab for the module's tests (tests/browser_harness.py: free port, state in its own folder, the
-    preferred kernel started without a "Select Kernel" dialog)."""
-    with bh.shared_lab(tmp_path_factory) as server:
-        yield server
-
-
-@pytest.fixture
-def lab(_server):
-    """(url, folder, runtime_dir) of the module's JupyterLab; each test's kernels are shut down after it."""
-    with bh.lab_for_test(_server) as lab:
-        yield lab
-
-
 def _write_notebook(path: Path, cells) -> None:
     import nbformat
     nb = nbformat.v4.new_notebook()

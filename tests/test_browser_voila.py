@@ -13,9 +13,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import signal
 import socket
-import subprocess
 import time
 from pathlib import Path
 
@@ -57,34 +55,11 @@ def voila_server(folder: Path, notebook: Path, timeout: float = 180.0):
                                                          if p]))
     port = bh.free_port()
     argv, env = voila_command(notebook, port, env=env)
-    log_path = folder / "voila.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(argv, cwd=notebook.parent, env=env, stdout=log, stderr=subprocess.STDOUT,
-                                start_new_session=True)
-        url = f"http://127.0.0.1:{port}/"
-        try:
-            deadline = time.monotonic() + timeout
-            while True:   # the port answers (a GET of the page would run the notebook: Voila renders per request)
-                try:
-                    socket.create_connection(("127.0.0.1", port), timeout=2).close()
-                    break
-                except OSError:
-                    if proc.poll() is not None:
-                        raise RuntimeError("voila exited: " + log_path.read_text()[-2000:]) from None
-                    if time.monotonic() > deadline:
-                        raise RuntimeError(f"voila did not answer within {timeout} s: "
-                                           + log_path.read_text()[-2000:]) from None
-                    time.sleep(0.5)
-            yield url
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGTERM)
-            try:
-                proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait(timeout=10)
+    url = f"http://127.0.0.1:{port}/"
+    # ready when the port answers (a GET of the page would run the notebook: Voila renders per request)
+    with bh.served(argv, cwd=notebook.parent, env=env, log_path=folder / "voila.log", what="voila", timeout=timeout,
+                   ready=lambda: socket.create_connection(("127.0.0.1", port), timeout=2).close()):
+        yield url
 
 
 def test_quickstart_in_voila_draws_everything_offline_without_page_errors(tmp_path):

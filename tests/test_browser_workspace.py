@@ -29,21 +29,6 @@ MAIN_SLIDERS = {"stagger": [".sn-cull", ".sn-s", ".sn-tau", ".sn-w-r"], "wand": 
                 "warp": [".sn-duration", ".sn-skip"]}
 
 
-@pytest.fixture(scope="module")
-def _server(tmp_path_factory):
-    """One JupyterLab for the module's tests (tests/browser_harness.py: free port, state in its own folder, the
-    preferred kernel started without a "Select Kernel" dialog)."""
-    with bh.shared_lab(tmp_path_factory) as server:
-        yield server
-
-
-@pytest.fixture
-def lab(_server):
-    """(url, folder, runtime_dir) of the module's JupyterLab; each test's kernels are shut down after it."""
-    with bh.lab_for_test(_server) as lab:
-        yield lab
-
-
 def _head(clip: str) -> str:
     return f"""import sys
 sys.path.insert(0, {str(bh.REPO)!r})

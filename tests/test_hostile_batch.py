@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import csv
 import errno
-import hashlib
 import json
 import math
 import os
@@ -22,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from conftest import run_forked
+from tree_snapshot import snapshot
 
 import stagger_nb as sn
 from stagger_nb import batch
@@ -61,26 +61,6 @@ def in_child(fn, timeout=TIMEOUT) -> str:
         except BaseException as e:
             send(f"{type(e).__name__}: {e}")
     return run_forked(body, timeout)[0]
-
-
-def snapshot(root: Path, skip: Path | None = None) -> dict:
-    """Every entry under ``root`` (not following links, not opening FIFOs): path -> (kind, content hash or
-    link target); ``skip`` (a folder) left out."""
-    out = {}
-    for folder, dirs, files in os.walk(root):
-        if skip is not None and Path(folder).resolve() == skip.resolve():
-            dirs[:] = []
-            continue
-        for name in dirs + files:
-            p = os.path.join(folder, name)
-            st = os.lstat(p)
-            if stat.S_ISLNK(st.st_mode):
-                out[p] = ("link", os.readlink(p))
-            elif stat.S_ISREG(st.st_mode):
-                out[p] = ("file", hashlib.sha256(open(p, "rb").read()).hexdigest())
-            else:
-                out[p] = ("dir" if stat.S_ISDIR(st.st_mode) else "other", None)
-    return out
 
 
 def assert_clean(proc, out: Path | None = None):

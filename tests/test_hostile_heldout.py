@@ -7,32 +7,14 @@ import warnings
 
 import numpy as np
 import pytest
+from io_samples import ASF_ROOT, asf_bone, bvh_hierarchy
 
 import stagger_nb as sn
 from stagger_nb import staggered, timewarp, wand
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
 
-HEAD = """HIERARCHY
-ROOT Hips
-{
-\tOFFSET 0 0 0
-\tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-\tJOINT Chest
-\t{
-\t\tOFFSET 0 12 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tEnd Site
-\t\t{
-\t\t\tOFFSET 0 4 0
-\t\t}
-\t}
-}
-MOTION
-Frames: 2
-Frame Time: 0.04
-1 90 2 10 20 30 1 2 3
-1.5 91 2.5 11 21 31 2 3 4
-"""
+HEAD = (bvh_hierarchy(("Hips", "0 0 0", [("Chest", "0 12 0", "0 4 0")]))
+        + "MOTION\nFrames: 2\nFrame Time: 0.04\n1 90 2 10 20 30 1 2 3\n1.5 91 2.5 11 21 31 2 3 4\n")
 
 
 def _roundtrip(m, tmp_path):
@@ -76,30 +58,9 @@ def test_windows_1252_names_read_as_written_and_round_trip(tmp_path):
         sn.read_bvh(p)
 
 
-ASF = """:version 1.10
-:name t
-:units
-  length 1
-  angle deg
-:root
-  order TX TY TZ RX RY RZ
-  axis XYZ
-  position 0 0 0
-  orientation 0 0 0
-:bonedata
-  begin
-    id 1
-    name lfemur
-    direction 0 -1 0
-    length 7.5
-    axis 0 0 0 XYZ
-    dof rx ry rz
-  end
-:hierarchy
-  begin
-    root lfemur
-  end
-"""
+ASF = (":version 1.10\n:name t\n:units\n  length 1\n  angle deg\n" + ASF_ROOT + ":bonedata\n"
+       + asf_bone(1, "lfemur", "0 -1 0", 7.5, "0 0 0 XYZ", "rx ry rz")
+       + ":hierarchy\n  begin\n    root lfemur\n  end\n")
 AMC = ":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 1 2 3\nlfemur 1 2 3\n2\nroot 0 1 0 1 2 3\nlfemur 1 2 4\n"
 
 

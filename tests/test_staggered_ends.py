@@ -13,7 +13,7 @@ import pytest
 
 from stagger_nb import staggered
 from stagger_nb.core.rotations import quat_angle
-from stagger_nb.staggered.timing import _END_FLOOR, inside_ends
+from stagger_nb.staggered.saturation import END_FLOOR, inside_ends
 
 
 def test_inside_ends_identity_c1_increasing_bounded():
@@ -26,7 +26,7 @@ def test_inside_ends_identity_c1_increasing_bounded():
     mid = (x >= 0.2) & (x <= 0.7)
     assert np.array_equal(e[mid], x[mid])                             # identity outside the end zones
     assert np.all(np.diff(e) > 0)                                     # increasing: order kept
-    assert e.max() < 1.0 - _END_FLOOR * 0.3 and e.min() > 0.0 + _END_FLOOR * 0.2   # floors (h = 0.3, 0.2)
+    assert e.max() < 1.0 - END_FLOOR * 0.3 and e.min() > 0.0 + END_FLOOR * 0.2   # floors (h = 0.3, 0.2)
     slope = np.diff(e) / np.diff(x)
     assert np.abs(slope[np.searchsorted(x, 0.7) + 1] - 1.0) < 1e-3    # C1 at the zone's start (grid step 1e-4)
     assert np.abs(slope[np.searchsorted(x, 0.2) - 2] - 1.0) < 1e-3
@@ -48,8 +48,8 @@ def test_succession_keeps_the_end_poses_and_no_squeeze(culled, s, l):
     out = staggered.succession(sm, root="Hips", s=s, l=l, ease_ends=True)
     T, t = out.knot_times(), out.pose_times
     hi, lo = (t[-1] - t[-2]) / 2, (t[1] - t[0]) / 2
-    assert np.all(T[-1] - T[-2] >= _END_FLOOR * hi - 1e-12)           # the end segments keep time
-    assert np.all(T[1] - T[0] >= _END_FLOOR * lo - 1e-12)
+    assert np.all(T[-1] - T[-2] >= END_FLOOR * hi - 1e-12)           # the end segments keep time
+    assert np.all(T[1] - T[0] >= END_FLOOR * lo - 1e-12)
     e = staggered.evaluate(out)
     assert e.num_frames == m.num_frames
     # the clip's first and last frames are the end poses, i.e. the source frames (rounding only)

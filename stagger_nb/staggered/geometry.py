@@ -24,7 +24,7 @@ from .channel import ROTATION, Channel
 from .displacement import _grid, _put_rows, measure
 from .evaluation import _rotations_at, channel_at, static_rotations
 from .representation import StaggeredMotion, knot_times
-from .timing import _refresh
+from .source_times import _refresh
 
 __all__ = ["edit_pose", "exaggerate", "mean_pose", "OffsetBasis", "pose_offset_basis", "spread_offsets"]
 

@@ -12,7 +12,7 @@ from .channel import Channel
 from .displacement import _counts_for, _put_rows, measure
 from .evaluation import channel_at_times, evaluate_samples, translation_source_times
 from .representation import StaggeredMotion
-from .timing import _refresh, source_knot_times, source_pose_times, warp_times
+from .source_times import _refresh, source_knot_times, source_pose_times, warp_times
 
 __all__ = ["insert_pose", "delete_pose"]
 

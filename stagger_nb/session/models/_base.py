@@ -35,6 +35,34 @@ def _finite(name: str, v) -> float:
     return v
 
 
+def _int_within(name: str, v: int, lo: int, hi: int, unit: str = "") -> int:
+    """An integer ``v`` inside ``[lo, hi]``, else a TraitError, e.g. "seed must lie between 0 and 9, got -1"."""
+    if not lo <= v <= hi:
+        raise T.TraitError(f"{name} must lie between {lo} and {hi}{unit}, got {v}")
+    return v
+
+
+def _frame_index(field: str, v: int, n: int, noun: str = "an index", of: str = "") -> int:
+    """An index ``v >= 0`` and, once there are ``n > 0`` items, ``< n``; else a TraitError naming ``field``."""
+    if v < 0 or 0 < n <= v:
+        top = f" and < {n}{of}" if n else ""
+        raise T.TraitError(f"{field}: expected {noun} >= 0{top}, got {v}")
+    return v
+
+
+def _with_rotation(edits: dict, key, joint: str, v: list, keep_empty: bool = False) -> dict:
+    """A copy of ``edits {key: {joint: [rx, ry, rz]}}`` with ``joint``'s rotation at ``key`` set to ``v``: dropped
+    where ``v`` is all zeros, and ``key`` with it when nothing is left there (unless ``keep_empty``)."""
+    edits = copy.deepcopy(edits)
+    d = edits.setdefault(key, {})
+    d[joint] = v
+    if not any(v):
+        del d[joint]
+        if not d and not keep_empty:
+            del edits[key]
+    return edits
+
+
 def _within(name: str, v, lo=None, hi=None, open_lo: bool = False, unit: str = "") -> float:
     """``v`` as a finite float inside the bounds (None: unbounded; ``open_lo``: ``lo`` itself excluded), else a
     TraitError saying in one sentence where it must lie, e.g. "tau must lie between 0 and 60 s, got -0.1"."""
@@ -88,10 +116,7 @@ class _Model(T.HasTraits):
 
     @T.validate("frame")
     def _v_frame(self, proposal):
-        if proposal["value"] < 0 or 0 < self.num_frames <= proposal["value"]:
-            top = f" and < {self.num_frames} (the edited motion's frames)" if self.num_frames else ""
-            raise T.TraitError(f"frame: expected an index >= 0{top}, got {proposal['value']}")
-        return proposal["value"]
+        return _frame_index("frame", proposal["value"], self.num_frames, of=" (the edited motion's frames)")
 
     def _known_joint(self, field: str, name) -> str:
         """``name`` if this skeleton has it (or the names are not known yet), else a TraitError naming ``field``."""

@@ -2,12 +2,10 @@
 §5.3, pose edits §5.1 Fig. 6, IK posing); its ``params <-> ops`` functions are in :mod:`.stagger_ops`."""
 from __future__ import annotations
 
-import copy
-
 import traitlets as T
 
 from ..ops import MAX_DEGREES, MAX_WORLD, Cull, Exaggerate, RandomTiming, Retime, Succession, limits
-from ._base import _finite, _g, _Model, _within, snap
+from ._base import _finite, _g, _int_within, _Model, _with_rotation, _within, snap
 from .stagger_ops import STAGGER_OPS, stagger_ops_to_params, stagger_params_to_ops
 
 __all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
@@ -87,10 +85,15 @@ class StaggerModel(_Model):
     region_weights = T.List(T.Float(), help="the region's falloff at each current pose, in [0, 1] (set by the "
                                             "binding; [] while the region is off): what the timeline shows")
 
-    @T.validate("percent")
-    def _v_percent(self, p):
-        lo, hi, open_lo = limits(Cull, "percent")
-        return self._number(p, lo, hi, open_lo, unit=" %")
+    # the numbers bounded by an op field's limits (declared once, with the op): trait -> (op, field, unit)
+    _OP_NUMBERS = {"percent": (Cull, "percent", " %"), "l": (Succession, "l", ""), "s": (Succession, "s", " s"),
+                   "tau": (RandomTiming, "tau", " s"), "w_r": (Exaggerate, "w_r", "")}
+
+    @T.validate(*_OP_NUMBERS)
+    def _v_op_number(self, p):
+        op, field, unit = self._OP_NUMBERS[p["trait"].name]
+        lo, hi, open_lo = limits(op, field)
+        return self._number(p, lo, hi, open_lo, unit=unit)
 
     @T.validate("count")
     def _v_count(self, p):
@@ -105,9 +108,7 @@ class StaggerModel(_Model):
     @T.validate("seed")
     def _v_seed(self, p):
         lo, hi, _ = limits(RandomTiming, "seed")
-        if not lo <= p["value"] <= hi:
-            raise T.TraitError(f"seed must lie between {lo} and {hi}, got {p['value']}")
-        return p["value"]
+        return _int_within("seed", p["value"], lo, hi)
 
     @T.validate("keep")
     def _v_keep(self, p):
@@ -116,26 +117,6 @@ class StaggerModel(_Model):
         if bad and not self._loading:
             raise T.TraitError(f"keep: pose {bad[0]} is not one of the {K} poses extracted")
         return sorted(set(int(k) for k in p["value"]))
-
-    @T.validate("l")
-    def _v_l(self, p):
-        lo, hi, open_lo = limits(Succession, "l")
-        return self._number(p, lo, hi, open_lo)
-
-    @T.validate("s")
-    def _v_s(self, p):
-        lo, hi, open_lo = limits(Succession, "s")
-        return self._number(p, lo, hi, open_lo, unit=" s")
-
-    @T.validate("tau")
-    def _v_tau(self, p):
-        lo, hi, open_lo = limits(RandomTiming, "tau")
-        return self._number(p, lo, hi, open_lo, unit=" s")
-
-    @T.validate("w_r")
-    def _v_w_r(self, p):
-        lo, hi, open_lo = limits(Exaggerate, "w_r")
-        return self._number(p, lo, hi, open_lo)
 
     @T.validate("rx", "ry", "rz")
     def _v_nudge(self, p):
@@ -309,16 +290,8 @@ class StaggerModel(_Model):
     @T.observe("rx", "ry", "rz")
     def _nudge(self, change):
         v = [self.rx, self.ry, self.rz]
-        if v == self._selected_nudge() or not self.joint:
-            return
-        edits = copy.deepcopy(self.pose_edits)
-        d = edits.setdefault(self.pose, {})
-        d[self.joint] = v
-        if not any(v):
-            del d[self.joint]
-            if not d:
-                del edits[self.pose]
-        self.pose_edits = edits
+        if v != self._selected_nudge() and self.joint:
+            self.pose_edits = _with_rotation(self.pose_edits, self.pose, self.joint, v)
 
     def ik_entry(self) -> dict | None:
         """The IK edit of the selected pose and effector (``{pose, joint, target}``), None when there is none."""

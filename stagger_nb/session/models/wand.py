@@ -7,7 +7,7 @@ import math
 import traitlets as T
 
 from ..ops import MAX_DEGREES, Propagate, limits
-from ._base import _Model
+from ._base import _frame_index, _Model, _with_rotation
 
 __all__ = ["WandModel", "WAND_OPS", "wand_params_to_ops", "wand_ops_to_params"]
 
@@ -96,10 +96,7 @@ class WandModel(_Model):
 
     @T.validate("edit_frame")
     def _v_edit_frame(self, p):
-        if p["value"] < 0 or 0 < self.input_frames <= p["value"]:
-            top = f" and < {self.input_frames}" if self.input_frames else ""
-            raise T.TraitError(f"edit_frame: expected a frame index >= 0{top}, got {p['value']}")
-        return p["value"]
+        return _frame_index("edit_frame", p["value"], self.input_frames, noun="a frame index")
 
     @T.validate("edits")
     def _v_edits(self, p):
@@ -180,14 +177,8 @@ class WandModel(_Model):
     @T.observe("rx", "ry", "rz")
     def _rotate(self, change):
         v = [self.rx, self.ry, self.rz]
-        if v == self._selected() or not self.joint:
-            return
-        edits = copy.deepcopy(self.edits)
-        d = edits.setdefault(self.edit_frame, {})
-        d[self.joint] = v
-        if not any(v):
-            del d[self.joint]
-        self.edits = edits
+        if v != self._selected() and self.joint:   # (the frame stays an edited frame when its last joint is zeroed)
+            self.edits = _with_rotation(self.edits, self.edit_frame, self.joint, v, keep_empty=True)
 
     def add_edit(self, frame: int) -> None:
         """Select ``frame`` as a new (empty) edited frame, keeping the others."""

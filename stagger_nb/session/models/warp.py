@@ -10,7 +10,7 @@ import traitlets as T
 
 from ..ops import GuidedWarp, LinearWarp, limits
 from ..runners import MAX_WARP_RATIO
-from ._base import _canon, _finite, _Model, snap
+from ._base import _canon, _finite, _int_within, _Model, snap
 
 __all__ = ["WarpModel", "WARP_OPS", "warp_params_to_ops", "warp_ops_to_params"]
 
@@ -54,11 +54,10 @@ class WarpModel(_Model):
     @T.validate("skip")
     def _v_skip(self, p):
         lo, hi, _ = limits(GuidedWarp, "skip")
-        if not lo <= p["value"] <= hi:
-            raise T.TraitError(f"skip must lie between {lo} and {hi} input frames per output frame, got {p['value']}")
+        v = _int_within("skip", p["value"], lo, hi, unit=" input frames per output frame")
         if not self._loading:
-            self._reachable(p["value"], self.duration, "skip")
-        return p["value"]
+            self._reachable(v, self.duration, "skip")
+        return v
 
     def shortest(self, skip: int) -> float:
         """The shortest duration (seconds) a guided warp with ``skip`` reaches: it plays at most ``skip`` input
