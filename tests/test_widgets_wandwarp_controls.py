@@ -111,6 +111,11 @@ def test_the_wand_says_what_it_prepares_until_the_warm_up_is_done(walk, monkeypa
     try:
         assert pending and "preparing in the background" in e.status.value
         assert f"{walk.num_frames} frames" in e.status.value
+        # one short line that never wraps (a wrapped sentence pushed the first plot off the first screen at
+        # 1280x800; tests/test_browser_workspace.py): the shown text is short, the whole sentence is the hover text
+        import re
+        shown = re.sub(r"<[^>]*>", "", e.status.value)
+        assert len(shown) <= 60 and "white-space:nowrap" in e.status.value and 'title="' in e.status.value
         for f in pending:
             f.set_result(None)
         assert e.status.value == ""

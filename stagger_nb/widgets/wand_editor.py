@@ -159,9 +159,12 @@ class WandEditor(_Editor):
             # first "compare" choice then draws at once), then the other positions; cancellable, yields to the user
             sigmas = model.sigmas_nearest_first()
             heads = [("isomap", None)] + ([("diffusion", float(model.sigma))] if F <= DIFFUSION_MAX_FRAMES else [])
-            self.status.value = (f'<span style="color:#2b6cb0">preparing in the background ({F} frames): the '
-                                 "falloff for the σ positions nearest yours, then the comparison curves; a σ move "
-                                 "or compare choice meanwhile computes its own</span>")
+            # one short line (the side column must not grow past the 3D view: the first plot stays on the first
+            # screen); the whole sentence is the hover text
+            self.status.value = (f'<span style="color:#2b6cb0;display:block;white-space:nowrap;overflow:hidden;'
+                                 'text-overflow:ellipsis" title="the falloff for the σ '
+                                 "positions nearest yours, then the comparison curves; a σ move or compare choice "
+                                 f'meanwhile computes its own">preparing in the background ({F} frames)…</span>')
             fut = self._warm(("wand_basis", sigmas[:5]), ("compare", heads), ("wand_basis", sigmas[5:]))
             me = weakref.ref(self)
             fut.add_done_callback(lambda f: _on_kernel_thread(_clear_status, me))
