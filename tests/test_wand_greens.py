@@ -189,7 +189,7 @@ def test_pose_graph_has_no_hidden_cache():
 def test_one_call_falloff_reuses_the_graph_by_content(monkeypatch):
     """A new sigma through wand.falloff does not rebuild the pose graph; equal content hits, other content
     or options miss; the cache is bounded."""
-    from stagger_nb.wand import greens
+    from stagger_nb.wand import graph_cache as greens
     greens.clear_graph_cache()
     built = []
     real = greens.pose_graph
@@ -233,7 +233,7 @@ def test_landmark_graph_interpolates_a_subsampled_graph():
     on every clip (here: mean |dw| 0.28, because the temporal chain's diffusion depends on the sampling; on the
     20,000-frame benchmark clip mean 0.009, max 0.07; benchmarks/bench_wand.py case D): only its form is
     checked here."""
-    from stagger_nb.wand import greens
+    from stagger_nb.wand import graph as greens
     m = cyclic_motion(F=400, period=37, noise=0.01, seed=4)
     gs = wand.pose_graph(m, method="sparse", knn=30)
     old = greens.MAX_LANDMARKS
