@@ -22,7 +22,8 @@ from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
 from stagger_nb.core.motion import MIN_FRAME_TIME
 from stagger_nb.core.rotations import quat_normalize
 from stagger_nb.core.skeleton import Skeleton
-from stagger_nb.io._common import MAX_INPUT_BYTES, read_regular_file
+from stagger_nb.io import MAX_INPUT_BYTES
+from stagger_nb.io._common import read_regular_file
 from stagger_nb.io.asfamc import AMCError, read_asf_amc
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
 

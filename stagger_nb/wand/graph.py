@@ -148,7 +148,7 @@ def _interpolate_frames(frames: np.ndarray, F: int, values: np.ndarray) -> np.nd
 
 def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joint_weights=None,
                time_weight: float = 0.0, reference="mean", heading: str = "remove", distinct: bool = True,
-               flips: str = "drop", sigma_rate: float | None = None) -> PoseGraph:
+               flips: str = "drop", sigma_rate: float | None = None, max_landmarks: int | None = None) -> PoseGraph:
     """Pose vectors + distances for ``motion`` (the expensive, sigma-independent head; cache it).
 
     Parameters
@@ -157,8 +157,8 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     method : "auto" | "dense" | "sparse" | "landmarks"
         ``auto``: dense up to ``DENSE_MAX_FRAMES`` frames, sparse up to ``SPARSE_MAX_FRAMES``, landmarks above.
         Dense keeps ``F x F`` squared distances; sparse a kNN table of every frame; ``landmarks`` (long takes)
-        builds the sparse graph on every ``ceil(F / MAX_LANDMARKS)``-th frame (and the last) and interpolates
-        its eigenvectors linearly in time, so the eigenproblem stays at most ``MAX_LANDMARKS`` frames (a
+        builds the sparse graph on every ``ceil(F / max_landmarks)``-th frame (and the last) and interpolates
+        its eigenvectors linearly in time, so the eigenproblem stays at most ``max_landmarks`` frames (a
         sparse LU of 100,000 frames does not fit in 4 GB).  An approximation, and not a small one on every clip:
         against the sparse graph of every frame, on the 20,000-frame benchmark clip (xia walk/run copies),
         stride 2 gives falloffs within mean 0.009 / max 0.07, stride 4 mean 0.017 / max 0.19; on a 400-frame
@@ -184,7 +184,11 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
         runs rises to 0.17-0.33 (issue 13's tests bound it at 0.1).  Tried as the default it failed 16 of 400
         wand / compose / session tests, among them dense vs sparse agreement and two of issue 24's held-out
         rows that pass today, so it stays opt-in.
+    max_landmarks : int >= 2 or None
+        Frames of a landmark graph at most (``method="landmarks"``, and a repeating clip's distinct poses on the
+        sparse paths); None: :data:`MAX_LANDMARKS` (8,000).  Fewer landmarks: a faster, coarser graph.
     """
+    landmarks_max = _check_max_landmarks(max_landmarks)
     if sigma_rate is not None:
         sigma_rate = float(sigma_rate)
         if not np.isfinite(sigma_rate) or sigma_rate <= 0:
@@ -214,14 +218,23 @@ def pose_graph(motion: Motion, method: str = "auto", knn: int = DEFAULT_KNN, joi
     if k < 1:
         raise ValueError(f"knn must be >= 1, got {knn!r}")
     if first.size < F and first.size >= 2:
-        return replace(_quotient_graph(X, method, k, first, inverse, counts), sigma_knn=sigma_knn)
+        return replace(_quotient_graph(X, method, k, first, inverse, counts, landmarks_max), sigma_knn=sigma_knn)
     if method == "sparse":
         table = knn_graph(X, min(k, F - 1))
         return PoseGraph(X, None, table, "sparse", pattern=kernel_pattern(table), sigma_knn=sigma_knn)
-    stride = max(1, -(-F // MAX_LANDMARKS))
+    stride = max(1, -(-F // landmarks_max))
     frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
     table = knn_graph(X[frames], min(k, frames.size - 1))
     return PoseGraph(X, None, table, "landmarks", frames, kernel_pattern(table), sigma_knn=sigma_knn)
+
+
+def _check_max_landmarks(max_landmarks) -> int:
+    """``max_landmarks`` as an int >= 2 (None: :data:`MAX_LANDMARKS`); ``ValueError`` naming it otherwise."""
+    if max_landmarks is None:
+        return MAX_LANDMARKS
+    if isinstance(max_landmarks, bool) or not isinstance(max_landmarks, (int, np.integer)) or max_landmarks < 2:
+        raise ValueError(f"max_landmarks must be an integer >= 2 or None, got {max_landmarks!r}")
+    return int(max_landmarks)
 
 
 def _sigma_table(X: np.ndarray, frame_time: float, rate: float) -> KnnGraph:
@@ -234,21 +247,21 @@ def _sigma_table(X: np.ndarray, frame_time: float, rate: float) -> KnnGraph:
     return knn_graph(U, min(8, U.shape[0] - 1))
 
 
-def _quotient_graph(X: np.ndarray, method: str, k: int, first, inverse, counts) -> PoseGraph:
+def _quotient_graph(X: np.ndarray, method: str, k: int, first, inverse, counts, max_landmarks: int) -> PoseGraph:
     """The sparse / landmark graph of a clip that repeats poses exactly: on its distinct poses (issue 25).
 
     The frames' kNN graph of a take repeated 60 times links each frame to its 59 equal poses and to few others
     (k = 64), and the landmark graph, which sees every third frame, to fewer of them: the two disagreed
     (falloffs mean 0.26-0.34 apart, max 1.0 on 20,000 frames of xia_neutral_walk repeated).  On the distinct
     poses with their multiplicities (:func:`.laplacian.quotient_pattern`) both are the same graph while the
-    distinct poses fit :data:`MAX_LANDMARKS`; beyond, landmarks every ``ceil(F / MAX_LANDMARKS)``-th frame and
+    distinct poses fit ``max_landmarks``; beyond, landmarks every ``ceil(F / max_landmarks)``-th frame and
     the classes they fall in."""
     F = X.shape[0]
-    if method == "sparse" or first.size <= MAX_LANDMARKS:
+    if method == "sparse" or first.size <= max_landmarks:
         frames = np.arange(F)
         landmarks = None
     else:
-        stride = max(1, -(-F // MAX_LANDMARKS))
+        stride = max(1, -(-F // max_landmarks))
         frames = np.unique(np.r_[np.arange(0, F, stride), F - 1])
         landmarks = frames
     cls = inverse[frames]
