@@ -284,12 +284,8 @@ def row_long() -> None:
         for L in (10000, wand.greens.MAX_LANDMARKS, 5000):
             cells = {}
             for key, distinct in (("before", False), ("now", True)):
-                old = wand.greens.MAX_LANDMARKS
-                wand.greens.MAX_LANDMARKS = L          # the stride: ceil(20,000 / L)
-                try:
-                    lm = wand.pose_graph(m, method="landmarks", distinct=distinct).basis(full[distinct].sigma)
-                finally:
-                    wand.greens.MAX_LANDMARKS = old
+                lm = wand.pose_graph(m, method="landmarks", distinct=distinct,   # the stride: ceil(20,000 / L)
+                                     max_landmarks=L).basis(full[distinct].sigma)
                 e = np.concatenate([np.abs(wand.greens_falloff(lm, f) - wand.greens_falloff(full[distinct], f))
                                     for f in range(0, m.num_frames, 1000)])
                 cells[key] = (e.mean(), np.percentile(e, 99), e.max())

@@ -225,12 +225,7 @@ def child_long(F):
     (bf), tf, cf = _timed(lambda: full.basis())
     errs = {}
     for L in (10000, 5000):
-        old = wand.greens.MAX_LANDMARKS
-        wand.greens.MAX_LANDMARKS = L
-        try:
-            bl = wand.pose_graph(m, method="landmarks").basis(bf.sigma)
-        finally:
-            wand.greens.MAX_LANDMARKS = old
+        bl = wand.pose_graph(m, method="landmarks", max_landmarks=L).basis(bf.sigma)
         e = np.concatenate([np.abs(wand.greens_falloff(bl, f) - wand.greens_falloff(bf, f))
                             for f in range(0, 20000, 1000)])
         errs[L] = (float(e.mean()), float(np.percentile(e, 99)), float(e.max()))

@@ -54,12 +54,10 @@ def test_the_stagger_editor_model_drives_one_session_and_undo_restores_it(walk):
     edit = next(o for o in s.ops if o["op"] == "edit_pose")
     assert edit["propagate"] is True and "targets" in edit
     m.s = 0.01
-    ed._refresh()
     m.region = True                                   # centred on the selected pose's source frame
     assert m.region_frame == m.pose_source_frames[6] == int(round(s.extraction().pose_times[6] / walk.frame_time))
     succ = next(o for o in s.ops if o["op"] == "succession")
     assert succ["falloff"] == {"frame": m.region_frame, "sigma": None}
-    ed._refresh()
     np.testing.assert_allclose(m.region_weights, s.pose_falloff(m.region_frame), rtol=0, atol=1e-12)
     assert ed.probability.figure["data"][-1]["name"].startswith("region")
     np.testing.assert_allclose(ed.probability.figure["data"][-1]["y"], m.region_weights)

@@ -5,7 +5,7 @@ outside OUT, and no message or report quotes a file that is not a clip (a marker
 Batch cases run the command line (``python -m stagger_nb``) in a subprocess with a timeout, so a hang (a FIFO
 opened for reading blocks) fails the test instead of stalling the suite; reader cases run in a forked child
 with the same timeout. Disk full is simulated twice: a 256 KiB tmpfs mounted over OUT where this process may
-mount one, and always by a writer that raises ENOSPC past a byte budget (``io._common._write_all``, the one
+mount one, and always by a writer that raises ENOSPC past a byte budget (``io._output._write_all``, the one
 function every atomic write of the package goes through)."""
 from __future__ import annotations
 
@@ -535,11 +535,11 @@ def test_disk_full_simulated_leaves_a_report_saying_so(job, tmp_path, monkeypatc
     """The writer every atomic write goes through raises ENOSPC once 40 KB are written (in this process: the
     serial executor). The first report (small) is written before any clip; the final one does not fit, so the
     first is rewritten in place (no new blocks) to say the disk is full, and the run ends in a clear error."""
-    from stagger_nb.io import _common
+    from stagger_nb.io import _output
     src, session, _ = job
     for k in range(4):
         sn.write_bvh(sn.data.load("walk").slice(0, 30), src / f"more{k}.bvh")
-    real, budget = _common._write_all, [40_000]
+    real, budget = _output._write_all, [40_000]
 
     def full_disk(fd, data):
         if len(data) > budget[0]:
@@ -547,7 +547,7 @@ def test_disk_full_simulated_leaves_a_report_saying_so(job, tmp_path, monkeypatc
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         budget[0] -= len(data)
         real(fd, data)
-    monkeypatch.setattr(_common, "_write_all", full_disk)
+    monkeypatch.setattr(_output, "_write_all", full_disk)
     out = tmp_path / "out"
     with pytest.raises(ValueError, match=r"No space left on device") as e:
         batch.run_session_batch(session, src, out, executor="serial", progress=False)
@@ -559,7 +559,7 @@ def test_disk_full_simulated_leaves_a_report_saying_so(job, tmp_path, monkeypatc
     assert len(result.done) + len(result.failed) == 6 and result.failed
     assert all("No space left on device" in row["error"] for row in result.failed)
     # what the batch did write is recorded (a re-run with space again does not refuse its own outputs)
-    monkeypatch.setattr(_common, "_write_all", real)
+    monkeypatch.setattr(_output, "_write_all", real)
     again = batch.run_session_batch(session, src, out, executor="serial", progress=False)
     assert not again.failed and sorted(again.done + again.skipped) == sorted(result.done + [
         r["file"] for r in result.failed])

@@ -252,7 +252,7 @@ def test_a_file_that_does_not_start_with_hierarchy_is_refused_on_its_first_line(
 
 
 def test_the_one_input_size_limit_holds_a_long_take_and_stays_under_the_memory_bound():
-    from stagger_nb.io._common import MAX_INPUT_BYTES
+    from stagger_nb.io import MAX_INPUT_BYTES
     assert 120 << 20 <= MAX_INPUT_BYTES <= 256 << 20  # 100,000 x 96 channels at ~11 characters < 120 MB
 
 

@@ -17,8 +17,7 @@ from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
 from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
-from stagger_nb.core.rotations import quat_angle, quat_rotate
-from stagger_nb.io._common import euler_deg_to_quat
+from stagger_nb.core.rotations import euler_to_quat, quat_angle, quat_rotate
 from stagger_nb.io._numformat import format_table
 from stagger_nb.io._numparse import parse_columns, parse_table
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
@@ -319,7 +318,7 @@ def test_parser_takes_long_tokens():
 def test_euler_closed_form_matches_scipy(order, rng):
     for limit in (720, 180):  # angles that need wrapping to [-180, 180], and angles that do not
         a = rng.uniform(-limit, limit, size=(200, len(order)))
-        q = euler_deg_to_quat(a, order)
+        q = euler_to_quat(a, order)
         r = Rotation.from_euler(order, a, degrees=True).as_quat()
         assert np.max(np.abs(np.abs(np.sum(q * r, -1)) - 1)) < 1e-12  # same rotation up to sign, float rounding
 
@@ -427,7 +426,7 @@ def test_random_skeletons_round_trip(seed):
     for j, ch in enumerate(channels):
         order = "".join(c[0] for c in ch if c.endswith("rotation"))
         if order:
-            q[:, j] = euler_deg_to_quat(rng.uniform(-170, 170, (F, len(order))), order)
+            q[:, j] = euler_to_quat(rng.uniform(-170, 170, (F, len(order))), order)
     has_pos = np.array([any(c.endswith("position") for c in ch) for ch in channels])
     # only joints with position channels can carry an animated translation in a BVH file
     trans = np.broadcast_to(skel.offsets, (F, J, 3)) + rng.normal(0, 1, (F, J, 3)) * has_pos[:, None]
@@ -473,7 +472,7 @@ def test_pieces_on_threads_give_the_same_motion_as_the_line_parser(monkeypatch, 
     data = _parse_motion_lines(body.encode(), 1, 40, C, "x")
     assert np.array_equal(m.root_positions, data[:, :3])
     np.testing.assert_array_equal(m.local_quats, whole.local_quats)
-    ref = euler_deg_to_quat(data[:, 3:].reshape(40, 2, 3), "ZXY")
+    ref = euler_to_quat(data[:, 3:].reshape(40, 2, 3), "ZXY")
     assert np.max(quat_angle(m.local_quats, ref)) < 1e-12  # up to sign (continuity)
 
 

@@ -218,14 +218,14 @@ def test_mixed_rigs_and_mutated_blocks_agree_with_the_fallback(monkeypatch):
 
 def test_quaternions_match_the_reference_conversion(monkeypatch):
     """The accelerated path writes quaternions straight into the output; they equal a plain
-    per-joint euler_deg_to_quat of the parsed angles (x, y, z, w), to rounding (the half-angle
+    per-joint euler_to_quat of the parsed angles (x, y, z, w), to rounding (the half-angle
     identity and the product order are the same, so in practice bit for bit)."""
-    from stagger_nb.io._common import euler_deg_to_quat
+    from stagger_nb.core.rotations import euler_to_quat
     rng = np.random.default_rng(3)
     vals = rng.uniform(-400, 400, (5, 12))
     m = bvh.parse_bvh(_tiny(("\n".join(" ".join(repr(float(v)) for v in r) for r in vals) + "\n").encode(), 5))
-    ref = np.stack([euler_deg_to_quat(vals[:, 3:6], "ZXY"), euler_deg_to_quat(vals[:, 6:8], "XZ"),
-                    euler_deg_to_quat(vals[:, 8:11], "YXZ")], axis=1)
+    ref = np.stack([euler_to_quat(vals[:, 3:6], "ZXY"), euler_to_quat(vals[:, 6:8], "XZ"),
+                    euler_to_quat(vals[:, 8:11], "YXZ")], axis=1)
     ref *= np.where(np.sum(ref * m.local_quats, axis=-1, keepdims=True) < 0, -1.0, 1.0)  # q and -q: same
     np.testing.assert_allclose(m.local_quats, ref, rtol=0, atol=4e-16)  # a few ulps of 1
     np.testing.assert_array_equal(m.root_positions, vals[:, :3])
@@ -314,13 +314,13 @@ def test_wrapping_angles_read_as_motion_would_build_them(monkeypatch):
     """Angles far past +-180 (each 360 negates the half-angle pair, so the raw quaternions flip sign
     often): read_bvh's quaternions are bit for bit Motion(...)'s from the same raw quaternions, with
     and without the accelerator."""
-    from stagger_nb.io._common import euler_deg_to_quat
+    from stagger_nb.core.rotations import euler_to_quat
     rng = np.random.default_rng(5)
     vals = rng.uniform(-2000, 2000, (40, 12)).round(6)
     text = _tiny(("\n".join(" ".join(f"{v:.6f}" for v in r) for r in vals) + "\n").encode(), 40)
     m = bvh.parse_bvh(text, "wrap.bvh")
-    raw = np.stack([euler_deg_to_quat(vals[:, 3:6], "ZXY"), euler_deg_to_quat(vals[:, 6:8], "XZ"),
-                    euler_deg_to_quat(vals[:, 8:11], "YXZ")], axis=1)
+    raw = np.stack([euler_to_quat(vals[:, 3:6], "ZXY"), euler_to_quat(vals[:, 6:8], "XZ"),
+                    euler_to_quat(vals[:, 8:11], "YXZ")], axis=1)
     ref = sn.Motion(m.skeleton, m.frame_time, m.root_positions, raw, m.local_translations)
     assert np.array_equal(m.local_quats.view(np.int64), ref.local_quats.view(np.int64))
     a, b = _both(lambda: bvh.parse_bvh(text, "wrap.bvh"), monkeypatch)
@@ -332,7 +332,7 @@ def test_wrapping_angles_read_as_motion_would_build_them(monkeypatch):
 def test_c_quaternions_from_tangents_are_euler_components_bit_for_bit(axes):
     """quats_from_tangents (the reader's conversion after numpy's tan) against euler_components on the same
     angles: uniform, +-180 / +-360 / +-720 exactly, signed zeros, subnormal and huge angles, wraps; bit for bit."""
-    from stagger_nb.io._common import euler_components, quarter_tan
+    from stagger_nb.core.rotations import euler_components, quarter_tan
     rng = np.random.default_rng(sum(map(ord, axes)))
     special = np.array([0.0, -0.0, 180.0, -180.0, 360.0, -360.0, 720.0, 90.0, -90.0, 5e-324, -1e-310, 1e-300,
                         179.999999, -180.000001, 1e6 + 0.5, -3.0e7, 540.0, 45.0])

@@ -22,7 +22,8 @@ from stagger_nb.core.kinematics import forward_kinematics, skeleton_height
 from stagger_nb.core.motion import MIN_FRAME_TIME
 from stagger_nb.core.rotations import quat_normalize
 from stagger_nb.core.skeleton import Skeleton
-from stagger_nb.io._common import MAX_INPUT_BYTES, read_regular_file
+from stagger_nb.io import MAX_INPUT_BYTES
+from stagger_nb.io._common import read_regular_file
 from stagger_nb.io.asfamc import AMCError, read_asf_amc
 from stagger_nb.io.bvh import BVHError, format_bvh, parse_bvh
 
@@ -369,8 +370,8 @@ def test_huge_and_tiny_quaternions_normalise(scale):
 def test_atomic_write_both_ways_leaves_old_or_new(tmp_path, monkeypatch, unnamed):
     """With unnamed files (O_TMPFILE) and without (a named hidden temporary): a failed rename keeps the old
     file and leaves no temporary; a good write replaces the file and keeps its mode."""
-    from stagger_nb.io import _common
-    monkeypatch.setattr(_common, "_UNNAMED_OK", unnamed)
+    from stagger_nb.io import _output
+    monkeypatch.setattr(_output, "_UNNAMED_OK", unnamed)
     out = tmp_path / "x.bvh"
     out.write_text("previous")
     os.chmod(out, 0o640)

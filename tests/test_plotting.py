@@ -63,13 +63,13 @@ def test_long_curves_are_decimated_without_losing_a_peak():
     t = np.arange(2751) / 120
     y = np.cumsum(rng.normal(size=t.size))
     y[1234] = 500.0                                       # a one-frame spike
-    x2, y2 = plotting._style.decimate(t, y)
+    x2, y2 = plotting.decimate(t, y)
     assert len(x2) <= 1200 and y2.max() == 500.0 and y2.min() == y.min()
     assert (x2[0], x2[-1], y2[0], y2[-1]) == (t[0], t[-1], y[0], y[-1])
     np.testing.assert_array_equal(y2, y[np.searchsorted(t, x2)])         # samples of the data, in order
     f = plotting.joint_curves_figure(t, np.stack([y, y, y], 1), np.stack([y, y, y], 1), t)
     assert all(len(tr["x"]) <= 1200 for tr in f["data"][:6])
-    short = plotting._style.decimate(T, np.sin(T))
+    short = plotting.decimate(T, np.sin(T))
     assert short[0] is not None and len(short[0]) == len(T)
 
 

@@ -189,7 +189,7 @@ def test_pose_graph_has_no_hidden_cache():
 def test_one_call_falloff_reuses_the_graph_by_content(monkeypatch):
     """A new sigma through wand.falloff does not rebuild the pose graph; equal content hits, other content
     or options miss; the cache is bounded."""
-    from stagger_nb.wand import greens
+    from stagger_nb.wand import graph_cache as greens
     greens.clear_graph_cache()
     built = []
     real = greens.pose_graph
@@ -233,17 +233,10 @@ def test_landmark_graph_interpolates_a_subsampled_graph():
     on every clip (here: mean |dw| 0.28, because the temporal chain's diffusion depends on the sampling; on the
     20,000-frame benchmark clip mean 0.009, max 0.07; benchmarks/bench_wand.py case D): only its form is
     checked here."""
-    from stagger_nb.wand import greens
     m = cyclic_motion(F=400, period=37, noise=0.01, seed=4)
     gs = wand.pose_graph(m, method="sparse", knn=30)
-    old = greens.MAX_LANDMARKS
-    try:
-        greens.MAX_LANDMARKS = 400
-        g1 = wand.pose_graph(m, method="landmarks", knn=30)
-        greens.MAX_LANDMARKS = 200
-        g2 = wand.pose_graph(m, method="landmarks", knn=30)
-    finally:
-        greens.MAX_LANDMARKS = old
+    g1 = wand.pose_graph(m, method="landmarks", knn=30, max_landmarks=400)
+    g2 = wand.pose_graph(m, method="landmarks", knn=30, max_landmarks=200)
     assert g1.landmarks.size == 400 and g2.landmarks[1] == 2 and g2.landmarks[-1] == 399
     s = gs.default_sigma
     bs, b1, b2 = gs.basis(s, num_eigs=20), g1.basis(s, num_eigs=20), g2.basis(s, num_eigs=20)
@@ -252,3 +245,7 @@ def test_landmark_graph_interpolates_a_subsampled_graph():
         np.testing.assert_allclose(wand.greens_falloff(b1, f), wand.greens_falloff(bs, f), atol=1e-9)
         w2 = wand.greens_falloff(b2, f)
         assert w2[f] == 1.0 and w2.min() >= 0.0 and w2.max() <= 1.0 and np.isclose(w2.min(), 0.0)
+    assert wand.pose_graph(m, method="landmarks", knn=30).landmarks.size == 400     # the default, 8,000, keeps all
+    for bad in (1, 2.5, True, "400"):
+        with pytest.raises(ValueError, match="max_landmarks must be an integer >= 2"):
+            wand.pose_graph(m, method="landmarks", knn=30, max_landmarks=bad)

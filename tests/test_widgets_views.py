@@ -317,8 +317,13 @@ def test_joint_sides_and_bones():
     bs = scene3d.bones(m)
     assert [(b.parent, b.child) for b in bs] == [(0, 1), (1, 2)]
     assert all(abs(b.length - 10) < 1e-12 and np.allclose(b.position, (0, 5, 0)) for b in bs)
-    q = scene3d._y_to(np.array([1.0, 0.0, 0.0]))     # +y onto +x: -90 degrees about z
-    np.testing.assert_allclose(q, [0, 0, -np.sqrt(0.5), np.sqrt(0.5)], atol=1e-12)
+    assert all(np.allclose(b.quaternion, (0, 0, 0, 1)) for b in bs)   # bones along +y: the cylinder as it is
+    # a bone's cylinder (unit height along +y) turned onto its offset: +x is -90 degrees about z, -y a half turn
+    sk = Skeleton(["a", "b", "c"], np.array([-1, 0, 0]), np.array([[0.0, 0, 0], [10.0, 0, 0], [0.0, -4.0, 0]]))
+    turned = scene3d.bones(Motion(sk, 1 / 60, np.zeros((1, 3)), np.tile([0.0, 0, 0, 1], (1, 3, 1))))
+    np.testing.assert_allclose(turned[0].quaternion, [0, 0, -np.sqrt(0.5), np.sqrt(0.5)], atol=1e-12)
+    np.testing.assert_allclose(turned[1].quaternion, [1, 0, 0, 0], atol=1e-12)
+    assert turned[0].position == (5.0, 0.0, 0.0) and turned[1].length == 4.0
 
 
 def test_ghost_is_built_when_first_shown_and_toggles():

@@ -7,7 +7,7 @@ import re
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from ._common import FormatError
+    from ._text import FormatError
 
 __all__ = ["finite_number", "split_values", "MAX_TOKEN"]
 

@@ -20,7 +20,7 @@ gives the same values or the error. Otherwise the motion block is cut into ~1 MB
 without copies; the pieces are spread over the CPUs (up to 4 threads: numpy and pyarrow release the GIL).
 When a piece cannot be certified, a line-by-line parser (bounded memory) finds the first bad line and
 raises :class:`BVHError` naming the file, the line and what was expected. Only regular files within
-:data:`._common.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
+:data:`stagger_nb.io.MAX_INPUT_BYTES` are read; frame times outside [1e-4, 3600] s, frames x joints beyond
 :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`, duplicate joint names and a second End Site under a joint
 are refused. Both paths give the same bits, the sign of zero included: no quaternion component is -0, and an
 angle's quaternion does not depend on the other angles of its piece.
@@ -130,7 +130,7 @@ def read_bvh(path, *, max_bytes: int | None = None, max_samples: int | None = No
     with the data, a frame time <= 0, absurd declared sizes (nothing is allocated from them).
 
     The size limits protect a notebook from a file that would exhaust memory; raise them per call for a
-    take known to be larger: ``max_bytes`` (default :data:`~stagger_nb.io._common.MAX_INPUT_BYTES`, 256 MiB)
+    take known to be larger: ``max_bytes`` (default :data:`stagger_nb.io.MAX_INPUT_BYTES`, 256 MiB)
     and ``max_samples`` (frames x joints, default :data:`~stagger_nb.core.motion.MAX_FRAME_JOINTS`).
     """
     path = file_path(path, "path")

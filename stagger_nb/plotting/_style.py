@@ -14,6 +14,13 @@ METHOD_NAMES = {"green": "Green's function", "isomap": "ISOMAP distance", "diffu
                 "spline": "spline (time only)"}
 POSE_COLOUR = "#dd6b20"
 EDIT_COLOUR = "#b7791f"
+# the papers' figures: one colour per curve, in order
+PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+           "#bcbd22", "#17becf")
+
+
+def _colour(i: int, colours=None) -> str:
+    return (colours[i] if colours is not None else PALETTE[i % len(PALETTE)])
 
 
 def floats(a, name: str, ndim: int = 1) -> np.ndarray:

@@ -62,7 +62,7 @@ def pose_probability_figure(times, probability, candidate_times, candidate_value
         Dean et al. 2018 §3.3 on Coleman et al. §5.2), drawn as trace 4, a shaded step line on the same [0, 1]
         axis.
 
-    Traces: 0 ``P(t)`` line (at most ~1200 points: :func:`~._style.decimate`), 1 candidates (hollow circles),
+    Traces: 0 ``P(t)`` line (at most ~1200 points: :func:`~.decimate`), 1 candidates (hollow circles),
     2 kept poses (filled diamonds), 3 their dotted vertical lines (one trace on the overlay axis ``y2``),
     4 the region (when given).
     """
@@ -120,7 +120,7 @@ def joint_curves_figure(times, edited_deg, original_deg=None, original_times=Non
         the wand editor, in the falloff plot's edited-frame colour ``plotting.EDIT_COLOUR``)
 
     Traces: 0–2 edited x, y, z; 3–5 original x, y, z (empty when ``original_deg`` is None; each curve at most
-    ~1200 points, :func:`~._style.decimate`: the same drawing at plot resolution); 6 knots; 7 "original
+    ~1200 points, :func:`~.decimate`: the same drawing at plot resolution); 6 knots; 7 "original
     (dotted)" legend entry (no data); 8 the pose lines (one trace on the overlay axis ``y2``). The legend shows
     x, y, z once each (a click hides a component, edited and original together).
     """
