@@ -130,6 +130,8 @@ class WandEditor(_Editor):
                  "compare": [widgets.HBox([c["compare"]])]}
         c["sigma"].add_class("sn-sigma")
         c["edit_frame"].add_class("sn-edit-frame")
+        for a in "xyz":
+            c["r" + a].add_class(f"sn-r{a}")
         self._setup(model, session, view, [self.falloff_plot, self.curves], tools, quick=quick)
         if not model.edits and any(rotation):   # an initial rotation becomes the first edit
             model.rx, model.ry, model.rz = (float(r) for r in rotation)

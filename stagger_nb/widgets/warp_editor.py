@@ -19,7 +19,14 @@ __all__ = ["WarpEditor"]
 
 _SKIP_TIP = ("skip limit s (Hsu et al. 2007, §3.1): at most s input frames per output frame, so the warp plays at "
              "most s times real time; a shorter output needs a larger s")
-_DURATION_TIP = "the output's length in seconds: arrow keys move one frame, a drag is coarse, ±1 s beside it"
+_DURATION_TIP = "the output's duration in seconds: arrow keys move one frame, a drag is coarse, ±1 s beside it"
+_FREE_TIP = ("free length: the warp chooses its own duration, as the reference's timing asks (Hsu et al. 2007, "
+             "§3.3); no target duration, no keytimes")
+_KEYTIMES_TIP = ("keytimes (§4.2), in seconds: input time:output time pairs, e.g. 2:1.5 plays the input's 2 s at "
+                 "1.5 s of output; applied on Enter or when the box loses focus")
+_SEGMENT_TIP = "the part of the source used as the reference (reference = segment), in seconds"
+# every label reads in full at 1280x800 with the file browser open (a description in 120 px, a checkbox's in
+# 300 px, a toggle's in its button): the long sense is in the tooltip (tests/test_browser_workspace.py checks)
 
 
 class WarpEditor(_Editor):
@@ -68,7 +75,7 @@ class WarpEditor(_Editor):
         # below the source's duration, so the opening value reads as the title does (22.92, not 22.91)
         ft = model.step("duration")
         lo = round(D - math.floor((D - D / 8 - ft) / ft) * ft, 6)
-        c["duration"] = _slider(widgets.FloatSlider, "output duration (s)", min=lo,
+        c["duration"] = _slider(widgets.FloatSlider, "duration (s)", min=lo,
                                 max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f",
                                 tooltip=_DURATION_TIP)
         # a coarse step beside the slider (its keys move one frame): -1 s / +1 s, clamped to the slider's range
@@ -77,23 +84,24 @@ class WarpEditor(_Editor):
                                for d in (-1, 1)]
         for b, d in zip(self.duration_steps, (-1.0, 1.0)):
             b.on_click(lambda _, d=d: self._step_duration(d))
-        c["free_length"] = widgets.Checkbox(description="free length (the reference's timing chooses it)",
-                                            indent=False)
+        c["free_length"] = widgets.Checkbox(description="free length (the warp chooses it)", indent=False,
+                                            tooltip=_FREE_TIP)
         c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16, tooltip=_SKIP_TIP)
         c["backward"] = widgets.Checkbox(description="backward (play the clip in reverse)", indent=False)
-        c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("the staggered poses", "poses")],
+        c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("staggered poses", "poses")],
                                             description="retime", style={**_STYLE, "button_width": "140px"},
                                             tooltips=["warp the edited motion (guided_warp)",
                                                       "warp the staggered pose times (guide_poses): the staggering "
                                                       "and the staggered edits stay, still editable"])
         c["target"].add_class("sn-warp-target")
         c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
-        c["segment"] = _slider(widgets.FloatRangeSlider, "reference segment (s)", min=0.0, max=round(D, 3),
-                               step=model.step("segment"), readout_format=".1f")
+        c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
+                               step=model.step("segment"), readout_format=".1f",
+                               tooltip=_SEGMENT_TIP)
         # applied on Enter or when the box loses focus (continuous_update off): a half-typed entry ('99:') is
         # never read; a complete one that cannot apply is refused then, in a sentence
         self.keytimes = widgets.Text(value="", placeholder="input s:output s, ...  (e.g. 2:1.5)",
-                                     description="keytimes (in:out s)", style=_STYLE,
+                                     description="keytimes (s)", style=_STYLE, tooltip=_KEYTIMES_TIP,
                                      layout=_WIDE, continuous_update=False)
         self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
@@ -172,10 +180,12 @@ class WarpEditor(_Editor):
 
     def _on_inert(self, change=None) -> None:
         c, m = self.controls, self.model
-        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment")
+        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment",
+               _SEGMENT_TIP)
         linear = m.mode == "linear"
+        tips = {"skip": _SKIP_TIP, "free_length": _FREE_TIP}
         for k in ("skip", "reference", "backward", "free_length"):
-            _inert(c[k], linear, f"{k} applies to guided warps only", _SKIP_TIP if k == "skip" else "")
+            _inert(c[k], linear, f"{k} applies to guided warps only", tips.get(k, ""))
         if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
             _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
                                     "change the duration, the reference or a keytime first")
@@ -187,7 +197,8 @@ class WarpEditor(_Editor):
         _inert(c["target"], linear or not (m.has_staggered or m.target == "poses"),
                "the staggered pose times can be warped in a session holding staggered edits (guided mode)")
         _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")
-        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
+        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)",
+               _KEYTIMES_TIP)
 
     def _update_views(self, edited: Motion) -> None:
         v = warp_view(self.session)
