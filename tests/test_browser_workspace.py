@@ -67,6 +67,18 @@ def _open_walk_editor(page, url, folder, name: str, pose: int) -> str:
     return sel
 
 
+def _open_editors(page, url, notebook: str, names) -> None:
+    """Open ``notebook`` (the file browser sidebar open), run it, and wait until each editor of ``names`` (keys of
+    EDITORS) has its canvas and drawn plots and the kernel is idle."""
+    bh.open_notebook(page, url, notebook, timeout=180)
+    assert bh.sidebar_open(page), "the file browser sidebar should be open"
+    bh.run_all_cells(page, timeout=300)
+    for name in names:
+        page.wait_for_selector(f"{EDITORS[name]} canvas", timeout=120000)
+        bh.wait_plots_drawn(page, EDITORS[name], timeout=180)
+    bh.wait_kernel_idle(page, timeout=180)
+
+
 _BOXES = """([sel, sliders]) => {
   const ed = document.querySelector(sel);
   ed.closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});
@@ -93,13 +105,7 @@ def test_each_editor_shows_its_3d_view_first_plot_and_main_sliders_on_one_screen
     bh.write_notebook(folder / "layout.ipynb", cells)
     report = {}
     with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_layout", page, log, runtime, report):
-        bh.open_notebook(page, url, "layout.ipynb", timeout=180)
-        assert bh.sidebar_open(page), "the file browser sidebar should be open"
-        bh.run_all_cells(page, timeout=300)
-        for sel in EDITORS.values():
-            page.wait_for_selector(f"{sel} canvas", timeout=120000)
-            bh.wait_plots_drawn(page, sel, timeout=180)
-        bh.wait_kernel_idle(page, timeout=180)
+        _open_editors(page, url, "layout.ipynb", EDITORS)
         for name, sel in EDITORS.items():
             boxes = page.evaluate(_BOXES, [sel, MAIN_SLIDERS[name]])
             page.wait_for_timeout(300)   # the scroll settles
@@ -330,13 +336,7 @@ def test_the_wand_and_warp_editors_read_in_full_and_count_every_rotate_key(lab):
     bh.write_notebook(folder / "labels.ipynb", cells)
     report = {}
     with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_labels", page, log, runtime, report):
-        bh.open_notebook(page, url, "labels.ipynb", timeout=180)
-        assert bh.sidebar_open(page), "the file browser sidebar should be open"
-        bh.run_all_cells(page, timeout=300)
-        for name in ("wand", "warp"):
-            page.wait_for_selector(f"{EDITORS[name]} canvas", timeout=120000)
-            bh.wait_plots_drawn(page, EDITORS[name], timeout=180)
-        bh.wait_kernel_idle(page, timeout=180)
+        _open_editors(page, url, "labels.ipynb", ("wand", "warp"))
         cut = {}
         for name in ("wand", "warp"):
             sel = EDITORS[name]
