@@ -8,8 +8,8 @@ browser sidebar open; harness: tests/browser_harness.py):
   a sentence under the sheet and records nothing; pause keeps the frame;
 - after a pose time of 999 is typed, the next cull move still changes the plot;
 - the wand and warp editors on CMU 01_01 (issue 26): every label, button, tab title and readout of every tool
-  tab reads in full (none cut by an ellipsis or its box), the duration readout says what the warp's title says,
-  and 20 key presses on "rotate x" reach the kernel as 20 degrees.
+  tab reads in full (none cut by an ellipsis or its box), each toggle's description is on its buttons' line, the
+  duration readout says what the warp's title says, and 20 key presses on "rotate x" reach the kernel as 20°.
 
 Every wait is on content (plots drawn and synced, the kernel idle, kernel state through a second client), not on
 sleeps. Screenshots go to ``artifacts/`` (git-ignored); a failure saves its evidence (browser_harness.save_failure).
@@ -325,19 +325,30 @@ _CUT = """([sel]) => {
   return out;
 }"""
 
+# every described ToggleButtons laid out now whose description is not on its buttons' line
+_ALONE = """([sel]) => [...document.querySelector(sel).querySelectorAll('.widget-toggle-buttons')].flatMap((e) => {
+  const l = e.querySelector(':scope > .widget-label'), b = e.querySelector('button');
+  if (!l || !b || !l.offsetParent || !l.textContent.trim()) return [];
+  const lr = l.getBoundingClientRect(), br = b.getBoundingClientRect(), mid = (lr.top + lr.bottom) / 2;
+  return mid >= br.top && mid <= br.bottom ? [] : [{text: l.textContent.trim(), label_top: lr.top,
+                                                    button_top: br.top}];
+})"""
+
 
 def test_the_wand_and_warp_editors_read_in_full_and_count_every_rotate_key(lab):
     """Issue 26's browser review on CMU 01_01 (2,751 frames; 1280x800, the file browser open): no label of either
     editor is cut, in any tool tab ("eigenvect…", "output duration …", "free length (…choo…", "the staggered p…",
-    "reference segm…", "keytimes (in:out…" were); the duration readout opens on the title's 22.92 s (was 22.91);
-    20 ArrowRight presses on "rotate x" end at 20° in the kernel (were 11°)."""
+    "reference segm…", "keytimes (in:out…" were; then "0.00 – 22.93" in a 72 px readout); no toggle's
+    description stands on a line of its own ("time warp", "retime", "repetitions" did); the duration readout
+    opens on the title's 22.92 s (was 22.91); 20 ArrowRight presses on "rotate x" end at 20° in the kernel (were
+    11°)."""
     url, folder, runtime = lab
     cells = [_head("cmu_01_01.bvh"), "we = WandEditor(m)\nwe", "xe = WarpEditor(m, m)\nxe", f"print({bh.DONE!r})"]
     bh.write_notebook(folder / "labels.ipynb", cells)
     report = {}
     with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_labels", page, log, runtime, report):
         _open_editors(page, url, "labels.ipynb", ("wand", "warp"))
-        cut = {}
+        cut, alone = {}, {}
         for name in ("wand", "warp"):
             sel = EDITORS[name]
             page.locator(sel).first.scroll_into_view_if_needed(timeout=10000)
@@ -349,8 +360,11 @@ def test_the_wand_and_warp_editors_read_in_full_and_count_every_rotate_key(lab):
                 bh.screenshot(page.locator(sel).first, f"workspace_labels_{name}_{title}")
                 for c in page.evaluate(_CUT, [sel]):
                     cut.setdefault(name, {}).setdefault(c["text"], c)
-        report["cut"] = cut
+                for c in page.evaluate(_ALONE, [sel]):
+                    alone.setdefault(name, {}).setdefault(c["text"], c)
+        report.update(cut=cut, alone=alone)
         assert not cut, f"labels cut: {json.dumps(cut, indent=1)}"
+        assert not alone, f"toggle descriptions on a line of their own: {json.dumps(alone, indent=1)}"
 
         sel = EDITORS["warp"]
         readout = page.locator(f"{sel} .sn-duration .widget-readout").first.inner_text().strip()

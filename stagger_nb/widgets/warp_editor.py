@@ -11,7 +11,7 @@ from ..plotting import warp_figure
 from ..session import Session, warp_table_key
 from ..session.models import WarpModel
 from ..session.models.views import warp_replays_first_changes, warp_tables_first_changes, warp_view
-from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _link, _session_for, _slider
+from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _inline, _link, _session_for, _slider
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -66,8 +66,9 @@ class WarpEditor(_Editor):
         D = m.duration
         model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, round(D / 2, 6)])
         c = {}
+        # each toggle's description beside its buttons, in 72 px (the "retime" row then fits the tool column)
         c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="time warp",
-                                          style={**_STYLE, "button_width": "72px"},
+                                          style={"description_width": "72px", "button_width": "72px"},
                                           tooltips=["guided by a reference's timing (Hsu et al. 2007)",
                                                     "piecewise linear through the keytimes"])
         # 1/8x .. 2x the clip; a key moves one frame; the readout takes a typed value (the track grows to show it)
@@ -89,11 +90,14 @@ class WarpEditor(_Editor):
         c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16, tooltip=_SKIP_TIP)
         c["backward"] = widgets.Checkbox(description="backward (play the clip in reverse)", indent=False)
         c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("staggered poses", "poses")],
-                                            description="retime", style={**_STYLE, "button_width": "140px"},
+                                            description="retime",
+                                            style={"description_width": "72px", "button_width": "140px"},
                                             tooltips=["warp the edited motion (guided_warp)",
                                                       "warp the staggered pose times (guide_poses): the staggering "
                                                       "and the staggered edits stay, still editable"])
         c["target"].add_class("sn-warp-target")
+        _inline(c["mode"])
+        _inline(c["target"])
         c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
         c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
                                step=model.step("segment"), readout_format=".1f",
