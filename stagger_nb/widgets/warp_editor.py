@@ -104,7 +104,7 @@ class WarpEditor(_Editor):
                                tooltip=_SEGMENT_TIP)
         # applied on Enter or when the box loses focus (continuous_update off): a half-typed entry ('99:') is
         # never read; a complete one that cannot apply is refused then, in a sentence
-        self.keytimes = widgets.Text(value="", placeholder="input s:output s, ...  (e.g. 2:1.5)",
+        self.keytimes = widgets.Text(value="", placeholder="in s:out s, e.g. 2:1.5",
                                      description="keytimes (s)", style=_STYLE, tooltip=_KEYTIMES_TIP,
                                      layout=_WIDE, continuous_update=False)
         self.controls = c
