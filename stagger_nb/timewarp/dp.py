@@ -8,7 +8,9 @@ edges ``(i, j) -> (j, k)`` weigh ``f(i, j, k)``; the path has exactly ``m - 2`` 
 The recurrence runs over output frames ``q`` and is vectorised over the admissible frames of that output
 frame, ``lo[q] <= y_q <= hi[q]``: the bounds follow from the skip limit, the end points, the keytimes
 (vertices the path must pass at given ``q``, "restarting" the recurrence there) and, for the coarse-to-fine
-heuristic, a band around a coarse solution. Backpointers are int8 (``s <= 127``).
+heuristic, a band around a coarse solution. Backpointers are int8 (``s <= 127``). Where the optional C
+extension ``_cdp.c`` is built (:func:`accelerated`) the recurrence's loop runs there: the same sums and minima, so
+the same frames and cost, 2-3x faster (``benchmarks/bench_dp_accel.py``).
 
 Score tables come from :func:`.objective.knn_scores`: ``scores[j, a-1, b-1] = f(j-a, j, j+b)``, shape
 ``(n, s, s)``, inf where not admissible.
@@ -26,8 +28,8 @@ except ImportError:  # pragma: no cover - depends on the build
 
 KEEP_COSTS_BYTES = 256 << 20   # constrained_dp keeps every output frame's costs below this, else int8 backpointers
 
-__all__ = ["warp_bounds", "constrained_dp", "unconstrained_dp", "mean_cost_dp", "input_time_dp", "step_weights",
-           "path_cost", "validate_keys", "check_ends"]
+__all__ = ["warp_bounds", "constrained_dp", "accelerated", "unconstrained_dp", "mean_cost_dp", "input_time_dp",
+           "step_weights", "path_cost", "validate_keys", "check_ends"]
 
 
 def validate_keys(n: int, m: int, skip: int, keys=None) -> list[tuple[int, int]]:
