@@ -10,7 +10,7 @@ frame, ``lo[q] <= y_q <= hi[q]``: the bounds follow from the skip limit, the end
 (vertices the path must pass at given ``q``, "restarting" the recurrence there) and, for the coarse-to-fine
 heuristic, a band around a coarse solution. Backpointers are int8 (``s <= 127``). Where the optional C
 extension ``_cdp.c`` is built (:func:`accelerated`) the recurrence's loop runs there: the same sums and minima, so
-the same frames and cost, 2-3x faster (``benchmarks/bench_dp_accel.py``).
+the same frames and cost, 1.4-2.5x faster per solve on CMU 01_01 (``benchmarks/bench_dp_accel.py``).
 
 Score tables come from :func:`.objective.knn_scores`: ``scores[j, a-1, b-1] = f(j-a, j, j+b)``, shape
 ``(n, s, s)``, inf where not admissible.
