@@ -14,7 +14,8 @@ ROOTFLAG := $(if $(filter 0,$(shell id -u)),--allow-root)
 
 .PHONY: setup data lab test bench clean lint check
 
-$(STAMP): pyproject.toml setup.py stagger_nb/io/_cparse.c stagger_nb/staggered/_cspline.c stagger_nb/_carray.h
+$(STAMP): pyproject.toml setup.py stagger_nb/io/_cparse.c stagger_nb/staggered/_cspline.c stagger_nb/timewarp/_cdp.c \
+         stagger_nb/_carray.h
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --disable-pip-version-check -q -e '.[test,notebooks,bench]'
 	touch $(STAMP)

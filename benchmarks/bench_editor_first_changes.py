@@ -3,7 +3,8 @@ first toggle or choice <= 300 ms CPU once the editor's open-time warm-up has run
 
 Each change is timed on a model bound to a fresh Session (``ModelBinding``, no widgets): ``cold`` without any
 warm-up (the baseline, same process), ``warm`` after the jobs the editors submit on open have finished
-(``models.views.warp_tables_first_changes`` for the warp; the wand's sigma grid and comparison heads). A change
+(``models.views.warp_tables_first_changes`` then ``warp_replays_first_changes`` for the warp; the wand's sigma grid
+and comparison heads). A change
 is the model trait set as a control does (``set_control``) plus the replay it causes (``session.edited()``).
 CPU time (``time.process_time``, every thread of the process: the warm-up has finished before timing) and wall
 time, with the load average (the machine is shared).
@@ -24,7 +25,7 @@ import stagger_nb as sn
 from stagger_nb.session import Session
 from stagger_nb.session import models as M
 from stagger_nb.session.heads import DIFFUSION_MAX_FRAMES
-from stagger_nb.session.models.views import warp_tables_first_changes
+from stagger_nb.session.models.views import warp_replays_first_changes, warp_tables_first_changes
 
 BUDGET = 0.3
 MAX_SKIP = 16   # the WarpEditor's skip slider's largest value
@@ -34,6 +35,12 @@ def timed(fn):
     w, c = time.perf_counter(), time.process_time()
     fn()
     return time.perf_counter() - w, time.process_time() - c
+
+
+def warm_up(s, b) -> None:
+    """What the WarpEditor warms (on open and when what chooses its tables changes): the tables, then the first
+    backward toggle's replay."""
+    s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP)), ("replay", warp_replays_first_changes(b))).result()
 
 
 def warp_changes(cmu, warm: bool) -> dict:
@@ -53,12 +60,12 @@ def warp_changes(cmu, warm: bool) -> dict:
         w = M.WarpModel()
         b = M.ModelBinding(w, s)
         if warm:
-            s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP))).result()
+            warm_up(s, b)
         for k, v in pre:
             w.set_control(k, v)
             s.edited()
             if warm:   # the WarpEditor re-warms when the duration changes
-                s.warm(("warp_tables", warp_tables_first_changes(b, MAX_SKIP))).result()
+                warm_up(s, b)
 
         def change(steps=steps, w=w, s=s):
             for k, v in steps:

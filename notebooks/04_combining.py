@@ -239,7 +239,7 @@ print(f"edited: {walk_session.edited().duration:.2f} s (source {walk.duration:.2
 # %% [markdown]
 # In the editors: the StaggerEditor's **propagate** toggle spreads every nudge and IK target, its **region**
 # (σ, centre frame) limits s and τ and is drawn over the pose-probability plot and on the dope sheet; the
-# WarpEditor's **retime: the staggered poses** writes `guide_poses` in a session that holds staggered edits.
+# WarpEditor's **retime: staggered poses** writes `guide_poses` in a session that holds staggered edits.
 #
 # ```python
 # from stagger_nb.widgets import StaggerEditor, WarpEditor

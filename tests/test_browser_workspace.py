@@ -6,7 +6,10 @@ browser sidebar open; harness: tests/browser_harness.py):
 - the dope sheet: a knot of ``.sn-timeline`` dragged with the mouse adds one ``refine`` op for that pose and
   joint (the knot lands where it was dropped) and the 3D view changes; a drop past a neighbour is refused with
   a sentence under the sheet and records nothing; pause keeps the frame;
-- after a pose time of 999 is typed, the next cull move still changes the plot.
+- after a pose time of 999 is typed, the next cull move still changes the plot;
+- the wand and warp editors on CMU 01_01 (issue 26): every label, button, tab title and readout of every tool
+  tab reads in full (none cut by an ellipsis or its box), each toggle's description is on its buttons' line, the
+  duration readout says what the warp's title says, and 20 key presses on "rotate x" reach the kernel as 20°.
 
 Every wait is on content (plots drawn and synced, the kernel idle, kernel state through a second client), not on
 sleeps. Screenshots go to ``artifacts/`` (git-ignored); a failure saves its evidence (browser_harness.save_failure).
@@ -64,6 +67,18 @@ def _open_walk_editor(page, url, folder, name: str, pose: int) -> str:
     return sel
 
 
+def _open_editors(page, url, notebook: str, names) -> None:
+    """Open ``notebook`` (the file browser sidebar open), run it, and wait until each editor of ``names`` (keys of
+    EDITORS) has its canvas and drawn plots and the kernel is idle."""
+    bh.open_notebook(page, url, notebook, timeout=180)
+    assert bh.sidebar_open(page), "the file browser sidebar should be open"
+    bh.run_all_cells(page, timeout=300)
+    for name in names:
+        page.wait_for_selector(f"{EDITORS[name]} canvas", timeout=120000)
+        bh.wait_plots_drawn(page, EDITORS[name], timeout=180)
+    bh.wait_kernel_idle(page, timeout=180)
+
+
 _BOXES = """([sel, sliders]) => {
   const ed = document.querySelector(sel);
   ed.closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});
@@ -90,13 +105,7 @@ def test_each_editor_shows_its_3d_view_first_plot_and_main_sliders_on_one_screen
     bh.write_notebook(folder / "layout.ipynb", cells)
     report = {}
     with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_layout", page, log, runtime, report):
-        bh.open_notebook(page, url, "layout.ipynb", timeout=180)
-        assert bh.sidebar_open(page), "the file browser sidebar should be open"
-        bh.run_all_cells(page, timeout=300)
-        for sel in EDITORS.values():
-            page.wait_for_selector(f"{sel} canvas", timeout=120000)
-            bh.wait_plots_drawn(page, sel, timeout=180)
-        bh.wait_kernel_idle(page, timeout=180)
+        _open_editors(page, url, "layout.ipynb", EDITORS)
         for name, sel in EDITORS.items():
             boxes = page.evaluate(_BOXES, [sel, MAIN_SLIDERS[name]])
             page.wait_for_timeout(300)   # the scroll settles
@@ -299,3 +308,85 @@ def test_a_slider_drag_updates_the_plot_while_dragging_and_ends_on_the_last_valu
         assert abs(final - readout) < 1e-9 and seen and abs(seen[-1] - readout) < 1e-9, report
         assert final > 0.0, report
         print("drag:", {k: report[k] for k in ("during", "readout", "final")}, "kernel applied", len(seen), "values")
+
+
+# every text box of an editor whose text is wider than its box (cut by an ellipsis or by overflow: hidden): the
+# descriptions, checkbox labels, buttons (toggle buttons too), readouts and tab titles laid out now (a hidden tab's
+# rows have no box); the quality line (one line by design, whole text in its tooltip) and the plots are left out
+_CUT = """([sel]) => {
+  const ed = document.querySelector(sel);
+  const out = [];
+  for (const e of ed.querySelectorAll('.widget-label, .widget-label-basic, .widget-readout, button, ' +
+                                      '.lm-TabBar-tabLabel')) {
+    if (e.closest('.sn-quality, .sn-plot-view') || !e.offsetParent || e.clientWidth === 0) continue;
+    if (e.scrollWidth > e.clientWidth + 1)
+      out.push({text: e.textContent.trim(), box: e.clientWidth, needs: e.scrollWidth, cls: e.className});
+  }
+  return out;
+}"""
+
+# every described ToggleButtons laid out now whose description is not on its buttons' line
+_ALONE = """([sel]) => [...document.querySelector(sel).querySelectorAll('.widget-toggle-buttons')].flatMap((e) => {
+  const l = e.querySelector(':scope > .widget-label'), b = e.querySelector('button');
+  if (!l || !b || !l.offsetParent || !l.textContent.trim()) return [];
+  const lr = l.getBoundingClientRect(), br = b.getBoundingClientRect(), mid = (lr.top + lr.bottom) / 2;
+  return mid >= br.top && mid <= br.bottom ? [] : [{text: l.textContent.trim(), label_top: lr.top,
+                                                    button_top: br.top}];
+})"""
+
+
+def test_the_wand_and_warp_editors_read_in_full_and_count_every_rotate_key(lab):
+    """Issue 26's browser review on CMU 01_01 (2,751 frames; 1280x800, the file browser open): no label of either
+    editor is cut, in any tool tab ("eigenvect…", "output duration …", "free length (…choo…", "the staggered p…",
+    "reference segm…", "keytimes (in:out…" were; then "0.00 – 22.93" in a 72 px readout); no toggle's
+    description stands on a line of its own ("time warp", "retime", "repetitions" did); the duration readout
+    opens on the title's 22.92 s (was 22.91); 20 ArrowRight presses on "rotate x" end at 20° in the kernel (were
+    11°)."""
+    url, folder, runtime = lab
+    cells = [_head("cmu_01_01.bvh"), "we = WandEditor(m)\nwe", "xe = WarpEditor(m, m)\nxe", f"print({bh.DONE!r})"]
+    bh.write_notebook(folder / "labels.ipynb", cells)
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_labels", page, log, runtime, report):
+        _open_editors(page, url, "labels.ipynb", ("wand", "warp"))
+        cut, alone = {}, {}
+        for name in ("wand", "warp"):
+            sel = EDITORS[name]
+            page.locator(sel).first.scroll_into_view_if_needed(timeout=10000)
+            tabs = page.locator(f"{sel} .sn-tools .lm-TabBar-tab")
+            for i in range(tabs.count()):
+                tabs.nth(i).click()
+                page.wait_for_timeout(300)
+                title = tabs.nth(i).inner_text().strip()
+                bh.screenshot(page.locator(sel).first, f"workspace_labels_{name}_{title}")
+                for c in page.evaluate(_CUT, [sel]):
+                    cut.setdefault(name, {}).setdefault(c["text"], c)
+                for c in page.evaluate(_ALONE, [sel]):
+                    alone.setdefault(name, {}).setdefault(c["text"], c)
+        report.update(cut=cut, alone=alone)
+        assert not cut, f"labels cut: {json.dumps(cut, indent=1)}"
+        assert not alone, f"toggle descriptions on a line of their own: {json.dumps(alone, indent=1)}"
+
+        sel = EDITORS["warp"]
+        readout = page.locator(f"{sel} .sn-duration .widget-readout").first.inner_text().strip()
+        title = page.locator(f"{sel} .sn-plot-view .gtitle").first.text_content()
+        report.update(duration_readout=readout, warp_title=title)
+        assert title.rstrip(" s").split("→")[-1].strip() == readout, report
+
+        sel = EDITORS["wand"]
+        handle = page.locator(f"{sel} .sn-rx .noUi-handle").first
+        handle.scroll_into_view_if_needed(timeout=10000)
+        handle.focus()
+        for _ in range(20):
+            page.keyboard.press("ArrowRight")
+            page.wait_for_timeout(100)
+        report["rx_readout"] = page.locator(f"{sel} .sn-rx .widget-readout").first.inner_text().strip()
+        assert report["rx_readout"] == "20", report
+        report["rx_kernel_seconds"] = bh.wait_kernel(runtime, "we.model.rx == 20.0", timeout=90)
+        bh.wait_kernel_idle(page, timeout=120)
+        kernel = bh.Kernel(runtime)
+        report["rx_final"] = kernel.eval("we.model.rx")
+        report["edits"] = kernel.eval("{str(f): d for f, d in we.model.edits.items()}")
+        kernel.close()
+        assert report["rx_final"] == 20.0, report
+        print(json.dumps(report, indent=1, default=str))
+        assert not log["page_errors"], log["page_errors"]

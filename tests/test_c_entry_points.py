@@ -1,5 +1,5 @@
-"""The C entry points (``io/_cparse.c``, ``staggered/_cspline.c``) called directly with hostile sizes, shapes,
-dtypes and values (issue 21): each call returns or raises ValueError / TypeError, and never crashes the
+"""The C entry points (``io/_cparse.c``, ``staggered/_cspline.c``, ``timewarp/_cdp.c``) called directly with hostile
+sizes, shapes, dtypes and values (issue 21): each call returns or raises ValueError / TypeError, and never crashes the
 interpreter. No public call reaches them with such arguments; a C function must check what it indexes anyway.
 
 Each batch of calls runs in a forked child that announces every call before making it, so a crash (SIGSEGV,
@@ -16,6 +16,7 @@ from conftest import run_forked
 
 from stagger_nb.io import bvh_block
 from stagger_nb.staggered import _kernels
+from stagger_nb.timewarp import dp
 
 cparse = bvh_block._cparse
 cspline = _kernels._cspline
@@ -202,3 +203,51 @@ def test_parse_rows_and_quats_from_tangents_with_hostile_arguments_never_crash()
     counts = run_calls(calls)
     assert set(counts) <= {"ok", *OK_ERRORS}, counts
     assert counts.get("ok", 0) > 0 and counts.get("ValueError", 0) > 1000
+
+
+# -- _cdp ---------------------------------------------------------------------------------------------------
+DP_ORDER = ["Sab", "n", "s", "lo", "hi", "q0", "q1", "cur", "wmax", "back", "offsets"]
+
+
+def _valid_forward(n=12, m=6, s=3):
+    lo, hi = dp.warp_bounds(n, m, s)
+    widths = hi - lo + 1
+    sizes = np.zeros(m, np.int64)
+    sizes[1:m - 1] = widths[1:m - 1] * s
+    wmax = int(widths.max())
+    return dict(Sab=np.random.default_rng(0).random((s, s, n)), n=n, s=s, lo=lo, hi=hi, q0=1, q1=m - 1,
+                cur=np.zeros((s, wmax)), wmax=wmax, back=np.zeros(int(sizes.sum()), np.int8),
+                offsets=np.cumsum(sizes) - sizes)
+
+
+@pytest.mark.skipif(dp._cdp is None, reason="the C extension timewarp._cdp is not built here")
+def test_the_dp_forward_pass_with_hostile_arguments_raises_or_returns_never_crashes():
+    """Sizes that do not match, bands past the input, the buffer or the scratch width, offsets past the
+    backpointers, wrong dtypes, read-only or strided buffers: ValueError / TypeError, never a crash."""
+    rng = np.random.default_rng(26)
+    base = _valid_forward()
+    calls = [("valid", lambda: dp._cdp.forward(*[base[k] for k in DP_ORDER]))]
+    for k in range(1500):
+        kw = dict(base)
+        for _ in range(rng.integers(1, 3)):
+            key = DP_ORDER[rng.integers(len(DP_ORDER))]
+            v = base[key]
+            if isinstance(v, int):
+                kw[key] = int(rng.choice(BIG + [v - 1, v + 1, 2, 127, 128]))
+            elif rng.integers(5) == 0:
+                kw[key] = rng.choice([None, "x", v.tobytes() if hasattr(v, "tobytes") else None])
+            elif rng.integers(4) == 0:
+                ro = v.copy()
+                ro.setflags(write=False)
+                kw[key] = [v.astype(np.float32) if v.dtype == np.float64 else v.astype(np.int32), ro,
+                           v.reshape(-1)[::2], v.reshape(-1)[:-1]][rng.integers(4)]
+            else:
+                bad = v.copy()
+                if bad.dtype == np.int64:   # a band, a size or an offset past what it indexes
+                    bad.reshape(-1)[rng.integers(bad.size)] = rng.choice(BIG + [base["n"], base["wmax"] + 1])
+                kw[key] = bad
+        calls.append((f"mutation {k}: " + ", ".join(f"{n}={_short(kw[n])}" for n in DP_ORDER if kw[n] is not base[n]),
+                      lambda kw=kw: dp._cdp.forward(*[kw[n] for n in DP_ORDER])))
+    counts = run_calls(calls)
+    assert set(counts) <= {"ok", *OK_ERRORS}, counts
+    assert counts.get("ValueError", 0) > 300 and counts.get("TypeError", 0) > 100 and counts.get("ok", 0) >= 1

@@ -13,7 +13,7 @@ import pytest
 import stagger_nb as sn
 from stagger_nb.session import Session
 from stagger_nb.session import models as M
-from stagger_nb.session.models.views import warp_tables_first_changes, warp_view
+from stagger_nb.session.models.views import warp_replays_first_changes, warp_tables_first_changes, warp_view
 from stagger_nb.session.motion_runners import warp_table_key
 
 _RAW = re.compile(r"ops\[\d+\]|[A-Z][a-z]+Error|Exception|Traceback")
@@ -160,6 +160,30 @@ def test_a_first_backward_toggle_at_the_source_duration_uses_the_warmed_tables(w
     monkeypatch.setattr(timewarp, "prepare_warp", lambda *a, **k: calls.append(a[2:]) or real(*a, **k))
     assert w.set_control("backward", True) == "" and s.ops[-1]["backward"] is True
     assert s.edited().num_frames == walk.num_frames and calls == []
+
+
+def test_the_first_backward_toggle_is_replayed_by_the_warm_up(walk, monkeypatch):
+    """After the WarpEditor's warm-up (tables, then ``warp_replays_first_changes``) the first backward toggle at
+    the clip's own length runs no guided warp (its DP was the 0.77 s left on CMU 01_01); the motion it gives is
+    the one a session without any warm-up replays, bit for bit. Inert toggles warm nothing."""
+    from stagger_nb import timewarp
+    s, w, b = _warp(walk)
+    lists = warp_replays_first_changes(b)
+    assert len(lists) == 1 and lists[0][-1]["backward"] is True and s.ops == []
+    s.warm(("warp_tables", warp_tables_first_changes(b, 16)), ("replay", lists)).result()
+    assert s.ops == []                              # warming changes neither the op list nor the model
+    calls = []
+    real = timewarp.guided_warp
+    monkeypatch.setattr(timewarp, "guided_warp", lambda *a, **k: calls.append(a[2:]) or real(*a, **k))
+    fresh = Session(walk)
+    fresh.set_ops(lists[0])
+    assert w.set_control("backward", True) == "" and s.ops == fresh.ops
+    got = s.edited()
+    assert calls == [] and got.num_frames == walk.num_frames
+    monkeypatch.setattr(timewarp, "guided_warp", real)
+    assert np.array_equal(fresh.edited().local_quats, got.local_quats)
+    assert np.array_equal(fresh.edited().root_positions, got.root_positions)
+    assert w.set_control("mode", "linear") == "" and warp_replays_first_changes(b) == []
 
 
 @pytest.fixture(scope="module")

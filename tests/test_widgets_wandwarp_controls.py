@@ -93,6 +93,32 @@ def test_duration_steps_move_one_second_and_are_disabled_with_the_slider(walk):
         e.close()
 
 
+def test_the_warp_controls_with_short_labels_keep_their_tooltips_through_the_inert_toggles(walk):
+    """The labels were shortened to read in full (browser review): what they leave out is in the tooltip, which
+    the inert toggles (linear mode, free length, another reference) replace while the control is disabled and
+    give back after."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        c = e.controls
+        tips = {"free_length": c["free_length"].tooltip, "keytimes": e.keytimes.tooltip}
+        assert "§3.3" in tips["free_length"] and "2:1.5" in tips["keytimes"]
+        assert c["segment"].disabled and "only when reference = segment" in c["segment"].tooltip   # self at open
+        assert c["duration"].description == "duration (s)" and c["segment"].description == "segment (s)"
+        e.model.mode = "linear"
+        assert c["free_length"].disabled and c["free_length"].tooltip != tips["free_length"]
+        e.model.mode = "guided"
+        e.model.free_length = True
+        assert e.keytimes.disabled and "free length" in e.keytimes.tooltip
+        e.model.free_length = False
+        assert {"free_length": c["free_length"].tooltip, "keytimes": e.keytimes.tooltip} == tips
+        assert not c["free_length"].disabled and not e.keytimes.disabled
+        e.model.reference = "segment"
+        assert not c["segment"].disabled and "the part of the source used as the reference" in c["segment"].tooltip
+    finally:
+        e.close()
+
+
 def test_the_wand_says_what_it_prepares_until_the_warm_up_is_done(walk, monkeypatch):
     """The status line under σ names the background warm-up while it runs and is empty once it is done."""
     from concurrent.futures import Future
@@ -119,5 +145,29 @@ def test_the_wand_says_what_it_prepares_until_the_warm_up_is_done(walk, monkeypa
         for f in pending:
             f.set_result(None)
         assert e.status.value == ""
+    finally:
+        e.close()
+
+
+def test_the_warp_editor_warms_the_first_backward_toggle_on_open_and_after_a_duration_key(walk, monkeypatch):
+    """The WarpEditor's warm-up ends with the replay of the backward toggle (its DP, 0.77 s on CMU 01_01 at the
+    clip's own length): once it is done, toggling backward runs no guided warp, on open and again after the first
+    duration key (which re-warms: what chooses the tables changed)."""
+    from stagger_nb import timewarp
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        real = timewarp.guided_warp
+        calls = []
+        for first in (None, round(0.9 * walk.duration, 3)):
+            if first is not None:
+                assert e.model.set_control("backward", False) == ""
+                assert e.model.set_control("duration", first) == ""
+            for f in e.warm_futures:
+                f.result(timeout=300)
+            monkeypatch.setattr(timewarp, "guided_warp", lambda *a, **k: calls.append(a[2:]) or real(*a, **k))
+            assert e.model.set_control("backward", True) == "" and e.session.ops[-1]["backward"] is True
+            assert e.session.edited().num_frames > 1 and calls == []
+            monkeypatch.setattr(timewarp, "guided_warp", real)
     finally:
         e.close()

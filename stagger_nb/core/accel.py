@@ -1,4 +1,4 @@
-"""The one switch for the optional C extensions (``io/_cparse.c``, ``staggered/_cspline.c``).
+"""The one switch for the optional C extensions (``io/_cparse.c``, ``staggered/_cspline.c``, ``timewarp/_cdp.c``).
 
 Each extension does the numpy path's operations in the same order, so results are bit-identical; setting the
 environment variable ``STAGGER_NB_NO_ACCEL`` to anything but empty or ``0`` runs the numpy paths instead

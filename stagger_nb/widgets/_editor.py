@@ -65,6 +65,14 @@ def _slider(cls, description, **kw):
                **kw)
 
 
+def _inline(toggles):
+    """``toggles`` (a ToggleButtons) with its description beside its buttons, as every other described control
+    has it (ipywidgets 8 draws a ToggleButtons' description on a line of its own: "warp" and "repetitions" stood
+    alone, issue 26): the inline-hbox class of ipywidgets' own stylesheet. Returns ``toggles``."""
+    toggles.add_class("jupyter-widget-inline-hbox")
+    return toggles
+
+
 def _grow_range(model, name, control, log=False, to_control=None):
     """Let ``control``'s range grow to show whatever value the model holds (a session's skip = 100 is shown as
     100, never clamped and written back). Registered before the link, so it runs first. ``to_control``: the

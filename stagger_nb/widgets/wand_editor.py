@@ -22,6 +22,7 @@ from ._editor import (
     _default_joint,
     _Editor,
     _inert,
+    _inline,
     _link,
     _on_kernel_thread,
     _session_for,
@@ -97,9 +98,10 @@ class WandEditor(_Editor):
         c["edit_frame"] = _slider(widgets.FloatSlider, "edited frame (s)", min=0.0, max=round((F - 1) * ft, 4),
                                   step=ft, readout_format=".2f")
         c["propagate"] = widgets.Checkbox(description="propagate (off: edit the frames only)", indent=False)
-        c["repetitions"] = widgets.ToggleButtons(options=["keep", "discard"], description="repetitions",
-                                                 style=_TOGGLES, tooltips=["propagate to repeats of the edited pose",
-                                                                           "edit only the neighbourhood (§3.3)"])
+        c["repetitions"] = _inline(widgets.ToggleButtons(options=["keep", "discard"], description="repetitions",
+                                                         style=_TOGGLES,
+                                                         tooltips=["propagate to repeats of the edited pose",
+                                                                   "edit only the neighbourhood (§3.3)"]))
         c["joint"] = widgets.Dropdown(options=names, description="joint", style=_STYLE)
         for a in "xyz":   # +-60 on a wide track (a drag 0.2 deg/px, a key 1 deg); a typed value past it grows it
             c["r" + a] = _slider(_RotateSlider, f"rotate {a} (°)", min=-60.0, max=60.0, step=model.step("r" + a),
@@ -109,7 +111,7 @@ class WandEditor(_Editor):
         self.controls = c
         self.limit_range = widgets.Checkbox(value=False, description="limit edit range", indent=False)
         self.range = _slider(widgets.FloatRangeSlider, "edit range (s)", min=0.0, max=round(F * ft, 4), step=ft,
-                             value=(0.0, round(F * ft, 4)), readout_format=".2f")
+                             value=(0.0, round(F * ft, 4)), readout_format=".1f")   # .2f was cut at 72 px
         self.edited_frames = widgets.Dropdown(options=[], description="edited frames", style=_STYLE)
         self.add_button = widgets.Button(description="add edit at playhead", layout=widgets.Layout(width="180px"))
         self.remove_button = widgets.Button(description="remove this edit", layout=widgets.Layout(width="150px"))
@@ -130,6 +132,8 @@ class WandEditor(_Editor):
                  "compare": [widgets.HBox([c["compare"]])]}
         c["sigma"].add_class("sn-sigma")
         c["edit_frame"].add_class("sn-edit-frame")
+        for a in "xyz":
+            c["r" + a].add_class(f"sn-r{a}")
         self._setup(model, session, view, [self.falloff_plot, self.curves], tools, quick=quick)
         if not model.edits and any(rotation):   # an initial rotation becomes the first edit
             model.rx, model.ry, model.rz = (float(r) for r in rotation)

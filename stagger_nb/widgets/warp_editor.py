@@ -10,8 +10,8 @@ from ..core.motion import Motion
 from ..plotting import warp_figure
 from ..session import Session, warp_table_key
 from ..session.models import WarpModel
-from ..session.models.views import warp_tables_first_changes, warp_view
-from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _link, _session_for, _slider
+from ..session.models.views import warp_replays_first_changes, warp_tables_first_changes, warp_view
+from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _inline, _link, _session_for, _slider
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
@@ -19,7 +19,14 @@ __all__ = ["WarpEditor"]
 
 _SKIP_TIP = ("skip limit s (Hsu et al. 2007, §3.1): at most s input frames per output frame, so the warp plays at "
              "most s times real time; a shorter output needs a larger s")
-_DURATION_TIP = "the output's length in seconds: arrow keys move one frame, a drag is coarse, ±1 s beside it"
+_DURATION_TIP = "the output's duration in seconds: arrow keys move one frame, a drag is coarse, ±1 s beside it"
+_FREE_TIP = ("free length: the warp chooses its own duration, as the reference's timing asks (Hsu et al. 2007, "
+             "§3.3); no target duration, no keytimes")
+_KEYTIMES_TIP = ("keytimes (§4.2), in seconds: input time:output time pairs, e.g. 2:1.5 plays the input's 2 s at "
+                 "1.5 s of output; applied on Enter or when the box loses focus")
+_SEGMENT_TIP = "the part of the source used as the reference (reference = segment), in seconds"
+# every label reads in full at 1280x800 with the file browser open (a description in 120 px, a checkbox's in
+# 300 px, a toggle's in its button): the long sense is in the tooltip (tests/test_browser_workspace.py checks)
 
 
 class WarpEditor(_Editor):
@@ -59,8 +66,9 @@ class WarpEditor(_Editor):
         D = m.duration
         model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, round(D / 2, 6)])
         c = {}
+        # each toggle's description beside its buttons, in 72 px (the "retime" row then fits the tool column)
         c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="time warp",
-                                          style={**_STYLE, "button_width": "72px"},
+                                          style={"description_width": "72px", "button_width": "72px"},
                                           tooltips=["guided by a reference's timing (Hsu et al. 2007)",
                                                     "piecewise linear through the keytimes"])
         # 1/8x .. 2x the clip; a key moves one frame; the readout takes a typed value (the track grows to show it)
@@ -68,7 +76,7 @@ class WarpEditor(_Editor):
         # below the source's duration, so the opening value reads as the title does (22.92, not 22.91)
         ft = model.step("duration")
         lo = round(D - math.floor((D - D / 8 - ft) / ft) * ft, 6)
-        c["duration"] = _slider(widgets.FloatSlider, "output duration (s)", min=lo,
+        c["duration"] = _slider(widgets.FloatSlider, "duration (s)", min=lo,
                                 max=round(2 * D, 3), step=model.step("duration"), readout_format=".2f",
                                 tooltip=_DURATION_TIP)
         # a coarse step beside the slider (its keys move one frame): -1 s / +1 s, clamped to the slider's range
@@ -77,23 +85,27 @@ class WarpEditor(_Editor):
                                for d in (-1, 1)]
         for b, d in zip(self.duration_steps, (-1.0, 1.0)):
             b.on_click(lambda _, d=d: self._step_duration(d))
-        c["free_length"] = widgets.Checkbox(description="free length (the reference's timing chooses it)",
-                                            indent=False)
+        c["free_length"] = widgets.Checkbox(description="free length (the warp chooses it)", indent=False,
+                                            tooltip=_FREE_TIP)
         c["skip"] = _slider(widgets.IntSlider, "fastest (× speed)", min=1, max=16, tooltip=_SKIP_TIP)
         c["backward"] = widgets.Checkbox(description="backward (play the clip in reverse)", indent=False)
-        c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("the staggered poses", "poses")],
-                                            description="retime", style={**_STYLE, "button_width": "140px"},
+        c["target"] = widgets.ToggleButtons(options=[("the motion", "motion"), ("staggered poses", "poses")],
+                                            description="retime",
+                                            style={"description_width": "72px", "button_width": "140px"},
                                             tooltips=["warp the edited motion (guided_warp)",
                                                       "warp the staggered pose times (guide_poses): the staggering "
                                                       "and the staggered edits stay, still editable"])
         c["target"].add_class("sn-warp-target")
+        _inline(c["mode"])
+        _inline(c["target"])
         c["reference"] = widgets.Dropdown(options=["self", "segment"], description="reference", style=_STYLE)
-        c["segment"] = _slider(widgets.FloatRangeSlider, "reference segment (s)", min=0.0, max=round(D, 3),
-                               step=model.step("segment"), readout_format=".1f")
+        c["segment"] = _slider(widgets.FloatRangeSlider, "segment (s)", min=0.0, max=round(D, 3),
+                               step=model.step("segment"), readout_format=".1f",
+                               tooltip=_SEGMENT_TIP)
         # applied on Enter or when the box loses focus (continuous_update off): a half-typed entry ('99:') is
         # never read; a complete one that cannot apply is refused then, in a sentence
-        self.keytimes = widgets.Text(value="", placeholder="input s:output s, ...  (e.g. 2:1.5)",
-                                     description="keytimes (in:out s)", style=_STYLE,
+        self.keytimes = widgets.Text(value="", placeholder="in s:out s, e.g. 2:1.5",
+                                     description="keytimes (s)", style=_STYLE, tooltip=_KEYTIMES_TIP,
                                      layout=_WIDE, continuous_update=False)
         self.controls = c
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
@@ -132,8 +144,9 @@ class WarpEditor(_Editor):
         """Warm (``Session.warm``) the kNN tables of the skip slider's largest value for the current reference,
         direction and upsampling, then those of the first free-length and backward toggles (and with no warp
         yet of a lengthening): ``models.views.warp_tables_first_changes`` chooses them. The session slices every
-        smaller skip from them, so a skip move re-runs only the DP. Submitted again only when what chooses the
-        tables changes; long clips (approximate kNN, not sliced) are not warmed."""
+        smaller skip from them, so a skip move re-runs only the DP. Then the replay of the first backward toggle
+        (``warp_replays_first_changes``: its DP, 0.77 s CPU at CMU 01_01's own length). Submitted again only when
+        what chooses the tables changes; long clips (approximate kNN, not sliced) are not warmed."""
         ops = warp_tables_first_changes(self.binding, self.controls["skip"].max)
         if not ops:
             return
@@ -141,10 +154,18 @@ class WarpEditor(_Editor):
             key = tuple(warp_table_key(self.session.source, op) + (op["skip"],) for op in ops)
             if key == self._warmed_tables:
                 return
-            self._warm(("warp_tables", ops))
-            self._warmed_tables = key
         except ValueError:
-            pass   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there
+            return   # an op the session cannot warm (e.g. a duration out of range): computed on demand, reported there
+        # then the first backward toggle's replay (its DP); Session.warm checks every job before it submits any:
+        # a list it refuses is left out, the tables warmed alone
+        try:
+            self._warm(("warp_tables", ops), ("replay", warp_replays_first_changes(self.binding)))
+        except ValueError:
+            try:
+                self._warm(("warp_tables", ops))
+            except ValueError:
+                return
+        self._warmed_tables = key
 
     def _step_duration(self, seconds: float) -> None:
         """-1 s / +1 s: the duration moved by ``seconds`` within the slider's range (a refused value is said in
@@ -163,10 +184,12 @@ class WarpEditor(_Editor):
 
     def _on_inert(self, change=None) -> None:
         c, m = self.controls, self.model
-        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment")
+        _inert(c["segment"], m.reference != "segment", "the segment is used only when reference = segment",
+               _SEGMENT_TIP)
         linear = m.mode == "linear"
+        tips = {"skip": _SKIP_TIP, "free_length": _FREE_TIP}
         for k in ("skip", "reference", "backward", "free_length"):
-            _inert(c[k], linear, f"{k} applies to guided warps only", _SKIP_TIP if k == "skip" else "")
+            _inert(c[k], linear, f"{k} applies to guided warps only", tips.get(k, ""))
         if not linear and not self.binding.to_ops(m.params()):   # a self-guided warp at the source's duration
             _inert(c["skip"], True, "the warp is the identity (reference 'self' at the source's duration): "
                                     "change the duration, the reference or a keytime first")
@@ -178,7 +201,8 @@ class WarpEditor(_Editor):
         _inert(c["target"], linear or not (m.has_staggered or m.target == "poses"),
                "the staggered pose times can be warped in a session holding staggered edits (guided mode)")
         _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")
-        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)")
+        _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)",
+               _KEYTIMES_TIP)
 
     def _update_views(self, edited: Motion) -> None:
         v = warp_view(self.session)

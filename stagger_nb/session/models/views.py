@@ -15,7 +15,7 @@ from ...core.motion import Motion
 from ..session import joint_rotation_degrees
 
 __all__ = ["ik_effectors", "stagger_state", "probability_view", "joint_curves_view", "place_ik_target",
-           "warp_view", "warp_tables_to_warm", "warp_tables_first_changes"]
+           "warp_view", "warp_tables_to_warm", "warp_tables_first_changes", "warp_replays_first_changes"]
 
 _TOE = re.compile(r"toe|heel", re.IGNORECASE)   # end effectors the IK menu leaves out (the foot above is there)
 
@@ -154,3 +154,17 @@ def warp_tables_first_changes(binding, max_skip: int) -> list:
             seen.add(key)
             out.append(op)
     return out
+
+
+def warp_replays_first_changes(binding) -> list:
+    """The op lists whose replay a WarpEditor warms after its tables (``Session.warm(("replay", lists))``): the
+    session as the first backward toggle would leave it (``binding.ops_for``). With its tables warm that toggle
+    still runs a DP, and at the clip's own length the search is upsampled (2x the frames, the same length has no
+    other warp, §3.1) below the coarse-to-fine threshold: the exact DP over a band ~2,400 frames wide, 0.77 s CPU
+    on CMU 01_01 (issue 26: <= 300 ms); replayed in the background it is a cache hit. ``[]`` where the toggle is
+    inert (a linear warp, the staggered poses retimed) or changes no op."""
+    model = binding.model
+    if model.mode != "guided" or model.target == "poses":
+        return []
+    ops = binding.ops_for(backward=not model.backward)
+    return [] if ops == binding.session.ops else [ops]
