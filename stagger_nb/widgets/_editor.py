@@ -30,6 +30,9 @@ _WIDE = widgets.Layout(width="340px")
 _VIEW_SIZE = {"width": 400, "height": 236}
 #: The height (px) of an editor's first plot, legend row included: it ends inside the first screen
 _PLOT_HEIGHT = 272
+#: the message line's text: lines 17 px apart (an HTML widget's lines are 28 px apart: a two-line note took 56 px
+#: of the tool column)
+_LINES = "font-size:13px;line-height:17px"
 
 
 def _session_for(editor, motion, session: Session | None, source_path=None) -> Session:
@@ -566,9 +569,10 @@ class _Editor(widgets.VBox):
         for text in (self.error, self.model.message, *self.model.notes.values()):
             if text and text not in shown:
                 shown.add(text)
-                parts.append(f'<div class="sn-refused" style="color:#c53030">&#9888; {html.escape(text)}</div>')
+                parts.append(f'<div class="sn-refused" style="color:#c53030;{_LINES}">&#9888; '
+                             f'{html.escape(text)}</div>')
         for text in self._notes():
-            parts.append(f'<div style="color:#b7791f">{html.escape(text)}</div>')
+            parts.append(f'<div style="color:#b7791f;{_LINES}">{html.escape(text)}</div>')
         w = self._warnings_html()
         if w:
             parts.append(w)

@@ -14,6 +14,7 @@ from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
 from ..session.timeline import knot_table_of
 from ._editor import (
+    _LINES,
     _PLOT_HEIGHT,
     _STYLE,
     _VIEW_SIZE,
@@ -403,7 +404,7 @@ class StaggerEditor(_Editor):
         if last is not None and last[0] == summary and last[1] is warnings:
             return last[2]
         details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
-        text = (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
+        text = (f'<details style="color:#b7791f;{_LINES}"><summary>&#9888; {html.escape(summary)}</summary>'
                 f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
         self._warnings_shown = (summary, warnings, text)
         return text
