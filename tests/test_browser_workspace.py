@@ -14,6 +14,7 @@ Skipped, with the reason, only when /usr/bin/chromium or playwright is missing.
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 
@@ -326,8 +327,7 @@ def test_the_stagger_editors_details_read_whole_and_its_controls_say_what_they_d
     report = {}
     with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_details", page, log, runtime, report):
         sel = _open_walk_editor(page, url, folder, "details", pose=3)
-        kernel = bh.Kernel(runtime)
-        try:
+        with contextlib.closing(bh.Kernel(runtime)) as kernel:
             kernel.run("se.model.s = 0.08\nse.model.w_r = 2.0\nse.model.tau = 0.1")   # a long quality line
             bh.wait_kernel(runtime, "len(se.model.quality.get('items', [])) >= 4", timeout=60)
             bh.wait_kernel_idle(page)
@@ -390,8 +390,6 @@ def test_the_stagger_editors_details_read_whole_and_its_controls_say_what_they_d
             page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="cull").first.click()
             report["keep_hint"] = page.locator(f"{sel} .sn-keep-hint").first.inner_text()
             assert "probability plot" in report["keep_hint"], report
-        finally:
-            kernel.close()
         print(json.dumps(report, indent=1))
         assert not log["page_errors"], log["page_errors"]
 
