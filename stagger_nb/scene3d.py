@@ -18,8 +18,8 @@ from .core.motion import Motion
 from .core.rotations import quat_rotate
 
 __all__ = ["Tracks", "motion_tracks", "Bone", "bones", "joint_sides", "SIDE_COLOURS", "Camera", "follow_camera",
-           "fit_distance", "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell", "ground_segments",
-           "highlight_keys", "body_size",
+           "frame_box", "fit_distance", "project", "look_at_quaternion", "drawn_height_fraction", "grid_cell",
+           "ground_segments", "highlight_keys", "body_size",
            "skeleton_points", "segments", "MeshTemplate", "mesh_template", "joint_states",
            "trail_segments", "mesh_index", "hex_rgb", "bone_colours",
            "triangle_joints", "mesh_constants"]
@@ -240,6 +240,27 @@ def fit_distance(corners: np.ndarray, d: np.ndarray, fov: float, aspect: float, 
     return float(max(np.max(c @ z + need), 0.0) * (1 + 1e-12) + 1e-9)
 
 
+#: the view directions "frame all" chooses from: the default one turned about the vertical, 10° apart
+_ALL_AZIMUTHS = np.radians(np.arange(0.0, 360.0, 10.0))
+
+
+def frame_box(corners: np.ndarray, fov: float, aspect: float, margin: float = 0.94) -> tuple[np.ndarray, float]:
+    """``(d, dist)``: the unit view direction (from the box's centre towards the camera) and distance at which
+    ``corners (8, 3)`` of a box around the origin fill the canvas: of the default direction turned about the
+    vertical in 10° steps (its elevation kept), the one that sees the whole box from nearest (a walk across
+    the room is seen from its side, so the figure is as large as the whole clip allows), at
+    :func:`fit_distance` (``margin`` of each half side). Ties go to the smaller turn (the default first)."""
+    d0 = _VIEW_DIR / np.linalg.norm(_VIEW_DIR)
+    best = None
+    for a in _ALL_AZIMUTHS:
+        ca, sa = np.cos(a), np.sin(a)
+        d = np.array([ca * d0[0] + sa * d0[2], d0[1], -sa * d0[0] + ca * d0[2]])
+        dist = fit_distance(corners, d, fov, aspect, margin)
+        if best is None or dist < best[1] * (1 - 1e-9):
+            best = (d, dist)
+    return best
+
+
 def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow", aspect: float = 480 / 380,
                   fov: float = 40.0, fill: float = 0.62, smooth_s: float = 0.5, pad: float = 0.0) -> Camera:
     """Camera framing for ``positions (F, P, 3)`` (joints, and the End Sites when given: the top of the head).
@@ -249,7 +270,9 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
     body's height (:func:`body_size`) fills ``fill`` of the canvas height, or further when the box every frame
     covers around the rig (ground to the highest point of the clip, ``pad`` added on each side: the joints'
     spheres) would not fit the canvas: nothing of the skeleton leaves the view in any frame. ``mode="all"``: a
-    fixed rig at the centre of everything the clip covers, far enough for the bounding sphere to fit.
+    fixed rig at the centre of the box everything the clip covers (``pad`` added), the camera where that box
+    fills the canvas (:func:`frame_box`: the side of the box it is seen from nearest, the box's corners at the
+    canvas's edges less a 6 % margin).
     """
     if mode not in ("follow", "all"):
         raise ValueError(f"mode: expected 'follow' or 'all', got {mode!r}")
@@ -288,9 +311,10 @@ def follow_camera(positions: np.ndarray, frame_time: float, mode: str = "follow"
     else:
         c = (lo + hi) / 2
         rig = np.tile([c[0], ground, c[2]], (F, 1))
-        radius = float(np.linalg.norm(hi - lo)) / 2
-        dist = radius / np.sin(min(half, np.arctan(np.tan(half) * aspect))) * 1.05
         target = np.array([0.0, c[1] - ground, 0.0])
+        corners = np.array([[x, y, z] for x in (lo[0] - pad, hi[0] + pad) for y in (lo[1] - pad, hi[1] + pad)
+                            for z in (lo[2] - pad, hi[2] + pad)]) - c
+        d, dist = frame_box(corners, fov, aspect)
     # the look-at point is the rig's origin (the rig carries its height): a page reload restores the pythreejs
     # camera but OrbitControls then aims it at (0, 0, 0) (seen in JupyterLab: after a reload the view looked
     # down at the feet, the head cut off), so the framing must not depend on the controls' target

@@ -17,6 +17,7 @@ Skipped, with the reason, only when /usr/bin/chromium or playwright is missing.
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 
@@ -390,3 +391,142 @@ def test_the_wand_and_warp_editors_read_in_full_and_count_every_rotate_key(lab):
         assert report["rx_final"] == 20.0, report
         print(json.dumps(report, indent=1, default=str))
         assert not log["page_errors"], log["page_errors"]
+
+
+_DETAILS = """([sel]) => {
+  const ed = document.querySelector(sel);
+  const col = ed.querySelector('.sn-tool-column'), top = ed.querySelector('.sn-top-bar');
+  const q = ed.querySelector('.sn-quality'), qb = q.getBoundingClientRect();
+  const parts = [...q.querySelectorAll('.sn-quality-part')].map((p) => { const r = p.getBoundingClientRect();
+    return {text: p.innerText, inside: r.right <= qb.right + 0.5 && r.bottom <= qb.bottom + 0.5,
+            clipped: p.scrollWidth > Math.ceil(r.width) + 0.5}; });
+  const buttons = [...ed.querySelectorAll('.sn-tools .widget-toggle-buttons button')].filter((b) => b.clientWidth)
+    .map((b) => ({text: b.innerText, whole: b.scrollWidth <= b.clientWidth}));
+  const undo = [...top.querySelectorAll('button')][0].getBoundingClientRect().height;
+  return {column: {sw: col.scrollWidth, cw: col.clientWidth}, top: top.getBoundingClientRect().height, undo,
+          parts, buttons};
+}"""
+
+
+def test_the_stagger_editors_details_read_whole_and_its_controls_say_what_they_do(lab):
+    """The review of issue 22's workspace (1280x800, sidebar open): the quality line of a strong edit wraps
+    between whole parts inside the top bar (as tall as its buttons); the tool column never scrolls sideways; the
+    edit-mode labels are whole; ArrowUp in the pose-time box moves one frame per press, shown at the box's
+    precision; a refused pose time is said once; the IK target sliders are disabled, with a hint, while the
+    effector is "(none)"; the picked-poses list has its hint."""
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_details", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "details", pose=3)
+        with contextlib.closing(bh.Kernel(runtime)) as kernel:
+            kernel.run("se.model.s = 0.08\nse.model.w_r = 2.0\nse.model.tau = 0.1")   # a long quality line
+            bh.wait_kernel(runtime, "len(se.model.quality.get('items', [])) >= 4", timeout=60)
+            bh.wait_kernel_idle(page)
+            want = kernel.eval("[i['text'] for i in se.model.quality['items']]")
+            page.wait_for_function("([sel, n]) => document.querySelectorAll(sel + ' .sn-quality-part').length === n",
+                                   arg=[sel, len(want)], timeout=30000)
+            page.evaluate("(sel) => document.querySelector(sel).closest('.jp-OutputArea-output')"
+                          ".scrollIntoView({block: 'start'})", sel)
+            tabs = {}
+            for tab in ("cull", "timing", "pose", "IK", "contacts"):
+                page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text=tab).first.click()
+                page.wait_for_timeout(300)
+                tabs[tab] = page.evaluate(_DETAILS, [sel])
+                bh.screenshot(page.locator(f"{sel} .sn-tool-column").first, f"workspace_details_{tab}")
+            bh.screenshot(page.locator(f"{sel} .sn-top-bar").first, "workspace_details_quality")
+            report["tabs"] = tabs
+            d = tabs["pose"]
+            assert [p["text"].lstrip("· ").strip() for p in d["parts"]] == want, report
+            assert all(p["inside"] and not p["clipped"] for p in d["parts"][:2]), report   # two lines whole
+            assert d["top"] <= d["undo"] + 6, report                       # the quality line is no taller
+            for tab, t in tabs.items():
+                assert t["column"]["sw"] <= t["column"]["cw"], (tab, report)   # no sideways scroll bar
+            assert all(b["whole"] for b in d["buttons"]) and any("unstaggered" == b["text"] for b in d["buttons"]), \
+                report
+            kernel.run("se.session.clear()")
+            bh.wait_kernel_idle(page)
+
+            # the pose-time box: three ArrowUp presses, three frames later
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="pose").first.click()
+            field = page.locator(f"{sel} .widget-text", has_text="pose time").locator("input").first
+            ft = kernel.eval("se.session.source.frame_time")
+            t0 = kernel.eval("se.model.pose_time")
+            for i in range(3):
+                field.focus()
+                field.press("ArrowUp")
+                bh.wait_kernel(runtime, f"abs(se.model.pose_time - {t0 + (i + 1) * ft}) < 5e-4", timeout=60)
+                bh.wait_kernel_idle(page)
+            page.wait_for_function("([sel, v]) => Math.abs(+[...document.querySelectorAll(sel + ' .widget-text')]"
+                                   ".find((e) => e.innerText.includes('pose time')).querySelector('input').value"
+                                   " - v) < 1e-9", arg=[sel, kernel.eval("se.model.pose_time")], timeout=30000)
+            report["pose_time"] = [t0, field.input_value()]
+            assert len(field.input_value().split(".")[-1]) <= 3, report      # 60 Hz: 3 decimals, no float tail
+            field.fill("999")
+            field.press("Enter")
+            bh.wait_kernel_idle(page)
+            page.wait_for_function("(sel) => (document.querySelector(sel + ' .sn-pose-time-note') || {}).innerText"
+                                   "?.includes('999')", arg=sel, timeout=30000)
+            report["said"] = page.evaluate("(sel) => document.querySelector(sel).innerText"
+                                           ".split('pose time must lie between').length - 1", sel)
+            assert report["said"] == 1, report
+
+            # IK: disabled with a hint until an effector is chosen
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="IK").first.click()
+            ik = page.evaluate("""(sel) => ({
+              disabled: [...document.querySelectorAll(sel + ' .widget-slider')].filter((e) =>
+                  e.innerText.includes('target')).map((e) => !!e.querySelector('.noUi-target[disabled]')),
+              hint: (document.querySelector(sel + ' .sn-ik-hint') || {}).innerText || ''})""", sel)
+            report["ik"] = ik
+            assert ik["disabled"] == [True, True, True] and "choose an IK effector" in ik["hint"], report
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="cull").first.click()
+            report["keep_hint"] = page.locator(f"{sel} .sn-keep-hint").first.inner_text()
+            assert "probability plot" in report["keep_hint"], report
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]
+
+
+_FAST_WATCH = """([sel]) => {
+  // what each plot shows right after its fast redraw (before the Plotly.react that follows it)
+  const W = window.__snFast = [];
+  const probe = (gd) => ({title: (gd.querySelector('text.gtitle') || {}).textContent,
+    points: [...gd.querySelectorAll('g.trace.scatter')].map((g) => g.querySelectorAll('path.point').length),
+    lines: [...gd.querySelectorAll('g.trace.scatter')].map((g) => g.querySelectorAll('path.js-line').length),
+    legend: [...gd.querySelectorAll('g.legend text.legendtext')].map((t) => t.textContent)});
+  [...document.querySelectorAll(sel + ' .sn-plot-view')].forEach((el, i) => {
+    W.push({fast: [], start: +(el.dataset.fastDraws || 0), reacts: +(el.dataset.draws || 0)});
+    new MutationObserver(() => { W[i].fast.push(probe(el.querySelector('.js-plotly-plot'))); })
+      .observe(el, {attributes: true, attributeFilter: ['data-fast-draws']});
+    W[i].probe = () => probe(el.querySelector('.js-plotly-plot'));
+  });
+}"""
+
+
+def test_a_cull_move_is_drawn_by_the_fast_path_then_settles_on_the_same_plot(lab):
+    """A cull move changes the knots (their number), the pose lines (on the overlay axis), the kept poses and
+    the probability plot's title: drawn at once by plot_view.js's fast path (no Plotly.react), with the same
+    points, legend and title as the Plotly.react that follows once the figure rests."""
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_fast_cull", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "fastcull", pose=0)
+        bh.wait_plots_synced(page, sel)
+        page.evaluate(_FAST_WATCH, [sel])
+        handle = page.locator(f"{sel} .sn-cull .noUi-handle").first
+        handle.focus()
+        for i in range(3):
+            handle.press("ArrowLeft")
+            bh.wait_kernel(runtime, f"se.model.percent == {100.0 - 5 * (i + 1)}", timeout=60)
+            bh.wait_kernel_idle(page)
+            bh.wait_plots_synced(page, sel)
+        report["watch"] = page.evaluate("() => window.__snFast.map((w) => ({fast: w.fast, start: w.start, "
+                                        "reacts: w.reacts, settled: w.probe()}))")
+        report["fast_draws"] = page.evaluate(f"() => [...document.querySelectorAll('{sel} .sn-plot-view')]"
+                                             ".map((el) => +(el.dataset.fastDraws || 0))")
+        bh.screenshot(page.locator(f"{sel} .sn-plot-view").nth(1), "workspace_fast_cull_probability")
+        for i, w in enumerate(report["watch"][:2]):       # the joint curves and the pose probability
+            assert len(w["fast"]) >= 1, (i, report)       # drawn by the fast path (at least the first press)
+            assert w["fast"][-1] == w["settled"], (i, report)   # the same plot as plotly's own drawing
+        assert report["watch"][1]["settled"]["title"].startswith("pose probability"), report
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]
+        assert not bh.console_errors(log), bh.console_errors(log)

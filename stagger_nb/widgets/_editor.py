@@ -30,6 +30,9 @@ _WIDE = widgets.Layout(width="340px")
 _VIEW_SIZE = {"width": 400, "height": 236}
 #: The height (px) of an editor's first plot, legend row included: it ends inside the first screen
 _PLOT_HEIGHT = 272
+#: the message line's text: lines 17 px apart (an HTML widget's lines are 28 px apart: a two-line note took 56 px
+#: of the tool column)
+_LINES = "font-size:13px;line-height:17px"
 
 
 def _session_for(editor, motion, session: Session | None, source_path=None) -> Session:
@@ -105,11 +108,31 @@ def _same_value(a, b) -> bool:
     return a == b
 
 
+def _stepped(control, old, new):
+    """``new`` as the user meant it when it is an arrow-key step of a number box (``FloatText``) from ``old``.
+
+    The browser steps a number box to the next multiple of its ``step`` (counted from 0) above or below the
+    shown value. From a value the model rounded to its display precision between two multiples (a pose time
+    of 2.0333 s on a 1/120 s grid) that move is less than a step, and the model's rounding puts it back (the
+    box never moved on): a value on the step grid less than one step away from ``old`` is taken as one step
+    from the multiple nearest ``old``, in the direction pressed. A typed value is not on the grid (to 1e-6 of a
+    step) and passes as it is."""
+    if not isinstance(control, widgets.FloatText) or not control.step or control.step <= 0:
+        return new
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in (old, new)):
+        return new
+    step = float(control.step)
+    n = new / step
+    if abs(n - round(n)) > 1e-6 or not 0 < abs(new - old) < step * (1 - 1e-6):
+        return new
+    return (round(old / step) + (1 if new > old else -1)) * step
+
+
 class _ControlLink:
     """``model.name`` <-> ``control.value``, both ways, like ``traitlets.link``, except that a value the model
     refuses (``model.set_control``: a TraitError, the reason in ``model.notes[name]``) puts the control back to
-    the model's value, and a value the model rounds is shown rounded (float noise excepted: :func:`_same_value`).
-    ``transform``: ``(to_control, to_model)``."""
+    the model's value, a value the model rounds is shown rounded (float noise excepted: :func:`_same_value`), and
+    an arrow-key step of a number box moves one step (:func:`_stepped`). ``transform``: ``(to_control, to_model)``."""
 
     def __init__(self, model, name: str, control, transform=(None, None)):
         self.model, self.name, self.control = model, name, control
@@ -133,7 +156,7 @@ class _ControlLink:
             return
         self._busy = True
         try:
-            self.model.set_control(self.name, self._to_m(change["new"]))
+            self.model.set_control(self.name, self._to_m(_stepped(self.control, change["old"], change["new"])))
             shown = self._to_c(getattr(self.model, self.name))   # refused: back to the model's value
             if not _same_value(shown, self.control.value):
                 self.control.value = shown
@@ -267,6 +290,7 @@ class _Editor(widgets.VBox):
 
     _css = ""
     _ALIASES: dict = {}   # former attribute names of controls (deprecated): name -> key in self.controls
+    _NOTES_BESIDE: tuple = ()   # traits whose refusal note the editor shows beside the control, not in the message line
 
     def __getattr__(self, name):
         """Deprecated aliases: ``editor.s`` etc. are the controls ``editor.controls["s"]`` (set the model instead:
@@ -300,11 +324,11 @@ class _Editor(widgets.VBox):
         self.error = ""
         self.message = widgets.HTML("", layout=widgets.Layout(min_height="0"))
         self.message.add_class("sn-message")
-        # the label whole ("extracting poses", "culling poses"): its own width, the bar takes the rest
+        # the label whole ("extracting poses", "culling poses"): its own width, the bar takes the rest; out of
+        # the layout while idle, so the quality line has the top bar's width
         self.progress = widgets.IntProgress(value=0, min=0, max=1, description="computing",
                                             style={"description_width": "initial"},
-                                            layout=widgets.Layout(visibility="hidden", width="280px",
-                                                                  flex="0 0 auto"))
+                                            layout=widgets.Layout(display="none", width="280px", flex="0 0 auto"))
         self.undo_button = widgets.Button(description="undo", icon="undo", layout=widgets.Layout(width="90px"))
         self.redo_button = widgets.Button(description="redo", icon="repeat", layout=widgets.Layout(width="90px"))
         self.undo_button.on_click(lambda _: self.session.undo())
@@ -332,16 +356,19 @@ class _Editor(widgets.VBox):
         self._warm_futures: list = []
         owned = session if getattr(self, "_owns_session", False) else None
         self._finalizer = weakref.finalize(self, _stop_work, self._warm_futures, owned)
-        # the quality line: the model's plain summary of the edit (shown as it is, when the model has one)
-        # one line: a long summary ends in an ellipsis, the whole text in its tooltip (the view never moves down)
+        # the quality line: the model's plain summary of the edit (shown as it is, when the model has one), in
+        # the top bar beside the buttons: two short lines at most, as tall as the buttons (the view never moves
+        # down), each part whole (:meth:`_show_quality`)
         self.quality = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 8px", flex="1 1 0%", min_width="0",
                                                               overflow="hidden"))
         self.quality.add_class("sn-quality")
         if model.has_trait("quality"):
             model.observe(self._show_quality, names="quality")
             self._show_quality()
+        # the column's whole width: no side margin (a widget's default 2 px beside a width of 100 % made the
+        # column scroll sideways by 4 px)
         self.tools = widgets.Tab(children=[widgets.VBox(list(rows)) for rows in tools.values()],
-                                 titles=list(tools), layout=widgets.Layout(width="100%"))
+                                 titles=list(tools), layout=widgets.Layout(width="100%", margin="2px 0"))
         self.tools.add_class("sn-tools")
         for rows in tools.values():   # a row that does not fit wraps (shrunk sliders lose their track)
             for row in rows:
@@ -362,19 +389,31 @@ class _Editor(widgets.VBox):
         self._update_buttons()
         self._refresh()
 
+    #: the quality line's box: two lines of 12 px text in the height of the top bar's buttons (28 px)
+    _QUALITY_LINES, _QUALITY_LINE_PX = 2, 14
+
     def _show_quality(self, change=None) -> None:
-        """The quality line: the model's summary, each part green or red (``ok`` False: out of bounds)."""
+        """The quality line: the model's summary, each part green or red (``ok`` False: out of bounds). Parts
+        wrap between words, never inside one: each part is a box of its own (``sn-quality-part``) that moves to
+        the next line whole, two lines at most (a part that would start a third is left to the tooltip, which
+        holds the whole summary)."""
         q = getattr(self.model, "quality", "") or ""
         if not isinstance(q, dict):
             q = {"text": str(q), "ok": True}
         items = q.get("items") or ([{"text": q["text"], "ok": q.get("ok", True)}] if q.get("text") else [])
-        parts = [f'<span style="color:{"#2f855a" if i.get("ok", True) else "#c53030"}">{html.escape(i["text"])}'
-                 '</span>' for i in items]
+        parts = [f'<span class="sn-quality-part" style="display:inline-block;max-width:100%;margin-right:6px">'
+                 f'{"&middot; " if k else ""}<span style="color:{"#2f855a" if i.get("ok", True) else "#c53030"}">'
+                 f'{html.escape(i["text"])}</span></span>' for k, i in enumerate(items)]
         tip = " · ".join(i["text"] for i in items)
         self.quality.tooltip = tip or None
-        self.quality.value = (f'<div title="{html.escape(tip)}" style="font-size:13px;white-space:nowrap;'
-                              f'overflow:hidden;text-overflow:ellipsis">{" &middot; ".join(parts)}</div>'
-                              if parts else "")
+        n, px = self._QUALITY_LINES, self._QUALITY_LINE_PX
+        self.quality.value = (f'<div title="{html.escape(tip)}" style="font-size:12px;line-height:{px}px;'
+                              f'max-height:{n * px}px;overflow:hidden;white-space:normal;overflow-wrap:normal;'
+                              f'word-break:normal">{"".join(parts)}</div>' if parts else "")
+
+    def _show_progress(self, shown: bool) -> None:
+        """The progress bar in the top bar while work runs, out of the layout otherwise."""
+        self.progress.layout.display = None if shown else "none"
 
     def _quality_later(self, delay: float = 0.5) -> None:
         """Ask the binding for the edit's quality line ``delay`` s after the last edit (on the kernel's loop,
@@ -491,10 +530,10 @@ class _Editor(widgets.VBox):
         if started:
             self.progress.description = labels.get(kind, kind)
             self.progress.value = 0
-            self.progress.layout.visibility = "visible"
+            self._show_progress(True)
         else:
             self.progress.value = self.progress.max
-            self.progress.layout.visibility = "hidden"
+            self._show_progress(False)
 
     def _on_progress(self, done, total, label) -> None:
         if total > 1:
@@ -533,13 +572,15 @@ class _Editor(widgets.VBox):
         """The message line: a replay error, the model's message, each refused control's note (why its last
         value was refused), the runners' notes and the timing warnings."""
         parts = []
-        shown = set()
+        beside = {self.model.notes.get(k, "") for k in self._NOTES_BESIDE}   # said once, beside their control
+        shown = set(beside)
         for text in (self.error, self.model.message, *self.model.notes.values()):
             if text and text not in shown:
                 shown.add(text)
-                parts.append(f'<div class="sn-refused" style="color:#c53030">&#9888; {html.escape(text)}</div>')
+                parts.append(f'<div class="sn-refused" style="color:#c53030;{_LINES}">&#9888; '
+                             f'{html.escape(text)}</div>')
         for text in self._notes():
-            parts.append(f'<div style="color:#b7791f">{html.escape(text)}</div>')
+            parts.append(f'<div style="color:#b7791f;{_LINES}">{html.escape(text)}</div>')
         w = self._warnings_html()
         if w:
             parts.append(w)
@@ -552,7 +593,7 @@ class _Editor(widgets.VBox):
         """Fill the session's caches after first paint (``Session.warm``: a cancellable future on the session's
         executor, never a thread of ours); ``then()`` runs when it is done (e.g. draw what needed it). The
         progress bar shows meanwhile. Returns the future (also ``editor.warm_future``)."""
-        self.progress.layout.visibility = "visible"
+        self._show_progress(True)
         fut = self.session.warm(*jobs, progress=_weakly(self._on_progress))
         self.warm_future = fut
         self._warm_futures.append(fut)   # every one: close() cancels them all
@@ -565,7 +606,7 @@ class _Editor(widgets.VBox):
             if ed is None or ed._finalizer.alive is False:   # closed meanwhile: nothing to draw
                 return
             if f is ed.warm_future:
-                ed.progress.layout.visibility = "hidden"
+                ed._show_progress(False)
             if not f.cancelled() and f.exception() is None and then is not None:
                 then()
         fut.add_done_callback(lambda f: _on_kernel_thread(done, f))

@@ -11,11 +11,13 @@
 //   as a vertical line (the playhead) and moved with one relayout;
 // - a click sets `frame` (seek) and tells the kernel {event: "click", x, y, curve, frame};
 // - the plot takes the width of its container (ResizeObserver), drawing only once it has a width.
-// - live edits: a new figure that differs from the drawn one only in the x/y arrays of line (or same-count
-//   marker) traces is drawn at once by rewriting those traces' SVG paths on the current axes (~1 ms, where
-//   Plotly.react re-runs supplyDefaults, calc, legend and autorange: 10-40x that); the full Plotly.react
-//   follows once the figure has rested SETTLE_MS (the axes' ranges, hover data), so a drag shows every value
-//   the kernel sends and the plot ends exactly as plotly draws it.
+// - live edits: a new figure that differs from the drawn one only in the x/y arrays of scatter traces (lines,
+//   on any y axis; markers, points added or removed as their number changes), in a trace's name (the legend's
+//   text) or in the title's text is drawn at once by rewriting those SVG paths and text nodes on the current
+//   axes (~1 ms, where Plotly.react re-runs supplyDefaults, calc, legend and autorange: 10-40x that): a cull
+//   move (knots and pose lines, the kept poses and the title's count) as much as an s or τ move; the full
+//   Plotly.react follows once the figure has rested SETTLE_MS (the axes' ranges, hover data), so a drag shows
+//   every value the kernel sends and the plot ends exactly as plotly draws it.
 const LIB_KEY = Symbol.for("stagger_nb.plotly.js");
 const SETTLE_MS = 250;
 
@@ -31,64 +33,116 @@ function decodeArray(a) {
 }
 
 function styleKey(trace) {
-  // a trace without its data arrays: equal keys = same drawing but for the points
-  const { x, y, ...rest } = trace;
+  // a trace without its data arrays and its name: equal keys = same drawing but for the points (and the
+  // legend's text)
+  const { x, y, name, ...rest } = trace;
   return JSON.stringify(rest);
 }
 
+function plainText(t) {
+  // text plotly draws as it is (no <sub>, no entities): the fast path may write it into a text node
+  return typeof t === "string" && !/[<>&]/.test(t);
+}
+
+function layoutKey(layout) {
+  // the layout without its title's text: equal keys = same axes, legend and shapes
+  const { title, ...rest } = layout || {};
+  const { text, ...style } = (title && typeof title === "object") ? title : { text: title };
+  return JSON.stringify([rest, style]);
+}
+
+function titleText(layout) {
+  const t = (layout || {}).title;
+  return (t && typeof t === "object") ? t.text : t;
+}
+
 function fastRedraw(gd, fig, last) {
-  // draws `fig` over the drawn figure when only x/y of line traces (or of marker traces keeping their
-  // number of points) changed; returns false (nothing touched) when anything else did
+  // draws `fig` over the drawn figure when only the x/y of scatter traces (lines; markers, whose points are
+  // added or removed as their number changes), a trace's name (its legend text) or the title's text changed;
+  // returns false (nothing touched) when anything else did
   const data = fig.data || [];
-  if (!last || data.length !== last.styles.length || JSON.stringify(fig.layout || {}) !== last.layout) return false;
+  if (!last || data.length !== last.styles.length || layoutKey(fig.layout) !== last.layout) return false;
   const full = gd._fullLayout, groups = [];
+  if (!full) return false;
+  const title = titleText(fig.layout), titleNode = gd.querySelector("text.gtitle");
+  if (title !== last.title && !(plainText(title) && plainText(last.title) && titleNode)) return false;
   for (const g of gd.querySelectorAll("g.trace.scatter")) {   // each drawn trace by its index
     const cd = g.__data__;
     if (cd && cd[0] && cd[0].trace) groups[cd[0].trace.index] = g;
   }
-  if (!full) return false;
-  const todo = [];
+  const legend = [];   // each legend entry's text node by its trace's index
+  for (const g of gd.querySelectorAll("g.legend g.traces")) {
+    const d = g.__data__, tr = d && d[0] && d[0].trace, t = g.querySelector("text.legendtext");
+    if (tr && t) legend[tr.index] = t;
+  }
+  const todo = [], names = [];
   for (let i = 0; i < data.length; i++) {
     const tr = data[i];
     if (styleKey(tr) !== last.styles[i]) return false;
+    if ((tr.name || "") !== last.names[i]) {
+      if (!plainText(tr.name || "") || (tr.showlegend !== false && !legend[i])) return false;
+      if (legend[i]) names.push([i, legend[i], tr.name || ""]);
+    }
     const xy = JSON.stringify([tr.x, tr.y]);
     if (xy === last.xy[i]) continue;
-    if ((tr.type || "scatter") !== "scatter" || tr.xaxis || tr.yaxis) return false;
+    if ((tr.type || "scatter") !== "scatter" || (tr.xaxis && tr.xaxis !== "x")) return false;
+    const ya = full["yaxis" + (tr.yaxis || "y").slice(1)];
     const g = groups[i], mode = tr.mode || "lines";
-    if (!g) return false;
+    if (!g || !ya) return false;
     const x = decodeArray(tr.x), y = decodeArray(tr.y);
     if (!x || !y || x.length !== y.length) return false;
     if (mode === "lines") {
-      const lines = g.querySelectorAll("path.js-line");
-      if (lines.length !== 1 || tr.line && tr.line.shape && tr.line.shape !== "linear") return false;
-      todo.push([i, xy, "lines", lines[0], x, y]);
+      // plotly draws one path per run of points between gaps (NaN: e.g. the pose lines, one run per line)
+      if (tr.connectgaps || tr.line && tr.line.shape && tr.line.shape !== "linear") return false;
+      if (!g.querySelector("path.js-line") && x.length) return false;
+      todo.push([i, xy, "lines", g, x, y, ya]);
     } else if (mode === "markers") {
+      // one point path per point; a marker style held per point (arrays) is in styleKey, so every point of
+      // the trace is drawn alike: a new point is a copy of a drawn one
       const pts = g.querySelectorAll("path.point");
-      if (pts.length !== x.length) return false;
-      todo.push([i, xy, "markers", pts, x, y]);
+      if (!pts.length && x.length) return false;
+      todo.push([i, xy, "markers", g, x, y, ya]);
     } else {
       return false;
     }
   }
-  const xa = full.xaxis, ya = full.yaxis;
-  if (!xa || !ya) return false;
-  for (const [i, xy, mode, node, x, y] of todo) {
+  const xa = full.xaxis;
+  if (!xa) return false;
+  for (const [i, xy, mode, node, x, y, ya] of todo) {
     if (mode === "lines") {
-      let d = "", pen = "M";
+      const runs = [];
+      let d = "";
       for (let k = 0; k < x.length; k++) {
         const px = xa.c2p(x[k]), py = ya.c2p(y[k]);
-        if (!Number.isFinite(px) || !Number.isFinite(py)) { pen = "M"; continue; }
-        d += pen + px.toFixed(2) + "," + py.toFixed(2);
-        pen = "L";
+        if (!Number.isFinite(px) || !Number.isFinite(py)) { if (d) runs.push(d); d = ""; continue; }
+        d += (d ? "L" : "M") + px.toFixed(2) + "," + py.toFixed(2);
       }
-      node.setAttribute("d", d || "M0,0");
+      if (d) runs.push(d);
+      const paths = [...node.querySelectorAll("path.js-line")];
+      const parent = paths.length ? paths[0].parentNode : null;
+      while (paths.length > Math.max(runs.length, 1)) paths.pop().remove();
+      while (paths.length < runs.length) { const q = paths[0].cloneNode(true); parent.appendChild(q); paths.push(q); }
+      paths.forEach((q, k) => q.setAttribute("d", runs[k] || "M0,0"));
     } else {
-      node.forEach((p, k) => p.setAttribute("transform",
+      let pts = [...node.querySelectorAll("path.point")];
+      const parent = pts.length ? pts[0].parentNode : null;
+      while (pts.length > x.length) pts.pop().remove();
+      while (pts.length < x.length) { const p = pts[0].cloneNode(true); parent.appendChild(p); pts.push(p); }
+      pts.forEach((p, k) => p.setAttribute("transform",
         `translate(${xa.c2p(x[k]).toFixed(2)},${ya.c2p(y[k]).toFixed(2)})`));
     }
     last.xy[i] = xy;
   }
+  for (const [i, node, name] of names) { node.textContent = name; last.names[i] = name; }
+  if (title !== last.title) { titleNode.textContent = title; last.title = title; }
   return true;
+}
+
+function drawnKey(fig) {
+  // what fastRedraw compares a new figure with: the drawn one's layout, styles, names, title and data
+  const data = fig.data || [];
+  return { layout: layoutKey(fig.layout), title: titleText(fig.layout), styles: data.map(styleKey),
+           names: data.map((tr) => tr.name || ""), xy: data.map((tr) => JSON.stringify([tr.x, tr.y])) };
 }
 
 function loadPlotly(model) {
@@ -245,8 +299,7 @@ async function render({ model, el }) {
           const t0 = performance.now();
           await Plotly.react(div, data, layout, config);
           el.dataset.reactMs = (performance.now() - t0).toFixed(1);   // what a redraw costs (benchmarks read it)
-          last = { layout: JSON.stringify(fig.layout || {}), styles: (fig.data || []).map(styleKey),
-                   xy: (fig.data || []).map((tr) => JSON.stringify([tr.x, tr.y])) };
+          last = drawnKey(fig);
           if (!drawn) {
             drawn = true;
             note.remove();

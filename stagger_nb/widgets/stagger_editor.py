@@ -14,6 +14,7 @@ from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
 from ..session.timeline import knot_table_of
 from ._editor import (
+    _LINES,
     _PLOT_HEIGHT,
     _STYLE,
     _VIEW_SIZE,
@@ -63,8 +64,9 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
                                           description="against", **wide)
     c["pose"] = _slider(widgets.IntSlider, "pose k", min=0, max=1)
     c["joint"] = widgets.Dropdown(options=names, description="joint", **wide)
+    # each button as wide as its label ("unstaggered" was cut to "unstagger…" at 100 px)
     c["edit_mode"] = widgets.ToggleButtons(options=["staggered", "unstaggered"], description="edit mode",
-                                           style={**_STYLE, "button_width": "100px"},
+                                           style={**_STYLE, "button_width": "auto"},
                                            tooltips=["the edit follows each joint's own timing (Fig. 6a)",
                                                      "the edit lands at the pose time for every joint (Fig. 6b)"])
     for a in "xyz":
@@ -96,12 +98,32 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
     return c
 
 
-def _tools(c: dict, insert: widgets.Button, delete: widgets.Button, note=None) -> tuple[list, dict]:
+#: what the picked-poses list does (its tooltip, and the hint beside it)
+KEEP_TIP = ("with 'picked', the poses kept: select them here (ctrl- or shift-click for several) or click them on "
+            "the pose-probability plot")
+#: what the IK tab says while no effector is chosen (its target sliders are disabled until one is)
+IK_TIP = "choose an IK effector (a hand or foot) first: the target sliders then move it at pose k"
+
+
+def _hint(text: str, width: str | None = None) -> widgets.HTML:
+    """A short grey sentence saying what the controls beside it do (its own line height: a widget's text lines
+    are 28 px apart)."""
+    return widgets.HTML(f'<div style="font-size:11px;line-height:14px;color:#4a5568">{html.escape(text)}</div>',
+                        layout=widgets.Layout(width=width, margin="0 0 0 8px") if width else
+                        widgets.Layout(margin="0 0 0 8px"))
+
+
+def _tools(c: dict, insert: widgets.Button, delete: widgets.Button, note=None, ik_hint=None) -> tuple[list, dict]:
     """(the main sliders, always shown: cull %, s, τ, w_r; the tools, one tab each: their other settings). The
     propagation of pose edits (issue 24) sits with the pose edits it spreads, the region of the timing edits with
-    the timing; the wand's σ serves both and shows in both tabs (one control, two views)."""
+    the timing; the wand's σ serves both and shows in both tabs (one control, two views). The picked-poses list
+    has its hint beside it (the tab no taller); ``ik_hint`` goes under the IK effector."""
     quick = [c["percent"], c["s"], c["tau"], c["w_r"]]
-    tools = {"cull": [widgets.HBox([c["cull_by"]]), widgets.HBox([c["count"]]), widgets.HBox([c["keep"]])],
+    keep_hint = _hint("pick poses: select them here (ctrl-click for several) or click them on the probability plot",
+                      width="136px")
+    keep_hint.add_class("sn-keep-hint")
+    tools = {"cull": [widgets.HBox([c["cull_by"]]), widgets.HBox([c["count"]]),
+                      widgets.HBox([c["keep"], keep_hint], layout=widgets.Layout(align_items="center"))],
              "timing": [widgets.HBox([c["root"], c["l"]]), widgets.HBox([c["joints"]]),
                         widgets.HBox([c["seed"], c["tau_joints"]]), widgets.HBox([c["region"], c["region_frame"]]),
                         widgets.HBox([c["sigma"]])],
@@ -109,7 +131,8 @@ def _tools(c: dict, insert: widgets.Button, delete: widgets.Button, note=None) -
                       widgets.HBox([c["rx"], c["ry"], c["rz"]]), widgets.HBox([c["pose_time"], insert, delete]),
                       *([widgets.HBox([note])] if note is not None else []),
                       widgets.HBox([c["propagate"], c["sigma"]])],
-             "IK": [widgets.HBox([c["ik_joint"]]), widgets.HBox([c["ik_x"], c["ik_y"], c["ik_z"]])],
+             "IK": [widgets.HBox([c["ik_joint"]]), *([widgets.HBox([ik_hint])] if ik_hint is not None else []),
+                    widgets.HBox([c["ik_x"], c["ik_y"], c["ik_z"]])],
              "contacts": [widgets.HBox([c["keep_contacts"]]),
                           widgets.HTML('<span style="font-size:12px;color:#4a5568">the source\'s foot contacts, '
                                        "carried through the timing edits, are held by IK</span>")]}
@@ -130,6 +153,7 @@ class StaggerEditor(_Editor):
 
     _css = "sn-stagger-editor"
     _ALIASES = {"cull": "percent", "joint_set": "tau_joints", "nudge": ("rx", "ry", "rz")}
+    _NOTES_BESIDE = ("pose_time",)   # a refused pose time is said under its field (once: not in the message line)
 
     def __init__(self, motion, session: Session | None = None, source_path=None, precompute: bool = True,
                  show_ghost: bool = False, **kwargs):
@@ -188,12 +212,14 @@ class StaggerEditor(_Editor):
         self.pose_time_note = widgets.HTML("", layout=widgets.Layout(margin="0 0 0 124px", min_height="0"))
         self.pose_time_note.add_class("sn-pose-time-note")
         model.observe(self._show_pose_time_note, names="notes")
-        return _tools(self.controls, self.insert_button, self.delete_button, self.pose_time_note)
+        self.ik_hint = _hint(IK_TIP)
+        self.ik_hint.add_class("sn-ik-hint")
+        return _tools(self.controls, self.insert_button, self.delete_button, self.pose_time_note, self.ik_hint)
 
     def _show_pose_time_note(self, change=None) -> None:
         text = self.model.notes.get("pose_time", "")
-        self.pose_time_note.value = (f'<span style="color:#c53030;font-size:12px">&#9888; {html.escape(text)}</span>'
-                                     if text else "")
+        self.pose_time_note.value = (f'<div style="color:#c53030;font-size:12px;line-height:15px">&#9888; '
+                                     f'{html.escape(text)}</div>' if text else "")
 
     # -- the dope sheet --------------------------------------------------------------------------------
     def _bind_timeline(self) -> None:
@@ -330,9 +356,10 @@ class StaggerEditor(_Editor):
         _inert(c["w_r_reference"], m.w_r == 0, "the pose the exaggeration is measured against: inert while w_r = 0")
         _inert(c["percent"], m.cull_by != "percent", "choose 'by %' to cull by percentage")
         _inert(c["count"], m.cull_by != "count", "choose 'by count' to keep a number of poses")
-        _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select")
+        _inert(c["keep"], m.cull_by != "keep", "choose 'picked' to keep the poses you select", KEEP_TIP)
         for a in "xyz":
-            _inert(c["ik_" + a], not m.ik_joint, "choose an IK effector first")
+            _inert(c["ik_" + a], not m.ik_joint, IK_TIP, f"where {m.ik_joint} goes at pose k, {a} (world units)")
+        self.ik_hint.layout.display = None if not m.ik_joint else "none"   # said while the sliders are disabled
         _inert(c["region_frame"], not m.region, "the region's centre: inert while the region is off")
         _inert(c["sigma"], not (m.region or m.propagate), "the falloff width: inert while neither the region nor "
                                                           "propagation is on")
@@ -377,7 +404,7 @@ class StaggerEditor(_Editor):
         if last is not None and last[0] == summary and last[1] is warnings:
             return last[2]
         details = "".join(f"<li>{html.escape(getattr(w, 'message', str(w)))}</li>" for w in warnings[:200])
-        text = (f'<details style="color:#b7791f"><summary>&#9888; {html.escape(summary)}</summary>'
+        text = (f'<details style="color:#b7791f;{_LINES}"><summary>&#9888; {html.escape(summary)}</summary>'
                 f'<ul style="max-height:12em;overflow:auto">{details}</ul></details>')
         self._warnings_shown = (summary, warnings, text)
         return text
