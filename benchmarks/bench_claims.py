@@ -80,6 +80,7 @@ Rows and goals
    + no kernel pairs < 0.1 s   0.67/0.02 0.78/0.01 0.49/0.02 0.65/0.31 0.75/0.23 0.95/0.26 0.37/0.27 1.00/0.00
   self-tuning s_i = d_8(i)     0.77/0.03 0.99/0.75 0.79/0.03 0.92/0.32 0.79/0.12 0.54/0.18 0.64/0.01 1.00/0.12
    s_i = max(sigma, d_8(i))    0.71/0.03 0.25/0.48 0.72/0.02 0.91/0.30 0.90/0.14 0.59/0.11 0.83/0.01 0.99/0.06
+   widening on 30 Hz, cap 1.25 0.72/0.02 0.56/0.17 0.72/0.02 0.91/0.30 0.92/0.18 0.72/0.04 0.81/0.00 1.00/0.01
   subtree joint weights        0.45/0.05 0.37/0.05 0.48/0.05 0.90/0.27 0.82/0.35 0.67/0.13 0.02/0.22 1.00/0.01
   joint positions (no heading) 0.93/0.24 0.70/0.24 0.75/0.19 0.13/0.86 0.14/0.86 0.73/0.18 0.72/0.00 0.99/0.03
   poses +-0.1 s, c 0.7 + rate  0.78/0.04 0.78/0.05 0.22/0.03 0.89/0.17 0.89/0.17 0.78/0.23 0.50/0.02 0.38/0.02
@@ -96,7 +97,10 @@ Rows and goals
              at both rates with room (half stride <= 0.17) but separates a run's cycles (xia_angry_run, 1.2 s, same
              phase 0.50) and distorts frames within 0.1 s of a clip's end (the procedural walk's last frame 0.38;
              seg30 0.22: the 0-450 stretch ends in a flight).  Self-tuning and the diffusion maps' density
-             normalisation hold on the stretches (0.79 / 0.76) but fail the 120 Hz opposite-phase bounds.  So the
+             normalisation hold on the stretches (0.79 / 0.76) but fail the 120 Hz opposite-phase bounds; the closest
+             trade-off, widening sigma only at sparse poses (measured on 30 Hz frames, at most 1.25x), meets hop30
+             and seg30 with 0.02 to spare, a walk's half stride at 0.30 (the goal), the 120 Hz hops not (0.56/0.17)
+             and the real turning walk's same phase drops 0.83 -> 0.72 (issue 13's 0.8).  So the
              hop row stays missed on one apex of CMU 01_01 (8 of 10 meet it), and no default changed.
   Dean walk  the falloff of a mid-walk frame one and two strides away >= 0.7, half a stride away <= 0.3
              (``walk_falloffs``: eight frames over the middle stride, the worst printed).  CMU 131_01 (start-stop)

@@ -27,7 +27,9 @@ Variants: ``sigma_rate30`` (the library's opt-in: sigma from the 8 nearest of fr
 with, §4); ``sigma_outside0.1`` (sigma = the median distance to the 8th nearest frame more than 0.1 s away);
 ``no_local_edges0.1`` (also Eq. 1's kernel without the pairs less than 0.1 s apart, the chain kept: a graph of
 similar poses, not of neighbouring frames); ``self_tuning`` (exp(-d^2 / 2 s_i s_j), s_i a frame's 8th-neighbour
-distance; ``k16, mix 0.5``: s_i = sigma^0.5 d_16(i)^0.5; ``widening only``: s_i = max(sigma, d_8(i)));
+distance; ``k16, mix 0.5``: s_i = sigma^0.5 d_16(i)^0.5; ``widening only``: s_i = max(sigma, d_8(i));
+``widening on 30 Hz frames``: s_i = sigma min(cap, max(1, r_i)), r_i a frame's distance to its 8th nearest frame
+of the clip sampled at 30 Hz over the median of those);
 ``subtree_weights`` (each joint's log coordinates weighted by the rest-pose RMS distance of the points
 it moves: the dof weighting of the paper's introduction); ``positions`` (heading-free joint positions, root at
 the origin); ``delay`` (a motion-segment distance: the pose vector with ``c`` times the poses ``delta`` s before
@@ -43,6 +45,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -105,7 +108,7 @@ def delay(m, delta: float = 0.1, c: float = 0.7) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------ the graph
 def basis(m, X=None, N=50, sigma_rate=None, outside=0.0, drop_local=False, alpha=0.0, self_tuning=False,
-          tuning_k=8, tuning_mix=1.0, tuning_floor=False):
+          tuning_k=8, tuning_mix=1.0, tuning_floor=False, widen_cap=None):
     X = pose_vectors(m) if X is None else X
     F = X.shape[0]
     D2 = pairwise_sq_distances(X)
@@ -121,6 +124,11 @@ def basis(m, X=None, N=50, sigma_rate=None, outside=0.0, drop_local=False, alpha
     if sigma_rate:
         step = max(1, int(round(1.0 / (sigma_rate * m.frame_time))))
         s = default_sigma(knn=knn_graph(X[::step], 8))
+    if widen_cap:   # s_i = s min(cap, max(1, d_8,30Hz(i) / its median)): sparse poses widen, measured on 30 Hz frames
+        step = max(1, int(round(1.0 / (30.0 * m.frame_time))))
+        dk = cKDTree(X[::step]).query(X, 9)[0][:, 8]
+        d8 = s * np.minimum(widen_cap, np.maximum(1.0, dk / np.median(dk)))
+        self_tuning = True
     K = np.exp(-D2 / (2 * np.outer(d8, d8))) if self_tuning else np.exp(-D2 / (2 * s * s))
     if drop_local:
         K[(lag > 0) & (lag < outside)] = 0.0
@@ -190,6 +198,7 @@ VARIANTS = [
     ("self_tuning", None, dict(self_tuning=True)),
     ("self_tuning k16, mix 0.5", None, dict(self_tuning=True, tuning_k=16, tuning_mix=0.5)),
     ("self_tuning, widening only", None, dict(self_tuning=True, tuning_floor=True)),
+    ("widening on 30 Hz frames, cap 1.25", None, dict(widen_cap=1.25)),
     ("subtree_weights", lambda m: pose_vectors(m, joint_weights=subtree_weights(m.skeleton)), {}),
     ("positions", positions, {}),
     ("delay 0.1 s, c 0.7", delay, {}),
