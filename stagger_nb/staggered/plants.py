@@ -53,7 +53,16 @@ import numpy as np
 
 from ..core.motion import Motion
 from .limbs import Limb, _fk_joints, find_limb
-from .plants_carry import _blend_and_share, _carried, _parse, _plants, _timeline, carry_contacts
+from .plants_carry import (
+    _blend_and_share,
+    _carried,
+    _check_carry_by,
+    _parse,
+    _plants,
+    _timeline,
+    carry_clocks,
+    carry_contacts,
+)
 from .plants_hold import _SOURCE_CACHE, _hold, _raised_cosine  # noqa: F401  (_SOURCE_CACHE: tests clear it)
 from .plants_ik import _hinge_local  # noqa: F401  (read by tests)
 from .plants_root import _MAX_DROP, REACH
@@ -87,7 +96,7 @@ class PlantsResult:
     plants: int = 0
 
 
-def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "parent",
                 lower_root: bool | float = True, reach: float = REACH, max_drop: float | None = None,
                 source_positions: np.ndarray | None = None) -> PlantsResult:
     """The contact layer (see the module docstring): :func:`keep_contacts` with its notes and root profile.
@@ -103,8 +112,10 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         :func:`~stagger_nb.staggered.detect_contacts` of ``source``.
     blend : float, seconds
         Width of the fade on each side of a plant, and of the root profile's smoothing (>= 0).
-    carry_by : {"joint", "span", "limb"}
-        Whose time warp moves each contact (:func:`carry_contacts`); default the contact joint's own.
+    carry_by : {"parent", "joint", "span", "limb"}
+        Whose time warp moves each contact (:func:`carry_contacts`); default the joint whose rotation sets the
+        contact joint's position (:func:`~.plants_carry.position_joint`: the knee for an ankle contact), the
+        carry :func:`stagger_nb.quality.compare` measures with.
     lower_root : bool or float
         True (default): lower the root as much as the plants need; a number: at most that share of it
         (0 / False: never; the legs then stop at ``reach`` and the feet short of their plants).
@@ -118,8 +129,7 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
     from .representation import StaggeredMotion
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
-    if carry_by not in ("joint", "limb", "span"):
-        raise ValueError(f"carry_by must be 'joint', 'limb' or 'span', got {carry_by!r}")
+    _check_carry_by(carry_by)
     blend, share = _blend_and_share(blend, lower_root)
     reach = float(reach)
     if not 0.0 < reach <= 1.0:
@@ -167,12 +177,16 @@ def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, b
     plants = _plants(carried, limb_of, gap=int(np.ceil(_MIN_SWING / motion.frame_time)))
     limbs = {lim.eff: lim for lim in limb_of.values()}
     carried = [c[:7] + (limb_of[c[0]].eff, c[7]) for c in carried]
+    # each joint's source time inside its plant: the inverse warp of the clock that carried it
+    clock = {j: cs[0] for j, cs in zip(sorted({c[0] for c in carried} | set(limbs)),
+                                       carry_clocks(motion.skeleton, sorted({c[0] for c in carried} | set(limbs)),
+                                                    carry_by))}
     motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share, max_drop, reach,
-                                   targets, shift_plants, above_floor, cap)
+                                   targets, shift_plants, above_floor, cap, clock)
     return PlantsResult(motion_out, tuple(notes) + tuple(more), drop, len(plants))
 
 
-def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "parent",
                   lower_root: bool | float = True, reach: float = REACH,
                   source_positions: np.ndarray | None = None) -> Motion:
     """The constraint layer after staggered timing edits: the source's contacts carried through the edit and

@@ -104,8 +104,11 @@ def _source_steps(source: Motion) -> np.ndarray:
 
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
           share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
-          above_floor: bool = True, cap: bool = True):
-    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
+          above_floor: bool = True, cap: bool = True, clock=None):
+    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``; ``clock``: the time-warp
+    column that carried each contact joint and effector (:func:`~.plants_carry.carry_clocks`; default its own),
+    whose inverse warp gives its source times inside the plant."""
+    clock = {} if clock is None else clock
     sk = motion.skeleton
     F = motion.num_frames
     ft, ft_s = motion.frame_time, source.frame_time
@@ -120,8 +123,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
-    # -- each plant's frames: the source time sigma (the effector's own inverse warp, kept inside the plant's
-    # source frames) and the source foot there --------------------------------------------------------------
+    # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
+    # kept inside the plant's source frames) and the source foot there --------------------------------------------------------------
     P = len(plants)
     sizes = np.array([p["stop"] - p["start"] for p in plants])
     in_fr = np.concatenate([np.arange(p["start"], p["stop"]) for p in plants])
@@ -131,7 +134,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     in_sig = np.empty(in_fr.size)
     for e in limbs:
         sel = e_of == e
-        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, e, in_fr[sel])
+        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, clock.get(e, e), in_fr[sel])
     s_lo, s_hi = np.array([p["s_lo"] for p in plants]), np.array([p["s_hi"] for p in plants])
     in_sig = np.clip(in_sig, s_lo[in_pid], s_hi[in_pid])
     base = _sample_rows(spos, in_sig, e_of)                                  # (n, 3) source foot at sigma
@@ -172,13 +175,14 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         at_sig = {}
         mine = contacts_of.get(eff, ())
         ks = np.searchsorted(fr, [x for c in mine for x in (c[3], c[4])]).reshape(-1, 2)
-        # each contact joint's own source times, one inverse warp per joint over all its contacts' frames
+        # each contact joint's source times (its carrying clock's), one inverse warp per joint over its contacts' frames
         own_t = {}
         for j in {c[0] for c in mine}:
             idx = [i for i, c in enumerate(mine) if c[0] == j and ks[i, 1] > ks[i, 0]
                    and (targets is None or targets[c[8]] is None)]
             if idx:
-                t_all = _source_frames(tables, t0, ft, ft_s, j, np.concatenate([fr[ks[i, 0]:ks[i, 1]] for i in idx]))
+                t_all = _source_frames(tables, t0, ft, ft_s, clock.get(j, j),
+                                       np.concatenate([fr[ks[i, 0]:ks[i, 1]] for i in idx]))
                 cut = np.cumsum([ks[i, 1] - ks[i, 0] for i in idx])[:-1]
                 own_t.update(zip(idx, np.split(t_all, cut)))
         for i, (j, _e0, _e1, A, B, a, b, _, ci) in enumerate(mine):
@@ -359,7 +363,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
             lift = np.zeros(F)
             if above_floor and np.any(deficit > _TOL * med[lim.eff]):
-                lift = _envelope(deficit, nb) * (1.0 - wf)
+                # smooth away from the plants; in a fade towards a plant (whose own frames sit on the ground) the
+                # foot is lifted exactly to the floor where the fade would take it below
+                lift = np.maximum(_envelope(deficit, nb) * (1.0 - wf), deficit)
                 lift[~free] = 0.0
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
             moved = np.linalg.norm(shift, axis=-1)
