@@ -124,7 +124,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
     # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
-    # kept inside the plant's source frames) and the source foot there --------------------------------------------------------------
+    # kept inside the plant's source frames) and the source foot there ---------------------------------------
     P = len(plants)
     sizes = np.array([p["stop"] - p["start"] for p in plants])
     in_fr = np.concatenate([np.arange(p["start"], p["stop"]) for p in plants])
@@ -145,9 +145,10 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         sel = e_of == e
         s_in[sel] = _sample(src_share[e], in_sig[sel])
     R_in = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_in)
-    d0 = np.zeros((P, 3))
-    np.add.at(d0, in_pid, cur - base)
-    d0 /= sizes[:, None]
+    # where the edited foot sits at the plant's first frame, against the source foot there: the plant is held
+    # there (horizontally; _choose_shifts), so the hip reaches it as the edit placed the leg (Kovar et al. 2002,
+    # §4: the plant's position from the motion being cleaned)
+    d0 = (cur - base)[np.r_[0, np.cumsum(sizes)[:-1]]]
     med = {e: float(np.median(length[e])) for e in limbs}
     lengths = np.array([med[e] for e in effs])
     p_start, p_stop = np.array([p["start"] for p in plants]), np.array([p["stop"] for p in plants])
