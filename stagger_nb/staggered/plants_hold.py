@@ -30,6 +30,8 @@ _ID = np.array([0.0, 0.0, 0.0, 1.0])
 _MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
 _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel lift) beyond the source's
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
+_CLAMP = 1.0
+_RATE = 1.0
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -72,6 +74,29 @@ def _length(pos, lim: Limb) -> np.ndarray:
 
 
 _SOURCE_CACHE = weakref.WeakKeyDictionary()
+
+def _toe_up(p: np.ndarray, lim: Limb, floor: np.ndarray, free: np.ndarray):
+    """``(turn (F, 4), where (F,) bool)``: per frame the least rotation of the foot about its ankle (``p (F, J,
+    3)``: positions of the pose, the ankle ``lim.eff``) that brings its lowest joint below the ankle up to
+    ``floor (F,)`` (heights relative to that pose, the ankle kept where it is), on ``free`` frames where that
+    joint is below it; the identity elsewhere."""
+    F = p.shape[0]
+    feet = np.array(lim.foot)
+    k = feet[np.argmin(p[:, feet, 1], axis=1)]
+    v = p[np.arange(F), k] - p[:, lim.eff]                    # (F, 3) ankle to the lowest foot joint
+    n = np.linalg.norm(v, axis=-1)
+    want = floor - p[:, lim.eff, 1]                          # the height that joint must have over the ankle
+    side = np.hypot(v[:, 0], v[:, 2])
+    where = free & (want > v[:, 1] + _TOL * np.maximum(n, 1e-300)) & (want < n) & (side > 1e-9 * n)
+    turn = np.broadcast_to(_ID, (F, 4)).copy()
+    if where.any():
+        w = v[where]
+        y = want[where]
+        h = np.sqrt(np.maximum(n[where] ** 2 - y ** 2, 0.0)) / side[where]
+        target = np.stack([w[:, 0] * h, y, w[:, 2] * h], axis=-1)
+        turn[where] = quat_between_vectors(w, target)
+    return turn, where
+
 
 def _source_tables(source: Motion, limbs: dict):
     """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
@@ -336,8 +361,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                                                           1e-300))[..., None]
         r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
                                                           1e-300))[..., None]
-        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None]))
-        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
+        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None] * _RATE))
+        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None] * _RATE))
         shape = d_l.shape[:-1]
         dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
         dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
@@ -363,21 +388,31 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
             deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
             lift = np.zeros(F)
+            pitch = None
             if above_floor and np.any(deficit > _TOL * med[lim.eff]):
-                # smooth away from the plants; in a fade towards a plant (whose own frames sit on the ground) the
-                # foot is lifted exactly to the floor where the fade would take it below
-                lift = np.maximum(_envelope(deficit, nb) * (1.0 - wf), deficit)
+                # smooth away from the plants (let go of towards them: their own frames sit on the ground); what
+                # is still below the floor (in a fade into a plant): the ankle lifted exactly to the floor if it
+                # is below it, and a foot joint below it by turning the foot about the ankle (toe up) by the
+                # least angle that puts that joint on the floor (lifting the ankle instead would bend the knee
+                # against the plant's straight leg: a pop at the plant's first frame)
+                lift = _envelope(deficit, nb) * (1.0 - wf)
                 lift[~free] = 0.0
+                ankle = p_u[:, lim.eff, 1] + down[:, 1] + lift
+                lift += np.where(free, np.maximum(floor - ankle, 0.0), 0.0) * _CLAMP
+                if lim.foot and _CLAMP:
+                    pitch = _toe_up(p_u, lim, floor - down[:, 1] - lift, free)
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
             moved = np.linalg.norm(shift, axis=-1)
-            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny)))
+            turn = np.zeros(F, bool) if pitch is None else pitch[1]
+            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny) | turn))
             if not fr.size:
                 continue
             p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
             p3 += shift[fr, None, :]
             tgt = p_u[fr, lim.eff] + down[fr]
             tgt[:, 1] += lift[fr]
-            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, w_u[fr, lim.eff],
+            q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
+            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
                                               length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
