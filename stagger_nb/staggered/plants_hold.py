@@ -32,6 +32,7 @@ _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel li
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _CLAMP = 1.0
 _RATE = 1.0
+_POSFADE = True
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -368,6 +369,27 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
         out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
         _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
+        if _POSFADE and lim.leg:
+            # the fade's foot in world space (Kovar et al. 2002, §4: the constrained and the unconstrained
+            # positions blended): from where the edit puts the ankle to the plant's boundary target (between two
+            # plants: the two targets, by the right plant's share), and the foot's world orientation likewise;
+            # the legs-in-the-air step below solves the leg for it
+            # each boundary's target carried on outside the plant as the source's own approach / take-off:
+            # the source foot at sigma extended with slope 1, with the boundary's offset from it (an unedited
+            # motion: its own foot)
+            gi = np.searchsorted(fr, bnd)
+            sig_b = r["sig"][gi]
+            off_p = r["g"][gi] - _sample(spos[:, lim.eff], sig_b)
+            off_q = quat_mul(quat_conj(_sample_quats(swq[:, lim.eff], sig_b)), r["q"][gi])
+            ext = []
+            for k, d in ((kl, -dl[win]), (kr, dr[win])):
+                sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
+                ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
+                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k])))
+            g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
+            q_mix = slerp(ext[0][1], ext[1][1], al)
+            target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
+            fade_w[lim.eff] = (win, w, target, slerp(wq[win, lim.eff], q_mix, w))
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -382,9 +404,19 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             if lim.eff in held:
                 free[held[lim.eff]] = False
             wf = np.zeros(F)
+            infade = np.zeros(F, bool)
             if lim.eff in fade_w:
                 wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
             down = wf[:, None] * shift                        # how far the foot goes with the root
+            if lim.eff in fade_w and len(fade_w[lim.eff]) > 2:
+                # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
+                win, _w, g_f, q_f = fade_w[lim.eff]
+                infade[win] = True
+                turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
+                down[win] = g_f - p_u[win, lim.eff]
+                for k in lim.foot:                            # the foot joints as the fade's orientation puts them
+                    p_u[win, k] = p_u[win, lim.eff] + quat_rotate(turn_f, p_u[win, k] - p_u[win, lim.eff])
+                w_u[win, lim.eff] = q_f
             low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
             deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
             lift = np.zeros(F)
@@ -404,7 +436,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
             moved = np.linalg.norm(shift, axis=-1)
             turn = np.zeros(F, bool) if pitch is None else pitch[1]
-            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny) | turn))
+            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny) | turn | infade))
             if not fr.size:
                 continue
             p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
