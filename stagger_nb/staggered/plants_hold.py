@@ -33,6 +33,7 @@ _SOFT = 0.05         # share of a leg over which a fading target's reach limit i
 _CLAMP = 1.0
 _RATE = 1.0
 _POSFADE = True
+_PIN = True
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -450,7 +451,14 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
         chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s))
+        pinned = None
+        if _PIN:
+            pinned = np.zeros((F, sk.num_joints), bool)
+            for r in rows:
+                lim = r["lim"]
+                for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
+                    pinned[r["fr"], x] = True
+        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s), pinned)
     return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
 
 
