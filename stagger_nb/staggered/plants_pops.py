@@ -17,6 +17,7 @@ from ..core.rotations import quat_angle, quat_conj, quat_mul, rotvec_to_quat
 
 POP_MARGIN = 2.5     # degrees a frame a held joint may turn beyond the source's fastest turn of it
 _PASSES = 4
+INNER_MARGIN = 2.5   # degrees a frame beyond the allowance a step inside a plant may take before it is ramped too
 _MIN_STEP = 1.0      # degrees a frame the displacement may always change
 
 
@@ -92,6 +93,22 @@ def _sides(pinned: np.ndarray) -> np.ndarray:
     return np.where(np.isinf(dp), np.where(np.isinf(dn), 0.5, 0.0), np.where(np.isinf(dn), 1.0, mid))
 
 
+def _unpin_inner(pinned: np.ndarray, excess: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+    """``pinned (F, C)`` less the frames around a step between two pinned frames (inside a plant) that is too
+    fast by more than ``INNER_MARGIN`` (a plant's own exact frames keep the smaller excess):
+    ``k`` frames each side, ``k`` the number of allowed steps the excess needs (``excess``, ``allowed`` ``(F - 1,
+    C)``), so the ramp can spread it there."""
+    inner = (excess > np.radians(INNER_MARGIN)) & pinned[:-1] & pinned[1:]
+    if not inner.any():
+        return pinned
+    out = pinned.copy()
+    F = pinned.shape[0]
+    for n, c in zip(*np.nonzero(inner)):
+        k = int(np.ceil(excess[n, c] / max(allowed[n, c], 1e-9)))
+        out[max(n - k, 0):min(n + 2 + k, F), c] = False
+    return out
+
+
 def cap_pops(held: np.ndarray, edit: np.ndarray, joints, source_step: np.ndarray, pinned=None) -> np.ndarray:
     """``held (F, J, 4)`` local rotations with the displacement from ``edit (F, J, 4)`` of ``joints`` rate
     limited as the module says (in place; returned). ``source_step (J,)``: :func:`source_steps`. ``pinned
@@ -106,8 +123,10 @@ def cap_pops(held: np.ndarray, edit: np.ndarray, joints, source_step: np.ndarray
     e = quat_angle(edit[:-1, ch], edit[1:, ch])                                   # (F - 1, C)
     allowed = np.maximum(source_step[ch][None, :] + np.radians(POP_MARGIN), e + np.radians(_MIN_STEP))
     excess = quat_angle(held[:-1, ch], held[1:, ch]) - allowed
+    if pinned is not None:
+        pinned = _unpin_inner(pinned[:, ch], excess, allowed)
     for k in range(_PASSES):
-        cols = _cap_pass(held, edit, ch, excess, None if pinned is None else pinned[:, ch])
+        cols = _cap_pass(held, edit, ch, excess, pinned)
         if cols is None or k == _PASSES - 1:
             break
         sel = ch[cols]
