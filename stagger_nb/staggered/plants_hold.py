@@ -30,10 +30,6 @@ _ID = np.array([0.0, 0.0, 0.0, 1.0])
 _MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
 _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel lift) beyond the source's
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
-_CLAMP = 1.0
-_RATE = 1.0
-_POSFADE = True
-_PIN = True
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -363,14 +359,14 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                                                           1e-300))[..., None]
         r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
                                                           1e-300))[..., None]
-        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None] * _RATE))
-        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None] * _RATE))
+        d_l = quat_mul(disp[kl], rotvec_to_quat(r_l * s_l[..., None]))
+        d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
         shape = d_l.shape[:-1]
         dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
         dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
         out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
         _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
-        if _POSFADE and lim.leg:
+        if lim.leg:
             # the fade's foot in world space (Kovar et al. 2002, §4: the constrained and the unconstrained
             # positions blended): from where the edit puts the ankle to the plant's boundary target (between two
             # plants: the two targets, by the right plant's share), and the foot's world orientation likewise;
@@ -383,7 +379,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             off_p = r["g"][gi] - _sample(spos[:, lim.eff], sig_b)
             off_q = quat_mul(quat_conj(_sample_quats(swq[:, lim.eff], sig_b)), r["q"][gi])
             ext = []
-            for k, d in ((kl, -dl[win]), (kr, dr[win])):
+            for k in (kl, kr):
                 sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
                 ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
                             quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k])))
@@ -431,8 +427,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 lift = _envelope(deficit, nb) * (1.0 - wf)
                 lift[~free] = 0.0
                 ankle = p_u[:, lim.eff, 1] + down[:, 1] + lift
-                lift += np.where(free, np.maximum(floor - ankle, 0.0), 0.0) * _CLAMP
-                if lim.foot and _CLAMP:
+                lift += np.where(free, np.maximum(floor - ankle, 0.0), 0.0)
+                if lim.foot:
                     pitch = _toe_up(p_u, lim, floor - down[:, 1] - lift, free)
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
             moved = np.linalg.norm(shift, axis=-1)
@@ -451,13 +447,11 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
         chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        pinned = None
-        if _PIN:
-            pinned = np.zeros((F, sk.num_joints), bool)
-            for r in rows:
-                lim = r["lim"]
-                for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
-                    pinned[r["fr"], x] = True
+        pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
+        for r in rows:
+            lim = r["lim"]
+            for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
+                pinned[r["fr"], x] = True
         cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s), pinned)
     return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
 

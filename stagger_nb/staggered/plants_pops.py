@@ -6,9 +6,12 @@ largest frame-to-frame turn in the source, per edited frame; ``e(n)``: the edit'
 turns faster (a fade or a plant boundary), the step of its IK displacement ``D(n) = q_edit(n)^-1 q_held(n)`` is
 cut by the excess and the displacement ramped instead: the mean of a forward and a backward rate limiter on its
 rotation vector (the exponential map is 1-Lipschitz, so a ramp of the rotation vector is one of the rotation).
-Where the displacement already
-changes slowly enough both limiters are the displacement itself: an unedited motion, and the plants' own
-frames away from a too-fast step, are left exactly as they are."""
+The plants' own frames (``pinned``) are kept: each limiter restarts from them, and each is used on the side of a
+plant where it starts from it (the forward one after a plant, the backward one before, blended linearly between
+two plants), so a ramp lies outside the plant (Kovar et al. 2002, §4: the plant met exactly, the adjustment
+blended in and out around it); only a step inside a plant too fast by more than ``INNER_MARGIN`` is ramped there.
+Where the displacement already changes slowly enough both limiters are the displacement itself: an unedited
+motion, and the plants' own frames away from a too-fast step, are left exactly as they are."""
 from __future__ import annotations
 
 import numpy as np
@@ -112,9 +115,10 @@ def _unpin_inner(pinned: np.ndarray, excess: np.ndarray, allowed: np.ndarray) ->
 def cap_pops(held: np.ndarray, edit: np.ndarray, joints, source_step: np.ndarray, pinned=None) -> np.ndarray:
     """``held (F, J, 4)`` local rotations with the displacement from ``edit (F, J, 4)`` of ``joints`` rate
     limited as the module says (in place; returned). ``source_step (J,)``: :func:`source_steps`. ``pinned
-    (F, J)`` bool, optional: frames kept exactly (the plants' own frames): the ramps are made on their outside. A pass cuts
-    each too-fast step of the rotation vector by the excess; where the rotation vector changes more than the
-    rotation (far from the identity) one pass is not enough, so up to ``_PASSES`` are made."""
+    (F, J)`` bool, optional: frames kept exactly (the plants' own frames): the ramps are made on their outside
+    (inside only where a step is too fast by more than ``INNER_MARGIN``). A pass cuts each too-fast step of the
+    rotation vector by the excess; where the rotation vector changes more than the rotation (far from the
+    identity) one pass is not enough, so up to ``_PASSES`` are made."""
     ch = np.array(sorted(set(int(j) for j in joints)), dtype=np.int64)
     if ch.size == 0 or held.shape[0] < 2:
         return held
