@@ -24,7 +24,9 @@ and heel, moves with it as one foot):
    With no timing edit ``σ`` is the identity and ``d`` zero: the motion comes back unchanged.
 3. **Blend.** Around each plant a raised-cosine weight (C1, ``blend`` seconds each side) moves the target
    from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1,
-   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated.
+   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated. A leg's fade is
+   blended in world space (Kovar et al. 2002, §4) and its leg solved by IK for it (step 5); an arm's fade is the
+   plant boundary's joint displacement, faded (Coleman et al. 2008, §3).
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
    the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
    leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,
@@ -38,9 +40,10 @@ and heel, moves with it as one foot):
    never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
    The foot takes the target's world orientation; the joints below it take the source's local rotations.
    Legs in the air: no foot joint goes below the source's floor (a smooth lift away from the plants; in a fade
-   towards a plant the foot is lifted exactly to the floor where the fade would take it below).
+   what is still below: the ankle lifted to the floor, a toe below it by turning the foot toe-up about the ankle).
 6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
-   2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped.
+   2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped,
+   outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
 
 Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`.plants_hold` (targets, IK on
 the plants, fades), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root
