@@ -243,7 +243,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         ankle = p_ref + wa[:, None] * da + ((1 - wa) * wt)[:, None] * dt
         both = (wa * wt) > 0
         if both.any():
-            # heel and toe held at once, each at its own joint's time: the toe aimed at its plant by turning
+            # heel and toe held at once, each at its carried source time: the toe aimed at its plant by turning
             # the foot about the ankle, and what the rigid foot's length cannot fit shared by the two
             toe_t = pt[both] + dt[both]
             v = toe_t - ankle[both]
