@@ -304,3 +304,35 @@ def test_toe_does_not_step_when_its_heel_is_released(shared_motion, clip, cm_per
     print(f"{clip}: {checked} heel releases inside a toe contact, toe step there <= {worst:.3f} cm")
     assert checked > 0
     assert worst < 0.5
+
+
+@pytest.mark.parametrize("clip, rows", [
+    ("iclone_cmu_07_01_walk.bvh", [("CC_Base_L_Foot", "CC_Base_L_Calf", "CC_Base_Hip"),
+                                   ("CC_Base_L_ToeBase", "CC_Base_L_Foot", "CC_Base_Hip"),
+                                   ("CC_Base_L_BigToe1", "CC_Base_L_ToeBase", "CC_Base_Hip")]),
+    ("bandai_walk.bvh", [("Foot_L", "LowerLeg_L", "Hips"), ("Toes_L", "Foot_L", "Hips")])])
+def test_the_clock_that_carries_a_contact(shared_motion, clip, rows):
+    """Known answers on two rigs: position_joint (carry_by="parent") is the joint whose rotation moves the
+    contact joint (the knee for an ankle, on the 101-joint CC rig past its twist and share bones); the default
+    carry is the pelvis's clock (CC_Base_Hip, Bandai's Hips below its static joint_Root)."""
+    from stagger_nb.staggered.plants_carry import carry_clocks, position_joint
+    sk = shared_motion(clip).skeleton
+    for joint, parent, pelvis in rows:
+        assert sk.names[position_joint(sk, joint)] == parent
+        assert carry_clocks(sk, [sk.index(joint)], "parent") == [[sk.index(parent)]]
+        assert carry_clocks(sk, [sk.index(joint)]) == [[sk.index(pelvis)]]
+
+
+def test_carry_windows_is_the_union_over_a_contacts_clocks():
+    """carry_windows with hand-made warp tables: clock 0 delays by 0.1 s, clock 1 by 0.3 s (a pure shift between
+    the end knots): a contact on [0.5, 1.0] s carried by [0] is [0.6, 1.1], by [1] [0.8, 1.3], by both [0.6, 1.3];
+    frames (0.1 s, from t0 = 0) inside, half-open; no tables: the identity."""
+    from stagger_nb.staggered.plants_carry import carry_windows
+    S = np.array([[0.0, 0.0], [0.2, 0.2], [1.8, 1.8], [2.0, 2.0]])
+    T = np.array([[0.0, 0.0], [0.3, 0.5], [1.9, 2.1], [2.0, 2.0]])
+    ends = np.array([[0.5, 1.0]] * 3)
+    e, start, stop = carry_windows((S, T), 0.0, 0.1, 20, ends, [[0], [1], [0, 1]])
+    assert np.allclose(e, [[6, 11], [8, 13], [6, 13]])
+    assert start.tolist() == [6, 8, 6] and stop.tolist() == [12, 14, 14]
+    e, start, stop = carry_windows(None, 0.0, 0.1, 20, ends[:1], [[0]])
+    assert np.allclose(e, [[5, 10]]) and (start[0], stop[0]) == (5, 11)

@@ -161,5 +161,6 @@ def _cap_pass(held, edit, ch, excess, pinned=None):
     fwd = _limit(vv, cc, f, False, pin)
     bwd = _limit(vv, cc, f, True, pin)
     a = _sides(pin)[..., None]
-    held[:, sel] = quat_mul(edit[:, sel], rotvec_to_quat(a * fwd + (1 - a) * bwd))
+    ramped = quat_mul(edit[:, sel], rotvec_to_quat(a * fwd + (1 - a) * bwd))
+    held[:, sel] = np.where(pin[..., None], held[:, sel], ramped)          # pinned frames bit for bit
     return cols
