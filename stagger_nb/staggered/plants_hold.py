@@ -386,7 +386,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
             q_mix = slerp(ext[0][1], ext[1][1], al)
             target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
-            fade_w[lim.eff] = (win, w, target, slerp(wq[win, lim.eff], q_mix, w))
+            fade_w[lim.eff] = (win, w, target, q_mix)
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -409,6 +409,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
                 win, _w, g_f, q_f = fade_w[lim.eff]
                 infade[win] = True
+                # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
+                # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
+                q_f = slerp(w_u[win, lim.eff], q_f, _w)
                 turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
                 down[win] = g_f - p_u[win, lim.eff]
                 for k in lim.foot:                            # the foot joints as the fade's orientation puts them
