@@ -355,6 +355,11 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         # beyond half a revolution would flip to the other way round)
         size = np.minimum(size, np.maximum(0.9 * np.pi - size, 0.0))
         r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
+        if lim.leg:
+            # a leg's fade is solved in world space below: this joint-space fade is only its reference pose (the
+            # knee's plane), without the carried-on rate, which can swing a straight leg far off its target (run,
+            # s = +0.1: a 130-degree aim, the hip then flipping 140-180 degrees a frame)
+            r_l, r_r = np.zeros_like(r_l), np.zeros_like(r_r)
         r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None],
                                                           1e-300))[..., None]
         r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
