@@ -7,7 +7,8 @@ Clips: every real clip in ../shared/mocap (or STAGGER_NB_SHARED_MOCAP) and the s
 ``mild`` succession s=0.02 l=1 + random_timing tau=0.05, ``moderate`` (0.03, 2, 0.1), ``strong`` (0.05, 3, 0.1),
 the slider extremes ``s+0.1`` / ``s-0.1`` (l=4, tau=0.15) and ``shoulder`` (root = the left shoulder, s=0.1, l=4,
 tau=0.15). Layer off: ``staggered.evaluate``; on: ``staggered.keep_contacts(edited, source)`` (its defaults).
-Contacts: the source's detect_contacts carried through each joint's own timing (compare's default).
+Contacts: the source's detect_contacts carried on the pelvis's timing (compare's default and the layer's: one carry,
+staggered.plants_carry.carry_windows).
 
 Columns (cm of a 170 cm body, degrees): travel (held feet inside carried contacts, against the source's own
 motion), height (vs the source plant), floor (below the source's floor), pelvis (vs the source at the same

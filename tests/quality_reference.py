@@ -22,6 +22,8 @@ from stagger_nb.quality import (
 from stagger_nb.quality import body_height as body_height_of
 from stagger_nb.quality.bounds import _bounds
 from stagger_nb.quality.inputs import _as_motion, _check_contacts
+from stagger_nb.staggered.limbs import find_limb
+from stagger_nb.staggered.plants_carry import position_joint
 
 __all__ = ["compare_reference"]
 
@@ -196,11 +198,24 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
         bad = ~np.all(np.diff(T, axis=0) > 0, axis=0)
         knots_bad = tuple((list(names) + ["<root translation>"])[c] for c in np.flatnonzero(bad))
 
-    # contacts carried through each contact joint's own timing
+    # contacts carried through the pelvis's timing (a joint of a limb below the pelvis; else the timing of the
+    # joint whose rotation sets its position), one contact at a time
     figures = []
+    pel = pelvis_joint(sk)
+
+    def clock(j):
+        lim = find_limb(sk, j)
+        if lim is not None and lim.upper != pel:
+            k = lim.upper
+            while k >= 0 and k != pel:
+                k = int(sk.parents[k])
+            if k == pel:
+                return pel
+        return position_joint(sk, j)
+
     for name, a0, b0 in contacts:
         if sm is not None:
-            moved_c = stg.carry_contacts(sm, [(name, a0, b0)], ft_s, carry_by="joint")
+            moved_c = stg.carry_contacts(sm, [(name, a0, b0)], ft_s)
             if not moved_c:
                 continue                       # carried onto no frame
             _, a, b = moved_c[0]
@@ -212,7 +227,7 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
         j = sk.index(name)
         frames = np.arange(a, b)
         tt = te[frames]
-        ts = stg.warp_times(sm, tt, j, inverse=True) if sm is not None else tt
+        ts = stg.warp_times(sm, tt, clock(j), inverse=True) if sm is not None else tt
         ps = _at_times(src_pos[:, j], ft_s, ts)
         pe = pos[frames, j]
         rel, raw, path = _travel(pe, ps)

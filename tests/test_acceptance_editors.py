@@ -373,10 +373,11 @@ CM = {"xia_neutral_walk.bvh": 2.54 / 0.45, "bandai_walk.bvh": 1.0, "cmu_131_01_w
 def test_keep_contacts_op_holds_feet_on_real_walks(clip):
     """The keep_contacts op through the session, measured by sn.quality.compare (issue 20; this replaced the
     older path-length measure, which a layer that keeps the source's own heel-toe roll cannot meet where the
-    source itself drifts inside its contacts): inside the contacts carried by each joint's own timing the feet
-    follow the source's own motion within 1.5 cm (xia 1.4, bandai 1.2, cmu_131 0.9; 17-33 cm without the op),
-    inside the source's own intervals shrunk by 0.1 s within 4 cm (3.7, 1.4, 3.5; 12-16 without), the pelvis
-    moved by at most 3 cm by the layer."""
+    source itself drifts inside its contacts): inside the contacts as the layer and compare carry them (on the
+    pelvis's timing) the feet follow the source's own motion within 1.5 cm (xia 0.01, bandai 0.10, cmu_131 0.01;
+    16-40 cm without the op), inside the source's own intervals shrunk by 0.1 s within 4 cm (0.27, 0.30, 0.57;
+    12-16 without; 3.7, 1.4, 3.5 while contacts were carried on each joint's own clock), the pelvis moved by at
+    most 3 cm by the layer."""
     m = _load(clip)
     edit = [{"op": "succession", "root": _root(m), "s": 0.02, "l": 1.0},
             {"op": "random_timing", "tau": 0.05, "seed": 0}]

@@ -89,8 +89,9 @@ def test_the_fast_figures_are_the_naive_reference_figures(clip):
     assert mild.moved > 0 and mild.pelvis_vs_baseline is not None
 
 
-def test_the_carried_contacts_are_carry_contacts_by_joint(clip):
-    """compare carries every contact at once; the frames are those staggered.carry_contacts gives each."""
+def test_the_carried_contacts_are_carry_contacts(clip):
+    """compare carries every contact at once; the frames are those staggered.carry_contacts (its default, the
+    contact layer's carry) gives each."""
     _, m, prep, edits = clip
     for name, edited, kw in edits:
         sm = kw.get("staggered", edited if isinstance(edited, staggered.StaggeredMotion) else None)
@@ -99,7 +100,7 @@ def test_the_carried_contacts_are_carry_contacts_by_joint(clip):
         r = quality.compare(m, edited, prepared=prep, **kw)
         want = []
         for c in prep.contacts:
-            got = staggered.carry_contacts(sm, [c], m.frame_time, carry_by="joint")
+            got = staggered.carry_contacts(sm, [c], m.frame_time)
             ev_frames = (edited if isinstance(edited, sn.Motion) else staggered.evaluate(edited)).num_frames
             if got and min(got[0][2], ev_frames) > got[0][1]:
                 want.append((c[0], (c[1], c[2]), (got[0][1], min(got[0][2], ev_frames))))

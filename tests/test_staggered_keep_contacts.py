@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from stagger_nb import data, staggered
+from stagger_nb.core.body import pelvis_joint
 from stagger_nb.core.kinematics import forward_kinematics
 
 # Units -> cm. Bandai clips and the procedural clips are in centimetres; the Xia and CMU clips use CMU's
@@ -75,13 +76,30 @@ def test_carry_contacts_identity_without_timing_edits(walk):
     assert staggered.carry_contacts(geo, sm.contacts, m.frame_time) == list(sm.contacts)
 
 
+def test_carry_contacts_move_with_the_pelvis_timing(walk):
+    """The default carry (carry_by="pelvis"): shift only the pelvis's knots by 3 frames and every leg contact
+    (away from the anchored clip ends) moves by exactly 3 frames; shift only the left toes' and none moves (the
+    feet hang from the pelvis: its timing decides where a held foot can be)."""
+    m, sm = walk
+    dt = 3 * m.frame_time
+    assert m.skeleton.names[pelvis_joint(m.skeleton)] == "Hips"
+    pelvis = staggered.succession(sm, root="LowerBack", s=dt, l=1.0, joints=["Hips"], limit=None)   # d = 1
+    toes = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], limit=None)
+    T0 = sm.pose_times
+    inner = [c for c in sm.contacts if T0[1] + dt <= c[1] * m.frame_time and (c[2] - 1) * m.frame_time <= T0[-2]]
+    assert inner
+    assert staggered.carry_contacts(toes, inner, m.frame_time) == inner
+    assert staggered.carry_contacts(pelvis, inner, m.frame_time) == [(n, a + 3, b + 3) for n, a, b in inner]
+
+
 def test_carry_contacts_move_with_the_foot_own_timing(walk):
-    """Shift only the left foot's knots by 3 frames: its contacts (away from the anchored clip ends) move by
-    exactly 3 frames, every other contact stays (a pure shift of interior knots is a shift of the warp)."""
+    """carry_by="joint": shift only the left foot's knots by 3 frames: its contacts (away from the anchored clip
+    ends) move by exactly 3 frames, every other contact stays (a pure shift of interior knots is a shift of the
+    warp)."""
     m, sm = walk
     dt = 3 * m.frame_time
     shifted = staggered.succession(sm, root="LeftFoot", s=dt, l=1.0, joints=["LeftToeBase"], limit=None)  # d = 1
-    carried = staggered.carry_contacts(shifted, sm.contacts, m.frame_time)
+    carried = staggered.carry_contacts(shifted, sm.contacts, m.frame_time, carry_by="joint")
     T0 = sm.pose_times
     for (n0, a0, b0), (n1, a1, b1) in zip(sm.contacts, carried):
         assert n0 == n1
@@ -183,14 +201,14 @@ def test_carry_by_limb_uses_the_hip_timing(walk):
     before = horizontal_travel_cm(staggered.evaluate(stagger(sm)), carried, 1.0)
     assert horizontal_travel_cm(out, carried, 1.0) <= 0.1 * before
     with pytest.raises(ValueError, match="carry_by"):
-        staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="pelvis")
+        staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="knee")
 
 
 def test_keep_contacts_on_hops_removes_most_of_the_sliding():
     """Notebook 01's check on the real hops (both feet land together): after a rough timing edit, the feet's
-    sliding over the source's own contacts falls to 26 % (1207 -> 310 cm summed: the plants are held on each
-    foot's own timing, so the first frames of a source contact can still be in the air), with the pelvis
-    lowered by at most the layer's budget (2.8 % of a leg)."""
+    sliding over the source's own contacts falls to 12 % (1176 -> 139 cm summed: the plants are carried on the
+    pelvis's timing, so a source contact's first frames can still be in the air where the edit moved it), with
+    the pelvis lowered by at most the layer's budget (2.8 % of a leg)."""
     try:
         cmu = data.load("cmu_01_01")
     except FileNotFoundError as e:
@@ -239,7 +257,7 @@ def test_source_positions_given_give_the_same_result(walk):
 
 
 def test_carry_by_span_is_the_union_of_the_joint_and_knee_timings(walk):
-    """carry_by="span" (keep_contacts' default): a contact holds from the earlier to the later of the
+    """carry_by="span": a contact holds from the earlier to the later of the
     intervals carried by its own joint's warp and by its limb's knee's. Delaying only the knee (or only the
     toe) by 3 frames delays a toe contact's stop by 3 frames and keeps its start; "joint" ignores the knee.
     On the real-walk edit, a joint's carried contacts never overlap and each covers its "joint" interval up
@@ -253,7 +271,7 @@ def test_carry_by_span_is_the_union_of_the_joint_and_knee_timings(walk):
     assert staggered.carry_contacts(sm, sm.contacts, m.frame_time, carry_by="span") == list(sm.contacts)
     edited = stagger(sm)
     span = staggered.carry_contacts(edited, sm.contacts, m.frame_time, carry_by="span")
-    own = staggered.carry_contacts(edited, sm.contacts, m.frame_time)
+    own = staggered.carry_contacts(edited, sm.contacts, m.frame_time, carry_by="joint")
     assert len(span) == len(own) and [c[0] for c in span] == [c[0] for c in own]
     for i, ((n, a, b), (_, a0, b0)) in enumerate(zip(span, own)):
         nxt = [s_ for k, (n2, s_, _) in enumerate(span) if n2 == n and k != i and s_ >= a]
@@ -261,20 +279,18 @@ def test_carry_by_span_is_the_union_of_the_joint_and_knee_timings(walk):
         assert all(b <= s_ for s_ in nxt)
 
 
-@pytest.mark.parametrize("clip, cm_per_unit", [pytest.param(*CLIPS[1], marks=pytest.mark.xfail(
-    strict=True, reason="bandai: the toe steps 1.1 cm as the heel is let go (its plant and the heel's, each at "
-                        "its own joint's time, do not fit the foot; the layer shares the misfit and lets it go "
-                        "over the fade)")) if c == CLIPS[1] else c for c in CLIPS])
+@pytest.mark.parametrize("clip, cm_per_unit", CLIPS)
 def test_toe_does_not_step_when_its_heel_is_released(shared_motion, clip, cm_per_unit):
     """Where an ankle contact ends inside a toe contact of the same foot (heel-off), the toe is already on its
-    plant: its step into the ankle's release frame is < 0.5 cm (xia 0.19, bandai 0.14, cmu 0.43; before the
-    heel release of keep_contacts, cmu_131_01 RightToe 821-942 stepped 1.0 cm there: its plant is 9 % farther
-    from the ankle's than the foot is long, so the toe reached it only after the release)."""
+    plant: its step into the ankle's release frame (the contacts as the layer carries them) is < 0.5 cm (xia
+    0.014, bandai 0.498, cmu 0.249; before the heel release of keep_contacts, cmu_131_01 RightToe 821-942 stepped
+    1.0 cm there: its plant is 9 % farther from the ankle's than the foot is long, so the toe reached it only after
+    the release; bandai stepped 1.1 cm while contacts were carried on each joint's own clock)."""
     m = shared_motion(clip)
     sm = stagger(staggered.extract(m))
     source_contacts = staggered.detect_contacts(m)
     out = staggered.keep_contacts(sm, m, contacts=source_contacts)
-    carried = staggered.carry_contacts(sm, source_contacts, m.frame_time, carry_by="span")
+    carried = staggered.carry_contacts(sm, source_contacts, m.frame_time)          # the layer's own carry
     p = forward_kinematics(out)[0]
     names = m.skeleton.names
     checked, worst = 0, 0.0
@@ -288,3 +304,35 @@ def test_toe_does_not_step_when_its_heel_is_released(shared_motion, clip, cm_per
     print(f"{clip}: {checked} heel releases inside a toe contact, toe step there <= {worst:.3f} cm")
     assert checked > 0
     assert worst < 0.5
+
+
+@pytest.mark.parametrize("clip, rows", [
+    ("iclone_cmu_07_01_walk.bvh", [("CC_Base_L_Foot", "CC_Base_L_Calf", "CC_Base_Hip"),
+                                   ("CC_Base_L_ToeBase", "CC_Base_L_Foot", "CC_Base_Hip"),
+                                   ("CC_Base_L_BigToe1", "CC_Base_L_ToeBase", "CC_Base_Hip")]),
+    ("bandai_walk.bvh", [("Foot_L", "LowerLeg_L", "Hips"), ("Toes_L", "Foot_L", "Hips")])])
+def test_the_clock_that_carries_a_contact(shared_motion, clip, rows):
+    """Known answers on two rigs: position_joint (carry_by="parent") is the joint whose rotation moves the
+    contact joint (the knee for an ankle, on the 101-joint CC rig past its twist and share bones); the default
+    carry is the pelvis's clock (CC_Base_Hip, Bandai's Hips below its static joint_Root)."""
+    from stagger_nb.staggered.plants_carry import carry_clocks, position_joint
+    sk = shared_motion(clip).skeleton
+    for joint, parent, pelvis in rows:
+        assert sk.names[position_joint(sk, joint)] == parent
+        assert carry_clocks(sk, [sk.index(joint)], "parent") == [[sk.index(parent)]]
+        assert carry_clocks(sk, [sk.index(joint)]) == [[sk.index(pelvis)]]
+
+
+def test_carry_windows_is_the_union_over_a_contacts_clocks():
+    """carry_windows with hand-made warp tables: clock 0 delays by 0.1 s, clock 1 by 0.3 s (a pure shift between
+    the end knots): a contact on [0.5, 1.0] s carried by [0] is [0.6, 1.1], by [1] [0.8, 1.3], by both [0.6, 1.3];
+    frames (0.1 s, from t0 = 0) inside, half-open; no tables: the identity."""
+    from stagger_nb.staggered.plants_carry import carry_windows
+    S = np.array([[0.0, 0.0], [0.2, 0.2], [1.8, 1.8], [2.0, 2.0]])
+    T = np.array([[0.0, 0.0], [0.3, 0.5], [1.9, 2.1], [2.0, 2.0]])
+    ends = np.array([[0.5, 1.0]] * 3)
+    e, start, stop = carry_windows((S, T), 0.0, 0.1, 20, ends, [[0], [1], [0, 1]])
+    assert np.allclose(e, [[6, 11], [8, 13], [6, 13]])
+    assert start.tolist() == [6, 8, 6] and stop.tolist() == [12, 14, 14]
+    e, start, stop = carry_windows(None, 0.0, 0.1, 20, ends[:1], [[0]])
+    assert np.allclose(e, [[5, 10]]) and (start[0], stop[0]) == (5, 11)

@@ -69,16 +69,11 @@ def test_unedited_real_clip_comes_back_unchanged(shared_motion, clip):
 
 
 # -- the goals of the issue ---------------------------------------------------------------------------------
-# mild: travel <= 1, height <= 1.5, pelvis (the layer's own change) <= 3 cm, added pop <= 5 degrees. What the
-# layer does not reach yet is an xfail(strict) carrying the figure it reaches, so a fix shows up as XPASS.
-MILD_SHORT = {"run": "feet travel 1.75 cm (the pelvis budget of 2.8 % of a leg binds at toe-off)",
-              "jump": "feet travel 5.1 cm, 5.0 cm off the plant height at take-off (the feet lag the pelvis, "
-                      "which is in the air)",
-              "cmu_01_01": "feet travel 12.7 cm at the hops' take-offs (as the jump)"}
+# mild: travel <= 1, height <= 1.5, pelvis (the layer's own change) <= 3 cm, added pop <= 5 degrees (run, jump and
+# cmu_01_01 missed it while contacts were carried on each foot joint's own clock: they now meet it).
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(reason=MILD_SHORT[n], strict=True))
-                                  if n in MILD_SHORT else n for n in SETUP])
+@pytest.mark.parametrize("name", SETUP)
 def test_mild_edit_meets_the_goals(name):
     m = _setup(name)
     sm = staggered.extract(m)
@@ -87,6 +82,21 @@ def test_mild_edit_meets_the_goals(name):
           f"pelvis {r.pelvis_vs_baseline:.2f}, layer pop {pop:.1f} deg")
     assert r.foot_travel <= 1.0 and r.foot_height <= 1.5
     assert r.pelvis_vs_baseline <= 3.0 and pop <= 5.0
+
+
+@pytest.mark.parametrize("name", SETUP)
+@pytest.mark.parametrize("level", ["moderate", "strong"])
+def test_moderate_and_strong_edits_meet_every_goal(name, level):
+    """Every figure of the issue's goals at that level (sn.quality's preset: travel, height, floor, pelvis against
+    the edit without the layer, added pop, knots, never more sliding than without the layer): the contacts are
+    carried on the pelvis's clock, a leg's fade is a world-space blend, no foot joint goes below the floor."""
+    m = _setup(name)
+    sm = staggered.extract(m)
+    edited = _edit(sm, level)
+    on, off = staggered.keep_contacts(edited, m), staggered.evaluate(edited)
+    r = quality.compare(m, on, staggered=edited, contacts=sm.contacts, baseline=off, bounds=level)
+    print(f"{name} {level}: {r.summary}")
+    assert not r.failures, r.failures
 
 
 @pytest.mark.parametrize("name", SETUP)
@@ -145,8 +155,10 @@ def _flex(motion, lim, hinge_local):
                                          ("cmu_01_01", "strong")])
 def test_no_knee_flip_and_no_hyperextension(name, level):
     """About each knee's hinge (measured on the source), the held legs bend no more backwards than the edit
-    itself does; at mild the knee's bend changes by no more per frame than the edit's plus 5 degrees (no flip;
-    at moderate the run's take-offs reach 56 against the edit's 32)."""
+    itself does; at mild the knee's bend changes by no more per frame than the edit's or the source's, plus 5
+    degrees (no flip; the plants replay the source's legs on the pelvis's timing, so the jump's landing bends its
+    knees as fast as the source's does: 33.5 / 36.1 degrees a frame, source 35.9, edit 27.2; at moderate the
+    run's take-offs reach 56 against the edit's 32)."""
     m = _setup(name)
     sm = staggered.extract(m)
     edited = _edit(sm, level)
@@ -155,10 +167,11 @@ def test_no_knee_flip_and_no_hyperextension(name, level):
     for leg in ("LeftFoot", "RightFoot"):
         lim = find_limb(m.skeleton, leg)
         hinge = plants._hinge_local(ps, ws, lim)
-        f_off, f_on = _flex(off, lim, hinge), _flex(on, lim, hinge)
+        f_off, f_on, f_src = _flex(off, lim, hinge), _flex(on, lim, hinge), _flex(m, lim, hinge)
         assert f_on.min() >= min(f_off.min(), 0.0) - 1e-6, leg
         if level == "mild":
-            assert np.abs(np.diff(f_on)).max() <= np.abs(np.diff(f_off)).max() + 5.0, leg
+            fastest = max(np.abs(np.diff(f_off)).max(), np.abs(np.diff(f_src)).max())
+            assert np.abs(np.diff(f_on)).max() <= fastest + 5.0, leg
         assert (f_on != f_off).any()                 # the legs were changed
 
 
@@ -259,7 +272,7 @@ def test_uniform_scale_changes_nothing_but_the_lengths():
 def test_bad_input_names_the_parameter():
     m = data.load("walk")
     sm = staggered.extract(m)
-    for kw, match in (({"carry_by": "pelvis"}, "carry_by"), ({"blend": -1}, "blend"), ({"lower_root": 2}, "lower_root"),
+    for kw, match in (({"carry_by": "knee"}, "carry_by"), ({"blend": -1}, "blend"), ({"lower_root": 2}, "lower_root"),
                       ({"reach": 0}, "reach"), ({"contacts": [("Nose", 0, 3)]}, "Nose"),
                       ({"source_positions": np.zeros((2, 2, 3))}, "source_positions")):
         with pytest.raises(ValueError, match=match):

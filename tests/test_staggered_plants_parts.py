@@ -71,6 +71,71 @@ def test_pop_cap_goes_through_half_a_turn():
     assert _steps(out).max() < 20
 
 
+def test_pop_cap_keeps_pinned_frames_and_ramps_outside_them():
+    """A plant (pinned frames 60-89) whose displacement jumps by 60 degrees into and out of it: the pinned frames
+    are kept bit for bit, every step is within the allowance (brute force), and the ramps lie before the plant's
+    first frame and after its last (the frames just outside differ from the held ones)."""
+    from stagger_nb.staggered.plants_pops import _MIN_STEP, POP_MARGIN
+    edit = _smooth_edit()
+    F = edit.shape[0]
+    plant = (np.arange(F) >= 60) & (np.arange(F) < 90)
+    ang = np.where(plant, np.radians(60), 0.0)
+    held = quat_mul(edit, rotvec_to_quat(ang[:, None, None] * np.array([1.0, 0.0, 0.0])) * np.ones((1, 3, 1)))
+    pinned = np.broadcast_to(plant[:, None], (F, 3)).copy()
+    src = source_steps(edit, 1.0)
+    out = cap_pops(held.copy(), edit, [0, 1, 2], src, pinned)
+    assert np.array_equal(out[plant], held[plant])
+    allowed = np.maximum(np.degrees(src)[None, :] + POP_MARGIN, _steps(edit) + _MIN_STEP)
+    assert np.all(_steps(out) <= allowed + 1e-4)
+    assert not np.allclose(out[59], held[59]) and not np.allclose(out[90], held[90])
+    assert np.allclose(out[:20], held[:20])           # the ramp into the plant starts where it must, no earlier
+    # without the pins the same jump is ramped across the plant's edges (its first frame moves)
+    free = cap_pops(held.copy(), edit, [0, 1, 2], src)
+    assert not np.allclose(free[60], held[60])
+
+
+def test_pop_cap_ramps_inside_a_plant_only_a_step_much_too_fast():
+    """Inside a pinned plant a step too fast by less than INNER_MARGIN is kept (the plant's frames exact); one
+    too fast by far more (a 40-degree jump) is ramped over the frames around it, within the allowance."""
+    from stagger_nb.staggered.plants_pops import _MIN_STEP, INNER_MARGIN, POP_MARGIN
+    edit = _smooth_edit()
+    F = edit.shape[0]
+    src = source_steps(edit, 1.0)
+    allowed = np.maximum(np.degrees(src)[None, :] + POP_MARGIN, _steps(edit) + _MIN_STEP)
+    pinned = np.ones((F, 3), bool)
+    for jump, ramped in ((allowed.max() + 0.5 * INNER_MARGIN, False), (40.0, True)):
+        ang = np.where(np.arange(F) < 60, 0.0, np.radians(jump))
+        held = quat_mul(edit, rotvec_to_quat(ang[:, None, None] * np.array([0.0, 0.0, 1.0])) * np.ones((1, 3, 1)))
+        excess = (_steps(held) - allowed).max()
+        out = cap_pops(held.copy(), edit, [0, 1, 2], src, pinned)
+        if ramped:
+            assert excess > INNER_MARGIN and np.all(_steps(out) <= allowed + 1e-3)
+        else:
+            assert 0 < excess < INNER_MARGIN, excess
+            assert np.array_equal(out, held)
+
+
+def test_toe_up_puts_the_lowest_foot_joint_on_the_floor():
+    """_toe_up: a foot pointing down (toe 10 below the ankle, 5 ahead) with the floor 3 below the ankle: the turn
+    about the ankle brings the toe to height -3 exactly, keeps its distance to the ankle, and turns only about a
+    horizontal axis (the toe stays in its vertical plane); a toe above the floor, or one the floor is too far
+    below, is left alone."""
+    from stagger_nb.core.rotations import quat_rotate
+    from stagger_nb.staggered.limbs import Limb
+    from stagger_nb.staggered.plants_hold import _toe_up
+    lim = Limb(0, 1, 2, (3,), True)
+    p = np.zeros((3, 4, 3))
+    p[:, 2] = [0.0, 20.0, 0.0]
+    p[:, 3] = [[0.0, 10.0, 5.0], [0.0, 10.0, 5.0], [0.0, 19.0, 5.0]]
+    floor = np.array([17.0, -100.0, 17.0])
+    turn, where = _toe_up(p, lim, floor, np.ones(3, bool))
+    assert where.tolist() == [True, False, False]
+    v = quat_rotate(turn[0], p[0, 3] - p[0, 2])
+    assert np.isclose(v[1], -3.0) and np.isclose(np.linalg.norm(v), np.linalg.norm(p[0, 3] - p[0, 2]))
+    assert np.isclose(v[0], 0.0) and v[2] > 5.0
+    assert np.allclose(turn[1:], [0.0, 0.0, 0.0, 1.0])
+
+
 # -- the root's shift -------------------------------------------------------------------------------------
 
 def test_root_shift_one_leg_is_the_closed_form():

@@ -101,7 +101,7 @@ def test_cached_source_tables_change_nothing(hops):
     assert cold[0].plants > 0 and not np.array_equal(cold[0].motion.local_quats, cold[1].motion.local_quats)
 
 
-@pytest.mark.parametrize("carry_by", ["joint", "span", "limb"])
+@pytest.mark.parametrize("carry_by", ["pelvis", "parent", "joint", "span", "limb"])
 def test_carried_contacts_equal_one_warp_per_contact(hops, carry_by):
     """carry_contacts (one warp call per clock over all contacts) against warp_times of each contact's ends
     through each of its clocks, one at a time, and the frames rounded as its docstring says."""
@@ -115,7 +115,9 @@ def test_carried_contacts_equal_one_warp_per_contact(hops, carry_by):
     for name, a, b in contacts:
         j = sk.index(name)
         lim = plants.find_limb(sk, j)
-        clocks = {"joint": [j], "limb": [lim.upper if lim else j], "span": [j, lim.mid if lim else j]}[carry_by]
+        # CMU: every contact is a foot's (a limb below Hips); the joint above each moves it (no helper bones)
+        clocks = {"joint": [j], "limb": [lim.upper if lim else j], "span": [j, lim.mid if lim else j],
+                  "pelvis": [sk.index("Hips")], "parent": [int(sk.parents[j])]}[carry_by]
         w = np.array([staggered.warp_times(e, np.array([a, b - 1]) * m.frame_time, c) for c in clocks])
         e0, e1 = (np.array([w[:, 0].min(), w[:, 1].max()]) - t0) / ft
         start = max(int(np.ceil(e0 - 1e-6)), 0)

@@ -17,6 +17,7 @@ from references import plateau_weights_reference
 
 import stagger_nb as sn
 from stagger_nb import staggered as st
+from stagger_nb.core.body import pelvis_joint
 from stagger_nb.core.kinematics import forward_kinematics
 from stagger_nb.core.rotations import quat_bezier, quat_exp, quat_mul
 from stagger_nb.staggered import _kernels, geometry, limbs, plants
@@ -63,17 +64,21 @@ def test_keep_contacts_equals_full_fk_version(edited, monkeypatch, opts):
     np.testing.assert_array_equal(new.root_positions, old.root_positions)
 
 
-def test_carried_contacts_equal_per_contact_warp_times(edited):
+@pytest.mark.parametrize("carry_by", ["joint", "pelvis"])
+def test_carried_contacts_equal_per_contact_warp_times(edited, carry_by):
+    """carry_contacts against one warp_times call per contact (the replaced code), through the contact joint's
+    own warp ("joint") or the pelvis's (the default: every contact here is a foot's)."""
     m, ed = edited
     assert ed.contacts
     want = []
-    for name, a, b in ed.contacts:                 # one warp_times call per contact (the replaced code)
-        t = st.warp_times(ed, np.array([a, b - 1]) * m.frame_time, name)
+    pel = m.skeleton.names[pelvis_joint(m.skeleton)]
+    for name, a, b in ed.contacts:
+        t = st.warp_times(ed, np.array([a, b - 1]) * m.frame_time, name if carry_by == "joint" else pel)
         start = max(int(np.ceil((t[0] - ed.pose_times[0]) / ed.frame_time - 1e-6)), 0)
         stop = min(int(np.floor((t[1] - ed.pose_times[0]) / ed.frame_time + 1e-6)) + 1, st.evaluate(ed).num_frames)
         if stop > start:
             want.append((name, start, stop))
-    assert st.carry_contacts(ed, ed.contacts, m.frame_time) == want
+    assert st.carry_contacts(ed, ed.contacts, m.frame_time, carry_by=carry_by) == want
 
 
 def _per_sample_spline(c0, c1, c2, c3, pair, t, out):

@@ -17,10 +17,12 @@ without a StaggeredMotion). "The source at the same time" is the source's FK pos
 at that time (exact where the frames coincide).
 
 Contacts: the source's (default :func:`~stagger_nb.staggered.detect_contacts`), carried through the timing
-edit with each contact joint's own time warp (``carry_contacts(staggered, contacts, source.frame_time,
-carry_by="joint")``); without a StaggeredMotion they stay on their frames. Inside a carried contact frame
-``n`` corresponds to the source time ``w⁻¹(t_n)`` (:func:`~stagger_nb.staggered.warp_times`, inverse, of the
-contact joint).
+edit by the package's one carry, the one the contact layer holds (``carry_contacts(staggered, contacts,
+source.frame_time)``, :mod:`stagger_nb.staggered.plants_carry`): on the time warp ``w`` of the pelvis, the joint
+the legs hang from (a contact joint not on a limb below the pelvis: of the joint whose rotation sets its
+position); without a StaggeredMotion they stay on their frames. Inside a carried contact frame ``n``
+corresponds to the source time ``w⁻¹(t_n)`` (:func:`~stagger_nb.staggered.warp_times`, inverse, of the clock
+that carried it).
 
 The figures (:class:`QualityReport`):
 

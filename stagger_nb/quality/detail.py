@@ -90,24 +90,18 @@ def _detail_energies(prep: SourceFigures, Qe: np.ndarray, ft_e: float, table, t0
     return e_e, e_s
 
 
-def _carried(sm, contacts, frame_time: float, tables) -> list:
-    """Each source contact carried through its joint's own timing: ``(start, stop)`` frames of the edited
-    motion, or None where it keeps no frame. The numbers of ``staggered.carry_contacts(sm, contacts,
-    frame_time, carry_by="joint")`` (its first and last active times mapped through the joint's time warp,
-    the edited frames inside), computed for all contacts at once, one warp per contact joint."""
+def _carried(sm, contacts, frame_time: float, tables) -> tuple[list, list]:
+    """Each source contact carried through the timing edit by the package's one carry
+    (:func:`staggered.plants_carry.carry_windows` with the default clocks, those of ``staggered.carry_contacts``
+    and the contact layer: the joint whose rotation sets the contact joint's position): ``(start, stop)``
+    frames of the edited motion, or None where it keeps no frame; and the clock (time-warp column) of each."""
+    from ..staggered.plants_carry import carry_clocks, carry_windows
     from ..staggered.representation import default_times
-    from ..staggered.timing import _warp_column
     if not contacts:
-        return []
+        return [], []
     names = sm.skeleton.names
-    S, T = tables
     t0, ft, F = float(sm.pose_times[0]), sm.frame_time, default_times(sm).size
-    joints = np.array([names.index(c[0]) for c in contacts])
+    clocks = carry_clocks(sm.skeleton, [names.index(c[0]) for c in contacts])
     ends = np.array([(a, b - 1) for _, a, b in contacts], dtype=float) * frame_time        # (N, 2) seconds
-    for j in np.unique(joints):
-        at = joints == j
-        ends[at] = _warp_column(S, T, int(j), ends[at].ravel()).reshape(-1, 2)
-    e = (ends - t0) / ft
-    start = np.maximum(np.ceil(e[:, 0] - 1e-6), 0).astype(np.int64)
-    stop = np.minimum(np.floor(e[:, 1] + 1e-6) + 1, F).astype(np.int64)
-    return [(int(a), int(b)) if b > a else None for a, b in zip(start, stop)]
+    _, start, stop = carry_windows(tables, t0, ft, F, ends, clocks)
+    return ([(int(a), int(b)) if b > a else None for a, b in zip(start, stop)], [cs[0] for cs in clocks])

@@ -206,22 +206,25 @@ def _measure(prep: SourceFigures, motion: Motion, sm, Pe: np.ndarray, Qe: np.nda
 def _contact_figures(prep, contacts, sm, tables, table, Pe, He, Pb, te, F, base, scale) -> list:
     """One :class:`ContactFigures` per contact carried onto at least one frame, all contacts at once."""
     sk = prep.source.skeleton
-    carried = (_carried(sm, contacts, prep.source.frame_time, tables) if sm is not None
-               else [(a, b) for _, a, b in contacts])
-    kept = [(c, a, min(b, F)) for c, ab in zip(contacts, carried) if ab is not None
+    if sm is not None:
+        carried, clocks = _carried(sm, contacts, prep.source.frame_time, tables)
+    else:
+        carried, clocks = [(a, b) for _, a, b in contacts], [sk.index(c[0]) for c in contacts]
+    kept = [(c, a, min(b, F), k) for c, ab, k in zip(contacts, carried, clocks) if ab is not None
             for a, b in [ab] if min(b, F) > a]
     if not kept:
         return []
-    first = np.array([a for _, a, _ in kept], dtype=np.int64)
-    lengths = np.array([b for _, _, b in kept], dtype=np.int64) - first
+    first = np.array([a for _, a, _, _ in kept], dtype=np.int64)
+    lengths = np.array([b for _, _, b, _ in kept], dtype=np.int64) - first
     starts, owner = _segments(lengths)
     frames = np.arange(owner.size) + np.repeat(first - starts, lengths)
-    joints = np.repeat([sk.index(c[0]) for c, _, _ in kept], lengths)
+    joints = np.repeat([sk.index(c[0]) for c, _, _, _ in kept], lengths)
+    by = np.repeat([k for _, _, _, k in kept], lengths)
     tt = te[frames]
     ts = np.empty_like(tt)
-    for j in np.unique(joints):                                  # the source time of each frame, per joint
-        at = joints == j
-        ts[at] = _warp(table, int(j), tt[at], inverse=True)
+    for k in np.unique(by):                       # the source time of each frame: its carrying clock's inverse
+        at = by == k
+        ts[at] = _warp(table, int(k), tt[at], inverse=True)
     ps = _read_positions(prep._P, joints, ts / prep.source.frame_time)
     pe = Pe[:, joints, frames]
     rel, raw = _travels(pe, ps, starts, owner)
@@ -241,7 +244,7 @@ def _contact_figures(prep, contacts, sm, tables, table, Pe, He, Pb, te, F, base,
         bt = (np.sqrt(np.maximum.reduceat(d, starts)) * scale).tolist()
     return [ContactFigures(c[0], (c[1], c[2]), (int(a), int(b)), float(r * scale), float(w * scale),
                            float(p * scale), float(h * scale), t)
-            for (c, a, b), r, w, p, h, t in zip(kept, rel, raw, path, height, bt)]
+            for (c, a, b, _), r, w, p, h, t in zip(kept, rel, raw, path, height, bt)]
 
 
 def _source_interval_travel(prep, contacts, Pe, te, scale) -> tuple[float, float]:

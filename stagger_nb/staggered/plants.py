@@ -11,18 +11,22 @@ The steps, per limb (a leg or an arm found by :func:`find_limb`; every joint bel
 and heel, moves with it as one foot):
 
 1. **Plants.** The source's contacts ``(joint, start, stop)`` (half-open source frames) are carried through
-   the time warp of the joint that holds them (:func:`carry_contacts`); a foot's contacts of one step (heel,
-   toe, toes) form one plant.
+   the time warp of the pelvis, the joint the legs hang from (:func:`carry_contacts`, :mod:`.plants_carry`: the
+   carry :func:`stagger_nb.quality.compare` measures with); a foot's contacts of one step (heel, toe, toes) form
+   one plant.
 2. **Where.** The plant tracks the source's own foot: at edited frame ``t`` the foot takes the source's
-   position and world orientation at source time ``σ(t)``, a monotone piecewise-linear map through the
-   plant's carried contact ends (each contact's first and last edited frame map to its first and last source
-   frame), so the source's heel-toe roll is kept and replayed on the edited timing. The whole plant is moved
-   horizontally by one constant offset ``d``: the mean of where the edited body puts the foot, moved along
-   the hip's travel if that lets the leg reach without lowering the pelvis. The height is the source's.
-   With no timing edit ``σ`` is the identity, ``d`` the (zero) mean offset: the motion comes back unchanged.
+   position and world orientation at source time ``σ(t)``, the inverse time warp of the clock that carried the
+   plant (the pelvis's) kept inside the plant's source frames, so the source's heel-toe roll is kept and replayed
+   on the edited timing. The whole plant is moved horizontally by one constant offset ``d``: where the edited body
+   puts the foot at the plant's first frame (against the source's foot there), so the hip reaches the plant as
+   the edit placed the leg and the pelvis need not come down to reach the source's position; moved towards the
+   hip's travel only if that lets the leg reach without lowering the pelvis. The height is the source's.
+   With no timing edit ``σ`` is the identity and ``d`` zero: the motion comes back unchanged.
 3. **Blend.** Around each plant a raised-cosine weight (C1, ``blend`` seconds each side) moves the target
    from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1,
-   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated.
+   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated. A leg's fade is
+   blended in world space (Kovar et al. 2002, §4) and its leg solved by IK for it (step 5); an arm's fade is the
+   plant boundary's joint displacement, faded (Coleman et al. 2008, §3).
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
    the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
    leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,
@@ -35,8 +39,11 @@ and heel, moves with it as one foot):
    exact angle that gives the wanted hip-ankle distance, always on the forward-bent branch (no knee flip,
    never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
    The foot takes the target's world orientation; the joints below it take the source's local rotations.
+   Legs in the air: no foot joint goes below the source's floor (a smooth lift away from the plants; in a fade
+   what is still below: the ankle lifted to the floor, a toe below it by turning the foot toe-up about the ankle).
 6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
-   2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped.
+   2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped,
+   outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
 
 Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`.plants_hold` (targets, IK on
 the plants, fades), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root
@@ -53,7 +60,16 @@ import numpy as np
 
 from ..core.motion import Motion
 from .limbs import Limb, _fk_joints, find_limb
-from .plants_carry import _blend_and_share, _carried, _parse, _plants, _timeline, carry_contacts
+from .plants_carry import (
+    _blend_and_share,
+    _carried,
+    _check_carry_by,
+    _parse,
+    _plants,
+    _timeline,
+    carry_clocks,
+    carry_contacts,
+)
 from .plants_hold import _SOURCE_CACHE, _hold, _raised_cosine  # noqa: F401  (_SOURCE_CACHE: tests clear it)
 from .plants_ik import _hinge_local  # noqa: F401  (read by tests)
 from .plants_root import _MAX_DROP, REACH
@@ -87,7 +103,7 @@ class PlantsResult:
     plants: int = 0
 
 
-def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "pelvis",
                 lower_root: bool | float = True, reach: float = REACH, max_drop: float | None = None,
                 source_positions: np.ndarray | None = None) -> PlantsResult:
     """The contact layer (see the module docstring): :func:`keep_contacts` with its notes and root profile.
@@ -103,8 +119,9 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         :func:`~stagger_nb.staggered.detect_contacts` of ``source``.
     blend : float, seconds
         Width of the fade on each side of a plant, and of the root profile's smoothing (>= 0).
-    carry_by : {"joint", "span", "limb"}
-        Whose time warp moves each contact (:func:`carry_contacts`); default the contact joint's own.
+    carry_by : {"pelvis", "parent", "joint", "span", "limb"}
+        Whose time warp moves each contact (:func:`carry_contacts`); default the pelvis's, the joint the legs
+        hang from (:mod:`.plants_carry` says why), the carry :func:`stagger_nb.quality.compare` measures with.
     lower_root : bool or float
         True (default): lower the root as much as the plants need; a number: at most that share of it
         (0 / False: never; the legs then stop at ``reach`` and the feet short of their plants).
@@ -118,8 +135,7 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
     from .representation import StaggeredMotion
     if not isinstance(source, Motion):
         raise ValueError(f"source must be a Motion, got {type(source).__name__}")
-    if carry_by not in ("joint", "limb", "span"):
-        raise ValueError(f"carry_by must be 'joint', 'limb' or 'span', got {carry_by!r}")
+    _check_carry_by(carry_by)
     blend, share = _blend_and_share(blend, lower_root)
     reach = float(reach)
     if not 0.0 < reach <= 1.0:
@@ -167,12 +183,16 @@ def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, b
     plants = _plants(carried, limb_of, gap=int(np.ceil(_MIN_SWING / motion.frame_time)))
     limbs = {lim.eff: lim for lim in limb_of.values()}
     carried = [c[:7] + (limb_of[c[0]].eff, c[7]) for c in carried]
+    # each joint's source time inside its plant: the inverse warp of the clock that carried it
+    clock = {j: cs[0] for j, cs in zip(sorted({c[0] for c in carried} | set(limbs)),
+                                       carry_clocks(motion.skeleton, sorted({c[0] for c in carried} | set(limbs)),
+                                                    carry_by))}
     motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share, max_drop, reach,
-                                   targets, shift_plants, above_floor, cap)
+                                   targets, shift_plants, above_floor, cap, clock)
     return PlantsResult(motion_out, tuple(notes) + tuple(more), drop, len(plants))
 
 
-def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "joint",
+def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "pelvis",
                   lower_root: bool | float = True, reach: float = REACH,
                   source_positions: np.ndarray | None = None) -> Motion:
     """The constraint layer after staggered timing edits: the source's contacts carried through the edit and

@@ -73,6 +73,29 @@ def _length(pos, lim: Limb) -> np.ndarray:
 
 _SOURCE_CACHE = weakref.WeakKeyDictionary()
 
+def _toe_up(p: np.ndarray, lim: Limb, floor: np.ndarray, free: np.ndarray):
+    """``(turn (F, 4), where (F,) bool)``: per frame the least rotation of the foot about its ankle (``p (F, J,
+    3)``: positions of the pose, the ankle ``lim.eff``) that brings its lowest joint below the ankle up to
+    ``floor (F,)`` (heights relative to that pose, the ankle kept where it is), on ``free`` frames where that
+    joint is below it; the identity elsewhere."""
+    F = p.shape[0]
+    feet = np.array(lim.foot)
+    k = feet[np.argmin(p[:, feet, 1], axis=1)]
+    v = p[np.arange(F), k] - p[:, lim.eff]                    # (F, 3) ankle to the lowest foot joint
+    n = np.linalg.norm(v, axis=-1)
+    want = floor - p[:, lim.eff, 1]                          # the height that joint must have over the ankle
+    side = np.hypot(v[:, 0], v[:, 2])
+    where = free & (want > v[:, 1] + _TOL * np.maximum(n, 1e-300)) & (want < n) & (side > 1e-9 * n)
+    turn = np.broadcast_to(_ID, (F, 4)).copy()
+    if where.any():
+        w = v[where]
+        y = want[where]
+        h = np.sqrt(np.maximum(n[where] ** 2 - y ** 2, 0.0)) / side[where]
+        target = np.stack([w[:, 0] * h, y, w[:, 2] * h], axis=-1)
+        turn[where] = quat_between_vectors(w, target)
+    return turn, where
+
+
 def _source_tables(source: Motion, limbs: dict):
     """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
     positions and rotations of the limbs' and feet's chains, the share of each limb's length it uses per
@@ -104,8 +127,11 @@ def _source_steps(source: Motion) -> np.ndarray:
 
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
           share: float, max_drop: float, reach: float, targets=None, shift_plants: bool = True,
-          above_floor: bool = True, cap: bool = True):
-    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``."""
+          above_floor: bool = True, cap: bool = True, clock=None):
+    """The layer on the evaluated ``motion``: ``(held motion, root drop (F,), notes)``; ``clock``: the time-warp
+    column that carried each contact joint and effector (:func:`~.plants_carry.carry_clocks`; default its own),
+    whose inverse warp gives its source times inside the plant."""
+    clock = {} if clock is None else clock
     sk = motion.skeleton
     F = motion.num_frames
     ft, ft_s = motion.frame_time, source.frame_time
@@ -120,8 +146,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
-    # -- each plant's frames: the source time sigma (the effector's own inverse warp, kept inside the plant's
-    # source frames) and the source foot there --------------------------------------------------------------
+    # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
+    # kept inside the plant's source frames) and the source foot there ---------------------------------------
     P = len(plants)
     sizes = np.array([p["stop"] - p["start"] for p in plants])
     in_fr = np.concatenate([np.arange(p["start"], p["stop"]) for p in plants])
@@ -131,7 +157,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     in_sig = np.empty(in_fr.size)
     for e in limbs:
         sel = e_of == e
-        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, e, in_fr[sel])
+        in_sig[sel] = _source_frames(tables, t0, ft, ft_s, clock.get(e, e), in_fr[sel])
     s_lo, s_hi = np.array([p["s_lo"] for p in plants]), np.array([p["s_hi"] for p in plants])
     in_sig = np.clip(in_sig, s_lo[in_pid], s_hi[in_pid])
     base = _sample_rows(spos, in_sig, e_of)                                  # (n, 3) source foot at sigma
@@ -142,9 +168,10 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         sel = e_of == e
         s_in[sel] = _sample(src_share[e], in_sig[sel])
     R_in = _reach(reach, L_in, np.linalg.norm(cur - hip, axis=-1), s_in)
-    d0 = np.zeros((P, 3))
-    np.add.at(d0, in_pid, cur - base)
-    d0 /= sizes[:, None]
+    # where the edited foot sits at the plant's first frame, against the source foot there: the plant is held
+    # there (horizontally; _choose_shifts), so the hip reaches it as the edit placed the leg (Kovar et al. 2002,
+    # §4: the plant's position from the motion being cleaned)
+    d0 = (cur - base)[np.r_[0, np.cumsum(sizes)[:-1]]]
     med = {e: float(np.median(length[e])) for e in limbs}
     lengths = np.array([med[e] for e in effs])
     p_start, p_stop = np.array([p["start"] for p in plants]), np.array([p["stop"] for p in plants])
@@ -172,13 +199,14 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         at_sig = {}
         mine = contacts_of.get(eff, ())
         ks = np.searchsorted(fr, [x for c in mine for x in (c[3], c[4])]).reshape(-1, 2)
-        # each contact joint's own source times, one inverse warp per joint over all its contacts' frames
+        # each contact joint's source times (its carrying clock's), one inverse warp per joint over its contacts' frames
         own_t = {}
         for j in {c[0] for c in mine}:
             idx = [i for i, c in enumerate(mine) if c[0] == j and ks[i, 1] > ks[i, 0]
                    and (targets is None or targets[c[8]] is None)]
             if idx:
-                t_all = _source_frames(tables, t0, ft, ft_s, j, np.concatenate([fr[ks[i, 0]:ks[i, 1]] for i in idx]))
+                t_all = _source_frames(tables, t0, ft, ft_s, clock.get(j, j),
+                                       np.concatenate([fr[ks[i, 0]:ks[i, 1]] for i in idx]))
                 cut = np.cumsum([ks[i, 1] - ks[i, 0] for i in idx])[:-1]
                 own_t.update(zip(idx, np.split(t_all, cut)))
         for i, (j, _e0, _e1, A, B, a, b, _, ci) in enumerate(mine):
@@ -215,7 +243,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         ankle = p_ref + wa[:, None] * da + ((1 - wa) * wt)[:, None] * dt
         both = (wa * wt) > 0
         if both.any():
-            # heel and toe held at once, each at its own joint's time: the toe aimed at its plant by turning
+            # heel and toe held at once, each at its carried source time: the toe aimed at its plant by turning
             # the foot about the ankle, and what the rigid foot's length cannot fit shared by the two
             toe_t = pt[both] + dt[both]
             v = toe_t - ankle[both]
@@ -327,6 +355,11 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         # beyond half a revolution would flip to the other way round)
         size = np.minimum(size, np.maximum(0.9 * np.pi - size, 0.0))
         r_l, r_r = rate[kl], rate[kr]                                                   # (n, C, 3)
+        if lim.leg:
+            # a leg's fade is solved in world space below: this joint-space fade is only its reference pose (the
+            # knee's plane), without the carried-on rate, which can swing a straight leg far off its target (run,
+            # s = +0.1: a 130-degree aim, the hip then flipping 140-180 degrees a frame)
+            r_l, r_r = np.zeros_like(r_l), np.zeros_like(r_r)
         r_l = r_l * np.minimum(1.0, size[kl] / np.maximum(np.linalg.norm(r_l, axis=-1) * tau_l[:, None],
                                                           1e-300))[..., None]
         r_r = r_r * np.minimum(1.0, size[kr] / np.maximum(np.linalg.norm(r_r, axis=-1) * tau_r[:, None],
@@ -338,6 +371,27 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
         out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
         _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
+        if lim.leg:
+            # the fade's foot in world space (Kovar et al. 2002, §4: the constrained and the unconstrained
+            # positions blended): from where the edit puts the ankle to the plant's boundary target (between two
+            # plants: the two targets, by the right plant's share), and the foot's world orientation likewise;
+            # the legs-in-the-air step below solves the leg for it
+            # each boundary's target carried on outside the plant as the source's own approach / take-off:
+            # the source foot at sigma extended with slope 1, with the boundary's offset from it (an unedited
+            # motion: its own foot)
+            gi = np.searchsorted(fr, bnd)
+            sig_b = r["sig"][gi]
+            off_p = r["g"][gi] - _sample(spos[:, lim.eff], sig_b)
+            off_q = quat_mul(quat_conj(_sample_quats(swq[:, lim.eff], sig_b)), r["q"][gi])
+            ext = []
+            for k in (kl, kr):
+                sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
+                ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
+                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k])))
+            g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
+            q_mix = slerp(ext[0][1], ext[1][1], al)
+            target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
+            fade_w[lim.eff] = (win, w, target, q_mix)
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -352,31 +406,61 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             if lim.eff in held:
                 free[held[lim.eff]] = False
             wf = np.zeros(F)
+            infade = np.zeros(F, bool)
             if lim.eff in fade_w:
                 wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
             down = wf[:, None] * shift                        # how far the foot goes with the root
+            if lim.eff in fade_w and len(fade_w[lim.eff]) > 2:
+                # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
+                win, _w, g_f, q_f = fade_w[lim.eff]
+                infade[win] = True
+                # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
+                # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
+                q_f = slerp(w_u[win, lim.eff], q_f, _w)
+                turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
+                down[win] = g_f - p_u[win, lim.eff]
+                for k in lim.foot:                            # the foot joints as the fade's orientation puts them
+                    p_u[win, k] = p_u[win, lim.eff] + quat_rotate(turn_f, p_u[win, k] - p_u[win, lim.eff])
+                w_u[win, lim.eff] = q_f
             low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
             deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
             lift = np.zeros(F)
+            pitch = None
             if above_floor and np.any(deficit > _TOL * med[lim.eff]):
+                # smooth away from the plants (let go of towards them: their own frames sit on the ground); what
+                # is still below the floor (in a fade into a plant): the ankle lifted exactly to the floor if it
+                # is below it, and a foot joint below it by turning the foot about the ankle (toe up) by the
+                # least angle that puts that joint on the floor (lifting the ankle instead would bend the knee
+                # against the plant's straight leg: a pop at the plant's first frame)
                 lift = _envelope(deficit, nb) * (1.0 - wf)
                 lift[~free] = 0.0
+                ankle = p_u[:, lim.eff, 1] + down[:, 1] + lift
+                lift += np.where(free, np.maximum(floor - ankle, 0.0), 0.0)
+                if lim.foot:
+                    pitch = _toe_up(p_u, lim, floor - down[:, 1] - lift, free)
             tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
             moved = np.linalg.norm(shift, axis=-1)
-            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny)))
+            turn = np.zeros(F, bool) if pitch is None else pitch[1]
+            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny) | turn | infade))
             if not fr.size:
                 continue
             p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
             p3 += shift[fr, None, :]
             tgt = p_u[fr, lim.eff] + down[fr]
             tgt[:, 1] += lift[fr]
-            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, w_u[fr, lim.eff],
+            q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
+            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
                                               length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
         chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s))
+        pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
+        for r in rows:
+            lim = r["lim"]
+            for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
+                pinned[r["fr"], x] = True
+        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s), pinned)
     return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
 
 

@@ -52,8 +52,8 @@ def _choose_shifts(hip, base, reach, pid, d0, lengths) -> np.ndarray:
     """One horizontal shift ``(P, 3)`` per plant, for held targets ``base + shift`` (samples ``(n, 3)``
     sorted by plant ``pid (n,)``) that the hip ``hip (n, 3)`` reaches within ``reach (n,)``.
 
-    Candidates: the segment from ``d0`` (where the edit puts the foot, on average) to the shift that centres
-    the hip's path over the plant (the middle of its horizontal extent), then around that centre along the
+    Candidates: the segment from ``d0`` (where the edit puts the foot at the plant's first frame) to the shift
+    that centres the hip's path over the plant (the middle of its horizontal extent), then around that centre along the
     hip's travel (within a quarter leg, ``lengths (P,)``). The first that needs no lowering, in that order
     (the nearest to ``d0``), else the one needing the least."""
     out = np.array(d0, dtype=float)
