@@ -530,3 +530,42 @@ def test_a_cull_move_is_drawn_by_the_fast_path_then_settles_on_the_same_plot(lab
         print(json.dumps(report, indent=1))
         assert not log["page_errors"], log["page_errors"]
         assert not bh.console_errors(log), bh.console_errors(log)
+
+
+def test_choosing_an_ik_effector_and_stepping_pose_k_record_no_ik_edit(lab):
+    """Review finding (session 10): choosing an IK effector in the browser recorded an ``ik_pose`` at the world
+    origin, and arrow keys on "pose k" then recorded more (the target sliders' range grew in the page and the
+    page sent a re-snapped old value back). Nothing the user did not move may become an edit."""
+    url, folder, runtime = lab
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_ik", page, log, runtime, report):
+        sel = _open_walk_editor(page, url, folder, "ik", pose=0)
+        with contextlib.closing(bh.Kernel(runtime)) as kernel:
+            iks = "[o for o in se.session.ops if o['op'] == 'ik_pose']"
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="IK").first.click()
+            page.locator(f"{sel} .sn-ik-joint select").first.select_option("LeftFoot")
+            bh.wait_kernel(runtime, "se.model.ik_joint == 'LeftFoot'", timeout=60)
+            bh.wait_kernel_idle(page)
+            page.wait_for_timeout(1500)   # any echo from the page has arrived by now
+            bh.wait_kernel_idle(page)
+            report["after_effector"] = kernel.eval(iks)
+            foot = kernel.eval("[float(v) for v in se.session.positions(se.session.edited())["
+                               "se.model.pose_frame(0), se.session.edited().skeleton.index('LeftFoot')]]")
+            shown = kernel.eval("[se.model.ik_x, se.model.ik_y, se.model.ik_z]")
+            report["foot"], report["shown"] = foot, shown
+            assert report["after_effector"] == [], report
+            # the sliders show the foot's place (as the page's grid gives it back: within half a step)
+            assert max(abs(a - b) for a, b in zip(foot, shown)) <= 0.5 * kernel.eval("se.model.ik_step"), report
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="pose").first.click()
+            handle = page.locator(f"{sel} .sn-pose .noUi-handle").first
+            handle.focus()
+            for _ in range(3):
+                page.keyboard.press("ArrowRight")
+            bh.wait_kernel(runtime, "se.model.pose == 3", timeout=60)
+            bh.wait_kernel_idle(page)
+            page.wait_for_timeout(1500)
+            bh.wait_kernel_idle(page)
+            report["after_pose_keys"] = kernel.eval(iks)
+            assert report["after_pose_keys"] == [], report
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]

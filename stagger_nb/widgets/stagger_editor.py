@@ -3,6 +3,7 @@ retime, insert/delete, foot contacts and IK posing over a :class:`~stagger_nb.se
 from __future__ import annotations
 
 import html
+import math
 
 import ipywidgets as widgets
 import traitlets
@@ -11,7 +12,7 @@ from ..core.motion import Motion
 from ..plotting import joint_curves_figure, pose_probability_figure
 from ..session import Session
 from ..session.models import STAGGER_OPS, StaggerModel, plain_message
-from ..session.models.views import joint_curves_view, place_ik_target, probability_view, stagger_state
+from ..session.models.views import joint_curves_view, place_ik_target, probability_view, reach_ik_targets, stagger_state
 from ..session.timeline import knot_table_of
 from ._editor import (
     _LINES,
@@ -95,6 +96,8 @@ def _controls(m: Motion, names: list, model: StaggerModel) -> dict:
               "region_frame", "sigma"):
         c[k].add_class(f"sn-{k.replace('_', '-')}")
     c["percent"].add_class("sn-cull")   # its former name (browser checks)
+    for k in ("pose", "ik_joint", "ik_x", "ik_y", "ik_z"):
+        c[k].add_class(f"sn-{k.replace('_', '-')}")
     return c
 
 
@@ -187,8 +190,11 @@ class StaggerEditor(_Editor):
                     w, widgets.SelectMultiple) else (None, None)))
         self._links.append(_link(model, "keep", c["keep"], transform=(tuple, list)))
         self._links.append(_link(model, "w_r_reference", c["w_r_reference"]))
-        for a in "xyz":   # the IK target sliders reach where the model says (around the effector)
-            model.observe(lambda ch, a=a: self._ik_reach(a), names="ik_range")
+        # the IK target sliders reach where the model says: the clip's box, set before they are shown
+        reach_ik_targets(model, session)
+        for a in "xyz":
+            self._ik_reach(a)
+            model.observe(lambda ch, a=a: self._ik_reach(a), names=["ik_range", "ik_step"])
         model.observe(self._on_inert, names=["s", "tau", "w_r", "cull_by", "ik_joint", "region", "propagate"])
         model.observe(self._on_selection, names=["joint"])
         model.observe(self._show_region, names=["region_weights"])
@@ -300,7 +306,10 @@ class StaggerEditor(_Editor):
     def _ik_reach(self, axis: str) -> None:
         lo, hi = self.model.ik_range["xyz".index(axis)]
         w = self.controls["ik_" + axis]
-        w.min, w.max = min(w.min, lo), max(w.max, hi)
+        with w.hold_sync():   # one message: the page re-snaps once, to the final range and step
+            w.min, w.max = min(w.min, lo), max(w.max, hi)
+            w.step = self.model.ik_step
+            w.readout_format = f".{max(0, math.ceil(-math.log10(w.step) - 1e-9)) + 1}f"   # as the model rounds
 
     def _warm_positions(self) -> None:
         """After first paint: the extraction (then the plots that need it), then every cull position's refit and

@@ -2,6 +2,9 @@
 §5.3, pose edits §5.1 Fig. 6, IK posing); its ``params <-> ops`` functions are in :mod:`.stagger_ops`."""
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import traitlets as T
 
 from ..ops import MAX_DEGREES, MAX_WORLD, Cull, Exaggerate, RandomTiming, Retime, Succession, limits
@@ -76,6 +79,8 @@ class StaggerModel(_Model):
     ik_x = T.Float(0.0, help="IK target x (world units)").tag(step=0.005, label="IK target x")
     ik_y = T.Float(0.0, help="IK target y").tag(step=0.005, label="IK target y")
     ik_z = T.Float(0.0, help="IK target z").tag(step=0.005, label="IK target z")
+    ik_step = T.Float(0.005, help="step of the IK target sliders (world units; a round number near 1/200 of the "
+                                  "body's extent, set with the reach by reach_ik)")
     ik_range = T.List(T.List(T.Float()), [[-1.0, 1.0]] * 3,
                       help="[[lo, hi]] * 3: where the IK target sliders reach, x, y, z (world units): the effector's "
                            "place at the selected pose +- the pose's extent, widened to show any target held")
@@ -310,14 +315,22 @@ class StaggerModel(_Model):
             with self.hold_trait_notifications():
                 self.ik_x, self.ik_y, self.ik_z = (float(x) for x in e["target"])
 
+    def step(self, name: str) -> float | None:
+        """As :meth:`_Model.step`; the IK target's step is :attr:`ik_step` (it scales with the clip)."""
+        return float(self.ik_step) if name in ("ik_x", "ik_y", "ik_z") else super().step(name)
+
     @T.observe("ik_x", "ik_y", "ik_z")
     def _move_ik_target(self, change):
-        """A user move of the target sliders records (or updates) the IK edit of the selected pose/effector."""
+        """A user move of the target sliders records (or updates) the IK edit of the selected pose/effector.
+        The target already shown (the effector's place, or the edit's target), or it snapped to the sliders'
+        grid (multiples of :attr:`ik_step`: what the page sends back for a value it was sent), is not a move:
+        nothing is recorded."""
         if self._loading or not self.ik_joint:
             return
         target = [self.ik_x, self.ik_y, self.ik_z]
         e = self.ik_entry()
-        if e is not None and list(e["target"]) == target:
+        shown = list(e["target"]) if e is not None else getattr(self, "_shown_ik", None)
+        if shown is not None and all(_echo(a, b, self.ik_step) for a, b in zip(target, shown)):
             return
         rest = [x for x in self.ik_targets if x is not e]
         self.ik_targets = rest + [{"pose": int(self.pose), "joint": self.ik_joint, "target": target}]
@@ -326,10 +339,26 @@ class StaggerModel(_Model):
         """Place the target sliders at ``position`` (the effector's current place) without recording an edit;
         with ``extent``, let :attr:`ik_range` reach ``position +- extent`` on each axis (it only grows)."""
         p = [float(x) for x in position]
+        self._shown_ik = p
         with self.loading(), self.hold_trait_notifications():
             if extent is not None:
                 self.ik_range = [[min(lo, v - extent), max(hi, v + extent)] for (lo, hi), v in zip(self.ik_range, p)]
             self.ik_x, self.ik_y, self.ik_z = p
+
+    def reach_ik(self, lo, hi, extent: float) -> None:
+        """Let the IK target sliders reach a clip's box ``lo``..``hi`` (3 numbers each, world units) +- ``extent``
+        on a grid of :attr:`ik_step` (a round 1, 2 or 5 x 10^k near ``extent / 200``): set once, before the sliders
+        are shown. A reach that grows while they are shown makes the page re-snap the old value to the new grid
+        and send it back (found in the browser: an IK edit at the world origin from choosing an effector)."""
+        e = float(extent)
+        if not np.isfinite(e) or e <= 0:
+            raise ValueError(f"extent must be a positive number of world units, got {extent!r}")
+        step = _round_step(e / 200.0)
+        box = [[math.floor((float(a) - e) / step) * step, math.ceil((float(b) + e) / step) * step]
+               for a, b in zip(lo, hi)]
+        with self.hold_trait_notifications():
+            self.ik_step = step
+            self.ik_range = [[min(r0, a), max(r1, b)] for (r0, r1), (a, b) in zip(self.ik_range, box)]
 
     def pose_frames(self) -> list:
         """The frame of each current pose (nearest to its time): where the 3D view marks the poses."""
@@ -339,3 +368,19 @@ class StaggerModel(_Model):
         """Index of the extracted pose nearest to ``time`` seconds (None before the extraction is known)."""
         t = self.candidate_times
         return min(range(len(t)), key=lambda k: abs(t[k] - float(time))) if t else None
+
+
+def _round_step(x: float) -> float:
+    """The round number 1, 2 or 5 x 10^k nearest above ``x`` (> 0)."""
+    k = math.floor(math.log10(x))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0 ** k >= x * (1 - 1e-9):
+            return m * 10.0 ** k
+    return 10.0 ** (k + 1)
+
+
+def _echo(value: float, shown: float, step: float) -> bool:
+    """``value`` is ``shown`` as a slider on a grid of ``step`` gives it back: the same number, or the grid point
+    nearest to it (then rounded as :func:`snap` rounds a control's value)."""
+    on_grid = snap(round(shown / step) * step, step)
+    return value == shown or abs(value - on_grid) <= 1e-9 * max(1.0, abs(on_grid))

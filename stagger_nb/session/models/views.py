@@ -11,6 +11,7 @@ import re
 
 import numpy as np
 
+from ...core.kinematics import skeleton_height
 from ...core.motion import Motion
 from ..session import joint_rotation_degrees
 
@@ -79,6 +80,17 @@ def place_ik_target(model, session, edited: Motion | None = None) -> None:
     p = pos[f, edited.skeleton.index(model.ik_joint)]
     extent = float(np.ptp(pos[f], axis=0).max()) or 1.0
     model.show_ik_target(p, extent)
+
+
+def reach_ik_targets(model, session) -> None:
+    """Let the IK target sliders reach the source clip's box (every joint, every frame) +- the skeleton's height
+    (``model.reach_ik``; the step near 1/200 of it: 1 cm on a 170 cm body), before the sliders are shown (the reach
+    then need not grow when an effector or a pose is chosen). The height, not a frame's extent: a Bandai rig's
+    still floor root makes a frame's extent metres wide."""
+    pos = session.positions(session.source)
+    if not pos.size:
+        return
+    model.reach_ik(pos.min(axis=(0, 1)), pos.max(axis=(0, 1)), skeleton_height(session.source) or 1.0)
 
 
 def warp_view(session) -> dict:
