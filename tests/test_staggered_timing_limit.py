@@ -196,9 +196,10 @@ def _largest_steps(motion) -> np.ndarray:
 def test_a_long_segment_holding_the_peak_is_not_squeezed_into_a_pop(shared_motion):
     """bandai_run_cycle: 24 frames, 4 poses, so the lower leg's segment between frames 5 and 17 holds its
     fastest swing (16.4°/frame) yet is slow on average (it also holds a pause). The mean-speed floor let the
-    moderate edit (pelvis, s=0.03, l=2, tau=0.1) squeeze it to 0.68 of its length: a 23.3° step, an added pop
-    of 6.9° > 5°. The floor from the segment's peak speed keeps every joint's largest step within 1.2 times
-    the source's (1 / 0.9 = 1.11 in continuous time, plus frame sampling) and the pop within the bound."""
+    moderate edit (pelvis, s=0.03, l=2, tau=0.1) squeeze it to 0.68 of its length: a 23.3° step (1.42 times
+    the source's largest), an added pop of 6.9° > 5°. The floor from the segment's peak speed keeps every
+    joint's largest step within 1.3 times the source's (1 / 0.8 = 1.25 in continuous time, plus frame
+    sampling) and the pop within the bound."""
     m = shared_motion("bandai_run_cycle.bvh")
     sm = staggered.extract(m)
     base = _largest_steps(staggered.evaluate(sm))
@@ -212,8 +213,8 @@ def test_a_long_segment_holding_the_peak_is_not_squeezed_into_a_pop(shared_motio
             r = quality.compare(m, e, bounds="moderate")
             assert r.added_pop <= 5.0, r.summary
             assert r.knots_out_of_order == ()
-    assert worst_ratio <= 1.2
+    assert worst_ratio <= 1.3
     # the paper's raw offsets (limit=None) stay reachable and do squeeze the swing
     raw = staggered.random_timing(staggered.succession(sm, root=root, s=0.03, l=2.0, limit=None), tau=0.1,
                                   limit=None)
-    assert float((_largest_steps(staggered.evaluate(raw))[moving] / base[moving]).max()) > 1.3
+    assert float((_largest_steps(staggered.evaluate(raw))[moving] / base[moving]).max()) > 2.0
