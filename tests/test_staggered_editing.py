@@ -439,7 +439,8 @@ def test_summarize_timing_warnings_is_one_plain_sentence(fixture):
     _, sm = fixture
     assert staggered.summarize_timing_warnings(()) == ""
     assert staggered.summarize_timing_warnings(staggered.timing_warnings(sm)) == ""
-    out = staggered.succession(sm, root="Hips", s=0.05, l=2.0)
+    # the paper's raw offsets bring knots next to their neighbours' (the saturated edit keeps them away)
+    out = staggered.succession(sm, root="Hips", s=0.05, l=2.0, limit=None)
     warns = staggered.timing_warnings(out)
     text = staggered.summarize_timing_warnings(warns)
     assert text.startswith(f"{len(warns)} refined time") and text.count(".") == 1 and text.endswith(".")

@@ -176,14 +176,15 @@ def test_cull_after_timing_edits_keeps_the_warp(walk):
 
 
 def _delayed(sm, m, parent, joint):
-    """``sm`` with only ``joint``'s knots of poses 2-10 delayed by 3 frames (succession from ``parent``,
-    d = 1), and the source's LeftToeBase contacts inside those poses (away from the anchored knots)."""
+    """``sm`` with only ``joint``'s knots of poses 2-10 delayed by exactly 3 frames (succession from ``parent``,
+    d = 1, the raw offsets: the saturation would ease the delay where it squeezes a fast segment), and the
+    source's LeftToeBase contacts inside those poses (away from the anchored knots)."""
     dt = 3 * m.frame_time
     T0 = sm.pose_times
     inner = [c for c in sm.contacts if c[0] == "LeftToeBase" and T0[2] + dt <= c[1] * m.frame_time
              and (c[2] - 1) * m.frame_time <= T0[10]]
     assert inner
-    return staggered.succession(sm, root=parent, s=dt, l=1.0, joints=[joint], poses=range(2, 11)), inner
+    return staggered.succession(sm, root=parent, s=dt, l=1.0, joints=[joint], poses=range(2, 11), limit=None), inner
 
 
 def test_carry_by_limb_uses_the_hip_timing(walk):

@@ -11,7 +11,8 @@ __all__ = ["MAX_TAU", "TIMING_LIMIT", "MAX_TIMING_LIMIT"]
 MAX_TAU = 60.0
 
 #: Default ``limit`` of ``staggered.succession`` / ``random_timing`` and of their ops: no segment of a joint's
-#: curve plays more than this many times faster than in the source (its fastest segments at most 1.1 times;
-#: ``None`` / ``null``: the paper's raw offsets). ``limit`` must be > 1 and at most ``MAX_TIMING_LIMIT``.
+#: curve plays more than this many times faster than in the source (its fastest segments at most 1.1 times, its
+#: peak speed at most 1.25 times; ``None`` / ``null``: the paper's raw offsets). ``limit`` must be > 1 and at
+#: most ``MAX_TIMING_LIMIT``.
 TIMING_LIMIT = 1.5
 MAX_TIMING_LIMIT = 1000.0
