@@ -40,7 +40,8 @@ def forward_kinematics_reference(motion: Motion):
 
 def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
     """``staggered.evaluate_arrays``' rotations computed in the most straightforward manner (per joint: segment by
-    searchsorted, :func:`~stagger_nb.core.rotations.quat_bezier`, linear rotation-vector displacement,
+    searchsorted, :func:`~stagger_nb.core.rotations.quat_bezier`, linear rotation-vector displacement --
+    on the quaternions (normalised lerp) for a segment whose displacement turns more than pi somewhere --,
     ``quat_mul``). Slow; a reference for tests and benchmarks. Returns ``(N, J, 4)``."""
     times = np.asarray(times, dtype=float).reshape(-1)
     J = sm.num_joints
@@ -55,8 +56,14 @@ def evaluate_reference(sm: StaggeredMotion, times) -> np.ndarray:
         u = tn * (n - 1)
         m0 = np.minimum(np.floor(u).astype(int), n - 2)
         f = (u - m0)[:, None]
-        d = sm.displacements[seg, i, m0] * (1 - f) + sm.displacements[seg, i, m0 + 1] * f
-        out[:, i] = quat_mul(s, rotvec_to_quat(d))
+        d0, d1 = sm.displacements[seg, i, m0], sm.displacements[seg, i, m0 + 1]
+        e = rotvec_to_quat(d0 * (1 - f) + d1 * f)
+        wide = (np.linalg.norm(sm.displacements[seg, i], axis=-1) > np.pi).any(axis=-1)
+        for r in np.flatnonzero(wide):
+            q0, q1 = rotvec_to_quat(d0[r]), rotvec_to_quat(d1[r])
+            q1 = -q1 if np.dot(q0, q1) < 0 else q1
+            e[r] = quat_normalize(q0 * (1 - f[r]) + q1 * f[r])
+        out[:, i] = quat_mul(s, e)
     return out
 
 
