@@ -121,3 +121,15 @@ def test_time_plots_given_one_x_range_share_margins_and_range():
     assert list(_valid(plotting.falloff_figure(T, {"green": T})).layout.xaxis.range) == [0.0, 1.0]
     with pytest.raises(ValueError, match="x_range"):
         plotting.falloff_figure(T, {"green": T}, x_range=(1.0, 1.0))
+
+
+def test_a_backward_warps_speed_is_drawn_by_its_size_and_named_backward():
+    """Browser review: the backward warp's speed plot looked blank (a negative speed on a log axis)."""
+    from stagger_nb.plotting.views import warp_figure
+    x = np.arange(10) / 30.0
+    w = x[::-1].copy()
+    fig = warp_figure(x, w, -np.ones(10))
+    speed = fig["data"][3]
+    assert speed["name"] == "speed (backward)" and np.allclose(speed["y"], 1.0)
+    fwd = warp_figure(x, x, np.full(10, 2.0))["data"][3]
+    assert fwd["name"] == "speed" and np.allclose(fwd["y"], 2.0)

@@ -207,7 +207,7 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
                 x_range=None) -> dict:
     """A time warp and its speed: top, input time against output time with the linear warp and the
     keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1×, 0.5×, 1×, 2×, 10× (clipped
-    to [0.1, 10]).
+    to [0.1, 10]; a backward warp's speed is negative: its size is drawn, named "speed (backward)").
 
     Parameters
     ----------
@@ -234,7 +234,10 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
         dict(type="scatter", x=kt[:, 1], y=kt[:, 0], mode="markers", name="keytimes", showlegend=bool(len(kt)),
              marker=dict(size=11, color=POSE_COLOUR, symbol="x-thin", line=dict(width=3, color=POSE_COLOUR)),
              cliponaxis=False),
-        dict(type="scatter", x=x, y=np.clip(s, lo, hi), mode="lines", name="speed", xaxis="x2", yaxis="y2",
+        # a backward warp (input time running down) has a negative speed: its size is drawn (a log axis has no
+        # negatives: it sat on the axis' floor and looked blank) and the legend says it runs backward
+        dict(type="scatter", x=x, y=np.clip(np.abs(s), lo, hi), mode="lines", xaxis="x2", yaxis="y2",
+             name="speed (backward)" if len(s) and np.nanmedian(s) < 0 else "speed",
              line=dict(color="#2f855a", width=2)),
     ]
     ticks = [0.1, 0.5, 1, 2, 10]   # five labels fit the lower row's ~120 px
