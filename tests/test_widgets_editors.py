@@ -191,6 +191,29 @@ def test_stagger_tools_are_reachable_and_inert_ones_say_why(stagger_editor):
     e.model.cull_by = "percent"
 
 
+def test_stagger_insert_at_playhead_on_a_pose_says_why_and_is_disabled(stagger_editor):
+    """Browser review D8: with the playhead on pose 2 the insert is refused in a plain sentence (the pose, its
+    time rounded, the fix) and the button is disabled with that tooltip; between two poses it inserts one."""
+    e = stagger_editor
+    e.session.clear()
+    m, b = e.model, e.insert_button
+    m.pose = 2                               # the playhead goes to pose 2
+    t2 = m.pose_times[2]
+    why = m.insert_refusal()
+    assert why == f"the playhead is on pose 2 ({t2:.2f} s): move it between two poses to insert one"
+    assert b.disabled and b.tooltip == why
+    e.insert_at_playhead()                   # what the button calls (a browser may click a stale button)
+    assert e.session.ops == [] and why in e.message.value and "strictly" not in e.message.value
+    assert "on pose 0" in m.insert_refusal(m.pose_times[0]) and "after the last" in m.insert_refusal(1e6)
+    n = len(m.pose_times)
+    m.frame = (m.pose_frame(2) + m.pose_frame(3)) // 2
+    assert m.insert_refusal() == "" and not b.disabled and "on pose" not in b.tooltip
+    b.click()
+    assert [o["op"] for o in e.session.ops] == ["insert_pose"] and len(m.pose_times) == n + 1
+    assert why not in e.message.value
+    e.session.clear()
+
+
 def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
     from stagger_nb.widgets import WandEditor
     run = run.slice(0, 120)

@@ -169,7 +169,7 @@ class StaggerEditor(_Editor):
                              frame_time=m.frame_time)
         self.insert_button = widgets.Button(description="insert pose at playhead", layout=widgets.Layout(width="200px"))
         self.delete_button = widgets.Button(description="delete pose k", layout=widgets.Layout(width="140px"))
-        self.insert_button.on_click(lambda _: self.insert_pose(self.model.frame * m.frame_time))
+        self.insert_button.on_click(lambda _: self.insert_at_playhead())
         self.delete_button.on_click(lambda _: self.delete_pose(self.model.pose))
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, **_VIEW_SIZE)
         self.curves = PlotView(frame_time=m.frame_time)
@@ -199,7 +199,9 @@ class StaggerEditor(_Editor):
         model.observe(self._on_selection, names=["joint"])
         model.observe(self._show_region, names=["region_weights"])
         model.observe(self._on_pose, names=["pose", "ik_joint"])
+        model.observe(self._on_playhead, names=["frame", "pose_times"])
         self._on_inert()
+        self._on_playhead()
         self._on_pose()
         if precompute:
             self._warm_positions()
@@ -340,8 +342,18 @@ class StaggerEditor(_Editor):
             self.error = plain_message(e)
             self._show_message()
 
-    def insert_pose(self, time: float) -> None:
-        """Insert a staggered pose at ``time`` seconds (op ``insert_pose``)."""
+    def insert_at_playhead(self) -> None:
+        """Insert a staggered pose at the playhead (the button), as :meth:`insert_pose`."""
+        self.insert_pose(self.model.frame * self.model.frame_time, _why=self.model.insert_refusal())
+
+    def insert_pose(self, time: float, _why: str | None = None) -> None:
+        """Insert a staggered pose at ``time`` seconds (op ``insert_pose``); a time on a pose or outside the
+        poses is refused with the model's sentence (``StaggerModel.insert_refusal``; nothing recorded)."""
+        why = self.model.insert_refusal(float(time)) if _why is None else _why
+        if why:
+            self.error = why
+            self._show_message()
+            return
         self._insert_action({"op": "insert_pose", "time": float(time)})
 
     def delete_pose(self, k: int) -> None:
@@ -372,6 +384,12 @@ class StaggerEditor(_Editor):
         _inert(c["region_frame"], not m.region, "the region's centre: inert while the region is off")
         _inert(c["sigma"], not (m.region or m.propagate), "the falloff width: inert while neither the region nor "
                                                           "propagation is on")
+
+    def _on_playhead(self, change=None) -> None:
+        """"insert pose at playhead" is disabled, saying why, while the playhead cannot take a new pose (on a
+        pose, or outside them)."""
+        why = self.model.insert_refusal()
+        _inert(self.insert_button, bool(why), why, "insert a pose at the playhead (§5.1)")
 
     def _show_region(self, change=None) -> None:
         """The timing edits' region (``model.region_weights``, a weight per pose) on the dope sheet, when the editor

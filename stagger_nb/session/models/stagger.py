@@ -360,6 +360,27 @@ class StaggerModel(_Model):
             self.ik_step = step
             self.ik_range = [[min(r0, a), max(r1, b)] for (r0, r1), (a, b) in zip(self.ik_range, box)]
 
+    def insert_refusal(self, time: float | None = None) -> str:
+        """Why a pose cannot be inserted at ``time`` seconds (default: the playhead), in one plain sentence with
+        rounded numbers, or "" when it can: a new pose goes strictly between two poses (§5.1), so not on a pose
+        (to 1e-6 s) nor before the first or after the last."""
+        t = self.frame * self.frame_time if time is None else float(time)
+        pt = self.pose_times
+        where = "the playhead" if time is None else f"{t:.2f} s"
+        fix = "move it between two poses to insert one" if time is None else "choose a time between two poses"
+        if not pt:   # not known yet (before the extraction): the replay judges
+            return ""
+        if len(pt) == 1:
+            return "there is one pose: a pose is inserted between two"
+        on = [k for k, x in enumerate(pt) if abs(x - t) <= 1e-6]
+        if on:
+            return f"{where} is on pose {on[0]} ({pt[on[0]]:.2f} s): {fix}"
+        if t < pt[0]:
+            return f"{where} is before the first pose ({pt[0]:.2f} s): {fix}"
+        if t > pt[-1]:
+            return f"{where} is after the last pose ({pt[-1]:.2f} s): {fix}"
+        return ""
+
     def pose_frames(self) -> list:
         """The frame of each current pose (nearest to its time): where the 3D view marks the poses."""
         return [self.pose_frame(k) for k in range(len(self.pose_times))]
