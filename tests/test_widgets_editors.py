@@ -475,6 +475,40 @@ def test_warp_style_free_length_and_backward(walk, run):
         e.close()
 
 
+def test_warp_free_length_readout_shows_the_duration_the_warp_chose(walk, run):
+    """Browser review D5: with free length on, the greyed duration shows what the warp chose (the title's
+    "→ x s"), also after an undo back to a free-length state; no edit is recorded by showing it."""
+    from stagger_nb.widgets import WarpEditor
+    w, r = walk.slice(0, 150), run.slice(0, 150)
+    e = WarpEditor(w, reference={"run": r})
+    try:
+        e.model.duration = round(1.3 * w.duration, 2)
+        target = e.model.duration
+        e.model.free_length = True
+        chosen = e.session.edited().duration
+        assert abs(chosen - target) > 2 * w.frame_time   # the warp chose another length
+        title = e.warp_plot.figure["layout"]["title"]
+        title = title["text"] if isinstance(title, dict) else title
+        assert title.endswith(f"→ {chosen:.2f} s")
+        assert e.model.duration == pytest.approx(chosen) and e.controls["duration"].value == pytest.approx(chosen)
+        assert "duration" not in e.session.ops[0]
+        e.model.skip = 4                             # another free-length warp, then undo back to the first
+        e.session.undo()
+        assert e.model.free_length and e.model.skip != 4
+        assert e.model.duration == pytest.approx(e.session.edited().duration)
+        assert e.controls["duration"].value == pytest.approx(e.session.edited().duration)
+        e.session.undo()                             # free length off again: the target it had
+        assert not e.model.free_length and e.model.duration == pytest.approx(target)
+        e.model.free_length = True                   # on and off by the user: the target comes back, one step
+        assert e.model.duration == pytest.approx(chosen)
+        e.model.free_length = False
+        assert e.model.duration == pytest.approx(target) and e.session.ops[0]["duration"] == pytest.approx(target)
+        e.session.undo()
+        assert e.model.free_length and e.model.duration == pytest.approx(chosen)
+    finally:
+        e.close()
+
+
 def test_closing_an_editor_closes_every_widget_it_made(walk):
     """Open widgets stay registered with ipywidgets until exit (then their __del__ fails noisily): close()
     closes the controls, the 3D view, the plots and the layout boxes, not only the outer box."""

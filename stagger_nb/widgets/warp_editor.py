@@ -206,6 +206,8 @@ class WarpEditor(_Editor):
 
     def _update_views(self, edited: Motion) -> None:
         v = warp_view(self.session)
+        with self.binding.paused():   # free length: the readout shows the duration the warp chose, as the title
+            self.model.show_chosen_duration(float(v["out_times"][-1]))
         self.warp_plot.figure = warp_figure(v["out_times"], v["warp"], v["speed"], keytimes=self.model.keytimes or None,
                                             title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
                                                   f"→ {v['out_times'][-1]:.2f} s", height=_PLOT_HEIGHT + 30)

@@ -51,6 +51,26 @@ class WarpModel(_Model):
             self._reachable(self.skip, v, "duration")
         return v
 
+    def show_chosen_duration(self, seconds: float) -> None:
+        """With free length on (guided), :attr:`duration` shows the duration the warp chose (``seconds``, the
+        replay's output; Hsu et al. 2007, §3.3), not the stale target the op no longer holds; set as a load (no
+        edit: the free-length op has no duration). Turning free length off goes back to the target it had."""
+        if self.free_length and self.mode == "guided" and abs(float(seconds) - self.duration) > 1e-9:
+            if getattr(self, "_free_target", None) is None:
+                self._free_target = self.duration
+            with self.loading():
+                self.duration = float(seconds)
+
+    @T.observe("free_length")
+    def _back_to_target(self, change):
+        """A user turning free length off gets back the target duration the readout showed before it."""
+        target, self._free_target = getattr(self, "_free_target", None), None
+        if not change["new"] and target is not None and not self._loading:
+            try:
+                self.duration = target
+            except T.TraitError:   # no longer reachable (the skip changed meanwhile): the chosen duration stays
+                pass
+
     @T.validate("skip")
     def _v_skip(self, p):
         lo, hi, _ = limits(GuidedWarp, "skip")
