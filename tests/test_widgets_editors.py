@@ -253,6 +253,29 @@ def test_wand_model_sigma_edit_frame_and_other_ops_kept(run):
         e.close()
 
 
+def test_wand_remove_edit_replaces_the_add_message(run):
+    """Browser review D10: "add edit at playhead" says the frame was added; "remove this edit" then says what
+    the removal did, the add's sentence gone."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(run, frame=20, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        e.model.frame = 45
+        e.add_button.click()
+        assert "frame 45" in e.message.value and "added as an edited frame" in e.message.value
+        assert e.model.edited_frames == [20, 45]
+        e.remove_button.click()
+        assert e.model.edited_frames == [20] and 45 not in e.model.edits
+        assert "added as an edited frame" not in e.message.value
+        assert "the edit of frame 45" in e.message.value and "1 edited frame left" in e.message.value
+        assert e.model.edit_frame == 20          # the selection moved to the edit left
+        e.remove_button.click()
+        assert e.model.edited_frames == [] and e.session.ops == [] and "no edited frames left" in e.message.value
+        e.remove_button.click()                  # nothing left to remove: said, nothing changes
+        assert "has no edit to remove" in e.message.value and "removed" not in e.message.value
+    finally:
+        e.close()
+
+
 def test_wand_frame_sliders_in_seconds_follow_the_model_in_frames(run):
     """The edited-frame and edit-range sliders show seconds (issue 26: 2,751 frames on one track) while the model
     and its ops keep frames; a frame set from code moves the slider to its time and never grows the track past

@@ -116,7 +116,7 @@ class WandEditor(_Editor):
         self.add_button = widgets.Button(description="add edit at playhead", layout=widgets.Layout(width="180px"))
         self.remove_button = widgets.Button(description="remove this edit", layout=widgets.Layout(width="150px"))
         self.add_button.on_click(lambda _: self._add_at_playhead())
-        self.remove_button.on_click(lambda _: self.model.remove_edit(self.model.edit_frame))
+        self.remove_button.on_click(lambda _: self._remove_selected())
 
         view = SkeletonView(m, ghost=m, show_ghost=show_ghost, pose_label="edited frame", **_VIEW_SIZE)
         self.falloff_plot = PlotView(frame_time=m.frame_time)
@@ -192,6 +192,20 @@ class WandEditor(_Editor):
             m.add_edit(f)
             self._add_note = (f"frame {f} ({m.time_of(f):.2f} s) added as an edited frame: rotate a joint to edit "
                               "it (the falloff plot shows its reach)")
+        self._show_message()
+
+    def _remove_selected(self) -> None:
+        """"remove this edit": the selected frame's edit removed; the message line says what that did (it
+        replaces the note of the add, browser review D10)."""
+        m, f = self.model, int(self.model.edit_frame)
+        if f not in m.edits:
+            self._add_note = f"frame {f} ({m.time_of(f):.2f} s) has no edit to remove"
+        else:
+            m.remove_edit(f)
+            left = len(m.edits)
+            self._add_note = (f"the edit of frame {f} ({m.time_of(f):.2f} s) removed; "
+                              + (f"{left} edited frame{'s' if left != 1 else ''} left" if left else
+                                 "no edited frames left"))
         self._show_message()
 
     def _on_pick_edit(self, change) -> None:
