@@ -3,6 +3,8 @@ outside stagger_nb.widgets); setting its traits writes the session's ops and cha
 views; ops of other techniques are kept; undo restores the model; model.frame is the one playhead."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import traitlets
@@ -272,6 +274,31 @@ def test_wand_remove_edit_replaces_the_add_message(run):
         assert e.model.edited_frames == [] and e.session.ops == [] and "no edited frames left" in e.message.value
         e.remove_button.click()                  # nothing left to remove: said, nothing changes
         assert "has no edit to remove" in e.message.value and "removed" not in e.message.value
+    finally:
+        e.close()
+
+
+def test_wand_edit_range_arrow_keys_move_the_low_handle_a_frame_each(run):
+    """Browser review D2: the edit range's low handle, stepped by the page to the next grid point above the
+    value shown (rounded to 4 decimals: 0.0083 on a 1/120 s grid), moves one frame per press, not one frame
+    and then no more; a drag (a value between grid points) passes as it is."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(run, frame=20, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        e.model.propagate = True
+        e.limit_range.value = True
+        r, ft = e.range, run.frame_time
+        hi = r.value[1]
+        for k in range(1, 6):                    # ArrowRight: the next grid point above the shown low value
+            lo = r.min + (math.floor((r.value[0] - r.min) / r.step + 1e-9) + 1) * r.step
+            from_browser(r, value=[lo, hi])
+            assert e.model.frame_range[0] == k and e.session.ops[-1]["frame_range"][0] == k
+        for k in (4, 3):                         # ArrowLeft: the grid point below
+            lo = r.min + (math.ceil((r.value[0] - r.min) / r.step - 1e-9) - 1) * r.step
+            from_browser(r, value=[lo, hi])
+            assert e.model.frame_range[0] == k
+        from_browser(r, value=[10.4 * ft, hi])   # a drag between frames: the nearest frame
+        assert e.model.frame_range[0] == 10
     finally:
         e.close()
 

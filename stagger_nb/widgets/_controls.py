@@ -56,23 +56,37 @@ def _same_value(a, b) -> bool:
 
 
 def _stepped(control, old, new):
-    """``new`` as the user meant it when it is an arrow-key step of a number box (``FloatText``) from ``old``.
+    """``new`` as the user meant it when it is an arrow-key step of a number box (``FloatText``) from ``old``,
+    or of either handle of a ``FloatRangeSlider`` (a pair: each handle as a number on the slider's grid from its
+    ``min``).
 
     The browser steps a number box to the next multiple of its ``step`` (counted from 0) above or below the
     shown value. From a value the model rounded to its display precision between two multiples (a pose time
     of 2.0333 s on a 1/120 s grid) that move is less than a step, and the model's rounding puts it back (the
     box never moved on): a value on the step grid less than one step away from ``old`` is taken as one step
     from the multiple nearest ``old``, in the direction pressed. A typed value is not on the grid (to 1e-6 of a
-    step) and passes as it is."""
-    if not isinstance(control, widgets.FloatText) or not control.step or control.step <= 0:
+    step) and passes as it is. A range slider's handle snaps the same way (the wand's edit range in seconds,
+    rounded to 4 decimals: 0.0083 stepped to 0.008333, one frame again, browser review D2)."""
+    step = getattr(control, "step", None)
+    if not step or step <= 0:
         return new
+    if isinstance(control, widgets.FloatRangeSlider):
+        if not (isinstance(old, (list, tuple)) and isinstance(new, (list, tuple)) and len(old) == len(new) == 2):
+            return new
+        return tuple(_step_one(float(step), float(control.min), o, n) for o, n in zip(old, new))
+    if not isinstance(control, widgets.FloatText):
+        return new
+    return _step_one(float(step), 0.0, old, new)
+
+
+def _step_one(step: float, base: float, old, new):
+    """One number of :func:`_stepped` on the grid ``base + k * step``."""
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in (old, new)):
         return new
-    step = float(control.step)
-    n = new / step
+    n = (new - base) / step
     if abs(n - round(n)) > 1e-6 or not 0 < abs(new - old) < step * (1 - 1e-6):
         return new
-    return (round(old / step) + (1 if new > old else -1)) * step
+    return base + (round((old - base) / step) + (1 if new > old else -1)) * step
 
 
 class _ControlLink:
