@@ -132,6 +132,8 @@ class WandEditor(_Editor):
                  "compare": [widgets.HBox([c["compare"]])]}
         c["sigma"].add_class("sn-sigma")
         c["edit_frame"].add_class("sn-edit-frame")
+        self.range.add_class("sn-edit-range")
+        self.limit_range.add_class("sn-limit-range")
         for a in "xyz":
             c["r" + a].add_class(f"sn-r{a}")
         self._setup(model, session, view, [self.falloff_plot, self.curves], tools, quick=quick)
