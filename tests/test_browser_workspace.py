@@ -574,8 +574,8 @@ def test_choosing_an_ik_effector_and_stepping_pose_k_record_no_ik_edit(lab):
 def test_arrow_keys_on_the_wands_edit_range_move_its_low_handle_a_frame_each(lab):
     """Review finding D2 (session 10): 30 quick ArrowRight presses on the low handle of the wand's edit range
     moved it one frame. Presses made one at a time (each answered before the next) move it a frame each: five
-    right, two left. This passes with and without the rounding fix in ``_controls._stepped`` (its unit test is
-    the rounding case); quick presses made while an answer is in flight can still be lost (open)."""
+    right, two left; then ten quick presses (no wait for the answers) move it ten frames: the kernel no longer
+    writes back a value that is the page's own up to display rounding (``_controls._same_grid_point``)."""
     url, folder, runtime = lab
     cells = [_head("walk.bvh"), "we = WandEditor(m, precompute=False)\nwe.model.propagate = True\n"
              "we.limit_range.value = True\nwe", f"print({bh.DONE!r})"]
@@ -606,6 +606,11 @@ def test_arrow_keys_on_the_wands_edit_range_move_its_low_handle_a_frame_each(lab
                     page.wait_for_timeout(300)   # the kernel's answer reaches the page's slider
                     report["steps"].append(kernel.eval("list(we.model.frame_range)"))
             assert kernel.eval("we.model.frame_range[0]") == start[0] + 3, report
+            # and quick presses, without waiting for each answer: none is lost
+            for _ in range(10):
+                page.keyboard.press("ArrowRight")
+            bh.wait_kernel_idle(page)
+            bh.wait_kernel(runtime, f"we.model.frame_range[0] == {start[0] + 13}", timeout=60)
             report["range"] = [start, kernel.eval("list(we.model.frame_range)")]
             assert report["range"][1][1] == start[1], report       # the high handle stayed
         print(json.dumps(report, indent=1))
