@@ -94,12 +94,9 @@ def _same_grid_point(control, shown) -> bool:
     written back then: while the page's answer is in flight, a quick next key press would start from it and be
     lost (the wand's edit range, browser review D2). Single sliders and number boxes still show the model's
     rounding (a typed 0.41234 reads 0.412)."""
-    if not isinstance(control, widgets.FloatRangeSlider):
+    if not isinstance(control, widgets.FloatRangeSlider) or not control.step or len(shown) != 2:
         return False
-    step = float(control.step or 0.0)
-    cur = control.value if isinstance(control.value, tuple) else (control.value,)
-    new = shown if isinstance(shown, tuple) else (shown,)
-    return step > 0 and len(cur) == len(new) and all(abs(float(a) - float(b)) < 0.5 * step for a, b in zip(cur, new))
+    return all(abs(float(a) - float(b)) < 0.5 * control.step for a, b in zip(control.value, shown))
 
 
 class _ControlLink:
