@@ -54,7 +54,8 @@ the 8th nearest frame outside W (``sigma all``: from all frames);
 ``cosine``: the falloff from the Green's rows normalised by their diagonal, G_ij / sqrt(G_ii G_jj) (the cosine of
 two frames' points in the Green's embedding; <= 1 where G is positive semi-definite, and the same from either
 frame: an isolated frame's high G_ii no longer lowers every other frame's share); ``cw``: cosine, graph at 120 Hz,
-widen by rho (W 0.25 s) cap 1.25, with the change named.
+widen by rho (W 0.25 s) cap 1.25, with the change named; ``commute``: the falloff 1 - R_ij / max R from the
+truncated Green's function's commute-time (resistance) distance R_ij = G_ii + G_jj - 2 G_ij.
 """
 from __future__ import annotations
 
@@ -163,6 +164,19 @@ class CosineBasis:
         return self.b.row(i) * self.scale * self.scale[i]
 
 
+class CommuteBasis(CosineBasis):
+    """Rows ``-(G_ii + G_jj - 2 G_ij)``: minus the commute-time (resistance) distance of the truncated Green's
+    function, so the falloff of section 3.3 is ``1 - R_ij / max_j R_ij``."""
+
+    def row(self, i):
+        g = 1.0 / self.scale ** 2
+        return 2.0 * self.b.row(i) - g - g[i]
+
+
+def commute_basis(m, X=None, **kw):
+    return CommuteBasis(basis(m, X, **kw))
+
+
 def cosine_basis(m, X=None, **kw):
     return CosineBasis(basis(m, X, **kw))
 
@@ -229,6 +243,7 @@ def row(clips, feature, kw) -> list[str]:
     X = (lambda m: None) if feature is None else feature
     kw = dict(kw)
     basis = cosine_basis if kw.pop("cosine", False) else globals()["basis"]
+    basis = commute_basis if kw.pop("commute", False) else basis
     cells = []
     for m in (clips["hop30"], clips["hopF"]):
         rows = hop_falloffs(m, basis=basis(m, X(m), **kw))
@@ -351,6 +366,9 @@ VARIANTS = [
     ("ca x1.5 alpha0.5", None, dict(cosine=True, rate=120, rep_window=0.25, rep_cap=1.25, sigma_scale=1.5, alpha=0.5)),
     ("ca x1.8 alpha0.5", None, dict(cosine=True, rate=120, rep_window=0.25, rep_cap=1.25, sigma_scale=1.8, alpha=0.5)),
     ("ca x1.5 alpha0.5 no widening", None, dict(cosine=True, rate=120, sigma_scale=1.5, alpha=0.5)),
+    ("commute", None, dict(commute=True)),
+    ("commute, graph at 120 Hz", None, dict(commute=True, rate=120)),
+    ("commute, graph at 120 Hz, widen by rho 1.25", None, dict(commute=True, rate=120, rep_window=0.25, rep_cap=1.25)),
     ("graph at 30 Hz, alpha1", None, dict(rate=30, alpha=1.0)),
     ("graph at 30 Hz, self_tuning", None, dict(rate=30, self_tuning=True)),
     ("graph at 30 Hz, widening cap 1.25", None, dict(rate=30, widen_cap=1.25)),

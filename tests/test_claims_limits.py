@@ -6,6 +6,9 @@
 * The default sigma is the distance to a frame's 8th nearest neighbour, which at high frame rates is a frame
   of its own 0.1 s: the procedural walk's sigma at 60 Hz is half its 30 Hz one (0.086 / 0.166), the rate
   dependence that leaves CMU 01_01's hops short at 120 Hz (strict xfail until the default is made rate-free).
+  Session 11: a graph built on the poses resampled to a fixed rate is rate-free by construction, but no rate,
+  kernel width, Theiler-window scale or row normalisation measured meets the hops and issue 13's turning walks
+  together (``benchmarks/bench_wand_variants.py``; the table in ``bench_claims.py``'s docstring).
 """
 from __future__ import annotations
 
@@ -41,7 +44,8 @@ def test_free_length_with_sixths_still_follows_a_faster_reference(walk30):
 
 @pytest.mark.xfail(strict=True, reason="issue 25: the default sigma halves at 60 Hz (0.086 vs 0.166 at 30 Hz); "
                    "measured on 30 Hz frames (pose_graph(sigma_rate=30), opt-in) it fails 16 of 400 wand / compose / "
-                   "session tests (session 8; benchmarks/bench_claims.py docstring)")
+                   "session tests (session 8); a graph at a fixed rate (session 11) misses the hops or issue 13's "
+                   "turning walks (benchmarks/bench_claims.py docstring)")
 def test_default_sigma_does_not_depend_on_the_frame_rate():
     m = data.load("walk")                              # 60 Hz
     s_file = wand.pose_graph(m).basis().sigma
