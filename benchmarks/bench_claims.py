@@ -132,10 +132,10 @@ Rows and goals
              Theiler-window variants (rho_i, a frame's distance to its nearest frame > 0.25 s away): s_i = rho_i
              joins a walk's halves (0.68/0.47); widening sigma at poses with a far repetition (cap 1.25-2) leaves the
              hops at 0.48-0.66; Eq. 1 without pairs < 0.1 / 0.25 s meets the whole clip's hops (0.78-0.82) but not
-             its stretches (0.34) and separates xia_angry_run's cycles (0.37-0.48).  The commute-time distance of the same
-             Green's function (1 - R_ij / max R) keeps every crouch and opposite phase high (0.83-0.97).  Normalising Green's rows by their
-             diagonal (cosine, G_ij / sqrt(G_ii G_jj): symmetric, <= 1, nearly rate-free with the default sigma,
-             0.66 vs 0.67) comes closest with the fixed-rate graph and the widening: the hops and walks met at both
+             its stretches (0.34) and separates xia_angry_run's cycles (0.37-0.48).  The commute-time distance of
+             the same Green's function (1 - R_ij / max R) keeps the crouches and pymo's opposite phase high
+             (0.83-0.95).  Normalising Green's rows by their diagonal (cosine, G_ij / sqrt(G_ii G_jj): symmetric,
+             <= 1, nearly rate-free with the default sigma, 0.66 vs 0.67) comes closest with the fixed-rate graph and the widening: the hops and walks met at both
              rates and on the stretches (0.80/0.30 at x1.2: on the bound), CMU 01_01's #24 opposite phase 0.10
              (goal 0.2) -- but pymo's opposite 0.14-0.16 (issue 13: 0.1; frames 559 / 541 from 500 / 600),
              xia_angry_run's same phase 0.75-0.78 (0.8; frame 20's repetition, frame 110, is 0.25 s from the clip's
