@@ -129,20 +129,20 @@ Rows and goals
              0.55-0.61 / 1.42-1.57: distance alone separates every case; what joins the opposite phases once the kernel
              reaches the outlying apex is the Green's function's diffusion (along the temporal chain, as we read it;
              not measured apart).
-             Theiler-window variants (rho_i, a frame's distance to its nearest frame > 0.25 s away): s_i = rho_i
-             joins a walk's halves (0.68/0.47); widening sigma at poses with a far repetition (cap 1.25-2) leaves the
-             hops at 0.48-0.66; Eq. 1 without pairs < 0.1 / 0.25 s meets the whole clip's hops (0.78-0.82) but not
-             its stretches (0.34) and separates xia_angry_run's cycles (0.37-0.48).  The commute-time distance of
-             the same Green's function (1 - R_ij / max R) keeps the crouches and pymo's opposite phase high
-             (0.83-0.95).  Normalising Green's rows by their diagonal (cosine, G_ij / sqrt(G_ii G_jj): symmetric,
-             <= 1, nearly rate-free with the default sigma, 0.66 vs 0.67) comes closest with the fixed-rate graph and the widening: the hops and walks met at both
-             rates and on the stretches (0.80/0.30 at x1.2: on the bound), CMU 01_01's #24 opposite phase 0.10
-             (goal 0.2) -- but pymo's opposite 0.14-0.16 (issue 13: 0.1; frames 559 / 541 from 500 / 600),
-             xia_angry_run's same phase 0.75-0.78 (0.8; frame 20's repetition, frame 110, is 0.25 s from the clip's
-             end) and #24's CMU 01_01 same phase 0.72-0.77 (0.8).  CMU 131_01 (#24's other strict xfail) stays out
-             of reach in every row (same phase <= 0.49 unless the opposite is >= 0.91: its steps are not alike in
-             pose, see Dean walk).  No variant meets every column, so the defaults are unchanged (the closest would
-             also cost 4x the frames on a 30 Hz clip, upsampled to 120 Hz).
+             Theiler-window variants (rho_i, a frame's distance to its nearest frame > 0.25 s away): s_i = rho_i joins
+             a walk's halves (0.68/0.47); widening sigma at poses with a far repetition (cap 1.25-2) leaves the hops at
+             0.48-0.66; Eq. 1 without pairs < 0.1 / 0.25 s meets the whole clip's hops (0.78-0.82) but not its
+             stretches (0.34) and separates xia_angry_run's cycles (0.37-0.48).  The commute-time distance of the same
+             Green's function (1 - R_ij / max R) keeps the crouches and pymo's opposite phase high (0.83-0.95).
+             Normalising Green's rows by their diagonal (cosine, G_ij / sqrt(G_ii G_jj): symmetric, <= 1, nearly
+             rate-free with the default sigma, 0.66 vs 0.67) comes closest with the fixed-rate graph and the widening:
+             the hops and walks met at both rates and on the stretches (0.80/0.30 at x1.2: on the bound), CMU 01_01's
+             #24 opposite phase 0.10 (goal 0.2) -- but pymo's opposite 0.14-0.16 (issue 13: 0.1; frames 559 / 541 from
+             500 / 600), xia_angry_run's same phase 0.75-0.78 (0.8; frame 20's repetition, frame 110, is 0.25 s from
+             the clip's end) and #24's CMU 01_01 same phase 0.72-0.77 (0.8).  CMU 131_01 (#24's other strict xfail)
+             stays out of reach in every row (same phase <= 0.49 unless the opposite is >= 0.91: its steps are not
+             alike in pose, see Dean walk).  No variant meets every column, so the defaults are unchanged (the closest
+             would also cost 4x the frames on a 30 Hz clip, upsampled to 120 Hz).
   Dean walk  the falloff of a mid-walk frame one and two strides away >= 0.7, half a stride away <= 0.3
              (``walk_falloffs``: eight frames over the middle stride, the worst printed).  CMU 131_01 (start-stop)
              is 'no gait' at the stride the pose search finds (0.70 s, the end of the lags) and also at the
