@@ -119,8 +119,9 @@ Rows and goals
    + sigma x1.2, alpha 0.5  0.71/0.11 0.74/0.11 0.77/0.13 0.89/0.16 0.93/0.18 0.86/0.13 0.77/0.01 1.00/0.02 0.67/0.18
              ``graph at R Hz``: the graph on the poses resampled to R Hz, its eigenvectors interpolated back (rate-free
              by construction: hop30 = hopF up to the 30 Hz clip's lost detail).  It shows the rate is not the only
-             cause: at R = 30 the 120 Hz turning walks' opposite phase is 0.27 (pymo) / 0.33 (proc), i.e. today's
-             default already fails issue 13's 0.1 on those clips resampled to 30 Hz, and at R = 120 (the 120 Hz
+             cause: at R = 30 the turning walks' opposite phase is 0.27 (pymo, 120 Hz) / 0.33 (proc, 60 Hz): today's
+             default already fails issue 13's bounds on those clips resampled to 30 Hz (``wand.pose_graph(m.resample(1 /
+             30))``: pymo 0.79/0.27, xia_angry_run 0.76/0.06, proc 0.98/0.33), and at R = 120 (the 120 Hz
              clips unchanged, 30 Hz walks' half stride 0.28 -> 0.15) the hops are 0.44/0.27.  No kernel width meets
              the hops and the walks at one rate (sigma x 0.7 / 1 / 1.4 / 2 at 30, 60 and 120 Hz: the worst apex
              reaches 0.7 only at 2x the 30 Hz sigma, where a walk's half stride is 0.52 and pymo's opposite 0.45).

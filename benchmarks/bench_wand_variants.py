@@ -4,6 +4,7 @@ side on the same clips, none of them a default (``benchmarks/bench_claims.py``'s
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_wand_variants.py      # every row, ~15-25 min
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_wand_variants.py default cosine   # rows naming these
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_wand_variants.py =cosine          # that row only
 
 Every variant is built here on the *dense* kernel (all F x F pairs, the library's random-walk spectrum without the
 self term, chain floor, N = 50 unless stated), so the 120 Hz figures differ from the library's sparse path on
@@ -394,7 +395,7 @@ def main() -> int:
     print(f"{'variant':34s} " + " ".join(f"{h:>9s}" for h in heads))
     only = sys.argv[1:]
     for name, feature, kw in VARIANTS:
-        if only and not any(o in name for o in only):
+        if only and not any(name == o[1:] if o.startswith("=") else o in name for o in only):
             continue
         print(f"{name:34s} " + " ".join(f"{c:>9s}" for c in row(clips, feature, kw)), flush=True)
     print(f"\n({time.perf_counter() - t0:.0f} s)")
