@@ -22,7 +22,16 @@ from ..core.rotations import (
 )
 from .limbs import Limb, _fk_joints
 from .plants_carry import _source_frames
-from .plants_ik import _capped, _hinge_local, _no_hyperextension, _pivot, _solve, _solve_rows, _unit
+from .plants_ik import (
+    _capped,
+    _hinge_local,
+    _no_hyperextension,
+    _pivot,
+    _solve,
+    _solve_rows,
+    _source_back,
+    _unit,
+)
 from .plants_pops import cap_pops, source_steps
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _envelope, _reach, _root_shift, _vertical_need
 
@@ -108,11 +117,12 @@ def _source_tables(source: Motion, limbs: dict):
         share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
                  for e, lim in limbs.items()}
         hinges = {e: _hinge_local(spos, swq, lim) for e, lim in limbs.items()}
+        backs = {e: _source_back(spos, swq, lim, hinges[e]) for e, lim in limbs.items()}
         feet = [x for lim in limbs.values() if lim.leg for x in (lim.eff,) + lim.foot]
         floor = float(np.min(spos[:, feet, 1])) if feet else -np.inf
         if len(per) > 8:
             per.clear()
-        per[key] = (spos, swq, share, hinges, floor)
+        per[key] = (spos, swq, share, hinges, floor, backs)
     return per[key]
 
 
@@ -143,7 +153,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     for lim in limbs.values():
         joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
     pos, wq = _fk_joints(motion, joints)
-    spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
+    spos, swq, src_share, hinges, floor, backs = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
     # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
@@ -268,7 +278,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             q_ref[k] = quat_mul(turn, q_ref[k])
         np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
         foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
-        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig))
+        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig, pid=pid))
     notes = []
     shift = np.zeros((F, 3))
     if share > 0 and max_drop > 0 and np.any(need > 0):
@@ -302,7 +312,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # the plants' own frames: exact IK
     for r in rows:
         lim, fr = r["lim"], r["fr"]
-        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff])
+        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff],
+                                      max_back=backs[lim.eff], groups=r["pid"])
         out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
         for k, fq in zip(lim.foot, r["foot"]):
             out[fr, k] = fq
@@ -450,7 +461,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             tgt[:, 1] += lift[fr]
             q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
-                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff],
+                                              max_back=backs[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:
