@@ -1,9 +1,10 @@
-"""The contact layer's leg IK keeps each held knee on one branch (``staggered.plants_ik``, issue 20): an edit
-that bends a knee backwards past the source's own hyperextension (an exaggerated straight leg) or folds it past
-180° (an exaggerated deep bend) is held on the forward branch, and a plant whose first frame is the edited foot
-itself does not start on the backward branch and switch a frame later. Before, either made the held knee flip
-between neighbouring frames (one-frame turns of 10-140°), and the pop cap, ramping the flip out, slid the foot
-(14 cm on the procedural run at 50 % cull with every pose exaggerated).
+"""The contact layer keeps each held knee on one IK branch and each fade on one way round
+(``staggered.plants_ik``, ``plants_hold``, issue 20): an edit that bends a knee backwards past the source's own
+hyperextension (an exaggerated straight leg) or folds it past 180° (an exaggerated deep bend) is held on the
+forward branch, and a plant whose first frame is the edited foot itself does not start on the backward branch and
+switch a frame later. Before, either made the held knee flip between neighbouring frames (one-frame turns of
+10-140°), and the pop cap, ramping the flip out, slid the foot (14 cm on the procedural run at 50 % cull with
+every pose exaggerated). A fade between an edited foot and its plant ~180° apart no longer flips the way round.
 
 Measured with ``sn.quality.compare`` (cm of a 170 cm body), the edit = cull, exaggerate every pose, then the
 issue's moderate timing edit (succession from the pelvis s = 0.03, l = 2; random_timing τ = 0.1, seed 0).
@@ -77,3 +78,14 @@ def test_real_clips_culled_or_exaggerated_keep_their_feet(clip, percent, w_r):
     assert r.foot_travel <= 2.0 and r.foot_height <= 2.0, r.summary
     legs = _legs(m.skeleton)
     assert _largest_step(held, legs) <= _largest_step(baseline, legs) + 5.0, r.summary
+
+
+def test_a_fade_whose_turn_crosses_half_a_revolution_turns_the_foot_no_faster_than_the_edit():
+    # bandai_kick, every pose exaggerated by 0.5: between two plants the fade turns the right foot from the
+    # edit's orientation to the plant's, ~175° apart; the short way round flipped sides on one frame (34.7°
+    # there against the edit's own fastest 30.4°, 100-115° before the pop cap)
+    m = quality.scaled(read_bvh(shared_clip_path("bandai_kick.bvh")), height=170.0)
+    sm = _edited(m, 100, 0.5)
+    baseline = staggered.evaluate(sm)
+    held = staggered.keep_contacts(sm, m)
+    assert _largest_step(held, ["Foot_R"]) <= _largest_step(baseline, ["Foot_R"])

@@ -74,6 +74,34 @@ def _sample_rows(arr, f, cols):
     return arr[i0, cols] * (1 - w) + arr[i1, cols] * w
 
 
+def _scaled_along(dd: np.ndarray, w: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """Displacements ``dd (n, C, 4)`` on ``frames (n,)`` (ascending) turned by the share ``w (n,)`` of their
+    rotation, the way round kept continuous along each run of consecutive frames: the sign of each quaternion
+    follows its neighbour's, chosen short where ``w`` is largest (next to the plant), and ``w`` scales that
+    quaternion's own angle in [0, 2π). ``slerp(1, dd, w)`` takes the short way on every frame, so a displacement
+    whose angle crosses 180° inside a fade flipped the way round: a one-frame turn of ``w · 360°`` (a 100-115°
+    foot pop measured on an exaggerated kick)."""
+    n = len(frames)
+    if n == 0:
+        return dd
+    start = np.r_[True, np.diff(frames) != 1]
+    dots = np.einsum("nci,nci->nc", dd[1:], dd[:-1])
+    step = np.where(np.r_[np.zeros((1,) + dots.shape[1:], bool), dots < 0] & ~start[:, None], -1.0, 1.0)
+    sign = np.ones_like(step)
+    for r0, r1 in zip(np.flatnonzero(start), np.r_[np.flatnonzero(start)[1:], n]):
+        seg = np.cumprod(step[r0:r1], axis=0)
+        top = r0 + int(np.argmax(w[r0:r1]))
+        seg = seg * np.where(dd[top, :, 3] * seg[top - r0] < 0, -1.0, 1.0)
+        sign[r0:r1] = seg
+    q = dd * sign[..., None]
+    v = q[..., :3]
+    vn = np.linalg.norm(v, axis=-1)
+    theta = 2.0 * np.arctan2(vn, q[..., 3])
+    half = 0.5 * w[:, None] * theta
+    axis = v / np.where(vn > 0, vn, 1.0)[..., None]
+    return np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
+
+
 def _length(pos, lim: Limb) -> np.ndarray:
     """The limb's two bones' length on every frame ``(F,)`` (file units; animated translations may change it)."""
     return (np.linalg.norm(pos[:, lim.mid] - pos[:, lim.upper], axis=-1)
@@ -379,7 +407,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
         shape = d_l.shape[:-1]
         dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
-        dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
+        dd = _scaled_along(dd, w, win)
         out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
         _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
         if lim.leg:
@@ -427,7 +455,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 infade[win] = True
                 # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
                 # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
-                q_f = slerp(w_u[win, lim.eff], q_f, _w)
+                rel = quat_mul(quat_conj(w_u[win, lim.eff]), q_f)[:, None]
+                q_f = quat_mul(w_u[win, lim.eff], _scaled_along(rel, _w, win)[:, 0])
                 turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
                 down[win] = g_f - p_u[win, lim.eff]
                 for k in lim.foot:                            # the foot joints as the fade's orientation puts them
