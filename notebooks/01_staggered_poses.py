@@ -278,13 +278,13 @@ pio.show(strobe([get_down, out, get_down, out], [f_low, f_low, f_rise, f_rise],
 # **Claim (§3, App. B).** Timing edits move feet that should stay down; a constraint layer carries each
 # contact through the edit and holds it. A deliberately rough edit (succession from the hips + random
 # timing everywhere) makes the feet slide on the real hops; `keep_contacts` plants them again, each contact
-# on its own joint's timing, where the source holds it (its heel-toe roll kept), the pelvis lowered by at
-# most 2.8 % of a leg and moved aside by at most 15 % (no held joint turns over 2.5° a frame faster than in the
-# source).
+# carried on the pelvis's timing (the joint the legs hang from), where the source holds it (its heel-toe roll
+# kept), the pelvis lowered by at most 2.8 % of a leg and moved aside by at most 15 % (no held joint turns over
+# 2.5° a frame faster than in the source).
 #
-# **Check** (`sn.quality.compare`, cm of a 170 cm body): inside the contacts carried by each joint's own
-# timing, the layer removes at least 80 % of the feet's sliding against the source's own motion there, and
-# moves the pelvis by less than 3 cm.
+# **Check** (`sn.quality.compare`, cm of a 170 cm body): inside the carried contacts, the layer removes at
+# least 80 % of the feet's sliding against the source's own motion there, and moves the pelvis by less than
+# 3 cm.
 
 # %%
 rough_edit = staggered.random_timing(staggered.succession(sm, root="Hips", s=0.02, l=1.0), tau=0.05, seed=1)

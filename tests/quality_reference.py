@@ -123,6 +123,14 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
     edited motion and the baseline), computed the straightforward way."""
     from stagger_nb import staggered as stg  # the arguments are trusted (compare checks them)
     motion, sm = _as_motion(edited, "edited")
+    if staggered is None and sm is None and motion.staggered is not None:
+        # the Motion's own staggered motion, where it edits a motion on the source's timeline
+        from stagger_nb.staggered.source_times import source_pose_times
+        own, ft = motion.staggered, source.frame_time
+        sp = source_pose_times(own)
+        if (abs(own.frame_time - ft) <= 1e-9 * ft and sp.size and abs(sp[0]) <= 0.5 * ft
+                and abs(sp[-1] - source.duration) <= 0.5 * ft):
+            sm = own
     sm = staggered if staggered is not None else sm
     base = None if baseline is None else _as_motion(baseline, "baseline")[0]
     bnds = _bounds(bounds)
@@ -162,7 +170,12 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
     else:
         rotated = 0.0
     pel = pelvis_joint(sk)
-    hp_e, hp_s = _heights(pos[inside, pel], up), _heights(src_at[:, pel], up)
+    if sm is None:
+        hp_e, hp_s = _heights(pos[inside, pel], up), _heights(src_at[:, pel], up)
+    else:      # the source pelvis on the root translation's clock (which carries its height)
+        ts = stg.warp_times(sm, te, "<root translation>", inverse=True)
+        on = (ts >= 0) & (ts <= (source.num_frames - 1) * ft_s)
+        hp_e, hp_s = _heights(pos[on, pel], up), _heights(_at_times(src_pos, ft_s, ts[on])[:, pel], up)
     dpel = hp_e - hp_s
     pelvis = float(np.abs(dpel).max()) * scale if dpel.size else 0.0
     pelvis_drop = float(max(-dpel.min(), 0.0)) * scale if dpel.size else 0.0

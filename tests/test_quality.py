@@ -141,8 +141,12 @@ def test_an_out_of_order_knot_is_named():
     assert rep.knots_out_of_order == ("LeftForeArm",)
     assert rep.summary.endswith(" · poses out of order in left arm")
     assert any("knots out of order" in f for f in rep.failures)
-    # without a StaggeredMotion there is nothing to check
-    assert quality.compare(m, staggered.evaluate(bad)).knots_out_of_order is None
+    # its evaluation knows the StaggeredMotion it came from (Motion.staggered) and is judged the same way ...
+    ev = staggered.evaluate(bad)
+    assert ev.staggered is bad and quality.compare(m, ev).knots_out_of_order == ("LeftForeArm",)
+    # ... while a Motion without one (any new Motion: here the same arrays) has nothing to check
+    plain = ev.replace()
+    assert plain.staggered is None and quality.compare(m, plain).knots_out_of_order is None
 
 
 def test_root_translation_knots_are_checked_too():

@@ -5,7 +5,8 @@ Times at the API are seconds; frame ranges are half-open ``[start, stop)``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -76,6 +77,12 @@ class Motion:
         Per-frame translation of each joint relative to its parent, for files that animate non-root
         joint positions (BVH position channels replace the OFFSET). ``None`` means ``skeleton.offsets``.
         Row 0 (the root) is ignored: ``root_positions`` is the root's translation.
+    staggered : StaggeredMotion or None
+        The staggered motion this one is the evaluation of, on its default frames, or ``None``: set by
+        ``staggered.evaluate`` and the contact layer only (any other new Motion, from ``replace``, ``slice``,
+        ``resample``, a reader or an edit of the frames, has ``None``). :func:`stagger_nb.quality.compare` reads
+        it to carry the source's contacts through the staggered timing edit (its ``staggered=`` default). Not
+        validated, not copied, never written to files.
     """
 
     skeleton: Skeleton
@@ -83,6 +90,7 @@ class Motion:
     root_positions: np.ndarray
     local_quats: np.ndarray
     local_translations: np.ndarray | None = None
+    staggered: Any = field(default=None, repr=False, metadata={"shared": True})
 
     def __post_init__(self):
         ft = check_frame_time(self.frame_time, "Motion: frame_time")
@@ -143,7 +151,7 @@ class Motion:
 
     @classmethod
     def _trusted(cls, skeleton: Skeleton, frame_time: float, root_positions: np.ndarray, local_quats: np.ndarray,
-                 local_translations: np.ndarray | None = None) -> Motion:
+                 local_translations: np.ndarray | None = None, staggered=None) -> Motion:
         """Package-internal constructor for a result the library has just computed from valid motions
         (``staggered.evaluate``, the constraint layer): ``local_quats`` (F, J, 4) float64 is owned by the new
         Motion (not aliased by anyone: it is modified in place), the other arrays are finite float64 of the
@@ -165,6 +173,15 @@ class Motion:
         object.__setattr__(obj, "local_quats", q)
         object.__setattr__(obj, "skeleton", skeleton)
         object.__setattr__(obj, "frame_time", float(frame_time))
+        object.__setattr__(obj, "staggered", staggered)
+        return obj
+
+    def _evaluated_from(self, sm) -> Motion:
+        """Package-internal: this motion (its arrays shared, read-only) as the evaluation of the staggered
+        motion ``sm`` on its default frames (:attr:`staggered`)."""
+        obj = object.__new__(type(self))
+        obj.__dict__.update(self.__dict__)
+        object.__setattr__(obj, "staggered", sm)
         return obj
 
     # -- basic properties -------------------------------------------------------------------------

@@ -38,8 +38,11 @@ The figures (:class:`QualityReport`):
   height along the up axis).
 * ``floor`` (cm >= 0): how far the lowest joint of any edited frame goes below the source's floor (the lowest
   height any joint of the source reaches).
-* ``pelvis`` (cm): ``max_n |h_pelvis(n) - h_pelvis,src(t_n)|``, the same time, the pelvis
-  :func:`~stagger_nb.core.body.pelvis_joint`; ``pelvis_drop`` the largest lowering (>= 0); with a ``baseline``
+* ``pelvis`` (cm): ``max_n |h_pelvis(n) - h_pelvis,src(w⁻¹ t_n)|``, the pelvis
+  :func:`~stagger_nb.core.body.pelvis_joint` against the source's at the time the root translation's warp
+  ``w`` (which carries the pelvis height) maps frame ``n`` to (the same time without a StaggeredMotion): a
+  timing edit alone changes no height, so what is measured is the pelvis the edit (the contact layer) raised or
+  lowered; ``pelvis_drop`` the largest lowering (>= 0); with a ``baseline``
   (the same edit without the contact layer) ``pelvis_vs_baseline``: the same against the baseline, the layer's
   own change.
 * ``added_pop`` (degrees): per joint, the largest frame-to-frame rotation of its local rotation in the edited

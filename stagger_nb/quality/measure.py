@@ -28,6 +28,20 @@ from .report import ContactFigures, QualityReport
 from .source import SourceFigures, prepare
 
 
+def _on_timeline(sm, source: Motion) -> bool:
+    """Whether ``sm`` (a Motion's ``staggered``) is an edit of a motion on ``source``'s timeline: the same frame
+    time, its poses' source times spanning ``source`` (an extraction's first and last poses are the first and
+    last frames). A staggered motion extracted from a retimed copy (a warp before the staggered ops) is not."""
+    if sm is None:
+        return False
+    from ..staggered.source_times import source_pose_times
+    ft = source.frame_time
+    if abs(sm.frame_time - ft) > 1e-9 * ft:
+        return False
+    sp = source_pose_times(sm)
+    return bool(sp.size) and abs(float(sp[0])) <= 0.5 * ft and abs(float(sp[-1]) - source.duration) <= 0.5 * ft
+
+
 def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=None, bounds=None,
             body_height: float | None = None, source_positions: np.ndarray | None = None,
             prepared: SourceFigures | None = None, edited_positions: np.ndarray | None = None,
@@ -42,7 +56,9 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
         The edited motion (a StaggeredMotion is evaluated, and is then also ``staggered`` by default).
     staggered : StaggeredMotion, optional
         The edited StaggeredMotion: its time warps carry the contacts, its knots are checked for order.
-        Without it the contacts stay on their frames and ``knots_out_of_order`` is None.
+        Default: ``edited.staggered`` (a Motion from ``staggered.evaluate``, ``keep_contacts`` or a Session whose
+        last op is a staggered one knows it) where it edits a motion on ``source``'s timeline. Without one, the
+        contacts stay on their frames and ``knots_out_of_order`` is None.
     contacts : list of (joint_name, start_frame, stop_frame), optional
         Source contacts, half-open source frames; default ``prepared.contacts``, else
         ``staggered.detect_contacts(source)``.
@@ -80,6 +96,8 @@ def compare(source: Motion, edited, *, staggered=None, contacts=None, baseline=N
     elif prepared.source is not source:
         raise ValueError("prepared: computed for another source motion (use quality.prepare(source) of this one)")
     motion, sm = _as_motion(edited, "edited")
+    if staggered is None and sm is None and _on_timeline(motion.staggered, source):
+        sm = motion.staggered          # the evaluation (or contact layer) of a staggered motion: its timing
     if staggered is not None:
         if not isinstance(staggered, stg.StaggeredMotion):
             raise ValueError(f"staggered must be a StaggeredMotion, got {type(staggered).__name__}")
@@ -145,7 +163,15 @@ def _measure(prep: SourceFigures, motion: Motion, sm, Pe: np.ndarray, Qe: np.nda
     mj = int(np.argmax(moved_j))
     pel = prep.pelvis
     He = _height_rows(Pe, up)                                                     # (J, F)
-    dpel = He[pel, :n_in] - _height_rows(src_at[:, pel], up)
+    if table is None:
+        dpel = He[pel, :n_in] - _height_rows(src_at[:, pel], up)
+    else:
+        # a retimed pelvis is judged against the source pelvis on its own clock (the root translation's, which
+        # carries its height): a timing edit alone changes no height, what is left is the edit's (the layer's)
+        ts = _warp(table, J, te, inverse=True) / ft_s
+        inside = (ts >= 0) & (ts <= Fs - 1)
+        rows = _read_positions(Ps, np.full(int(inside.sum()), pel), ts[inside])
+        dpel = He[pel, inside] - _height_rows(rows, up)
     pelvis = float(np.abs(dpel).max()) * scale if dpel.size else 0.0
     pelvis_drop = float(max(-dpel.min(), 0.0)) * scale if dpel.size else 0.0
     pelvis_vs_base = pelvis_base_drop = None

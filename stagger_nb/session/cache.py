@@ -224,7 +224,7 @@ def nbytes(value, _depth: int = 0) -> int:
     elif isinstance(value, (list, tuple)):
         items = value
     elif dataclasses.is_dataclass(value):
-        items = [getattr(value, f.name, None) for f in dataclasses.fields(value)]
+        items = [getattr(value, f.name, None) for f in dataclasses.fields(value) if not f.metadata.get("shared")]
     else:
         items = list(getattr(value, "__dict__", {}).values())
     return sum(nbytes(v, _depth + 1) for v in items)

@@ -401,13 +401,15 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
 
     Returns
     -------
-    Motion with N frames, ``frame_time = sm.frame_time`` (or the spacing of uniform ``times``); the source's
-    ``local_translations`` (if any) are sampled at :func:`translation_source_times` (retimed with the root
-    translation; the same absolute times for an unedited extraction).
+    Motion with N frames, ``frame_time = sm.frame_time`` (or the spacing of uniform ``times``), its
+    ``staggered`` = ``sm`` on the default times (what :func:`stagger_nb.quality.compare` carries contacts by);
+    the source's ``local_translations`` (if any) are sampled at :func:`translation_source_times` (retimed with
+    the root translation; the same absolute times for an unedited extraction).
     """
     if not isinstance(sm, StaggeredMotion):
         raise ValueError(f"evaluate: sm must be a StaggeredMotion, got {type(sm).__name__}")
-    if times is None:
+    own = times is None
+    if own:
         _check_size(int(np.floor(sm.duration / sm.frame_time + 1e-6)) + 1, sm)
         times = default_times(sm)
         ft = sm.frame_time
@@ -424,4 +426,4 @@ def evaluate(sm: StaggeredMotion, times=None) -> Motion:
         lt = _sample_translations(sm.local_translations, sm.frame_time, translation_source_times(sm, times))
     # arrays computed here from a valid representation: the trusted constructor (no re-validation); q may
     # be workspace memory, so the Motion gets its own copy
-    return Motion._trusted(sm.skeleton, ft, p, np.array(q), lt)
+    return Motion._trusted(sm.skeleton, ft, p, np.array(q), lt, staggered=sm if own else None)

@@ -189,6 +189,8 @@ def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, b
                                                     carry_by))}
     motion_out, drop, more = _hold(motion, source, limbs, plants, carried, timeline, blend, share, max_drop, reach,
                                    targets, shift_plants, above_floor, cap, clock)
+    if motion.staggered is not None:       # held on the timing of the staggered motion it evaluates
+        motion_out = motion_out._evaluated_from(motion.staggered)
     return PlantsResult(motion_out, tuple(notes) + tuple(more), drop, len(plants))
 
 

@@ -22,7 +22,16 @@ from ..core.rotations import (
 )
 from .limbs import Limb, _fk_joints
 from .plants_carry import _source_frames
-from .plants_ik import _capped, _hinge_local, _no_hyperextension, _pivot, _solve, _solve_rows, _unit
+from .plants_ik import (
+    _capped,
+    _hinge_local,
+    _no_hyperextension,
+    _pivot,
+    _solve,
+    _solve_rows,
+    _source_back,
+    _unit,
+)
 from .plants_pops import cap_pops, source_steps
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _envelope, _reach, _root_shift, _vertical_need
 
@@ -63,6 +72,34 @@ def _sample_rows(arr, f, cols):
     i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
     w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
     return arr[i0, cols] * (1 - w) + arr[i1, cols] * w
+
+
+def _scaled_along(dd: np.ndarray, w: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """Displacements ``dd (n, C, 4)`` on ``frames (n,)`` (ascending) turned by the share ``w (n,)`` of their
+    rotation, the way round kept continuous along each run of consecutive frames: the sign of each quaternion
+    follows its neighbour's, chosen short where ``w`` is largest (next to the plant), and ``w`` scales that
+    quaternion's own angle in [0, 2π). ``slerp(1, dd, w)`` takes the short way on every frame, so a displacement
+    whose angle crosses 180° inside a fade flipped the way round: a one-frame turn of ``w · 360°`` (a 100-115°
+    foot pop measured on an exaggerated kick)."""
+    n = len(frames)
+    if n == 0:
+        return dd
+    start = np.r_[True, np.diff(frames) != 1]
+    dots = np.einsum("nci,nci->nc", dd[1:], dd[:-1])
+    step = np.where(np.r_[np.zeros((1,) + dots.shape[1:], bool), dots < 0] & ~start[:, None], -1.0, 1.0)
+    sign = np.ones_like(step)
+    for r0, r1 in zip(np.flatnonzero(start), np.r_[np.flatnonzero(start)[1:], n]):
+        seg = np.cumprod(step[r0:r1], axis=0)
+        top = r0 + int(np.argmax(w[r0:r1]))
+        seg = seg * np.where(dd[top, :, 3] * seg[top - r0] < 0, -1.0, 1.0)
+        sign[r0:r1] = seg
+    q = dd * sign[..., None]
+    v = q[..., :3]
+    vn = np.linalg.norm(v, axis=-1)
+    theta = 2.0 * np.arctan2(vn, q[..., 3])
+    half = 0.5 * w[:, None] * theta
+    axis = v / np.where(vn > 0, vn, 1.0)[..., None]
+    return np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
 
 
 def _length(pos, lim: Limb) -> np.ndarray:
@@ -108,11 +145,12 @@ def _source_tables(source: Motion, limbs: dict):
         share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
                  for e, lim in limbs.items()}
         hinges = {e: _hinge_local(spos, swq, lim) for e, lim in limbs.items()}
+        backs = {e: _source_back(spos, swq, lim, hinges[e]) for e, lim in limbs.items()}
         feet = [x for lim in limbs.values() if lim.leg for x in (lim.eff,) + lim.foot]
         floor = float(np.min(spos[:, feet, 1])) if feet else -np.inf
         if len(per) > 8:
             per.clear()
-        per[key] = (spos, swq, share, hinges, floor)
+        per[key] = (spos, swq, share, hinges, floor, backs)
     return per[key]
 
 
@@ -143,7 +181,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     for lim in limbs.values():
         joints |= {lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]), int(sk.parents[lim.eff])}
     pos, wq = _fk_joints(motion, joints)
-    spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
+    spos, swq, src_share, hinges, floor, backs = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
     # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
@@ -268,7 +306,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             q_ref[k] = quat_mul(turn, q_ref[k])
         np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
         foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
-        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig))
+        rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig, pid=pid))
     notes = []
     shift = np.zeros((F, 3))
     if share > 0 and max_drop > 0 and np.any(need > 0):
@@ -302,7 +340,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # the plants' own frames: exact IK
     for r in rows:
         lim, fr = r["lim"], r["fr"]
-        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff])
+        a_new, m_new, e_new = _solve(sk, lim, fr, lowered, wq, lq, r["g"], r["q"], r["R"], hinges[lim.eff],
+                                      max_back=backs[lim.eff], groups=r["pid"])
         out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
         for k, fq in zip(lim.foot, r["foot"]):
             out[fr, k] = fq
@@ -368,7 +407,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         d_r = quat_mul(disp[kr], rotvec_to_quat(r_r * s_r[..., None]))
         shape = d_l.shape[:-1]
         dd = slerp(d_l, d_r, np.broadcast_to(al[:, None], shape))
-        dd = slerp(np.broadcast_to(_ID, dd.shape), dd, np.broadcast_to(w[:, None], shape))
+        dd = _scaled_along(dd, w, win)
         out[win[:, None], ch[None, :]] = quat_mul(lq[win][:, ch], dd)
         _no_hyperextension(sk, motion, lim, win, out, lq, pos, wq, hinges[lim.eff])
         if lim.leg:
@@ -416,7 +455,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 infade[win] = True
                 # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
                 # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
-                q_f = slerp(w_u[win, lim.eff], q_f, _w)
+                rel = quat_mul(quat_conj(w_u[win, lim.eff]), q_f)[:, None]
+                q_f = quat_mul(w_u[win, lim.eff], _scaled_along(rel, _w, win)[:, 0])
                 turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
                 down[win] = g_f - p_u[win, lim.eff]
                 for k in lim.foot:                            # the foot joints as the fade's orientation puts them
@@ -450,7 +490,8 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             tgt[:, 1] += lift[fr]
             q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
-                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff],
+                                              max_back=backs[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
     if cap:

@@ -26,7 +26,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 0, n, 1.0)
 
 
-def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
+def _leg_ik(a, b, c, t, hinge, d_max, soft=None, max_back=np.pi, groups=None):
     """Analytic two-bone IK, vectorised over rows.
 
     The middle joint turns about its hinge axis ``hinge`` (world, unit; the knee's bend axis measured on the
@@ -34,7 +34,11 @@ def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
     puts the effector at the wanted distance from the upper joint; the upper joint then aims the limb at the
     target by the shortest arc (no twist). Of the two angles that give the distance, the forward-bent one,
     except where the current pose is bent backwards about the hinge and the target asks for no more bend
-    than it has (then the one nearer the current pose: an unedited pose is left as it is).
+    than it has (then the one nearer the current pose: an unedited pose is left as it is) and its backward bend
+    is one the source itself makes (at most ``max_back``): a pose an edit bent backwards beyond the source's own
+    hyperextension (an exaggerated straight knee), or folded past 180° (an exaggerated deep bend, which reads as
+    bent backwards), gets the forward-bent branch on every frame, so the branch never toggles between
+    neighbouring frames (a knee flip: a 30-140° one-frame pop measured with exaggerated poses).
 
     Parameters
     ----------
@@ -47,6 +51,13 @@ def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
     soft : ndarray, shape (n,), optional
         Where given (> 0), distances beyond ``d_max - soft`` approach ``d_max`` exponentially (a C1 soft limit,
         used while fading in and out of a plant so a far target straightens the leg gradually).
+    max_back : float or ndarray, shape (n,), radians
+        The largest backward bend kept on its own branch (:func:`_source_back`: the source's own, plus a margin).
+    groups : ndarray, shape (n,), optional
+        The plant of each row: the backward branch is taken on all rows of a plant or none (only where each of
+        its backward-bent rows is asked to stay as it is), so a held knee does not switch branch inside a plant
+        (a jump of twice its backward bend, e.g. at a plant's first frame, where the target is the current
+        foot).
 
     Returns
     -------
@@ -73,7 +84,9 @@ def _leg_ik(a, b, c, t, hinge, d_max, soft=None):
     rho = np.hypot(B, C)
     phi = np.arctan2(C, B)                     # the straightest the hinge allows; < 0 for a forward bend
     delta = np.arccos(np.clip((D - A) / np.maximum(rho, 1e-300), -1.0, 1.0))
-    back = (phi > 0) & (delta <= phi + 1e-6)   # bent backwards now, and asked for no more bend than that
+    back = (phi > 0) & (phi <= max_back) & (delta <= phi + 1e-6)   # bent backwards as the source may be
+    if groups is not None:    # each plant on one branch, unless each of its backward rows is left as it is
+        back &= ~np.isin(groups, groups[back & (delta < phi - 1e-6)])
     theta = np.where(back, phi - delta, phi + delta)
     theta = np.arctan2(np.sin(theta), np.cos(theta))
     r_mid = rotvec_to_quat(k * theta[:, None])
@@ -123,20 +136,36 @@ def _hinge_local(src_pos, src_wq, limb: Limb) -> np.ndarray:
     return _unit(np.cross(bone, other))
 
 
-def _solve(sk, lim: Limb, fr, pos, wq, lq, target, q_target, reach, hinge_local, soft=None):
-    """New local rotations ``(upper, mid, eff)`` on frames ``fr`` putting the effector at ``target (n, 3)``
-    with world rotation ``q_target (n, 4)`` (positions ``pos`` already lowered with the root)."""
+BACK_MARGIN = np.radians(2.0)   # backward bend kept on its own branch beyond the source's largest
+
+
+def _source_back(src_pos, src_wq, limb: Limb, hinge_local) -> float:
+    """The largest backward bend (radians, >= 0) of the limb's middle joint about its hinge in the source,
+    plus :data:`BACK_MARGIN`: the hyperextension :func:`_leg_ik` keeps on the backward branch."""
+    x = src_pos[:, limb.mid] - src_pos[:, limb.upper]
+    y = src_pos[:, limb.eff] - src_pos[:, limb.mid]
+    k = quat_rotate(src_wq[:, limb.upper], hinge_local)
+    flex = np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y))
+    return float(max(0.0, -float(flex.min(initial=0.0)))) + BACK_MARGIN
+
+
+def _solve(sk, lim: Limb, fr, pos, wq, lq, target, q_target, reach, hinge_local, soft=None, max_back=np.pi,
+           groups=None):
+    """New local rotations ``(upper, mid, eff)`` on frames ``fr`` (of the plants ``groups``) putting the
+    effector at ``target (n, 3)`` with world rotation ``q_target (n, 4)`` (positions ``pos`` already lowered
+    with the root)."""
     p3 = pos[fr][:, [lim.upper, lim.mid, lim.eff]]
-    return _solve_rows(sk, lim, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft)
+    return _solve_rows(sk, lim, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft, max_back, groups)
 
 
-def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft=None):
+def _solve_rows(sk, lim: Limb, fr, p3, wq, lq, target, q_target, reach, hinge_local, soft=None, max_back=np.pi,
+                groups=None):
     """:func:`_solve` from the chain's positions ``p3 (n, 3, 3)`` (upper, mid, eff) and the world rotations
     ``wq (F, J, 4)`` / local rotations ``lq (F, J, 4)`` of the pose being changed."""
     pm, pe = int(sk.parents[lim.mid]), int(sk.parents[lim.eff])
     upw = wq[fr, lim.upper]
     hinge = quat_rotate(upw, hinge_local)
-    r_up, r_mid = _leg_ik(p3[:, 0], p3[:, 1], p3[:, 2], target, hinge, reach, soft)
+    r_up, r_mid = _leg_ik(p3[:, 0], p3[:, 1], p3[:, 2], target, hinge, reach, soft, max_back, groups)
     a_new = quat_mul(lq[fr, lim.upper], quat_mul(quat_conj(upw), quat_mul(r_up, upw)))
     m_new = quat_mul(quat_conj(wq[fr, pm]), quat_mul(r_mid, wq[fr, lim.mid]))
     e_new = quat_mul(quat_conj(quat_mul(quat_mul(r_up, r_mid), wq[fr, pe])), q_target)
