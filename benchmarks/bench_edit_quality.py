@@ -20,7 +20,10 @@ An exception is a row, not a crash.
 
 Run: OPENBLAS_NUM_THREADS=1 PYTHONPATH=$PWD python benchmarks/bench_edit_quality.py
      [--clip SUBSTRING] [--edit NAME[,NAME]] [--layer on|off|both] [--raw] [--json PATH]
-(``--raw``: the paper's raw timing offsets, ``limit=None``, instead of the saturated default).
+     [--derived all|VARIANT[,VARIANT]] [--derived-only]
+(``--raw``: the paper's raw timing offsets, ``limit=None``, instead of the saturated default; ``--derived``:
+also each clip as derived_clips.py derives it (resampled to 24 / 60 / 120 Hz, sliced mid-stance / mid-swing,
+units x100 / x0.01, Z-up), named ``clip@variant``, for the held-out check's clips we have not seen).
 """
 from __future__ import annotations
 
@@ -30,6 +33,8 @@ import os
 import time
 import traceback
 from pathlib import Path
+
+import derived_clips
 
 import stagger_nb as sn
 from stagger_nb import data, staggered
@@ -52,13 +57,18 @@ EDITS = {
 COLS = ("travel", "height", "floor", "pelvis", "p-off", "pop", "knots", "detail", "moved")
 
 
-def clips(pattern: str | None):
-    """(name, loader) of every clip, real ones first."""
-    out = []
+def clips(pattern: str | None, derived=(), derived_only: bool = False):
+    """(name, loader) of every clip, real ones first, each loader returning the clip scaled to a 170 cm body
+    (None: a derived variant that does not apply); then ``clip@variant`` for each of ``derived``."""
+    base = []
     if SHARED.is_dir():
-        out += [(p.stem, (lambda p=p: sn.read_bvh(p))) for p in sorted(SHARED.glob("*.bvh"))]
+        base += [(p.stem, (lambda p=p: sn.read_bvh(p))) for p in sorted(SHARED.glob("*.bvh"))]
     for name in SETUP:
-        out.append((name, (lambda name=name: data.load(name))))
+        base.append((name, (lambda name=name: data.load(name))))
+    base = [(n, (lambda f=f: sn.quality.scaled(f(), height=sn.quality.BODY_CM))) for n, f in base]
+    out = [] if derived_only else list(base)
+    for v in derived:
+        out += [(f"{n}@{v}", (lambda f=f, v=v: derived_clips.derive(f(), v))) for n, f in base]
     return [(n, f) for n, f in out if pattern is None or pattern.lower() in n.lower()]
 
 
@@ -273,7 +283,14 @@ def main():
                     help="the four presets only and a coarse slider grid (a few minutes on every clip)")
     ap.add_argument("--grid", choices=("on", "off", "only"), default="on",
                     help="the slider-grid section for the timing edit alone (only: skip the preset sweep)")
+    ap.add_argument("--derived", help="also derived clips: 'all' or variants " + ", ".join(derived_clips.VARIANTS))
+    ap.add_argument("--derived-only", action="store_true", help="only the derived clips")
     a = ap.parse_args()
+    derived = () if not a.derived else (derived_clips.VARIANTS if a.derived == "all"
+                                         else tuple(v.strip() for v in a.derived.split(",")))
+    unknown = [v for v in derived if v not in derived_clips.VARIANTS]
+    if unknown:
+        ap.error(f"--derived: unknown {unknown}; variants are {', '.join(derived_clips.VARIANTS)}")
     default = ["unedited", "mild", "moderate", "strong"] if a.quick else list(EDITS)
     edits = default if not a.edit else [e.strip() for e in a.edit.split(",")]
     bad = [e for e in edits if e not in EDITS]
@@ -288,9 +305,11 @@ def main():
     print(head)
     print("-" * len(head))
     rows, tally, grid_rows = [], {}, []
-    for name, load in clips(a.clip):
+    for name, load in clips(a.clip, derived, a.derived_only):
         try:
-            m = sn.quality.scaled(load(), height=sn.quality.BODY_CM)
+            m = load()
+            if m is None:
+                continue
             t = time.process_time()
             sm = staggered.extract(m)
             t_extract = time.process_time() - t

@@ -146,6 +146,16 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     spos, swq, src_share, hinges, floor = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
+    med = {e: float(np.median(length[e])) for e in limbs}
+    if not plants:
+        # no plant (no contact, or none carried onto a frame): only the legs kept above the source's floor
+        out = np.array(motion.local_quats)
+        _legs_in_air(sk, motion, legs, [], {}, np.zeros((F, 3)), out, floor, nb, med, length, hinges, above_floor)
+        if cap:
+            _cap(sk, limbs, [], out, motion.local_quats, source, ft / ft_s)
+        if np.array_equal(out, motion.local_quats):
+            return motion, np.zeros(F), []
+        return Motion._trusted(sk, ft, motion.root_positions, out, motion.local_translations), np.zeros(F), []
     # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
     # kept inside the plant's source frames) and the source foot there ---------------------------------------
     P = len(plants)
@@ -172,7 +182,6 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # there (horizontally; _choose_shifts), so the hip reaches it as the edit placed the leg (Kovar et al. 2002,
     # §4: the plant's position from the motion being cleaned)
     d0 = (cur - base)[np.r_[0, np.cumsum(sizes)[:-1]]]
-    med = {e: float(np.median(length[e])) for e in limbs}
     lengths = np.array([med[e] for e in effs])
     p_start, p_stop = np.array([p["start"] for p in plants]), np.array([p["stop"] for p in plants])
     shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths) if shift_plants else np.zeros((P, 3))
@@ -392,6 +401,20 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             q_mix = slerp(ext[0][1], ext[1][1], al)
             target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
             fade_w[lim.eff] = (win, w, target, q_mix)
+    _legs_in_air(sk, motion, legs, rows, fade_w, shift, out, floor, nb, med, length, hinges, above_floor)
+    if cap:
+        _cap(sk, limbs, rows, out, lq, source, ft / ft_s)
+    return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
+
+
+
+
+
+def _legs_in_air(sk, motion: Motion, legs: list, rows: list, fade_w: dict, shift: np.ndarray, out: np.ndarray,
+                 floor: float, nb: int, med: dict, length: dict, hinges: dict, above_floor: bool) -> None:
+    """The legs on the frames no plant holds them (in place on ``out (F, J, 4)``), see the comment below; ``rows``:
+    the plants' frames per limb, ``fade_w``: the fades around them, ``shift (F, 3)``: the root's shift."""
+    F = motion.num_frames
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -452,15 +475,18 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
                                               length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+
+
+def _cap(sk, limbs: dict, rows: list, out: np.ndarray, lq: np.ndarray, source: Motion, ratio: float) -> None:
+    """No corrected joint of ``limbs`` turns faster on top of the edit ``lq (F, J, 4)`` than the pop cap allows
+    (in place on ``out``; :mod:`.plants_pops`), the plants' own frames (``rows``) kept exactly; ``ratio``: the
+    edited frame time over the source's."""
+    F = out.shape[0]
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
-    if cap:
-        chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
-        for r in rows:
-            lim = r["lim"]
-            for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
-                pinned[r["fr"], x] = True
-        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s), pinned)
-    return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
-
-
+    chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
+    pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
+    for r in rows:
+        lim = r["lim"]
+        for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
+            pinned[r["fr"], x] = True
+    cap_pops(out, lq, chains, _source_steps(source) * ratio, pinned)

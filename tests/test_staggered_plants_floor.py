@@ -1,0 +1,107 @@
+"""The contact layer's floor and up axis (issue 20): the legs are kept above the source's floor where no contact
+holds them, even on a clip where no contact was found (a run whose stance is shorter than the detector's 0.25 s:
+Bandai's 24-frame run cycle, 9-10 cm below the floor after a moderate edit without it), and a Z-up clip is
+held as its +Y-up twin is (the layer used to lower the root along +Y there: 56 cm off the plant).
+
+Figures by ``sn.quality.compare`` in cm of a 170 cm body; edits as tests/test_staggered_plants.py.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stagger_nb import data, quality, staggered
+from stagger_nb.core.body import pelvis_joint
+from stagger_nb.core.kinematics import forward_kinematics
+from stagger_nb.core.rotations import quat_mul, quat_rotate
+from stagger_nb.staggered import plants
+
+EDITS = {"moderate": (0.03, 2.0, 0.1), "strong": (0.05, 3.0, 0.1), "s+0.1": (0.1, 4.0, 0.15),
+         "s-0.1": (-0.1, 4.0, 0.15)}
+GOAL = {"moderate": (2.0, 5.0), "strong": (3.0, 10.0), "s+0.1": (3.0, 10.0), "s-0.1": (3.0, 10.0)}   # floor, pop
+
+
+def _edit(sm, level):
+    s, l, tau = EDITS[level]
+    root = sm.skeleton.names[pelvis_joint(sm.skeleton)]
+    return staggered.random_timing(staggered.succession(sm, root=root, s=s, l=l), tau=tau, seed=0)
+
+
+@pytest.mark.parametrize("name", ["walk", "run", "jump"])
+@pytest.mark.parametrize("level", ["moderate", "s-0.1"])
+def test_no_contact_the_legs_stay_above_the_floor(name, level):
+    """With no contact at all the layer still keeps every foot joint above the source's floor (the edit alone
+    puts it 10-37 cm below), adding no pop beyond the edit's preset."""
+    m = data.load(name)
+    sm = staggered.extract(m)
+    e = _edit(sm, level)
+    off = staggered.evaluate(e)
+    res = staggered.hold_plants(e, m, contacts=[])
+    r0 = quality.compare(m, off, staggered=e, contacts=[])
+    r = quality.compare(m, res.motion, staggered=e, contacts=[], baseline=off)
+    floor, pop = GOAL[level]
+    assert r0.floor > 5.0, "the edit alone goes below the floor: the test has something to catch"
+    assert r.floor <= floor and r.added_pop <= pop and res.plants == 0
+    assert r.pelvis_vs_baseline == 0.0                         # the legs are lifted, the pelvis is not moved
+
+
+@pytest.mark.parametrize("name", ["walk", "jump"])
+def test_no_contact_unedited_comes_back_bit_for_bit(name):
+    m = data.load(name)
+    sm = staggered.extract(m)
+    ev = staggered.evaluate(sm)
+    out = staggered.keep_contacts(sm, m, contacts=[])
+    assert np.array_equal(out.local_quats, ev.local_quats) and np.array_equal(out.root_positions, ev.root_positions)
+
+
+def test_rig_legs():
+    sk = data.load("walk").skeleton
+    legs = plants.rig_legs(sk)
+    assert sorted(sk.names[lim.eff] for lim in legs) == ["LeftFoot", "RightFoot"] and all(lim.leg for lim in legs)
+
+
+def test_bandai_run_cycle_stays_above_the_floor(shared_motion):
+    """24 frames at 30 Hz, a stance of ~0.1 s: no contact is detected, and the moderate / strong edits alone
+    go 7-9 cm below the floor; with the layer they meet the goals (floor 2 / 3 cm)."""
+    m = quality.scaled(shared_motion("bandai_run_cycle.bvh"), height=quality.BODY_CM)
+    sm = staggered.extract(m)
+    assert not staggered.detect_contacts(m)
+    for level in ("moderate", "strong"):
+        e = _edit(sm, level)
+        off = staggered.evaluate(e)
+        r = quality.compare(m, staggered.keep_contacts(e, m), staggered=e, baseline=off, bounds=level)
+        assert quality.compare(m, off, staggered=e).floor > 5.0
+        assert r.ok, (level, r.failures)
+
+
+def _z_up(m):
+    """``m`` with the world turned -90 degrees about X (+Y up becomes +Z up)."""
+    r = np.array([-np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])
+    q = np.array(m.local_quats)
+    q[:, 0] = quat_mul(np.broadcast_to(r, q[:, 0].shape), q[:, 0])
+    rp = quat_rotate(np.broadcast_to(r, m.root_positions.shape[:-1] + (4,)), m.root_positions)
+    return m.replace(local_quats=q, root_positions=rp), r
+
+
+@pytest.mark.parametrize("level", ["moderate", "s+0.1"])
+def test_a_z_up_clip_is_held_as_its_y_up_twin(level):
+    """The procedural walk turned Z-up, extracted and edited alike: the held motion is the Y-up one's turned
+    (world positions within 1e-6 of the body), and it meets the same goals."""
+    m = data.load("walk")
+    mz, r = _z_up(m)
+    sm, smz = staggered.extract(m), staggered.extract(mz)
+    e, ez = _edit(sm, level), _edit(smz, level)
+    y, z = staggered.keep_contacts(e, m), staggered.keep_contacts(ez, mz)
+    py, pz = forward_kinematics(y)[0], forward_kinematics(z)[0]
+    h = quality.body_height(m)
+    assert np.abs(quat_rotate(np.broadcast_to(r, py.shape[:-1] + (4,)), py) - pz).max() < 1e-6 * h
+    rz = quality.compare(mz, z, staggered=ez, baseline=staggered.evaluate(ez), bounds="strong")
+    assert rz.foot_height <= 3.0 and rz.floor <= 3.0
+
+
+def test_a_z_up_unedited_clip_comes_back_unchanged():
+    """As on a +Y-up clip (test_staggered_plants.py): exact up to round-off (the plants are re-solved)."""
+    mz, _ = _z_up(data.load("walk"))
+    smz = staggered.extract(mz)
+    r = quality.compare(mz, staggered.keep_contacts(smz, mz), staggered=smz, bounds="unedited")
+    assert r.moved < 0.01 and r.rotated < 0.01
