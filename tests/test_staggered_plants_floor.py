@@ -105,3 +105,24 @@ def test_a_z_up_unedited_clip_comes_back_unchanged():
     smz = staggered.extract(mz)
     r = quality.compare(mz, staggered.keep_contacts(smz, mz), staggered=smz, bounds="unedited")
     assert r.moved < 0.01 and r.rotated < 0.01
+
+
+# -- an effector with nothing below it keeps the edit's rotation -------------------------------------------
+
+@pytest.mark.parametrize("level", ["strong", "s+0.1", "s-0.1"])
+def test_leaf_effectors_keep_the_edit_and_its_detail(level):
+    """mocapbank_get_down (19 joints: the ankles and wrists are leaves): the held ankles and wrists keep the
+    edit's local rotation on every frame (their plants are positions), and the layer no longer adds detail
+    (it was 2.7x / 4.7x / 5.8x the source's at strong / s+0.1 / s-0.1: the ankle turned up to 122 degrees)."""
+    m = quality.scaled(data.load("mocapbank_get_down"), height=quality.BODY_CM)
+    sm = staggered.extract(m)
+    e = _edit(sm, level)
+    off = staggered.evaluate(e)
+    on = staggered.keep_contacts(e, m)
+    sk = m.skeleton
+    leaves = {plants.find_limb(sk, c[0]).eff for c in sm.contacts} - {None}
+    assert leaves and all(not plants.find_limb(sk, sk.names[j]).foot for j in leaves)
+    for j in leaves:
+        assert np.array_equal(on.local_quats[:, j], off.local_quats[:, j]), sk.names[j]
+    r = quality.compare(m, on, staggered=e, baseline=off, bounds="strong")
+    assert r.ok, r.failures

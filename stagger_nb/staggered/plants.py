@@ -30,7 +30,9 @@ and heel, moves with it as one foot):
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
    the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
    leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,
-   Dykstra's projections), lowered by at most 2.8 % and moved aside by at most 15 % of a leg, then made smooth
+   Dykstra's projections), lowered by at most 2.8 % of a leg (~2.5 cm of a 170 cm body), or 5 % (~4.4 cm,
+   inside the issue's moderate pelvis bound) where with 2.8 % a foot would stop more than 0.5 % of a leg short
+   of its plant, and moved aside by at most 15 % of a leg, then made smooth
    (a max filter and a raised-cosine average, ``blend`` wide). When the root is a static joint below the pelvis
    (Bandai's ``joint_Root`` on the floor) the pelvis moves instead. Legs in the air keep their feet where the
    edit put them.
@@ -38,9 +40,13 @@ and heel, moves with it as one foot):
    signed by the knee's hinge axis measured on the source, so a straight leg bends the way it bends) by the
    exact angle that gives the wanted hip-ankle distance, always on the forward-bent branch (no knee flip,
    never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
-   The foot takes the target's world orientation; the joints below it take the source's local rotations.
+   The foot takes the target's world orientation; the joints below it take the source's local rotations; an
+   effector with no joint below it (a 19-joint rig's ankle or wrist) keeps the edit's local rotation (its plant
+   is a position: held to the source's orientation it turned against the edited shin, and added detail).
    Legs in the air: no foot joint goes below the source's floor (a smooth lift away from the plants; in a fade
    what is still below: the ankle lifted to the floor, a toe below it by turning the foot toe-up about the ankle).
+   This holds for every leg of the rig (:func:`rig_legs`), also one with no contact found (a run whose stance
+   is shorter than ``detect_contacts``' minimum duration).
 6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
    2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped,
    outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
