@@ -160,3 +160,16 @@ def test_a_mild_edit_keeps_the_small_budget():
     off = staggered.evaluate(e)
     r = quality.compare(m, staggered.keep_contacts(e, m), staggered=e, baseline=off, bounds="mild")
     assert r.ok, r.failures
+
+
+def test_a_fade_reaches_no_further_than_a_plant():
+    """CMU 01_01 at 60 Hz, mild: a fade into a plant the leg could not reach straightened the knee to full
+    extension (a plant may use only ``reach`` of it), the plant's first frame bent it back at once and the pop
+    cap let the toe go 2 cm below the floor there (> 1.5); the fade now reaches as far as a plant may."""
+    m = _scaled(data.load("cmu_01_01")).resample(1 / 60)
+    sm = staggered.extract(m)
+    root = sm.skeleton.names[pelvis_joint(sm.skeleton)]
+    e = staggered.random_timing(staggered.succession(sm, root=root, s=0.02, l=1.0), tau=0.05, seed=0)
+    off = staggered.evaluate(e)
+    r = quality.compare(m, staggered.keep_contacts(e, m), staggered=e, baseline=off, bounds="mild")
+    assert r.ok, r.failures

@@ -407,11 +407,17 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             for k in (kl, kr):
                 sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
                 ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
-                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k])))
+                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k]), _sample(src_share[lim.eff], sg)))
             g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
             q_mix = slerp(ext[0][1], ext[1][1], al)
             target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
-            fade_w[lim.eff] = (win, w, target, q_mix)
+            # the fade's leg may reach as far as a plant's may (_reach: the edit's own extension, the source's
+            # there, else ``reach`` of the leg), not to full extension: a fade into a plant the leg cannot
+            # reach straightened the knee, which the plant's first frame then bent back by 18 degrees at once
+            # (cmu_01_01 from mid-swing, mild; the pop cap then let the foot off its plant by 3 cm)
+            r_f = _reach(reach, length[lim.eff][win], np.linalg.norm(pos[win, lim.eff] - pos[win, lim.upper], axis=-1),
+                         ext[0][2] * (1 - al) + ext[1][2] * al)
+            fade_w[lim.eff] = (win, w, target, q_mix, r_f)
     _legs_in_air(sk, motion, legs, rows, fade_w, shift, out, floor, nb, med, length, hinges, above_floor)
     _leaf_effectors_as_edited(limbs, out, lq)
     if cap:
@@ -442,12 +448,14 @@ def _legs_in_air(sk, motion: Motion, legs: list, rows: list, fade_w: dict, shift
                 free[held[lim.eff]] = False
             wf = np.zeros(F)
             infade = np.zeros(F, bool)
+            reach_of = length[lim.eff] * (1 - 1e-9)        # (F,): full extension, a fade's reach inside it
             if lim.eff in fade_w:
                 wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
             down = wf[:, None] * shift                        # how far the foot goes with the root
             if lim.eff in fade_w and len(fade_w[lim.eff]) > 2:
                 # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
-                win, _w, g_f, q_f = fade_w[lim.eff]
+                win, _w, g_f, q_f, r_f = fade_w[lim.eff]
+                reach_of[win] = r_f
                 infade[win] = True
                 # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
                 # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
@@ -485,7 +493,7 @@ def _legs_in_air(sk, motion: Motion, legs: list, rows: list, fade_w: dict, shift
             tgt[:, 1] += lift[fr]
             q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
-                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff])
+                                              reach_of[fr], hinges[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
 
 
