@@ -225,6 +225,26 @@ def grid(sm, m, raw: bool, quick: bool):
     return n, worst_pop, worst_at, worst_knots, knots_at, fails
 
 
+def variant_table(rows, edits):
+    """Clips meeting the goals per edit (layer on; off where only off ran), one row per kind of clip: the real
+    and set-up clips, then each derived variant (``clip@variant``)."""
+    layer = "on" if any(r.get("layer") == "on" for r in rows) else "off"
+    count: dict = {}
+    for r in rows:
+        if r.get("layer", layer) != layer or "edit" not in r:
+            continue
+        kind = r["clip"].split("@")[1] if "@" in r["clip"] else "clips"
+        c = count.setdefault((kind, r["edit"]), [0, 0])
+        c[1] += 1
+        c[0] += "report" in r and r["report"]["ok"]
+    kinds = list(dict.fromkeys(k for k, _ in count))
+    print()
+    print(f"clips meeting the goals per kind of clip (layer {layer}): ok/clips")
+    print(f"{'kind':10s}" + "".join(f"{e:>10s}" for e in edits))
+    for k in kinds:
+        print(f"{k:10s}" + "".join(f"{'%d/%d' % tuple(count.get((k, e), (0, 0))):>10s}" for e in edits))
+
+
 def goals_table(rows, edits):
     """The issue's goals per clip: unedited / mild / moderate / strong, layer off and on, ``pass`` or the
     failing figures (travel, height, floor, pelvis, pop, knots, moved, sliding more than without the layer)."""
@@ -360,6 +380,8 @@ def main():
     print("clips meeting the goals (ok / failing / exceptions):")
     for (ename, label), (ok, fail, err) in tally.items():
         print(f"  {ename:9s} layer {label:3s}: {ok:2d} ok, {fail:2d} failing, {err:2d} exceptions")
+    if derived:
+        variant_table(rows, edits)
     condensed(rows, edits)
     goals_table(rows, [e for e in edits if e in ("unedited", "mild", "moderate", "strong")])
     if grid_rows:
