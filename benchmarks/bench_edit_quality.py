@@ -20,7 +20,10 @@ An exception is a row, not a crash.
 
 Run: OPENBLAS_NUM_THREADS=1 PYTHONPATH=$PWD python benchmarks/bench_edit_quality.py
      [--clip SUBSTRING] [--edit NAME[,NAME]] [--layer on|off|both] [--raw] [--json PATH]
-(``--raw``: the paper's raw timing offsets, ``limit=None``, instead of the saturated default).
+     [--derived all|VARIANT[,VARIANT]] [--derived-only]
+(``--raw``: the paper's raw timing offsets, ``limit=None``, instead of the saturated default; ``--derived``:
+also each clip as derived_clips.py derives it (resampled to 24 / 60 / 120 Hz, sliced mid-stance / mid-swing,
+units x100 / x0.01, Z-up), named ``clip@variant``, for the held-out check's clips we have not seen).
 """
 from __future__ import annotations
 
@@ -30,6 +33,8 @@ import os
 import time
 import traceback
 from pathlib import Path
+
+import derived_clips
 
 import stagger_nb as sn
 from stagger_nb import data, staggered
@@ -52,13 +57,18 @@ EDITS = {
 COLS = ("travel", "height", "floor", "pelvis", "p-off", "pop", "knots", "detail", "moved")
 
 
-def clips(pattern: str | None):
-    """(name, loader) of every clip, real ones first."""
-    out = []
+def clips(pattern: str | None, derived=(), derived_only: bool = False):
+    """(name, loader) of every clip, real ones first, each loader returning the clip scaled to a 170 cm body
+    (None: a derived variant that does not apply); then ``clip@variant`` for each of ``derived``."""
+    base = []
     if SHARED.is_dir():
-        out += [(p.stem, (lambda p=p: sn.read_bvh(p))) for p in sorted(SHARED.glob("*.bvh"))]
+        base += [(p.stem, (lambda p=p: sn.read_bvh(p))) for p in sorted(SHARED.glob("*.bvh"))]
     for name in SETUP:
-        out.append((name, (lambda name=name: data.load(name))))
+        base.append((name, (lambda name=name: data.load(name))))
+    base = [(n, (lambda f=f: sn.quality.scaled(f(), height=sn.quality.BODY_CM))) for n, f in base]
+    out = [] if derived_only else list(base)
+    for v in derived:
+        out += [(f"{n}@{v}", (lambda f=f, v=v: derived_clips.derive(f(), v))) for n, f in base]
     return [(n, f) for n, f in out if pattern is None or pattern.lower() in n.lower()]
 
 
@@ -215,6 +225,26 @@ def grid(sm, m, raw: bool, quick: bool):
     return n, worst_pop, worst_at, worst_knots, knots_at, fails
 
 
+def variant_table(rows, edits):
+    """Clips meeting the goals per edit (layer on; off where only off ran), one row per kind of clip: the real
+    and set-up clips, then each derived variant (``clip@variant``)."""
+    layer = "on" if any(r.get("layer") == "on" for r in rows) else "off"
+    count: dict = {}
+    for r in rows:
+        if r.get("layer", layer) != layer or "edit" not in r:
+            continue
+        kind = r["clip"].split("@")[1] if "@" in r["clip"] else "clips"
+        c = count.setdefault((kind, r["edit"]), [0, 0])
+        c[1] += 1
+        c[0] += "report" in r and r["report"]["ok"]
+    kinds = list(dict.fromkeys(k for k, _ in count))
+    print()
+    print(f"clips meeting the goals per kind of clip (layer {layer}): ok/clips")
+    print(f"{'kind':10s}" + "".join(f"{e:>10s}" for e in edits))
+    for k in kinds:
+        print(f"{k:10s}" + "".join(f"{'%d/%d' % tuple(count.get((k, e), (0, 0))):>10s}" for e in edits))
+
+
 def goals_table(rows, edits):
     """The issue's goals per clip: unedited / mild / moderate / strong, layer off and on, ``pass`` or the
     failing figures (travel, height, floor, pelvis, pop, knots, moved, sliding more than without the layer)."""
@@ -273,7 +303,14 @@ def main():
                     help="the four presets only and a coarse slider grid (a few minutes on every clip)")
     ap.add_argument("--grid", choices=("on", "off", "only"), default="on",
                     help="the slider-grid section for the timing edit alone (only: skip the preset sweep)")
+    ap.add_argument("--derived", help="also derived clips: 'all' or variants " + ", ".join(derived_clips.VARIANTS))
+    ap.add_argument("--derived-only", action="store_true", help="only the derived clips")
     a = ap.parse_args()
+    derived = () if not a.derived else (derived_clips.VARIANTS if a.derived == "all"
+                                         else tuple(v.strip() for v in a.derived.split(",")))
+    unknown = [v for v in derived if v not in derived_clips.VARIANTS]
+    if unknown:
+        ap.error(f"--derived: unknown {unknown}; variants are {', '.join(derived_clips.VARIANTS)}")
     default = ["unedited", "mild", "moderate", "strong"] if a.quick else list(EDITS)
     edits = default if not a.edit else [e.strip() for e in a.edit.split(",")]
     bad = [e for e in edits if e not in EDITS]
@@ -288,9 +325,11 @@ def main():
     print(head)
     print("-" * len(head))
     rows, tally, grid_rows = [], {}, []
-    for name, load in clips(a.clip):
+    for name, load in clips(a.clip, derived, a.derived_only):
         try:
-            m = sn.quality.scaled(load(), height=sn.quality.BODY_CM)
+            m = load()
+            if m is None:
+                continue
             t = time.process_time()
             sm = staggered.extract(m)
             t_extract = time.process_time() - t
@@ -341,6 +380,8 @@ def main():
     print("clips meeting the goals (ok / failing / exceptions):")
     for (ename, label), (ok, fail, err) in tally.items():
         print(f"  {ename:9s} layer {label:3s}: {ok:2d} ok, {fail:2d} failing, {err:2d} exceptions")
+    if derived:
+        variant_table(rows, edits)
     condensed(rows, edits)
     goals_table(rows, [e for e in edits if e in ("unedited", "mild", "moderate", "strong")])
     if grid_rows:

@@ -103,8 +103,8 @@ def test_moderate_and_strong_edits_meet_every_goal(name, level):
 @pytest.mark.parametrize("level", list(EDITS))
 def test_what_the_layer_always_keeps(name, level):
     """On every set-up clip and level: the feet slide no more than without the layer (at mild a third of it
-    at most: walk 1.3 / 54, run 2.1 / 76, jump 7.3 / 57, cmu 12.6 / 41 cm), and the pelvis moves at most its
-    budget (2.8 % of a leg, < 3 cm)."""
+    at most: walk 1.3 / 54, run 2.1 / 76, jump 7.3 / 57, cmu 12.6 / 41 cm), and the pelvis moves at most the
+    issue's bound for the level (mild 3, moderate 5, strong 8 cm; the budget is 5 % of a leg, ~4.4 cm)."""
     m = _setup(name)
     sm = staggered.extract(m)
     r, r0, pop = _figures(m, sm, _edit(sm, level))
@@ -113,7 +113,7 @@ def test_what_the_layer_always_keeps(name, level):
     assert r.foot_travel <= r0.foot_travel + 0.1
     if level == "mild":
         assert r.foot_travel <= 0.35 * r0.foot_travel
-    assert r.pelvis_vs_baseline <= 3.0
+    assert r.pelvis_vs_baseline <= {"mild": 3.0, "moderate": 5.0, "strong": 8.0}[level]
 
 
 @pytest.mark.parametrize("name", SETUP)

@@ -30,7 +30,9 @@ and heel, moves with it as one foot):
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
    the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
    leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,
-   Dykstra's projections), lowered by at most 2.8 % and moved aside by at most 15 % of a leg, then made smooth
+   Dykstra's projections), lowered by at most 2.8 % of a leg (~2.5 cm of a 170 cm body), or 5 % (~4.4 cm,
+   inside the issue's moderate pelvis bound) where with 2.8 % a foot would stop more than 0.5 % of a leg short
+   of its plant, and moved aside by at most 15 % of a leg, then made smooth
    (a max filter and a raised-cosine average, ``blend`` wide). When the root is a static joint below the pelvis
    (Bandai's ``joint_Root`` on the floor) the pelvis moves instead. Legs in the air keep their feet where the
    edit put them.
@@ -38,9 +40,13 @@ and heel, moves with it as one foot):
    signed by the knee's hinge axis measured on the source, so a straight leg bends the way it bends) by the
    exact angle that gives the wanted hip-ankle distance, always on the forward-bent branch (no knee flip,
    never beyond full extension); the hip then aims the leg at the target by the shortest arc (no twist).
-   The foot takes the target's world orientation; the joints below it take the source's local rotations.
+   The foot takes the target's world orientation; the joints below it take the source's local rotations; an
+   effector with no joint below it (a 19-joint rig's ankle or wrist) keeps the edit's local rotation (its plant
+   is a position: held to the source's orientation it turned against the edited shin, and added detail).
    Legs in the air: no foot joint goes below the source's floor (a smooth lift away from the plants; in a fade
    what is still below: the ankle lifted to the floor, a toe below it by turning the foot toe-up about the ankle).
+   This holds for every leg of the rig (:func:`rig_legs`), also one with no contact found (a run whose stance
+   is shorter than ``detect_contacts``' minimum duration).
 6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
    2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped,
    outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
@@ -49,7 +55,8 @@ Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`
 the plants, fades), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root
 shifts), :mod:`.plants_pops` (the pop cap); this module: the public functions.
 
-Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH); lengths in file units, every
+Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH; another up axis, found by
+:func:`~stagger_nb.core.body.up_axis`, is turned to +Y and back, :mod:`.plants_up`); lengths in file units, every
 tolerance relative to a bone or the body (the layer is invariant to a uniform scale of the clip).
 """
 from __future__ import annotations
@@ -73,8 +80,9 @@ from .plants_carry import (
 from .plants_hold import _SOURCE_CACHE, _hold, _raised_cosine  # noqa: F401  (_SOURCE_CACHE: tests clear it)
 from .plants_ik import _hinge_local  # noqa: F401  (read by tests)
 from .plants_root import _MAX_DROP, REACH
+from .plants_up import to_y_up, turned, turned_back, turned_source
 
-__all__ = ["Limb", "find_limb", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts",
+__all__ = ["Limb", "find_limb", "rig_legs", "PlantsResult", "hold_plants", "keep_contacts", "carry_contacts",
            "apply_contact_constraints", "contact_positions", "contact_errors", "foot_skate", "attenuation_weights"]
 
 
@@ -154,7 +162,8 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
         if sp.shape != (source.num_frames, source.num_joints, 3):
             raise ValueError(f"source_positions: expected shape ({source.num_frames}, {source.num_joints}, 3) "
                              f"(forward_kinematics(source)[0]), got {sp.shape}")
-    if not parsed:
+    floor_legs = rig_legs(sk)
+    if not parsed and not floor_legs:
         return PlantsResult(motion)
     limb_of, missing = {}, []
     for j in sorted({j for j, _, _ in parsed}):
@@ -167,21 +176,31 @@ def hold_plants(edited, source: Motion, *, contacts=None, blend: float = 0.15, c
     if missing:
         notes.append(f"keep_contacts: no leg or arm found above {', '.join(missing)} (a two-bone limb below the "
                      f"root): {'their' if len(missing) > 1 else 'its'} contacts are not held")
-    return _layer(edited, motion, source, parsed, limb_of, timeline, tuple(notes), carry_by, blend, share,
-                  _MAX_DROP if max_drop is None else max_drop, reach)
+    r = to_y_up(source)
+    if r is None:
+        return _layer(edited, motion, source, parsed, limb_of, timeline, tuple(notes), carry_by, blend, share,
+                      _MAX_DROP if max_drop is None else max_drop, reach, floor_legs=floor_legs)
+    # not +Y up (a Z-up export): held in a world turned +Y up, then turned back (plants_up)
+    motion_y = turned(motion, r)
+    res = _layer(edited, motion_y, turned_source(source, r), parsed, limb_of, timeline, tuple(notes), carry_by,
+                 blend, share, _MAX_DROP if max_drop is None else max_drop, reach, floor_legs=floor_legs)
+    return PlantsResult(turned_back(res.motion, motion_y, motion, r), res.notes, res.drop, res.plants)
 
 
 def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, blend, share, max_drop, reach,
-           targets=None, shift_plants=True, above_floor=True, cap=True) -> PlantsResult:
-    """Carry ``parsed`` contacts (those with a limb in ``limb_of``) and hold them (:func:`_hold`)."""
+           targets=None, shift_plants=True, above_floor=True, cap=True, floor_legs=()) -> PlantsResult:
+    """Carry ``parsed`` contacts (those with a limb in ``limb_of``) and hold them (:func:`_hold`); the legs of
+    ``floor_legs`` (:func:`rig_legs`) are also kept above the source's floor where no plant holds them."""
     keep = [i for i, c in enumerate(parsed) if c[0] in limb_of]
     carried = _carried(edited, [parsed[i] for i in keep], source.frame_time, carry_by, timeline, index=keep,
-                       cover=_COVER)
-    if not carried:
+                       cover=_COVER) if keep else []
+    if not carried and not floor_legs:
         return PlantsResult(motion, tuple(notes))
     # a foot cannot swing between two plants in less than _MIN_SWING: such plants are one
     plants = _plants(carried, limb_of, gap=int(np.ceil(_MIN_SWING / motion.frame_time)))
     limbs = {lim.eff: lim for lim in limb_of.values()}
+    for lim in floor_legs:
+        limbs.setdefault(lim.eff, lim)
     carried = [c[:7] + (limb_of[c[0]].eff, c[7]) for c in carried]
     # each joint's source time inside its plant: the inverse warp of the clock that carried it
     clock = {j: cs[0] for j, cs in zip(sorted({c[0] for c in carried} | set(limbs)),
@@ -192,6 +211,21 @@ def _layer(edited, motion, source, parsed, limb_of, timeline, notes, carry_by, b
     if motion.staggered is not None:       # held on the timing of the staggered motion it evaluates
         motion_out = motion_out._evaluated_from(motion.staggered)
     return PlantsResult(motion_out, tuple(notes) + tuple(more), drop, len(plants))
+
+
+def rig_legs(skeleton) -> tuple:
+    """The rig's legs (:class:`Limb` with ``leg``), one per foot: the limbs of the joints named like a foot part
+    (foot/toe/ankle/heel, :func:`find_limb`); ``()`` on a rig without one. The layer keeps each above the
+    source's floor even where no contact was found (a run whose stance is shorter than the contact detector's
+    minimum duration: Bandai's 24-frame run cycle), like its legs between plants (Kovar et al. 2002, §4)."""
+    from .contacts import _FINGER, _FOOT
+    out = {}
+    for j, name in enumerate(skeleton.names):
+        if _FOOT.search(name) and not _FINGER.search(name):
+            lim = find_limb(skeleton, j)
+            if lim is not None and lim.leg:
+                out.setdefault(lim.eff, lim)
+    return tuple(out.values())
 
 
 def keep_contacts(edited, source: Motion, *, contacts=None, blend: float = 0.15, carry_by: str = "pelvis",

@@ -39,6 +39,8 @@ _ID = np.array([0.0, 0.0, 0.0, 1.0])
 _MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
 _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel lift) beyond the source's
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
+_SOFT_DROP = 0.028   # share of a leg: the root is lowered beyond this (up to max_drop) only where with it ...
+_SHORT = 0.005       # ... a held leg would stop more than this share of a leg (~0.45 cm) short of its plant
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -184,6 +186,18 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     spos, swq, src_share, hinges, floor, backs = _source_tables(source, limbs)
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
+    med = {e: float(np.median(length[e])) for e in limbs}
+    if not plants:
+        # no plant (no contact, or none carried onto a frame): only the legs kept above the source's floor
+        out = np.array(motion.local_quats)
+        _legs_in_air(sk, motion, legs, [], {}, np.zeros((F, 3)), out, floor, nb, med, length, hinges, above_floor,
+                     backs)
+        _leaf_effectors_as_edited(limbs, out, motion.local_quats)
+        if cap:
+            _cap(sk, limbs, [], out, motion.local_quats, source, ft / ft_s)
+        if np.array_equal(out, motion.local_quats):
+            return motion, np.zeros(F), []
+        return Motion._trusted(sk, ft, motion.root_positions, out, motion.local_translations), np.zeros(F), []
     # -- each plant's frames: the source time sigma (the inverse warp of the clock that carries the effector,
     # kept inside the plant's source frames) and the source foot there ---------------------------------------
     P = len(plants)
@@ -210,7 +224,6 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     # there (horizontally; _choose_shifts), so the hip reaches it as the edit placed the leg (Kovar et al. 2002,
     # §4: the plant's position from the motion being cleaned)
     d0 = (cur - base)[np.r_[0, np.cumsum(sizes)[:-1]]]
-    med = {e: float(np.median(length[e])) for e in limbs}
     lengths = np.array([med[e] for e in effs])
     p_start, p_stop = np.array([p["start"] for p in plants]), np.array([p["stop"] for p in plants])
     shift = _choose_shifts(hip, base, R_in, in_pid, d0, lengths) if shift_plants else np.zeros((P, 3))
@@ -311,11 +324,19 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     shift = np.zeros((F, 3))
     if share > 0 and max_drop > 0 and np.any(need > 0):
         leg = float(min(lengths))
-        shift = _root_shift(F, rows, pos, max_drop * leg, _MAX_SIDE * leg, nb) * share
-        left = np.zeros(F)
-        for r in rows:
-            h = pos[r["fr"], r["lim"].upper] + shift[r["fr"]]
-            np.maximum.at(left, r["fr"], np.linalg.norm(r["g"] - h, axis=-1) - r["R"])
+
+        def lowered_by(cap):
+            sh = _root_shift(F, rows, pos, cap * leg, _MAX_SIDE * leg, nb) * share
+            lf = np.zeros(F)
+            for r in rows:
+                h = pos[r["fr"], r["lim"].upper] + sh[r["fr"]]
+                np.maximum.at(lf, r["fr"], np.linalg.norm(r["g"] - h, axis=-1) - r["R"])
+            return sh, lf
+
+        # the pelvis goes below the small budget only where the feet would otherwise stop visibly short
+        shift, left = lowered_by(min(max_drop, _SOFT_DROP))
+        if max_drop > _SOFT_DROP and left.max() > _SHORT * leg:
+            shift, left = lowered_by(max_drop)
         short = int(np.sum(left > 1e-3 * leg))
         if short:
             notes.append(f"keep_contacts: on {short} frame{'s' if short > 1 else ''} a held leg cannot reach its "
@@ -426,11 +447,34 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             for k in (kl, kr):
                 sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
                 ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
-                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k])))
+                            quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k]), _sample(src_share[lim.eff], sg)))
             g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
             q_mix = slerp(ext[0][1], ext[1][1], al)
             target = pos[win, lim.eff] * (1 - w)[:, None] + g_mix * w[:, None]
-            fade_w[lim.eff] = (win, w, target, q_mix)
+            # the fade's leg may reach as far as a plant's may (_reach: the edit's own extension, the source's
+            # there, else ``reach`` of the leg), not to full extension: a fade into a plant the leg cannot
+            # reach straightened the knee, which the plant's first frame then bent back by 18 degrees at once
+            # (cmu_01_01 from mid-swing, mild; the pop cap then let the foot off its plant by 3 cm)
+            r_f = _reach(reach, length[lim.eff][win], np.linalg.norm(pos[win, lim.eff] - pos[win, lim.upper], axis=-1),
+                         ext[0][2] * (1 - al) + ext[1][2] * al)
+            fade_w[lim.eff] = (win, w, target, q_mix, r_f)
+    _legs_in_air(sk, motion, legs, rows, fade_w, shift, out, floor, nb, med, length, hinges, above_floor,
+                 backs)
+    _leaf_effectors_as_edited(limbs, out, lq)
+    if cap:
+        _cap(sk, limbs, rows, out, lq, source, ft / ft_s)
+    return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
+
+
+
+
+
+def _legs_in_air(sk, motion: Motion, legs: list, rows: list, fade_w: dict, shift: np.ndarray, out: np.ndarray,
+                 floor: float, nb: int, med: dict, length: dict, hinges: dict, above_floor: bool,
+                 backs: dict) -> None:
+    """The legs on the frames no plant holds them (in place on ``out (F, J, 4)``), see the comment below; ``rows``:
+    the plants' frames per limb, ``fade_w``: the fades around them, ``shift (F, 3)``: the root's shift."""
+    F = motion.num_frames
     # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
     # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
     # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
@@ -446,12 +490,14 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
                 free[held[lim.eff]] = False
             wf = np.zeros(F)
             infade = np.zeros(F, bool)
+            reach_of = length[lim.eff] * (1 - 1e-9)        # (F,): full extension, a fade's reach inside it
             if lim.eff in fade_w:
                 wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
             down = wf[:, None] * shift                        # how far the foot goes with the root
             if lim.eff in fade_w and len(fade_w[lim.eff]) > 2:
                 # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
-                win, _w, g_f, q_f = fade_w[lim.eff]
+                win, _w, g_f, q_f, r_f = fade_w[lim.eff]
+                reach_of[win] = r_f
                 infade[win] = True
                 # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
                 # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
@@ -490,18 +536,31 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             tgt[:, 1] += lift[fr]
             q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
             a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
-                                              length[lim.eff][fr] * (1 - 1e-9), hinges[lim.eff],
-                                              max_back=backs[lim.eff])
+                                              reach_of[fr], hinges[lim.eff], max_back=backs[lim.eff])
             out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
+
+
+def _leaf_effectors_as_edited(limbs: dict, out: np.ndarray, lq: np.ndarray) -> None:
+    """An effector with no joint below it (a 19-joint rig's ankle or wrist) places nothing by its rotation: it
+    keeps the edit's local rotation (in place on ``out``; the plant is a position, Kovar et al. 2002, §4). Held
+    to the source's world orientation instead, it turned up to 122 degrees against the edited shin on
+    mocapbank_get_down at s = +0.1 (a kneel on the shin's other timing), and that and its fades were most of
+    the 4.7x detail the layer added there."""
+    for lim in limbs.values():
+        if not lim.foot:
+            out[:, lim.eff] = lq[:, lim.eff]
+
+
+def _cap(sk, limbs: dict, rows: list, out: np.ndarray, lq: np.ndarray, source: Motion, ratio: float) -> None:
+    """No corrected joint of ``limbs`` turns faster on top of the edit ``lq (F, J, 4)`` than the pop cap allows
+    (in place on ``out``; :mod:`.plants_pops`), the plants' own frames (``rows``) kept exactly; ``ratio``: the
+    edited frame time over the source's."""
+    F = out.shape[0]
     # no joint turns faster on top of the edit than the pop cap allows (plants_pops)
-    if cap:
-        chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
-        pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
-        for r in rows:
-            lim = r["lim"]
-            for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
-                pinned[r["fr"], x] = True
-        cap_pops(out, lq, chains, _source_steps(source) * (ft / ft_s), pinned)
-    return Motion._trusted(sk, motion.frame_time, rp, out, lt), drop, notes
-
-
+    chains = [x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot]
+    pinned = np.zeros((F, sk.num_joints), bool)       # the plants' own frames are kept exactly
+    for r in rows:
+        lim = r["lim"]
+        for x in (lim.upper, lim.mid, lim.eff) + lim.foot:
+            pinned[r["fr"], x] = True
+    cap_pops(out, lq, chains, _source_steps(source) * ratio, pinned)

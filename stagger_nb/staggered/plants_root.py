@@ -8,7 +8,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 REACH = 0.98          # share of a leg's length a held leg may use (unless the edited pose already uses more)
-_MAX_DROP = 0.028     # the root is lowered by at most this share of a leg (~2.5 cm of a 170 cm body)
+_MAX_DROP = 0.05      # the root is lowered by at most this share of a leg (~4.4 cm of a 170 cm body)
 _MAX_SIDE = 0.15      # the root moves aside by at most this share of a leg (~13 cm of a 170 cm body)
 _SHIFT_STEPS = np.linspace(-0.25, 0.25, 21)
 _SEGMENT = np.linspace(0.0, 1.0, 21)     # from where the edit puts the foot to the centre of the hip's path
