@@ -59,6 +59,13 @@ def _propagate_spec():
             _spec(optional(frame_range), None, omit_none=True))
 
 
+def _timing_spec():
+    """The fields ``joints`` (default all), ``limit`` (the timing saturation's, None: off) and ``falloff`` (a
+    region the offsets are scaled by, Dean et al. 2018, §3.3; issue 24) of a timing edit (§5.2)."""
+    return (_spec(_joints, None), _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT),
+            _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True))
+
+
 def _check_propagate(op) -> None:
     if not op.propagate:
         for f in ("sigma", "frame_range"):
@@ -99,9 +106,10 @@ class Succession(Op):
     root: str = _spec(text)
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)
-    joints: tuple | None = _spec(_joints, None)
-    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
-    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
+    joints: tuple | None
+    limit: float | None
+    falloff: tuple | None
+    joints, limit, falloff = _timing_spec()
 
 
 @dataclass(frozen=True)
@@ -112,9 +120,10 @@ class RandomTiming(Op):
     needs: ClassVar[str] = "staggered"
     tau: float = _spec(number(0.0, MAX_TAU))   # core.limits.MAX_TAU: staggered.random_timing's own bound
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
-    joints: tuple | None = _spec(_joints, None)
-    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
-    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
+    joints: tuple | None
+    limit: float | None
+    falloff: tuple | None
+    joints, limit, falloff = _timing_spec()
 
 
 @dataclass(frozen=True)
