@@ -12,7 +12,7 @@ from stagger_nb.core.rotations import rotvec_to_quat
 from stagger_nb.core.skeleton import Skeleton
 from stagger_nb.session import Session
 
-__all__ = ["chain_motion", "assert_load_names_the_field"]
+__all__ = ["chain_motion", "assert_load_names_the_field", "assert_refuses_the_source"]
 
 
 def chain_motion(reverse_times, duration=2.0, fps=120.0, amplitude=1.0, span=1.0):
@@ -40,3 +40,15 @@ def assert_load_names_the_field(path, mutate, field: str) -> None:
     path.write_text(json.dumps(d))
     with pytest.raises(ValueError, match=rf"^{field}"):
         Session.load(path)
+
+
+def assert_refuses_the_source(write, src, tmp_path) -> None:
+    """``write(path)`` (a session's save or export) refuses the session's source file ``src`` and a symbolic link
+    to it (``tmp_path / "link.bvh"``, left in place) with "path: ... source file", and leaves ``src`` as it was."""
+    before = src.read_bytes()
+    link = tmp_path / "link.bvh"
+    link.symlink_to(src)
+    for path in (src, link):
+        with pytest.raises(ValueError, match="^path: .*source file"):
+            write(path)
+    assert src.read_bytes() == before

@@ -56,31 +56,28 @@ def _report(bad: list[dict]) -> str:
                      f"{r['peak'] / 2**20:.0f} MB)" for r in bad)
 
 
+def _assert_every_row(corpus, kind: str, at_least: int, ok) -> None:
+    """The corpus's rows of ``kind`` (at least ``at_least`` of them) each end as ``ok(row)`` asks, within the
+    time and memory bounds of a hostile input (:func:`_bounds`)."""
+    rows = [r for r in corpus if r["kind"] == kind]
+    assert len(rows) >= at_least
+    secs, peak = _bounds()
+    bad = [r for r in rows if not ok(r) or r["seconds"] > secs or r["peak"] > peak]
+    assert not bad, _report(bad)
+
+
 @pytest.mark.parametrize("kind", ["bvh", "amc"])
 def test_hostile_files_end_in_a_value_error_naming_file_and_line(corpus, kind):
-    rows = [r for r in corpus if r["kind"] == kind]
-    assert len(rows) >= (120 if kind == "bvh" else 40)
-    secs, peak = _bounds()
-    bad = [r for r in rows if not (r["result"] == "ValueError" and r["named"] and r["line"])
-           or r["seconds"] > secs or r["peak"] > peak]
-    assert not bad, _report(bad)
+    _assert_every_row(corpus, kind, 120 if kind == "bvh" else 40,
+                      lambda r: r["result"] == "ValueError" and r["named"] and r["line"])
 
 
 def test_hostile_sessions_end_in_a_value_error_naming_the_field(corpus):
-    rows = [r for r in corpus if r["kind"] == "session"]
-    assert len(rows) >= 400
-    secs, peak = _bounds()
-    bad = [r for r in rows if not (r["result"] == "ValueError" and r["named"] and r["untouched"])
-           or r["seconds"] > secs or r["peak"] > peak]
-    assert not bad, _report(bad)
+    _assert_every_row(corpus, "session", 400, lambda r: r["result"] == "ValueError" and r["named"] and r["untouched"])
 
 
 def test_odd_rigs_read_edit_and_export_faithfully(corpus):
-    rows = [r for r in corpus if r["kind"] == "odd"]
-    assert len(rows) >= 20
-    secs, peak = _bounds()
-    bad = [r for r in rows if r["result"] != "no error" or r["seconds"] > secs or r["peak"] > peak]
-    assert not bad, _report(bad)
+    _assert_every_row(corpus, "odd", 20, lambda r: r["result"] == "no error")
 
 
 def test_numpy_scalars_are_numbers_and_numpy_bools_are_not():

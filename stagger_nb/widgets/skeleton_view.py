@@ -275,15 +275,14 @@ class SkeletonView(_SceneSender, _Playback, _Readout, widgets.VBox):
         self._push_highlights()
 
     # -- events ------------------------------------------------------------------------------------------
-    @traitlets.observe("show_ghost")
-    def _on_ghost(self, change):
-        self._push_ghost()
-        self._update_legend()
+    #: what a change of each drawn trait sends: the part of the scene it changes, then what else shows it
+    _SENDS = {"show_ghost": ("_push_ghost", "_update_legend"), "camera": ("_push_camera", "_update_grid"),
+              "trail_joints": ("_push_trails", "_update_legend")}
 
-    @traitlets.observe("camera")
-    def _on_camera(self, change):
-        self._push_camera()
-        self._update_grid()
+    @traitlets.observe(*_SENDS)
+    def _on_drawn(self, change):
+        for send in self._SENDS[change["name"]]:
+            getattr(self, send)()
 
     @traitlets.validate("trail_joints")
     def _valid_trails(self, proposal):
@@ -292,11 +291,6 @@ class SkeletonView(_SceneSender, _Playback, _Readout, widgets.VBox):
             if n not in self._names:
                 raise ValueError(f"trail_joints: unknown joint {n!r}")
         return names
-
-    @traitlets.observe("trail_joints")
-    def _on_trails(self, change):
-        self._push_trails()
-        self._update_legend()
 
     @traitlets.observe("selected_joint")
     def _on_selected(self, change):
