@@ -1,7 +1,7 @@
 """Replay the generated hostile corpus (tests/hostile_corpus.py) in a bounded child process (issue 13).
 
 The child runs every case once, under an address-space limit and a timeout, and prints one JSON line per
-case: how it ended, its wall time and its peak memory. Each kind is then checked here:
+case: how it ended, its CPU time and its peak memory. Each kind is then checked here:
 
 - hostile BVH and ASF/AMC files end in a ``ValueError`` (BVHError / AMCError) naming the file and a line;
 - hostile session files end in a ``ValueError`` whose message starts with the field (``ops[0] (cull):
@@ -9,7 +9,7 @@ case: how it ended, its wall time and its peak memory. Each kind is then checked
   is changed; saving or exporting over the source clip or over a non-session file is refused;
 - odd but valid BVH rigs read, take an edit, and their BVH export re-reads to the edited motion within
   1e-5 of the skeleton's height (and glTF export writes);
-- every case within 10 s and 500 MB (time bound doubled on a loaded machine: load average above the CPUs).
+- every case within 10 s of CPU time and 500 MB (CPU time, not wall time: a loaded machine does not fail it).
 """
 from __future__ import annotations
 
@@ -47,12 +47,11 @@ def corpus(tmp_path_factory):
 
 
 def _bounds() -> tuple[float, int]:
-    busy = os.getloadavg()[0] > (os.cpu_count() or 1)
-    return hostile_corpus.MAX_SECONDS * (2 if busy else 1), hostile_corpus.MAX_BYTES
+    return hostile_corpus.MAX_SECONDS, hostile_corpus.MAX_BYTES
 
 
 def _report(bad: list[dict]) -> str:
-    return "\n".join(f"{r['name']!r}: {r['result']} {r.get('message', '')[:200]!r} ({r['seconds']:.2f} s, "
+    return "\n".join(f"{r['name']!r}: {r['result']} {r.get('message', '')[:200]!r} ({r['seconds']:.2f} s CPU, "
                      f"{r['peak'] / 2**20:.0f} MB)" for r in bad)
 
 
