@@ -264,24 +264,30 @@ def asf_amc_cases() -> list[tuple[str, str, str]]:
 # --------------------------------------------------------------------------------------------------
 # session material
 # --------------------------------------------------------------------------------------------------
-OP_FIELDS = {  # every op with a valid example; each field is then given every wrong type
-    "extract": {},
-    "cull": {"percent": 50},
-    "succession": {"root": "Spine", "s": 0.03, "l": 2.0},
-    "random_timing": {"tau": 0.05, "seed": 0},
-    "exaggerate": {"w_r": 1.5},
-    "edit_pose": {"pose": 0, "deltas": {"Spine": [0, 0, 10]}},
-    "retime": {"pose": 1, "time": 0.05},
-    "insert_pose": {"time": 0.03},
-    "delete_pose": {"pose": 1},
-    "keep_contacts": {},
-    "ik_pose": {"pose": 0, "joint": "Head", "target": [0, 20, 0]},
-    "edit_frame": {"frame": 1, "deltas": {"Spine": [0, 0, 10]}},
-    "propagate": {"frame": 1, "deltas": {"Spine": [0, 0, 10]}},
-    "guided_warp": {"duration": 0.05},
-    "linear_warp": {"duration": 0.05},
-    "resample": {"frame_time": 0.02},
-}
+def op_examples(joint: str, end: str, duration: float) -> dict:
+    """A valid example of every op (its required fields): ``joint`` the joint edited (the succession's root),
+    ``end`` the joint IK moves, ``duration`` the warps' output seconds."""
+    return {
+        "extract": {},
+        "cull": {"percent": 50},
+        "succession": {"root": joint, "s": 0.03, "l": 2.0},
+        "random_timing": {"tau": 0.05, "seed": 0},
+        "exaggerate": {"w_r": 1.5},
+        "edit_pose": {"pose": 0, "deltas": {joint: [0, 0, 10]}},
+        "retime": {"pose": 1, "time": 0.05},
+        "insert_pose": {"time": 0.03},
+        "delete_pose": {"pose": 1},
+        "keep_contacts": {},
+        "ik_pose": {"pose": 0, "joint": end, "target": [0, 20, 0]},
+        "edit_frame": {"frame": 1, "deltas": {joint: [0, 0, 10]}},
+        "propagate": {"frame": 1, "deltas": {joint: [0, 0, 10]}},
+        "guided_warp": {"duration": duration},
+        "linear_warp": {"duration": duration},
+        "resample": {"frame_time": 0.02},
+    }
+
+
+OP_FIELDS = op_examples("Spine", "Head", 0.05)  # every op with a valid example; each field then gets every wrong type
 WRONG = [None, True, "x", "", [], {}, [1, 2], {"a": 1}, -1, -1e308, 1e308, 0, 10 ** 30, 0.5, "\u0661", [[[]]]]
 
 
