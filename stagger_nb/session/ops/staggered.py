@@ -8,20 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from .base import (
-    MAX_EXPONENT,
-    MAX_SECONDS,
-    MAX_SKIP,
-    MAX_TAU,
-    MAX_TIMING_LIMIT,
-    MAX_WEIGHT,
-    MAX_WORLD,
-    TIMING_LIMIT,
-    Op,
-    _check_free_length,
-    _spec,
-    deltas,
-)
+from ...core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT  # each declared once there
+from .base import MAX_EXPONENT, MAX_SECONDS, MAX_SKIP, MAX_WEIGHT, MAX_WORLD, Op, _check_free_length, _spec, deltas
 from .fields import (
     _deltas_json,
     _index,
