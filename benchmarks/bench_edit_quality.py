@@ -145,24 +145,18 @@ def condensed(rows, edits):
     idx = {(r["clip"], r.get("edit"), r.get("layer")): r for r in rows}
     names = list(dict.fromkeys(r["clip"] for r in rows))
 
-    def on(r):
-        if r is None:
-            return "-"
-        if "error" in r:
-            return "EXC"
-        d = r["report"]
+    def cell(fmt):
+        """A table cell of a row: ``-`` without one, ``EXC`` where it raised, else ``fmt(report, row)``."""
+        return lambda r: "-" if r is None else "EXC" if "error" in r else fmt(r["report"], r)
+
+    def _on(d, r):
         p = d["pelvis_vs_baseline"] if d["pelvis_vs_baseline"] is not None else d["pelvis"]
         first = d["moved"] if r["edit"] == "unedited" else d["foot_travel"]
         second = d["foot_travel"] if r["edit"] == "unedited" else p
         return f"{first:.1f}/{second:.1f}/{d['added_pop']:.0f}" + ("" if d["ok"] else "!")
 
-    def off(r):
-        if r is None:
-            return "-"
-        if "error" in r:
-            return "EXC"
-        d = r["report"]
-        return f"{d['added_pop']:.1f}/{len(d['knots_out_of_order'] or ())}/{d['detail']:.2f}"
+    on = cell(_on)
+    off = cell(lambda d, r: f"{d['added_pop']:.1f}/{len(d['knots_out_of_order'] or ())}/{d['detail']:.2f}")
 
     for title, layer, fn in (("layer on: travel/pelvis vs no layer/added pop (unedited: moved/travel/pop), "
                               "! = fails its preset", "on", on),

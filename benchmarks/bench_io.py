@@ -118,6 +118,12 @@ def _memory(small: Path, tiled: Path) -> None:
 _MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(256 << 20)}
 
 
+def _ratio_line(label, ours, theirs, cpu=True):
+    """Print ``ratio <label>: best .., median .., CPU ..`` of two (best, median, best CPU) rows of times."""
+    line = f"ratio {label}: best {ours[0] / theirs[0]:.2f}, median {ours[1] / theirs[1]:.2f}"
+    print(line + (f", CPU {ours[2] / theirs[2]:.2f}" if cpu else ""))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rounds", type=int, default=15)
@@ -213,20 +219,16 @@ def _run(args) -> None:
             print(f"ratio read_bvh ({path_used}) / pybvh: best {ratio:.2f}, median {ours[1] / theirs[1]:.2f}, "
                   f"CPU {ours[2] / theirs[2]:.2f} (target <= 0.40 -- wall: {'met' if ratio <= 0.4 else 'NOT met'}, "
                   f"CPU: {'met' if ours[2] <= 0.4 * theirs[2] else 'NOT met'})")
-            ours = res["read_bvh, fallback path"]
-            print(f"ratio read_bvh, fallback path (STAGGER_NB_NO_ACCEL=1) / pybvh: best {ours[0] / theirs[0]:.2f}, "
-                  f"median {ours[1] / theirs[1]:.2f}, CPU {ours[2] / theirs[2]:.2f}")
-            ours = res["read_bvh, one thread"]
-            print(f"ratio read_bvh on one thread / pybvh: best {ours[0] / theirs[0]:.2f}, "
-                  f"median {ours[1] / theirs[1]:.2f}, "
-                  f"CPU {ours[2] / theirs[2]:.2f}")
-            ours = res["read_bvh, tab-separated copy"]
-            print(f"ratio read_bvh on the tab-separated copy / pybvh on the original: best {ours[0] / theirs[0]:.2f}, "
-                  f"median {ours[1] / theirs[1]:.2f}")
-            theirs = res["pybvh, file as write_bvh writes it"]
-            ours = res["read_bvh, file as write_bvh writes it"]
-            print(f"ratio read_bvh, file as write_bvh writes it ({rewritten.stat().st_size / 1e6:.2f} MB) / pybvh on "
-                  f"it: best {ours[0] / theirs[0]:.2f}, median {ours[1] / theirs[1]:.2f}")
+
+            _ratio_line("read_bvh, fallback path (STAGGER_NB_NO_ACCEL=1) / pybvh", res["read_bvh, fallback path"],
+                       theirs)
+            _ratio_line("read_bvh on one thread / pybvh", res["read_bvh, one thread"], theirs)
+            _ratio_line("read_bvh on the tab-separated copy / pybvh on the original",
+                       res["read_bvh, tab-separated copy"], theirs, cpu=False)
+            size = f"{rewritten.stat().st_size / 1e6:.2f} MB"
+            _ratio_line(f"read_bvh, file as write_bvh writes it ({size}) / pybvh on it",
+                       res["read_bvh, file as write_bvh writes it"], res["pybvh, file as write_bvh writes it"],
+                       cpu=False)
             tiled = tmp / "tiled10.bvh"
             head = re.sub(rb"Frames:\s*\d+", b"Frames: %d" % (10 * m.num_frames), raw[:start])
             tiled.write_bytes(head + block * 10)

@@ -31,13 +31,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "tests"))   # the naive reference lives beside the tests
 
 from quality_reference import compare_reference
+from timing_helpers import min_median
 
 import stagger_nb as sn
 from stagger_nb import data, quality, staggered
@@ -48,13 +47,8 @@ SHARED = Path(os.environ.get("STAGGER_NB_SHARED_MOCAP") or REPO.parent / "shared
 
 def cpu_ms(fn, repeat: int) -> tuple[float, float]:
     """(minimum, median) CPU milliseconds of ``fn()`` over ``repeat`` calls after one warm-up call."""
-    fn()
-    ts = []
-    for _ in range(repeat):
-        t = time.process_time()
-        fn()
-        ts.append(time.process_time() - t)
-    return 1e3 * min(ts), 1e3 * float(np.median(ts))
+    lo, med = min_median(fn, repeat, time.process_time)
+    return 1e3 * lo, 1e3 * med
 
 
 def clips(pattern):

@@ -39,6 +39,7 @@ from stagger_nb.staggered.sampling import sample_segments
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the naive references live beside the tests
 from references import evaluate_reference, fit_rotation_tangents_nelder_mead
+from timing_helpers import min_median
 
 # ../shared/mocap and data/ beside/in the repository; STAGGER_NB_SHARED_MOCAP and STAGGER_NB_DATA point
 # elsewhere (as tests/conftest.py and stagger_nb.data), e.g. from a git worktree
@@ -48,13 +49,7 @@ DATA = Path(os.environ.get("STAGGER_NB_DATA") or REPO / "data")
 
 def best(f, repeat=5):
     """(min, median) wall time in seconds of ``f()`` over ``repeat`` runs after one warm-up."""
-    f()
-    ts = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return min(ts), float(np.median(ts))
+    return min_median(f, repeat)
 
 
 def long_clip():

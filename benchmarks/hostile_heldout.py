@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the hand-written rigs' builders
+from hostile_corpus import op_examples
 from io_samples import ASF_ROOT, FEMUR_LIMITS, asf_bone, bvh_hierarchy
 
 MAX_SECONDS = 10.0
@@ -514,24 +515,7 @@ def amc_cases():
 # --------------------------------------------------------------------------------------------------
 # session material
 # --------------------------------------------------------------------------------------------------
-GOOD = {
-    "extract": {},
-    "cull": {"percent": 50},
-    "succession": {"root": "Chest", "s": 0.03, "l": 2.0},
-    "random_timing": {"tau": 0.05, "seed": 0},
-    "exaggerate": {"w_r": 1.5},
-    "edit_pose": {"pose": 0, "deltas": {"Chest": [0, 0, 10]}},
-    "retime": {"pose": 1, "time": 0.05},
-    "insert_pose": {"time": 0.03},
-    "delete_pose": {"pose": 1},
-    "keep_contacts": {},
-    "ik_pose": {"pose": 0, "joint": "Neck", "target": [0, 20, 0]},
-    "edit_frame": {"frame": 1, "deltas": {"Chest": [0, 0, 10]}},
-    "propagate": {"frame": 1, "deltas": {"Chest": [0, 0, 10]}},
-    "guided_warp": {"duration": 0.5},
-    "linear_warp": {"duration": 0.5},
-    "resample": {"frame_time": 0.02},
-}
+GOOD = op_examples("Chest", "Neck", 0.5)   # every op with a valid example (the corpus's builder, other joints)
 EXTRA_FIELDS = {  # optional fields beyond the required examples, each given hostile values too
     "succession": {"joints": ["Chest"]}, "random_timing": {"joints": ["Chest"]},
     "exaggerate": {"poses": [0], "reference": "previous", "mode": "staggered", "joints": ["Chest"]},

@@ -50,6 +50,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))   # the snapshot test_hostile_batch takes, beside the tests
 import tree_snapshot
+from editor_helpers import rss_mb, wait_until, warm_threads  # the editor tests' own (beside the tests)
 
 MARKER = "MARKER-21c0-not-a-clip"
 SECRET = f"{MARKER} root:*:20228:0:99999:7:::\nsecond line {MARKER}\n"
@@ -601,27 +602,6 @@ def c_entry_points_hostile_sizes(tmp: Path) -> str:
 # --------------------------------------------------------------------------------------------------
 # editors
 # --------------------------------------------------------------------------------------------------
-def warm_threads() -> list:
-    return [t for t in threading.enumerate() if t.name == "stagger_nb-warm" and t.is_alive()]
-
-
-def rss_mb() -> float:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
-
-
-def wait_until(cond, seconds=20.0) -> bool:
-    end = time.monotonic() + seconds
-    while not cond():
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.1)
-    return True
-
-
 def _twelve_editors(kind_name: str):
     def body(tmp: Path) -> str:
         import weakref
@@ -631,7 +611,7 @@ def _twelve_editors(kind_name: str):
         kind = getattr(widgets, kind_name)
         m = sn.data.load("walk").slice(0, 200)
         kind(m).close()                       # imports and first-use allocations before measuring
-        wait_until(lambda: not warm_threads())
+        wait_until(lambda: not warm_threads(), 20)
         gc.collect()
         rss0, threads0 = rss_mb(), threading.active_count()
         for _ in range(12):

@@ -1,13 +1,18 @@
-"""Small hand-built motions shared by several test modules (tests import them from here, not from each other)."""
+"""Small hand-built motions and checks shared by several test modules (tests import them from here, not from each
+other)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
+import pytest
 
 from stagger_nb.core.motion import Motion
 from stagger_nb.core.rotations import rotvec_to_quat
 from stagger_nb.core.skeleton import Skeleton
+from stagger_nb.session import Session
 
-__all__ = ["chain_motion"]
+__all__ = ["chain_motion", "assert_load_names_the_field", "assert_refuses_the_source"]
 
 
 def chain_motion(reverse_times, duration=2.0, fps=120.0, amplitude=1.0, span=1.0):
@@ -25,3 +30,25 @@ def chain_motion(reverse_times, duration=2.0, fps=120.0, amplitude=1.0, span=1.0
     rv = np.zeros(ang.shape + (3,))
     rv[..., 2] = ang
     return Motion(sk, 1.0 / fps, np.zeros((t.size, 3)), rotvec_to_quat(rv))
+
+
+def assert_load_names_the_field(path, mutate, field: str) -> None:
+    """Apply ``mutate`` to the JSON of the saved session at ``path``, write it back: ``Session.load`` must refuse
+    it with a ValueError whose message starts with ``field`` (a regular expression: the JSON path of the value)."""
+    d = json.loads(path.read_text())
+    mutate(d)
+    path.write_text(json.dumps(d))
+    with pytest.raises(ValueError, match=rf"^{field}"):
+        Session.load(path)
+
+
+def assert_refuses_the_source(write, src, tmp_path) -> None:
+    """``write(path)`` (a session's save or export) refuses the session's source file ``src`` and a symbolic link
+    to it (``tmp_path / "link.bvh"``, left in place) with "path: ... source file", and leaves ``src`` as it was."""
+    before = src.read_bytes()
+    link = tmp_path / "link.bvh"
+    link.symlink_to(src)
+    for path in (src, link):
+        with pytest.raises(ValueError, match="^path: .*source file"):
+            write(path)
+    assert src.read_bytes() == before

@@ -56,6 +56,14 @@ def _frame_steps(q: np.ndarray) -> np.ndarray:
     return np.degrees(quat_angle(q[:-1], q[1:])).max(axis=0)
 
 
+def _added(edited: np.ndarray, source: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """What the edit adds to a per-joint figure, ``max(edited - source, 0) * scale``, with rounding (< 1e-9)
+    counted as nothing (no pop, no jump)."""
+    out = np.maximum(edited - source, 0.0) * scale
+    out[out < 1e-9] = 0.0
+    return out
+
+
 def _position_steps(p: np.ndarray) -> np.ndarray:
     if p.shape[0] < 2:
         return np.zeros(p.shape[1])
@@ -190,26 +198,28 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
     floor_pen = max(below, 0.0) * scale
 
     ratio = ft_s / ft_e
-    pop_e, pop_s = _frame_steps(motion.local_quats) * ratio, _frame_steps(source.local_quats)
-    pop_added = np.maximum(pop_e - pop_s, 0.0)
-    pop_added[pop_added < 1e-9] = 0.0            # rounding is no pop
+    pop_added = _added(_frame_steps(motion.local_quats) * ratio, _frame_steps(source.local_quats))
     pj = int(np.argmax(pop_added))
-    jump_added = np.maximum(_position_steps(pos) * ratio - _position_steps(src_pos), 0.0) * scale
-    jump_added[jump_added < 1e-9] = 0.0
+    jump_added = _added(_position_steps(pos) * ratio, _position_steps(src_pos), scale)
     jj = int(np.argmax(jump_added))
     e_e, e_s = _detail_energies(source, motion, sm, t0)
     total_s = float(e_s.sum())
     detail = float(e_e.sum()) / total_s if total_s > 0 else 1.0
-    # per joint; a joint still in the source (energy at rounding level: 1e-12 of the mean) reads 1 when it
-    # stays still, else its energy over that floor
+    # per joint, one at a time; a joint still in the source (energy at rounding level: 1e-12 of the mean)
+    # reads 1 when it stays still, else its energy over that floor
     tiny = max(1e-12 * total_s / max(e_s.size, 1), 1e-300)
-    detail_j = np.where(e_s > tiny, e_e / np.maximum(e_s, tiny), np.where(e_e > tiny, e_e / tiny, 1.0))
+    detail_j = np.ones(e_s.size)
+    for j in range(e_s.size):
+        if e_s[j] > tiny:
+            detail_j[j] = e_e[j] / e_s[j]
+        elif e_e[j] > tiny:
+            detail_j[j] = e_e[j] / tiny
 
     knots_bad = None
-    if sm is not None:
-        T = np.concatenate([sm.knot_times(), (sm.pose_times + sm.root_refinements)[:, None]], axis=1)
-        bad = ~np.all(np.diff(T, axis=0) > 0, axis=0)
-        knots_bad = tuple((list(names) + ["<root translation>"])[c] for c in np.flatnonzero(bad))
+    if sm is not None:   # a knot column (a joint's, then the root translation's) whose times do not rise
+        columns = [sm.knot_times()[:, c] for c in range(len(names))] + [sm.pose_times + sm.root_refinements]
+        knots_bad = tuple(label for label, col in zip(list(names) + ["<root translation>"], columns)
+                          if any(not col[k + 1] > col[k] for k in range(len(col) - 1)))
 
     # contacts carried through the pelvis's timing (a joint of a limb below the pelvis; else the timing of the
     # joint whose rotation sets its position), one contact at a time
@@ -262,21 +272,19 @@ def compare_reference(source: Motion, edited, *, staggered=None, contacts=None, 
         rel, raw, _ = _travel(pos[frames, j], _at_times(src_pos[:, j], ft_s, te[frames]))
         in_src, in_src_raw = max(in_src, rel * scale), max(in_src_raw, raw * scale)
 
-    def worst(attr):
-        return max((getattr(c, attr) for c in figures), default=0.0)
-
-    base_travel = None
-    if base_pos is not None:
-        base_travel = max((c.baseline_travel for c in figures), default=0.0)
-    return QualityReport(
-        scale=scale, body_height=h_body,
-        foot_travel=worst("travel"), foot_travel_raw=worst("travel_raw"), foot_path=worst("path"),
-        foot_height=worst("height"), foot_travel_source=in_src, foot_travel_source_raw=in_src_raw,
-        floor=floor_pen, pelvis=pelvis, pelvis_drop=pelvis_drop, pelvis_vs_baseline=pelvis_vs_base,
-        added_pop=float(pop_added[pj]), added_pop_joint=names[pj] if pop_added[pj] > 0 else None,
-        added_jump=float(jump_added[jj]), added_jump_joint=names[jj] if jump_added[jj] > 0 else None,
-        moved=float(moved_j[mj]) * scale, moved_joint=names[mj] if moved_j[mj] > 0 else None,
-        rotated=rotated, knots_out_of_order=knots_bad, detail=detail, baseline_foot_travel=base_travel,
-        contacts=tuple(figures), joints=tuple(names), pop_added=tuple(float(x) for x in pop_added),
-        jump_added=tuple(float(x) for x in jump_added), detail_by_joint=tuple(float(x) for x in detail_j),
-        bounds=bnds)
+    fields = {"scale": scale, "body_height": h_body, "foot_travel_source": in_src,
+              "foot_travel_source_raw": in_src_raw, "floor": floor_pen, "pelvis": pelvis, "pelvis_drop": pelvis_drop,
+              "pelvis_vs_baseline": pelvis_vs_base, "rotated": rotated, "knots_out_of_order": knots_bad,
+              "detail": detail, "contacts": tuple(figures), "joints": tuple(names), "bounds": bnds}
+    for key, attr in (("foot_travel", "travel"), ("foot_travel_raw", "travel_raw"), ("foot_path", "path"),
+                      ("foot_height", "height")):                       # the worst contact's figure
+        fields[key] = max((getattr(c, attr) for c in figures), default=0.0)
+    fields["baseline_foot_travel"] = (None if base_pos is None else
+                                      max((c.baseline_travel for c in figures), default=0.0))
+    for key, values, j, factor in (("added_pop", pop_added, pj, 1.0), ("added_jump", jump_added, jj, 1.0),
+                                   ("moved", moved_j, mj, scale)):       # the worst joint's, and its name
+        fields[key] = float(values[j]) * factor
+        fields[key + "_joint"] = names[j] if values[j] > 0 else None
+    for key, values in (("pop_added", pop_added), ("jump_added", jump_added), ("detail_by_joint", detail_j)):
+        fields[key] = tuple(float(x) for x in values)
+    return QualityReport(**fields)

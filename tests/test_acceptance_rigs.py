@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import shared_clip_path
+from io_samples import bvh_hierarchy
 
 import stagger_nb as sn
 from stagger_nb import staggered, timewarp, wand
@@ -202,89 +203,20 @@ def test_guided_warp_on_a_travelling_root_bandai_variant_matches_the_original():
 # ----------------------------------------------------------------------------------------------------------
 # exports of odd rigs re-read to the edited motion within 1e-5 of height (issue 13 item 8 and the check)
 # ----------------------------------------------------------------------------------------------------------
-ODD = """HIERARCHY
-ROOT Pelvis
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Yrotation Xposition Zrotation Yposition Xrotation Zposition
-  JOINT Spine
-  {
-    OFFSET 0 10 0
-    CHANNELS 2 Zrotation Xrotation
-    JOINT Chest
-    {
-      OFFSET 0 12 0
-      CHANNELS 3 Xposition Yposition Zposition
-      JOINT Neck
-      {
-        OFFSET 0 8 0
-        CHANNELS 0
-        End Site
-        {
-          OFFSET 0 6 0
-        }
-      }
-      JOINT LArm
-      {
-        OFFSET 8 6 0
-        CHANNELS 1 Xrotation
-        JOINT LFore
-        {
-          OFFSET 12 0 0
-          CHANNELS 1 Yrotation
-          End Site
-          {
-            OFFSET 10 0 0
-          }
-        }
-      }
-      JOINT RArm
-      {
-        OFFSET -8 6 0
-        CHANNELS 6 Xposition Yposition Zposition Yrotation Zrotation Xrotation
-        JOINT RFore
-        {
-          OFFSET 0 0 0
-          CHANNELS 3 Zrotation Yrotation Xrotation
-          JOINT RHand
-          {
-            OFFSET -10 0 0
-            CHANNELS 1 Zrotation
-          }
-        }
-      }
-    }
-  }
-  JOINT LLeg
-  {
-    OFFSET 5 -3 0
-    CHANNELS 3 Yrotation Xrotation Zrotation
-    JOINT LShin
-    {
-      OFFSET 0 -20 0
-      CHANNELS 1 Xrotation
-      End Site
-      {
-        OFFSET 0 -20 0
-      }
-    }
-  }
-  JOINT RLeg
-  {
-    OFFSET -5 -3 0
-    CHANNELS 3 Xrotation Yrotation Zrotation
-    JOINT RShin
-    {
-      OFFSET 0 -20 0
-      CHANNELS 2 Xrotation Yrotation
-      End Site
-      {
-        OFFSET 0 -20 0
-      }
-    }
-  }
-}
-"""
+ODD = bvh_hierarchy(   # odd channel orders and counts (0 to 6), translations below the root, a leaf without End Site
+    ("Pelvis", "0 0 0", [
+        ("Spine", "0 10 0", [
+            ("Chest", "0 12 0", [
+                ("Neck", "0 8 0", "0 6 0", ""),
+                ("LArm", "8 6 0", [("LFore", "12 0 0", "10 0 0", "Yrotation")], "Xrotation"),
+                ("RArm", "-8 6 0", [("RFore", "0 0 0", [("RHand", "-10 0 0", [], "Zrotation")],
+                                     "Zrotation Yrotation Xrotation")],
+                 "Xposition Yposition Zposition Yrotation Zrotation Xrotation"),
+            ], "Xposition Yposition Zposition"),
+        ], "Zrotation Xrotation"),
+        ("LLeg", "5 -3 0", [("LShin", "0 -20 0", "0 -20 0", "Xrotation")], "Yrotation Xrotation Zrotation"),
+        ("RLeg", "-5 -3 0", [("RShin", "0 -20 0", "0 -20 0", "Xrotation Yrotation")], "Xrotation Yrotation Zrotation"),
+    ], "Yrotation Xposition Zrotation Yposition Xrotation Zposition"), tab="  ")
 
 
 def odd_bvh(path, frames=90, seed=0):

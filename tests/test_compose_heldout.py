@@ -49,14 +49,30 @@ def _load(name):
 
 
 @pytest.fixture(scope="module")
-def sessions():
+def clips():
+    """The module's clips, each read once (a Motion is frozen); each test makes its own sessions of them."""
     cache = {}
 
     def get(name):
         if name not in cache:
-            cache[name] = Session(_load(name))
+            cache[name] = _load(name)
         return cache[name]
     return get
+
+
+@pytest.fixture
+def sessions(clips):
+    """A new Session of a clip per call: no edit of one test reaches another."""
+    return lambda name: Session(clips(name))
+
+
+def _assert_replays_bit_exactly(s: Session, path) -> None:
+    """``s`` saved to ``path`` and loaded again gives the same edited motion, every float64 bit."""
+    edited = s.edited()
+    s.save(path)
+    again = Session.load(path).edited()
+    assert np.array_equal(again.local_quats, edited.local_quats)
+    assert np.array_equal(again.root_positions, edited.root_positions)
 
 
 def _xfail(name, table):
@@ -148,12 +164,7 @@ def test_the_three_compositions_replay_bit_exactly_on_the_hops(tmp_path):
                          "falloff": {"frame": 450, "sigma": None}},
                         {"op": "guide_poses", "reference": {"path": str(ref)}},
                         {"op": "keep_contacts"}])
-    edited = s.edited()
-    p = tmp_path / "hops.json"
-    s.save(p)
-    again = Session.load(p).edited()
-    assert np.array_equal(again.local_quats, edited.local_quats)
-    assert np.array_equal(again.root_positions, edited.root_positions)
+    _assert_replays_bit_exactly(s, tmp_path / "hops.json")
 
 
 def test_a_region_succession_on_the_101_joint_rig_replays_bit_exactly(tmp_path):
@@ -166,9 +177,4 @@ def test_a_region_succession_on_the_101_joint_rig_replays_bit_exactly(tmp_path):
                         {"op": "succession", "root": "CC_Base_L_Clavicle", "s": 0.03, "l": 1.0,
                          "falloff": {"frame": m.num_frames // 2, "sigma": None}},
                         {"op": "random_timing", "tau": 0.03, "seed": 2, "falloff": {"frame": 40, "sigma": None}}])
-    edited = s.edited()
-    p = tmp_path / "iclone.json"
-    s.save(p)
-    again = Session.load(p).edited()
-    assert np.array_equal(again.local_quats, edited.local_quats)
-    assert np.array_equal(again.root_positions, edited.root_positions)
+    _assert_replays_bit_exactly(s, tmp_path / "iclone.json")

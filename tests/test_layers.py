@@ -36,7 +36,7 @@ UI_LIBRARIES = {"ipywidgets", "pythreejs", "anywidget"}   # only widgets/ draws
 
 
 def _part(path: Path) -> str:
-    return path.relative_to(PKG).with_suffix("").parts[0]   # "staggered", or "scene3d" for scene3d.py
+    return path.relative_to(PKG).with_suffix("").parts[0]   # "staggered", "scene3d", or "app" for app.py
 
 
 def _imports(path: Path, root: Path = PKG):

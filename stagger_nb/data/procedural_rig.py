@@ -19,25 +19,24 @@ _FOOT_X = 10.0             # cm, lateral position of a planted ankle from the tr
 _REACH = 0.99 * (THIGH + SHIN)  # cm, the farthest a planted ankle may be from its hip
 _ARM_HANG = 75.0           # degrees, arms from T-pose down to the sides
 
-# (name, parent name, offset cm, end-site offset cm or None), CMU / MotionBuilder-friendly layout
-_LAYOUT = [
-    ("Hips", None, (0, 0, 0), None),
+# (name, parent name, offset cm, end-site offset cm or None), CMU / MotionBuilder-friendly layout; the right
+# side is the left one mirrored (:func:`_mirrored`)
+_LEFT_LEG = [
     ("LHipJoint", "Hips", (0, 0, 0), None),
     ("LeftUpLeg", "LHipJoint", _HIP, None),
     ("LeftLeg", "LeftUpLeg", (0, -THIGH, 0), None),
     ("LeftFoot", "LeftLeg", (0, -SHIN, 0), None),
     ("LeftToeBase", "LeftFoot", (0, -6.5, 13.0), (0, 0, 6.0)),
-    ("RHipJoint", "Hips", (0, 0, 0), None),
-    ("RightUpLeg", "RHipJoint", (-_HIP[0], _HIP[1], _HIP[2]), None),
-    ("RightLeg", "RightUpLeg", (0, -THIGH, 0), None),
-    ("RightFoot", "RightLeg", (0, -SHIN, 0), None),
-    ("RightToeBase", "RightFoot", (0, -6.5, 13.0), (0, 0, 6.0)),
+]
+_SPINE = [
     ("LowerBack", "Hips", (0, 0, 0), None),
     ("Spine", "LowerBack", (0, 12.0, -1.0), None),
     ("Spine1", "Spine", (0, 12.0, 0.5), None),
     ("Neck", "Spine1", (0, 0, 0), None),
     ("Neck1", "Neck", (0, 21.0, 1.0), None),
     ("Head", "Neck1", (0, 10.0, 0.5), (0, 15.0, 0)),
+]
+_LEFT_ARM = [
     ("LeftShoulder", "Spine1", (0, 0, 0), None),
     ("LeftArm", "LeftShoulder", (17.0, 19.0, -1.0), None),
     ("LeftForeArm", "LeftArm", (28.0, 0, 0), None),
@@ -45,14 +44,24 @@ _LAYOUT = [
     ("LeftFingerBase", "LeftHand", (0, 0, 0), None),
     ("LeftHandIndex1", "LeftFingerBase", (8.0, 0, 0), (4.0, 0, 0)),
     ("LThumb", "LeftHand", (2.0, 0, 2.5), (3.0, 0, 3.0)),
-    ("RightShoulder", "Spine1", (0, 0, 0), None),
-    ("RightArm", "RightShoulder", (-17.0, 19.0, -1.0), None),
-    ("RightForeArm", "RightArm", (-28.0, 0, 0), None),
-    ("RightHand", "RightForeArm", (-25.0, 0, 0), None),
-    ("RightFingerBase", "RightHand", (0, 0, 0), None),
-    ("RightHandIndex1", "RightFingerBase", (-8.0, 0, 0), (-4.0, 0, 0)),
-    ("RThumb", "RightHand", (-2.0, 0, 2.5), (-3.0, 0, 3.0)),
 ]
+
+
+def _mirrored(rows):
+    """The right side's rows from the left side's: ``Left*`` -> ``Right*`` and ``L<Upper>*`` -> ``R<Upper>*``
+    (LHipJoint, LThumb), x of each offset negated as ``0 - x`` (a zero stays +0.0)."""
+    def side(name):
+        if name is None or name.startswith("Left"):
+            return name and "Right" + name[4:]
+        return "R" + name[1:] if name[0] == "L" and name[1].isupper() else name
+
+    def flip(v):
+        return None if v is None else (0 - v[0], v[1], v[2])
+    return [(side(n), side(p), flip(o), flip(e)) for n, p, o, e in rows]
+
+
+_LAYOUT = [("Hips", None, (0, 0, 0), None), *_LEFT_LEG, *_mirrored(_LEFT_LEG), *_SPINE, *_LEFT_ARM,
+           *_mirrored(_LEFT_ARM)]
 
 
 def cmu_skeleton() -> Skeleton:

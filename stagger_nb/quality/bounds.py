@@ -8,15 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def _number(x, name: str) -> float:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {x!r}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {x!r}")
-    return x
+from ..core.checks import finite_number as _number
 
 
 def _positive(x, name: str) -> float:

@@ -66,18 +66,18 @@ class History:
         return bool(self._redo)
 
     def undo(self) -> bool:
-        if not self._undo:
-            return False
-        self._redo.append(self.ops)
-        self.ops = self._undo.pop()
-        self._notify()
-        return True
+        return self._step(self._undo, self._redo)
 
     def redo(self) -> bool:
-        if not self._redo:
+        return self._step(self._redo, self._undo)
+
+    def _step(self, source: list, other: list) -> bool:
+        """Undo (``source`` the undo stack) or redo (the redo stack): the op list popped from ``source``
+        becomes current, the current one goes onto ``other``; False when ``source`` is empty."""
+        if not source:
             return False
-        self._undo.append(self.ops)
-        self.ops = self._redo.pop()
+        other.append(self.ops)
+        self.ops = source.pop()
         self._notify()
         return True
 

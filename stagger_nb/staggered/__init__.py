@@ -53,18 +53,10 @@ from .plants import (
                      keep_contacts,
 )
 from .representation import StaggeredMotion, knot_times
+from .saturation import TIMING_LIMIT, saturate_offsets
+from .source_times import source_knot_times, source_pose_times, warp_times
 from .structure import delete_pose, insert_pose
-from .timing import (
-                     TIMING_LIMIT,
-                     random_timing,
-                     refine,
-                     retime,
-                     saturate_offsets,
-                     source_knot_times,
-                     source_pose_times,
-                     succession,
-                     warp_times,
-)
+from .timing import random_timing, refine, retime, succession
 from .timing_report import TimingWarning, body_part, summarize_timing_warnings, timing_summary, timing_warnings
 
 __all__ = ["StaggeredMotion", "extract", "evaluate", "cull", "cull_keep", "detect_contacts", "end_effectors",

@@ -8,6 +8,7 @@ import numbers
 
 import numpy as np
 
+from ..core.checks import finite_number as _finite  # noqa: F401 (the editing tools read it from here)
 from ..core.rotations import quat_exp
 from .representation import StaggeredMotion
 
@@ -105,16 +106,6 @@ def _pose_index(sm: StaggeredMotion, k, name="k") -> int:
     if not isinstance(k, (int, np.integer)) or not -K <= int(k) < K:
         raise ValueError(f"{name} must be a pose index in [0, {K}), got {k!r}")
     return int(k) % K
-
-
-def _finite(x, name: str) -> float:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {x!r}") from None
-    if not np.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {x!r}")
-    return x
 
 
 def _rotation_table(sm: StaggeredMotion, spec, name: str) -> tuple[np.ndarray, np.ndarray]:

@@ -57,19 +57,20 @@ from ..core.motion import Motion
 from ._skeleton_parts import (
     _PALETTE,
     _TEMPLATE,
-    _TICK_S,
     MESH_JS,  # noqa: F401 (widgets/export.py reads it here)
     _attr,
     _Conductor,
     _FramePlay,
     _FrameSlider,
 )
+from .skeleton_playback import _Playback
+from .skeleton_readout import _Readout
 from .skeleton_scene import _SceneSender
 
 __all__ = ["SkeletonView"]
 
 
-class SkeletonView(_SceneSender, widgets.VBox):
+class SkeletonView(_SceneSender, _Playback, _Readout, widgets.VBox):
     """3D view with a Play button, a frame slider (CSS class ``sn-frame``) and a legend.
 
     Parameters
@@ -210,75 +211,10 @@ class SkeletonView(_SceneSender, widgets.VBox):
         self.show_ghost = ghost is not None and bool(show_ghost)
         self.trail_joints = list(trail_joints)
 
-    # -- construction helpers ---------------------------------------------------------------------------
-    @staticmethod
-    def _tick(frame_time: float):
-        """Play step (frames) and interval (ms): ~_TICK_S per tick, an exact multiple of the frame time."""
-        step = max(1, int(round(_TICK_S / frame_time)))
-        return step, max(10, int(round(step * frame_time * 1000)))
-
     # -- public ------------------------------------------------------------------------------------------
     @property
     def motion(self) -> Motion:
         return self._motion
-
-    @property
-    def positions(self) -> np.ndarray:
-        """World joint positions of the shown motion, shape (F, J, 3), float32 (read-only view)."""
-        v = self._points[:, :self._motion.num_joints]
-        v.setflags(write=False)
-        return v
-
-    @property
-    def playing(self) -> bool:
-        return bool(self.player.playing)
-
-    @property
-    def camera_framing(self) -> scene3d.Camera:
-        """The framing sent to the browser (rig path, camera position/target relative to the rig)."""
-        return self._camera
-
-    def joint_pixel(self, joint, frame: int | None = None) -> tuple[float, float]:
-        """Canvas pixel (x, y) where ``joint`` (name or index) is drawn at ``frame`` (default: the current one),
-        for the camera as framed (before the user orbits)."""
-        j = self._motion.skeleton.index(joint) if isinstance(joint, str) else int(joint)
-        f = self.frame if frame is None else int(frame)
-        eye, target = self._camera.world(f)
-        px = scene3d.project(self._points[f, j][None], eye, target, self._camera.fov, self.width, self.height)
-        return float(px[0, 0]), float(px[0, 1])
-
-    def drawn_height(self, frame: int | None = None) -> float:
-        """The character's drawn height at ``frame`` as a fraction of the canvas height (framed camera)."""
-        f = self.frame if frame is None else int(frame)
-        return scene3d.drawn_height_fraction(self._points[f], self._camera, f, self.width, self.height)
-
-    @property
-    def pose_frames(self) -> np.ndarray:
-        """Frames of the staggered poses highlighted, (K,) int."""
-        return self._pose_frames.copy()
-
-    @property
-    def contacts(self) -> list:
-        """Contacts highlighted, ``[(joint_name, start_frame, end_frame), ...]`` (half-open)."""
-        return [(self._names[j], a, b) for j, a, b in self._contacts]
-
-    def shown_positions(self, frame: int | None = None) -> np.ndarray:
-        """World joint positions ``(J, 3)`` at ``frame`` (default: the current one) decoded from the buffer sent to
-        the browser (``conductor.points``, float32), from which the browser builds the mesh."""
-        f = self.frame if frame is None else int(frame)
-        c = self.conductor
-        pts = np.frombuffer(c.points, dtype=np.float32).reshape(c.num_frames, c.num_points, 3)
-        return pts[f, :c.num_joints].astype(float)
-
-    @property
-    def widget_count(self) -> int:
-        """How many widget models this view is made of (it and every widget it references, recursively)."""
-        return len(_reachable(self))
-
-    def link_frame(self, widget, trait: str = "frame"):
-        """Make ``widget.<trait>`` follow the playhead browser-side (a jsdlink from the Play): plot playheads
-        move while playing without a kernel round trip. Returns the link (``.unlink()`` to stop)."""
-        return widgets.jsdlink((self.player, "value"), (widget, trait))
 
     def set_motion(self, motion: Motion, ghost: Motion | None = None, pose_frames=None, contacts=None) -> None:
         """Show another motion of the same skeleton (e.g. a new edit): its points go to the browser once, binary.
@@ -339,46 +275,14 @@ class SkeletonView(_SceneSender, widgets.VBox):
         self._push_highlights()
 
     # -- events ------------------------------------------------------------------------------------------
-    @traitlets.validate("frame")
-    def _valid_frame(self, proposal):
-        return int(np.clip(proposal["value"], 0, self._motion.num_frames - 1))
+    #: what a change of each drawn trait sends: the part of the scene it changes, then what else shows it
+    _SENDS = {"show_ghost": ("_push_ghost", "_update_legend"), "camera": ("_push_camera", "_update_grid"),
+              "trail_joints": ("_push_trails", "_update_legend")}
 
-    @traitlets.observe("frame")
-    def _on_frame(self, change):
-        if getattr(self, "_frame_from_browser", False):
-            return   # the browser already shows it (and links the slider to the Play): writing back would race
-            # the user's next key presses (the slider jumped back to an older frame, seen under load)
-        with self.player.hold_sync(), self.frame_slider.hold_sync():
-            if self.player.value != change["new"]:
-                self.player.value = change["new"]   # a seek from Python: the browser shows that frame
-            self.frame_slider.value = change["new"]   # (the browser links them; keep the kernel's copy in step)
-
-    def _on_player_value(self, change):
-        if not self.player.playing:            # a scrub; while playing the kernel does not follow per tick
-            self._set_frame_from_browser(change["new"])
-
-    def _on_playing(self, change):
-        if not change["new"]:
-            self._set_frame_from_browser(self.player.value)
-
-    def _set_frame_from_browser(self, frame: int) -> None:
-        self._frame_from_browser = True
-        try:
-            self.frame = frame
-        finally:
-            self._frame_from_browser = False
-        if self.frame != frame:                 # clamped: the browser must show the clamped frame
-            self.player.value = self.frame
-
-    @traitlets.observe("show_ghost")
-    def _on_ghost(self, change):
-        self._push_ghost()
-        self._update_legend()
-
-    @traitlets.observe("camera")
-    def _on_camera(self, change):
-        self._push_camera()
-        self._update_grid()
+    @traitlets.observe(*_SENDS)
+    def _on_drawn(self, change):
+        for send in self._SENDS[change["name"]]:
+            getattr(self, send)()
 
     @traitlets.validate("trail_joints")
     def _valid_trails(self, proposal):
@@ -387,11 +291,6 @@ class SkeletonView(_SceneSender, widgets.VBox):
             if n not in self._names:
                 raise ValueError(f"trail_joints: unknown joint {n!r}")
         return names
-
-    @traitlets.observe("trail_joints")
-    def _on_trails(self, change):
-        self._push_trails()
-        self._update_legend()
 
     @traitlets.observe("selected_joint")
     def _on_selected(self, change):
@@ -408,18 +307,3 @@ class SkeletonView(_SceneSender, widgets.VBox):
         if self.picker.object is not self.skeleton_mesh or k is None or not 0 <= k < len(self._tri_joint):
             return
         self.selected_joint = self._names[int(self._tri_joint[k])]
-
-
-def _reachable(root) -> set:
-    """Model ids of ``root`` and of every widget its synced traits reference (recursively)."""
-    seen, todo = {}, [root]
-    while todo:
-        w = todo.pop()
-        if not isinstance(w, widgets.Widget) or w.model_id in seen:
-            continue
-        seen[w.model_id] = w
-        for name in w.keys:
-            v = getattr(w, name, None)
-            vals = v.values() if isinstance(v, dict) else v if isinstance(v, (list, tuple)) else [v]
-            todo.extend(x for x in vals if isinstance(x, widgets.Widget))
-    return set(seen)

@@ -8,20 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from .base import (
-    MAX_EXPONENT,
-    MAX_SECONDS,
-    MAX_SKIP,
-    MAX_TAU,
-    MAX_TIMING_LIMIT,
-    MAX_WEIGHT,
-    MAX_WORLD,
-    TIMING_LIMIT,
-    Op,
-    _check_free_length,
-    _spec,
-    deltas,
-)
+from ...core.limits import MAX_TAU, MAX_TIMING_LIMIT, TIMING_LIMIT  # each declared once there
+from .base import MAX_EXPONENT, MAX_SECONDS, MAX_SKIP, MAX_WEIGHT, MAX_WORLD, Op, _check_free_length, _spec, deltas
 from .fields import (
     _deltas_json,
     _index,
@@ -57,6 +45,13 @@ def _propagate_spec():
     spreads to every similar pose (Dean et al. 2018, §3.3, on the staggered poses; issue 24)."""
     return (_spec(boolean, False, omit_default=True), _spec(optional(_positive), None, omit_none=True),
             _spec(optional(frame_range), None, omit_none=True))
+
+
+def _timing_spec():
+    """The fields ``joints`` (default all), ``limit`` (the timing saturation's, None: off) and ``falloff`` (a
+    region the offsets are scaled by, Dean et al. 2018, §3.3; issue 24) of a timing edit (§5.2)."""
+    return (_spec(_joints, None), _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT),
+            _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True))
 
 
 def _check_propagate(op) -> None:
@@ -99,9 +94,10 @@ class Succession(Op):
     root: str = _spec(text)
     s: float = _spec(number(-MAX_SECONDS, MAX_SECONDS))
     l: float = _spec(number(0.0, MAX_EXPONENT, open_lo=True), 1.0)
-    joints: tuple | None = _spec(_joints, None)
-    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
-    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
+    joints: tuple | None
+    limit: float | None
+    falloff: tuple | None
+    joints, limit, falloff = _timing_spec()
 
 
 @dataclass(frozen=True)
@@ -112,9 +108,10 @@ class RandomTiming(Op):
     needs: ClassVar[str] = "staggered"
     tau: float = _spec(number(0.0, MAX_TAU))   # core.limits.MAX_TAU: staggered.random_timing's own bound
     seed: int = _spec(integer(0, 2 ** 63 - 1), 0)
-    joints: tuple | None = _spec(_joints, None)
-    limit: float | None = _spec(optional(number(1.0, MAX_TIMING_LIMIT, open_lo=True)), TIMING_LIMIT)
-    falloff: tuple | None = _spec(optional(falloff_region), None, to_json=_region_json, omit_none=True)
+    joints: tuple | None
+    limit: float | None
+    falloff: tuple | None
+    joints, limit, falloff = _timing_spec()
 
 
 @dataclass(frozen=True)
