@@ -52,8 +52,9 @@ and heel, moves with it as one foot):
    outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
 
 Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`.plants_hold` (targets, IK on
-the plants, fades), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root
-shifts), :mod:`.plants_pops` (the pop cap); this module: the public functions.
+the plants, fades), :mod:`.plants_air` (the legs between plants, the floor), :mod:`.plants_sample` (sampling
+helpers), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root shifts),
+:mod:`.plants_pops` (the pop cap), :mod:`.plants_up` (another up axis); this module: the public functions.
 
 Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH; another up axis, found by
 :func:`~stagger_nb.core.body.up_axis`, is turned to +Y and back, :mod:`.plants_up`); lengths in file units, every

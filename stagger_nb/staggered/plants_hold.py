@@ -1,6 +1,7 @@
 """Holding the plants (the contact layer's core, :mod:`stagger_nb.staggered.plants`): the target of each held foot
 (the source's own foot replayed on the edited timing), exact IK on the plants' frames, C1 fades of the IK
-displacement around them, the root's shift, and the legs in the air kept where the edit puts them.
+displacement around them, the root's shift, and the pop cap; the legs in the air are :mod:`.plants_air`'s, the
+sampling helpers :mod:`.plants_sample`'s.
 """
 from __future__ import annotations
 
@@ -20,7 +21,8 @@ from ..core.rotations import (
     rotvec_to_quat,
     slerp,
 )
-from .limbs import Limb, _fk_joints
+from .limbs import _fk_joints
+from .plants_air import _leaf_effectors_as_edited, _legs_in_air, _toe_up  # noqa: F401  (_toe_up: tests)
 from .plants_carry import _source_frames
 from .plants_ik import (
     _capped,
@@ -28,12 +30,12 @@ from .plants_ik import (
     _no_hyperextension,
     _pivot,
     _solve,
-    _solve_rows,
     _source_back,
     _unit,
 )
 from .plants_pops import cap_pops, source_steps
-from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _envelope, _reach, _root_shift, _vertical_need
+from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
+from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
 
 _ID = np.array([0.0, 0.0, 0.0, 1.0])
 _MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
@@ -43,97 +45,7 @@ _SOFT_DROP = 0.028   # share of a leg: the root is lowered beyond this (up to ma
 _SHORT = 0.005       # ... a held leg would stop more than this share of a leg (~0.45 cm) short of its plant
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
-def _sample(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``arr (F, ...)`` positions at fractional frames ``f (n,)`` (linear; clamped to the clip)."""
-    f = np.clip(f, 0, arr.shape[0] - 1)
-    i0 = np.floor(f).astype(np.int64)
-    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
-    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 1))
-    return arr[i0] * (1 - w) + arr[i1] * w
-
-
-def _sample_quats(arr: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``arr (F, ..., 4)`` unit quaternions at fractional frames ``f (n,)`` (slerp; clamped)."""
-    f = np.clip(f, 0, arr.shape[0] - 1)
-    i0 = np.floor(f).astype(np.int64)
-    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
-    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
-    return slerp(arr[i0], arr[i1], np.broadcast_to(w, arr[i0].shape[:-1]))
-
-
-def _raised_cosine(d: np.ndarray, n: int) -> np.ndarray:
-    """C1 fade ``(1 + cos(pi d / (n + 1))) / 2`` for ``0 <= d <= n`` frames, 0 beyond."""
-    d = np.asarray(d, dtype=float)
-    return np.where((d >= 0) & (d <= n), 0.5 * (1.0 + np.cos(np.pi * np.minimum(d, n + 1) / (n + 1))), 0.0)
-
-
-def _sample_rows(arr, f, cols):
-    """``arr (F, J, 3)`` at fractional frames ``f (n,)`` and joints ``cols (n,)`` (linear; clamped)."""
-    f = np.clip(f, 0, arr.shape[0] - 1)
-    i0 = np.floor(f).astype(np.int64)
-    i1 = np.minimum(i0 + 1, arr.shape[0] - 1)
-    w = (f - i0).reshape((-1,) + (1,) * (arr.ndim - 2))
-    return arr[i0, cols] * (1 - w) + arr[i1, cols] * w
-
-
-def _scaled_along(dd: np.ndarray, w: np.ndarray, frames: np.ndarray) -> np.ndarray:
-    """Displacements ``dd (n, C, 4)`` on ``frames (n,)`` (ascending) turned by the share ``w (n,)`` of their
-    rotation, the way round kept continuous along each run of consecutive frames: the sign of each quaternion
-    follows its neighbour's, chosen short where ``w`` is largest (next to the plant), and ``w`` scales that
-    quaternion's own angle in [0, 2π). ``slerp(1, dd, w)`` takes the short way on every frame, so a displacement
-    whose angle crosses 180° inside a fade flipped the way round: a one-frame turn of ``w · 360°`` (a 100-115°
-    foot pop measured on an exaggerated kick)."""
-    n = len(frames)
-    if n == 0:
-        return dd
-    start = np.r_[True, np.diff(frames) != 1]
-    dots = np.einsum("nci,nci->nc", dd[1:], dd[:-1])
-    step = np.where(np.r_[np.zeros((1,) + dots.shape[1:], bool), dots < 0] & ~start[:, None], -1.0, 1.0)
-    sign = np.ones_like(step)
-    for r0, r1 in zip(np.flatnonzero(start), np.r_[np.flatnonzero(start)[1:], n]):
-        seg = np.cumprod(step[r0:r1], axis=0)
-        top = r0 + int(np.argmax(w[r0:r1]))
-        seg = seg * np.where(dd[top, :, 3] * seg[top - r0] < 0, -1.0, 1.0)
-        sign[r0:r1] = seg
-    q = dd * sign[..., None]
-    v = q[..., :3]
-    vn = np.linalg.norm(v, axis=-1)
-    theta = 2.0 * np.arctan2(vn, q[..., 3])
-    half = 0.5 * w[:, None] * theta
-    axis = v / np.where(vn > 0, vn, 1.0)[..., None]
-    return np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
-
-
-def _length(pos, lim: Limb) -> np.ndarray:
-    """The limb's two bones' length on every frame ``(F,)`` (file units; animated translations may change it)."""
-    return (np.linalg.norm(pos[:, lim.mid] - pos[:, lim.upper], axis=-1)
-            + np.linalg.norm(pos[:, lim.eff] - pos[:, lim.mid], axis=-1))
-
-
 _SOURCE_CACHE = weakref.WeakKeyDictionary()
-
-def _toe_up(p: np.ndarray, lim: Limb, floor: np.ndarray, free: np.ndarray):
-    """``(turn (F, 4), where (F,) bool)``: per frame the least rotation of the foot about its ankle (``p (F, J,
-    3)``: positions of the pose, the ankle ``lim.eff``) that brings its lowest joint below the ankle up to
-    ``floor (F,)`` (heights relative to that pose, the ankle kept where it is), on ``free`` frames where that
-    joint is below it; the identity elsewhere."""
-    F = p.shape[0]
-    feet = np.array(lim.foot)
-    k = feet[np.argmin(p[:, feet, 1], axis=1)]
-    v = p[np.arange(F), k] - p[:, lim.eff]                    # (F, 3) ankle to the lowest foot joint
-    n = np.linalg.norm(v, axis=-1)
-    want = floor - p[:, lim.eff, 1]                          # the height that joint must have over the ankle
-    side = np.hypot(v[:, 0], v[:, 2])
-    where = free & (want > v[:, 1] + _TOL * np.maximum(n, 1e-300)) & (want < n) & (side > 1e-9 * n)
-    turn = np.broadcast_to(_ID, (F, 4)).copy()
-    if where.any():
-        w = v[where]
-        y = want[where]
-        h = np.sqrt(np.maximum(n[where] ** 2 - y ** 2, 0.0)) / side[where]
-        target = np.stack([w[:, 0] * h, y, w[:, 2] * h], axis=-1)
-        turn[where] = quat_between_vectors(w, target)
-    return turn, where
-
 
 def _source_tables(source: Motion, limbs: dict):
     """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
@@ -467,88 +379,6 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
 
 
 
-
-
-def _legs_in_air(sk, motion: Motion, legs: list, rows: list, fade_w: dict, shift: np.ndarray, out: np.ndarray,
-                 floor: float, nb: int, med: dict, length: dict, hinges: dict, above_floor: bool,
-                 backs: dict) -> None:
-    """The legs on the frames no plant holds them (in place on ``out (F, J, 4)``), see the comment below; ``rows``:
-    the plants' frames per limb, ``fade_w``: the fades around them, ``shift (F, 3)``: the root's shift."""
-    F = motion.num_frames
-    # legs in the air: where the root is lowered they keep their feet where the edit (in a fade: the faded pose
-    # on the lowered root, plus the part of the drop the fade has let go of) puts them; and no foot joint goes
-    # below the source's floor (the lowest any source joint goes), lifted by a smooth profile, let go of
-    # towards the plants (whose own frames sit on the ground)
-    if legs:
-        held = {r["lim"].eff: r["fr"] for r in rows}
-        leg_joints = {x for lim in legs for x in (lim.upper, lim.mid, lim.eff, int(sk.parents[lim.mid]),
-                                                   int(sk.parents[lim.eff])) + lim.foot}
-        p_u, w_u = _fk_joints(motion, leg_joints, local_quats=out)       # the root not lowered
-        for lim in legs:
-            free = np.ones(F, bool)
-            if lim.eff in held:
-                free[held[lim.eff]] = False
-            wf = np.zeros(F)
-            infade = np.zeros(F, bool)
-            reach_of = length[lim.eff] * (1 - 1e-9)        # (F,): full extension, a fade's reach inside it
-            if lim.eff in fade_w:
-                wf[fade_w[lim.eff][0]] = fade_w[lim.eff][1]
-            down = wf[:, None] * shift                        # how far the foot goes with the root
-            if lim.eff in fade_w and len(fade_w[lim.eff]) > 2:
-                # the fade's world-space foot: the pose's foot moved there (down: the offset that puts it there)
-                win, _w, g_f, q_f, r_f = fade_w[lim.eff]
-                reach_of[win] = r_f
-                infade[win] = True
-                # the foot's orientation: from the joint-space fade's (continuous; near the edit's far from the
-                # plant) the share w of the way to the plant's, so it meets the plant's at its boundary
-                rel = quat_mul(quat_conj(w_u[win, lim.eff]), q_f)[:, None]
-                q_f = quat_mul(w_u[win, lim.eff], _scaled_along(rel, _w, win)[:, 0])
-                turn_f = quat_mul(q_f, quat_conj(w_u[win, lim.eff]))
-                down[win] = g_f - p_u[win, lim.eff]
-                for k in lim.foot:                            # the foot joints as the fade's orientation puts them
-                    p_u[win, k] = p_u[win, lim.eff] + quat_rotate(turn_f, p_u[win, k] - p_u[win, lim.eff])
-                w_u[win, lim.eff] = q_f
-            low = np.min(p_u[:, [lim.eff] + list(lim.foot), 1], axis=1) + down[:, 1]
-            deficit = np.where(free, np.maximum(floor - low, 0.0), 0.0)
-            lift = np.zeros(F)
-            pitch = None
-            if above_floor and np.any(deficit > _TOL * med[lim.eff]):
-                # smooth away from the plants (let go of towards them: their own frames sit on the ground); what
-                # is still below the floor (in a fade into a plant): the ankle lifted exactly to the floor if it
-                # is below it, and a foot joint below it by turning the foot about the ankle (toe up) by the
-                # least angle that puts that joint on the floor (lifting the ankle instead would bend the knee
-                # against the plant's straight leg: a pop at the plant's first frame)
-                lift = _envelope(deficit, nb) * (1.0 - wf)
-                lift[~free] = 0.0
-                ankle = p_u[:, lim.eff, 1] + down[:, 1] + lift
-                lift += np.where(free, np.maximum(floor - ankle, 0.0), 0.0)
-                if lim.foot:
-                    pitch = _toe_up(p_u, lim, floor - down[:, 1] - lift, free)
-            tiny = _TOL * length[lim.eff]                    # (F,): below this, neither moves the foot
-            moved = np.linalg.norm(shift, axis=-1)
-            turn = np.zeros(F, bool) if pitch is None else pitch[1]
-            fr = np.flatnonzero(free & ((moved > tiny) | (lift > tiny) | turn | infade))
-            if not fr.size:
-                continue
-            p3 = p_u[fr][:, [lim.upper, lim.mid, lim.eff]]
-            p3 += shift[fr, None, :]
-            tgt = p_u[fr, lim.eff] + down[fr]
-            tgt[:, 1] += lift[fr]
-            q_foot = w_u[fr, lim.eff] if pitch is None else quat_mul(pitch[0][fr], w_u[fr, lim.eff])
-            a_new, m_new, e_new = _solve_rows(sk, lim, fr, p3, w_u, out, tgt, q_foot,
-                                              reach_of[fr], hinges[lim.eff], max_back=backs[lim.eff])
-            out[fr, lim.upper], out[fr, lim.mid], out[fr, lim.eff] = a_new, m_new, e_new
-
-
-def _leaf_effectors_as_edited(limbs: dict, out: np.ndarray, lq: np.ndarray) -> None:
-    """An effector with no joint below it (a 19-joint rig's ankle or wrist) places nothing by its rotation: it
-    keeps the edit's local rotation (in place on ``out``; the plant is a position, Kovar et al. 2002, §4). Held
-    to the source's world orientation instead, it turned up to 122 degrees against the edited shin on
-    mocapbank_get_down at s = +0.1 (a kneel on the shin's other timing), and that and its fades were most of
-    the 4.7x detail the layer added there."""
-    for lim in limbs.values():
-        if not lim.foot:
-            out[:, lim.eff] = lq[:, lim.eff]
 
 
 def _cap(sk, limbs: dict, rows: list, out: np.ndarray, lq: np.ndarray, source: Motion, ratio: float) -> None:
