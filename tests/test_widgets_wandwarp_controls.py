@@ -171,3 +171,29 @@ def test_the_warp_editor_warms_the_first_backward_toggle_on_open_and_after_a_dur
             monkeypatch.setattr(timewarp, "guided_warp", real)
     finally:
         e.close()
+
+
+def test_the_skip_slider_changes_the_speed_plot_even_where_the_warp_stays_under_it(walk):
+    """Browser review (session 10): "fastest (x speed)" with reference = self changed nothing on the plot (the
+    self-guided warp never comes near 4x or 8x). The limit is drawn on the speed row as a dashed line at s x;
+    at the identity warp the slider is disabled, saying why, and no line is drawn."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        def limit_lines():
+            return [t for t in e.warp_plot.figure["data"] if str(t.get("name", "")).startswith("fastest")]
+        assert e.controls["skip"].disabled and "identity" in e.controls["skip"].tooltip and limit_lines() == []
+        e.model.duration = round(walk.duration + 1.0, 3)
+        assert not e.controls["skip"].disabled
+        speed = np.asarray(e.warp_plot.figure["data"][3]["y"], dtype=float)
+        assert speed.max() < 4.0 and [list(t["y"]) for t in limit_lines()] == [[8.0, 8.0]]   # under both limits
+        e.model.skip = 4
+        [line] = limit_lines()                                     # the plot changed: the limit moved
+        assert list(line["y"]) == [4.0, 4.0] and line["yaxis"] == "y2" and line["name"] == "fastest 4×"
+        e.model.skip = 16                                          # past the axis' 10x: the axis holds it
+        [line] = limit_lines()
+        assert 10 ** e.warp_plot.figure["layout"]["yaxis2"]["range"][1] >= 16.0
+        e.model.mode = "linear"                                    # no skip in a linear warp: no line
+        assert limit_lines() == [] and e.controls["skip"].disabled
+    finally:
+        e.close()
