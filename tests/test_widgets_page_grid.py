@@ -84,3 +84,19 @@ def test_arrow_steps_on_the_wands_sliders_in_seconds_are_not_written_back(walk):
             assert list(e.range.value) == v and e.model.frame_range[0] == lo0 + k
     finally:
         e.close()
+
+
+def test_a_duration_step_at_60_hz_stays_where_the_page_put_it(walk):
+    """60 Hz: the model keeps 3 decimals (6.033 for 6.0333 s, 2 % of a frame off the grid); the slider is still
+    given the grid point, so a press is not written back (nor echoed) as 6.033."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        c = e.controls["duration"]
+        for k in range(1, 4):
+            v = page_snap(c, c.value + c.step)
+            from_browser(c, value=v)
+            assert c.value == v and page_echoes(c) == 0
+            assert round((e.model.duration - walk.duration) / walk.frame_time) == k
+    finally:
+        e.close()

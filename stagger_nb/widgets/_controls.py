@@ -93,11 +93,12 @@ def _same_grid_point(control, shown) -> bool:
 
 
 def _page_grid_point(control, v: float) -> float:
-    """``v`` as the slider's own grid point ``min + n * step`` (or its ``max``) when it lies within 1 % of a step
-    of one, else ``v``. The page's slider (noUiSlider) snaps every value it is given to its grid and, when that
-    moves it, sends the snapped value back as the user's: the model's 4-decimal rounding of a frame time (3.7417
-    on a 1/120 s grid) was sent back as 3.741667, taken as a move (the WarpEditor's opening warp recorded as an
-    edit) or as an arrow step (the segment slider flipped between two frames for ever)."""
+    """``v`` as the slider's own grid point ``min + n * step`` (or its ``max``) when it lies within 10 % of a
+    step of one (the model rounds to one decimal finer than the step: at most 5 % off), else ``v``. The page's
+    slider (noUiSlider) snaps every value it is given to its grid and, when that moves it, sends the snapped
+    value back as the user's: the model's 4-decimal rounding of a frame time (3.7417 on a 1/120 s grid) was
+    sent back as 3.741667, taken as a move (the WarpEditor's opening warp recorded as an edit) or as an arrow
+    step (the segment slider flipped between two frames for ever)."""
     step = getattr(control, "step", None)
     if not step or step <= 0 or isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         return v
@@ -106,7 +107,7 @@ def _page_grid_point(control, v: float) -> float:
     g = min(max(lo + n * step, lo), hi)
     if abs(v - hi) < abs(v - g):
         g = hi
-    return g if abs(v - g) < 0.01 * step else v
+    return g if abs(v - g) < 0.1 * step else v
 
 
 def _on_page_grid(control, value):
