@@ -197,3 +197,30 @@ def test_the_skip_slider_changes_the_speed_plot_even_where_the_warp_stays_under_
         assert limit_lines() == [] and e.controls["skip"].disabled
     finally:
         e.close()
+
+
+def test_the_falloff_plot_follows_repetitions_and_propagate(walk):
+    """Browser review D6 (session 10): "discard" changed the rotation plot but not the falloff plot (weight ~0.9
+    at the other cycles), and the plot stayed with propagate off. The plot shows the weights the propagation
+    uses: with discard, wand.falloff(repetitions=False) (0 past the valley around the edited frame); with
+    propagate off, 1 at the edited frames and 0 elsewhere, said in the title; the comparisons are disabled then."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        keep = _y(e.falloff_plot)
+        sigma = e.model.sigma
+        np.testing.assert_allclose(keep, wand.falloff(walk, 40, sigma=sigma), atol=1e-9)
+        e.model.repetitions = "discard"
+        discard = _y(e.falloff_plot)
+        np.testing.assert_allclose(discard, wand.falloff(walk, 40, sigma=sigma, repetitions=False), atol=1e-9)
+        assert not np.allclose(discard, keep) and "discarded" in e.falloff_plot.figure["layout"]["title"]["text"]
+        e.model.propagate = False
+        off = _y(e.falloff_plot)
+        assert off[40] == 1.0 and off.sum() == 1.0
+        assert "propagate off" in e.falloff_plot.figure["layout"]["title"]["text"]
+        assert e.controls["compare"].disabled and "propagate" in e.controls["compare"].tooltip
+        e.model.propagate = True
+        np.testing.assert_allclose(_y(e.falloff_plot), discard, atol=1e-9)
+        assert not e.controls["compare"].disabled
+    finally:
+        e.close()
