@@ -242,7 +242,7 @@ class ModelBinding:
             return False
         self._error = ""
         self._last = new
-        if changed and self.model.notes:   # a change went through: the notes of earlier refusals are history
+        if self.model.notes:   # a change went through (even one writing no op): earlier refusals are history
             self.model.notes = {}
         if not changed:
             self._show()
