@@ -224,3 +224,21 @@ def test_the_falloff_plot_follows_repetitions_and_propagate(walk):
         assert not e.controls["compare"].disabled
     finally:
         e.close()
+
+
+def test_clear_keytimes_is_disabled_when_there_is_nothing_to_clear(walk):
+    """The sweep for controls that do nothing visible: "clear keytimes" with no keytimes (and both keytime controls
+    while free length is on) are disabled, saying why."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        b = e.clear_keytimes
+        assert b.disabled and b.tooltip == "there are no keytimes to clear"
+        e.model.keytimes = [[2.0, 2.5]]
+        assert not b.disabled and not e.click_keytime.disabled
+        b.click()
+        assert e.model.keytimes == [] and b.disabled
+        e.model.free_length = True
+        assert b.disabled and e.click_keytime.disabled and "free length" in e.click_keytime.tooltip
+    finally:
+        e.close()

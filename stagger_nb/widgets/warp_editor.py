@@ -205,6 +205,11 @@ class WarpEditor(_Editor):
         _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")
         _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)",
                _KEYTIMES_TIP)
+        _inert(self.click_keytime, self.keytimes.disabled, self.keytimes.tooltip,
+               "then a click on the warp plot at (output time, input time) adds that keytime")
+        _inert(self.clear_keytimes, self.keytimes.disabled or not m.keytimes,
+               self.keytimes.tooltip if self.keytimes.disabled else "there are no keytimes to clear",
+               "remove every keytime")
 
     def _speed_limit(self) -> float | None:
         """The skip limit drawn on the speed plot (a guided warp plays at most ``skip`` times real time, Hsu et
