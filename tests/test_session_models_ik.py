@@ -93,3 +93,23 @@ def test_a_cull_that_would_drop_an_ik_edited_pose_says_what_to_do_and_the_note_g
         assert m.notes == {} and "would be lost" not in e.message.value
     finally:
         e.close()
+
+
+def test_the_ik_note_goes_when_the_ik_edit_does():
+    """Browser review (session 10): the orange IK note stayed while the user worked in other tabs. It says a fact
+    of the current edit (the target is out of reach), so it stays while that IK edit is in the op list (a change
+    in another tab keeps it) and goes the moment the edit does (undo, or a cull that removes it)."""
+    walk = data.load("walk")
+    s = Session(walk, ops=[{"op": "ik_pose", "pose": 3, "joint": "LeftHand", "target": [0.0, 1e4, 0.0]}])
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(s, precompute=False)
+    try:
+        assert "cannot reach" in e.message.value
+        e.model.s = 0.02                                 # work elsewhere: the IK edit is still there, so is its note
+        assert "cannot reach" in e.message.value and [o["op"] for o in s.ops] == ["ik_pose", "succession"]
+        e.model.ik_targets = []                          # the IK edit removed: no note
+        assert "cannot reach" not in e.message.value and [o["op"] for o in s.ops] == ["succession"]
+        s.undo()
+        assert "cannot reach" in e.message.value
+    finally:
+        e.close()
