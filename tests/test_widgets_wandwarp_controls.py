@@ -242,3 +242,26 @@ def test_clear_keytimes_is_disabled_when_there_is_nothing_to_clear(walk):
         assert b.disabled and e.click_keytime.disabled and "free length" in e.click_keytime.tooltip
     finally:
         e.close()
+
+
+def test_limit_edit_range_changes_the_falloff_when_ticked(walk):
+    """The sweep: ticking "limit edit range" limited the propagation to the whole clip, the range slider's opening
+    span, and changed nothing visible. It starts on a window around the edited frame (a quarter of the clip each
+    side): the falloff is 0 outside it."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        e.model.propagate = True
+        before = _y(e.falloff_plot)
+        F = walk.num_frames
+        e.limit_range.value = True
+        lo, hi = e.model.frame_range
+        assert (lo, hi) == (max(0, 40 - F // 4), 40 + F // 4 + 1) and 0 < hi - lo < F
+        assert e.session.ops[-1]["frame_range"] == [lo, hi] and list(e.range.value) == pytest.approx(
+            [lo * walk.frame_time, hi * walk.frame_time], abs=1e-6)
+        after = _y(e.falloff_plot)
+        assert np.all(after[hi:] == 0.0) and not np.allclose(after, before)
+        np.testing.assert_allclose(after, wand.falloff(walk, 40, sigma=e.model.sigma, frame_range=(lo, hi)),
+                                   atol=1e-9)
+    finally:
+        e.close()

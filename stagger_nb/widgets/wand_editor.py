@@ -176,10 +176,17 @@ class WandEditor(_Editor):
             fut.add_done_callback(lambda f: _on_kernel_thread(_clear_status, me))
 
     def _on_limit(self, change) -> None:
+        """"limit edit range": ticked, the propagation is limited to the range slider's span; when that is the
+        whole clip (nothing to see: the falloff would not change), to a window around the edited frames, a
+        quarter of the clip each side (drag the range to change it)."""
         m = self.model
         if change["new"] and not m.frame_range:
-            t = self.range.value
-            m.set_control("frame_range", m.range_frames(t))
+            rng = m.range_frames(self.range.value)
+            n = m.input_frames or self.session.source.num_frames
+            if rng[0] <= 0 and rng[1] >= n:
+                frames = m.edited_frames or [int(m.edit_frame)]
+                rng = [max(0, min(frames) - n // 4), min(n, max(frames) + n // 4 + 1)]
+            m.set_control("frame_range", rng)
         elif not change["new"] and m.frame_range:
             m.set_control("frame_range", [])
 
