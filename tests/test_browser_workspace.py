@@ -615,3 +615,72 @@ def test_arrow_keys_on_the_wands_edit_range_move_its_low_handle_a_frame_each(lab
             assert report["range"][1][1] == start[1], report       # the high handle stayed
         print(json.dumps(report, indent=1))
         assert not log["page_errors"], log["page_errors"]
+
+
+_BADGES = """(sel) => [...document.querySelectorAll(sel + ' .sn-timeline .sn-pose-col')].map((g) => {
+  const r = g.querySelector('.sn-pose-tab').getBoundingClientRect(), t = g.querySelector('.sn-pose-label');
+  const b = t && t.getBoundingClientRect();
+  return {pose: +g.dataset.pose, tab: [r.left, r.right], label: t ? t.textContent : null,
+          box: b ? [b.left, b.right] : null, fill: t ? t.getAttribute('fill') : null}; })"""
+
+
+def test_the_warp_editor_opens_with_nothing_to_undo_and_the_dope_sheets_numbers_never_overlap(lab):
+    """Browser review, session 10: the WarpEditor on CMU 01_01's first 900 frames held a guided_warp op as soon as
+    it opened (the page sent its slider's snap of the duration back: undo enabled, skip live on the identity), and
+    its segment slider's snap flipped between two frames ~20 times a second; 10 quick ArrowRight presses on the
+    wand's "edited frame" reach the kernel as 10 frames (D2's effect, for a single slider); the dope sheet's pose
+    numbers at 43 poses do not overlap (D7: "17", "30", "36", "41" were cut under their neighbours), every pose
+    keeps its tab, and the selected one's number is white."""
+    url, folder, runtime = lab
+    cells = [_head("cmu_01_01.bvh"), "xe = WarpEditor(m.slice(0, 900))\n_seen = []\n"
+             "xe.model.observe(lambda c: _seen.append(c['name']), names=['duration', 'segment', 'skip'])\nxe",
+             "we = WandEditor(m.slice(0, 900), precompute=False)\nwe", "se = StaggerEditor(m)\nse",
+             f"print({bh.DONE!r})"]
+    bh.write_notebook(folder / "open_badges.ipynb", cells)
+    report = {}
+    with bh.chromium_page() as (page, log), bh.evidence_on_failure("workspace_open_badges", page, log, runtime,
+                                                                    report):
+        _open_editors(page, url, "open_badges.ipynb", EDITORS)
+        page.wait_for_selector(f"{EDITORS['stagger']} .sn-timeline[data-status=drawn]", timeout=120000)
+        with contextlib.closing(bh.Kernel(runtime)) as kernel:
+            page.wait_for_timeout(2000)   # any echo from the page has arrived by now
+            bh.wait_kernel_idle(page)
+            report["warp"] = kernel.eval("dict(ops=xe.session.ops, can_undo=bool(xe.session.can_undo), "
+                                         "seen=list(_seen), skip_disabled=xe.controls['skip'].disabled)")
+            assert report["warp"]["ops"] == [] and not report["warp"]["can_undo"], report
+            assert report["warp"]["seen"] == [] and report["warp"]["skip_disabled"], report
+            sel = EDITORS["warp"]
+            assert page.locator(f"{sel} button", has_text="undo").first.is_disabled(), report
+
+            sel = EDITORS["wand"]
+            page.locator(f"{sel} .sn-tools .lm-TabBar-tab", has_text="edit").first.click()
+            f0 = kernel.eval("we.model.edit_frame")
+            handle = page.locator(f"{sel} .sn-edit-frame .noUi-handle").first
+            handle.focus()
+            for _ in range(10):
+                page.keyboard.press("ArrowRight")
+            bh.wait_kernel_idle(page)
+            bh.wait_kernel(runtime, f"we.model.edit_frame == {f0 + 10}", timeout=60)
+            page.wait_for_timeout(1500)
+            bh.wait_kernel_idle(page)
+            report["edit_frame"] = [f0, kernel.eval("we.model.edit_frame")]
+            assert report["edit_frame"][1] == f0 + 10, report
+
+            sel = EDITORS["stagger"]
+            K = kernel.eval("len(se.model.pose_times)")
+            page.locator(f"{sel} .sn-timeline").first.scroll_into_view_if_needed()
+            badges = page.evaluate(_BADGES, sel)
+            bh.screenshot(page.locator(f"{sel} .sn-timeline").first, "workspace_badges")
+            shown = [b for b in badges if b["label"] is not None]
+            report["badges"] = {"poses": K, "tabs": len(badges), "numbered": [b["label"] for b in shown]}
+            assert K >= 40 and len(badges) == K, report
+            overlaps = [(a["label"], b["label"]) for a, b in zip(shown, shown[1:]) if a["box"][1] > b["box"][0]]
+            assert not overlaps, (overlaps, report)
+            tabs = sorted(b["tab"] for b in badges if b["label"] is not None)
+            assert all(a[1] <= b[0] + 0.5 for a, b in zip(tabs, tabs[1:])), report     # numbered tabs apart
+            sel_pose = kernel.eval("se.model.pose")
+            mine = next(b for b in badges if b["pose"] == sel_pose)
+            assert mine["label"] == str(sel_pose) and mine["fill"] == "#ffffff", report
+            assert len(shown) >= K // 2, report                                      # thinned, not emptied
+        print(json.dumps(report, indent=1))
+        assert not log["page_errors"], log["page_errors"]

@@ -132,7 +132,7 @@ def test_choosing_picked_or_count_keeps_the_poses_a_retime_refers_to(walk):
 def test_a_cull_that_would_break_an_edit_is_refused_naming_the_edit(walk):
     ed = _stagger(Session(walk, ops=[{"op": "edit_pose", "pose": 12, "deltas": {"LeftArm": [0.0, 0.0, 20.0]}}]))
     try:
-        why = _check_refused(ed, "percent", 10.0, "the edit of pose 12", "cannot be applied")
+        why = _check_refused(ed, "percent", 10.0, "the edit of pose 12", "would be lost", "keep 13 poses or more")
         ed.model.s = 0.02
         assert [o["op"] for o in ed.session.ops] == ["edit_pose", "succession"]
         assert why not in ed.message.value

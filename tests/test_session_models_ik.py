@@ -67,3 +67,49 @@ def test_reach_ik_targets_covers_every_joint_of_the_clip():
     pos = s.positions(walk)
     for axis, (lo, hi) in enumerate(m.ik_range):
         assert lo <= pos[..., axis].min() and hi >= pos[..., axis].max()
+
+
+def test_a_cull_that_would_drop_an_ik_edited_pose_says_what_to_do_and_the_note_goes_once_it_stops_applying():
+    """Browser review D9 (session 10): with an IK target on pose 10, "by count", keep 8 was refused with
+    "...cannot be applied: pose: 10 is outside the 8 poses" (an IK message for a cull). The edits index the kept
+    poses, so the cull cannot keep pose 10 as pose 10: refused, in a sentence saying what to do; nothing is
+    recorded; the refusal is gone once another change goes through (it stayed after switching to "by %")."""
+    e = _session_model()
+    try:
+        m = e.model
+        m.pose = 10
+        m.ik_joint = "LeftFoot"
+        m.ik_x = round(m.ik_x) + 2.0
+        ops = e.session.ops
+        m.cull_by = "count"
+        why = m.set_control("count", 8)
+        assert why == ("the IK target of LeftFoot at pose 10 would be lost: only 8 poses would be left (0 to 7); "
+                       "keep 11 poses or more, or undo or remove that edit first"), why
+        assert e.session.ops == ops and why in e.message.value
+        assert m.set_control("count", 11) == "" and [o["op"] for o in e.session.ops] == ["cull", "ik_pose"]
+        assert m.notes == {} and "would be lost" not in e.message.value
+        m.set_control("count", 8)
+        m.cull_by = "percent"                          # another change, accepted
+        assert m.notes == {} and "would be lost" not in e.message.value
+    finally:
+        e.close()
+
+
+def test_the_ik_note_goes_when_the_ik_edit_does():
+    """Browser review (session 10): the orange IK note stayed while the user worked in other tabs. It says a fact
+    of the current edit (the target is out of reach), so it stays while that IK edit is in the op list (a change
+    in another tab keeps it) and goes the moment the edit does (undo, or a cull that removes it)."""
+    walk = data.load("walk")
+    s = Session(walk, ops=[{"op": "ik_pose", "pose": 3, "joint": "LeftHand", "target": [0.0, 1e4, 0.0]}])
+    from stagger_nb.widgets import StaggerEditor
+    e = StaggerEditor(s, precompute=False)
+    try:
+        assert "cannot reach" in e.message.value
+        e.model.s = 0.02                                 # work elsewhere: the IK edit is still there, so is its note
+        assert "cannot reach" in e.message.value and [o["op"] for o in s.ops] == ["ik_pose", "succession"]
+        e.model.ik_targets = []                          # the IK edit removed: no note
+        assert "cannot reach" not in e.message.value and [o["op"] for o in s.ops] == ["succession"]
+        s.undo()
+        assert "cannot reach" in e.message.value
+    finally:
+        e.close()

@@ -171,3 +171,97 @@ def test_the_warp_editor_warms_the_first_backward_toggle_on_open_and_after_a_dur
             monkeypatch.setattr(timewarp, "guided_warp", real)
     finally:
         e.close()
+
+
+def test_the_skip_slider_changes_the_speed_plot_even_where_the_warp_stays_under_it(walk):
+    """Browser review (session 10): "fastest (x speed)" with reference = self changed nothing on the plot (the
+    self-guided warp never comes near 4x or 8x). The limit is drawn on the speed row as a dashed line at s x;
+    at the identity warp the slider is disabled, saying why, and no line is drawn."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        def limit_lines():
+            return [t for t in e.warp_plot.figure["data"] if str(t.get("name", "")).startswith("fastest")]
+        assert e.controls["skip"].disabled and "identity" in e.controls["skip"].tooltip and limit_lines() == []
+        e.model.duration = round(walk.duration + 1.0, 3)
+        assert not e.controls["skip"].disabled
+        speed = np.asarray(e.warp_plot.figure["data"][3]["y"], dtype=float)
+        assert speed.max() < 4.0 and [list(t["y"]) for t in limit_lines()] == [[8.0, 8.0]]   # under both limits
+        e.model.skip = 4
+        [line] = limit_lines()                                     # the plot changed: the limit moved
+        assert list(line["y"]) == [4.0, 4.0] and line["yaxis"] == "y2" and line["name"] == "fastest 4×"
+        e.model.skip = 16                                          # past the axis' 10x: the axis holds it
+        [line] = limit_lines()
+        assert 10 ** e.warp_plot.figure["layout"]["yaxis2"]["range"][1] >= 16.0
+        e.model.mode = "linear"                                    # no skip in a linear warp: no line
+        assert limit_lines() == [] and e.controls["skip"].disabled
+    finally:
+        e.close()
+
+
+def test_the_falloff_plot_follows_repetitions_and_propagate(walk):
+    """Browser review D6 (session 10): "discard" changed the rotation plot but not the falloff plot (weight ~0.9
+    at the other cycles), and the plot stayed with propagate off. The plot shows the weights the propagation
+    uses: with discard, wand.falloff(repetitions=False) (0 past the valley around the edited frame); with
+    propagate off, 1 at the edited frames and 0 elsewhere, said in the title; the comparisons are disabled then."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        keep = _y(e.falloff_plot)
+        sigma = e.model.sigma
+        np.testing.assert_allclose(keep, wand.falloff(walk, 40, sigma=sigma), atol=1e-9)
+        e.model.repetitions = "discard"
+        discard = _y(e.falloff_plot)
+        np.testing.assert_allclose(discard, wand.falloff(walk, 40, sigma=sigma, repetitions=False), atol=1e-9)
+        assert not np.allclose(discard, keep) and "discarded" in e.falloff_plot.figure["layout"]["title"]["text"]
+        e.model.propagate = False
+        off = _y(e.falloff_plot)
+        assert off[40] == 1.0 and off.sum() == 1.0
+        assert "propagate off" in e.falloff_plot.figure["layout"]["title"]["text"]
+        assert e.controls["compare"].disabled and "propagate" in e.controls["compare"].tooltip
+        e.model.propagate = True
+        np.testing.assert_allclose(_y(e.falloff_plot), discard, atol=1e-9)
+        assert not e.controls["compare"].disabled
+    finally:
+        e.close()
+
+
+def test_clear_keytimes_is_disabled_when_there_is_nothing_to_clear(walk):
+    """The sweep for controls that do nothing visible: "clear keytimes" with no keytimes (and both keytime controls
+    while free length is on) are disabled, saying why."""
+    from stagger_nb.widgets import WarpEditor
+    e = WarpEditor(walk)
+    try:
+        b = e.clear_keytimes
+        assert b.disabled and b.tooltip == "there are no keytimes to clear"
+        e.model.keytimes = [[2.0, 2.5]]
+        assert not b.disabled and not e.click_keytime.disabled
+        b.click()
+        assert e.model.keytimes == [] and b.disabled
+        e.model.free_length = True
+        assert b.disabled and e.click_keytime.disabled and "free length" in e.click_keytime.tooltip
+    finally:
+        e.close()
+
+
+def test_limit_edit_range_changes_the_falloff_when_ticked(walk):
+    """The sweep: ticking "limit edit range" limited the propagation to the whole clip, the range slider's opening
+    span, and changed nothing visible. It starts on a window around the edited frame (a quarter of the clip each
+    side): the falloff is 0 outside it."""
+    from stagger_nb.widgets import WandEditor
+    e = WandEditor(walk, frame=40, joint="LeftUpLeg", rotation=(20.0, 0.0, 0.0), precompute=False)
+    try:
+        e.model.propagate = True
+        before = _y(e.falloff_plot)
+        F = walk.num_frames
+        e.limit_range.value = True
+        lo, hi = e.model.frame_range
+        assert (lo, hi) == (max(0, 40 - F // 4), 40 + F // 4 + 1) and 0 < hi - lo < F
+        assert e.session.ops[-1]["frame_range"] == [lo, hi] and list(e.range.value) == pytest.approx(
+            [lo * walk.frame_time, hi * walk.frame_time], abs=1e-6)
+        after = _y(e.falloff_plot)
+        assert np.all(after[hi:] == 0.0) and not np.allclose(after, before)
+        np.testing.assert_allclose(after, wand.falloff(walk, 40, sigma=e.model.sigma, frame_range=(lo, hi)),
+                                   atol=1e-9)
+    finally:
+        e.close()

@@ -14,6 +14,7 @@ rotations as rotation vectors in degrees (x, y, z components). Every builder ret
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -204,7 +205,7 @@ def falloff_figure(times, curves: Mapping[str, Sequence[float]], *, edited_times
 
 
 def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = None, height: int = 420 + LEGEND_ROW,
-                x_range=None) -> dict:
+                x_range=None, speed_limit: float | None = None) -> dict:
     """A time warp and its speed: top, input time against output time with the linear warp and the
     keytimes; bottom, the speed ``d(input)/d(output)`` on a log axis labelled 0.1×, 0.5×, 1×, 2×, 10× (clipped
     to [0.1, 10]; a backward warp's speed is negative: its size is drawn, named "speed (backward)").
@@ -216,10 +217,13 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
     speed : (N,) dimensionless warp derivative (1 = original speed)
     keytimes : (M, 2) (input, output) seconds or None
     x_range : (2,) output seconds or None (the span of ``out_times``)
+    speed_limit : float or None
+        The guided warp's skip limit s (Hsu et al. 2007, §3.1: at most s input frames per output frame), drawn
+        as a dashed line on the speed row (its axis grows to hold it); None: not drawn.
 
     Traces: 0 linear warp (dotted), 1 warp, 2 keytimes (legend entry only when there are some), 3 speed (on
-    x2/y2). Both rows share the x axis, so a playhead at x = output time spans both. The legend sits under
-    the lower row (it covers neither curve).
+    x2/y2), 4 the speed limit (when given). Both rows share the x axis, so a playhead at x = output time spans
+    both. The legend sits under the lower row (it covers neither curve).
     """
     x, w, s = floats(out_times, "out_times"), floats(warp, "warp"), floats(speed, "speed")
     same_length(out_times=x, warp=w, speed=s)
@@ -227,6 +231,11 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
     if kt.shape[1:] != (2,):
         raise ValueError(f"keytimes: expected shape (M, 2), got {kt.shape}")
     lo, hi = SPEED_LIMITS
+    if speed_limit is not None:
+        speed_limit = float(speed_limit)
+        if not (math.isfinite(speed_limit) and speed_limit > 0):
+            raise ValueError(f"speed_limit: expected a positive number or None, got {speed_limit!r}")
+        hi = max(hi, 1.25 * speed_limit)
     linear = dict(x=x[[0, -1]], y=w[[0, -1]]) if len(x) else dict(x=np.zeros(0), y=np.zeros(0))
     data = [
         dict(type="scatter", mode="lines", name="linear", line=dict(color="#a0aec0", dash="dot"), **linear),
@@ -240,6 +249,11 @@ def warp_figure(out_times, warp, speed, *, keytimes=None, title: str | None = No
              name="speed (backward)" if len(s) and np.nanmedian(s) < 0 else "speed",
              line=dict(color="#2f855a", width=2)),
     ]
+    if speed_limit is not None:
+        ends = [float(v) for v in (x_range if x_range is not None else data_span(x) or (0.0, 0.0))]
+        data.append(dict(type="scatter", x=ends, y=[speed_limit, speed_limit], mode="lines", xaxis="x2", yaxis="y2",
+                         name=f"fastest {speed_limit:g}×", hoverinfo="name",
+                         line=dict(color="#c05621", width=1.5, dash="dash")))
     ticks = [0.1, 0.5, 1, 2, 10]   # five labels fit the lower row's ~120 px
     span = x_range if x_range is not None else data_span(x)
     layout = base_layout(title or "time warp", height, x_title="",

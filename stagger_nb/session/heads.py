@@ -239,11 +239,13 @@ class CachedHeads:
         return self._ctx.wand_graph(self.source if motion is None else motion)
 
     def falloff_curves(self, frame: int, sigma: float | None = None, frame_range=None, compare=(),
-                       spline_extent: float | None = None, motion: Motion | None = None) -> dict:
+                       spline_extent: float | None = None, motion: Motion | None = None,
+                       repetitions: bool = True) -> dict:
         """Falloff weights around ``frame`` (1 there, 0 far away), each (F,), for the views.
 
         ``"green"``: the magic wand's Green's-function falloff (Dean et al. 2018, §3.3) with the cached
-        basis; ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
+        basis (``repetitions`` False: only the valley around ``frame``, as a propagate op with repetitions
+        "discard" weighs it); ``compare`` may add ``"isomap"`` and ``"diffusion"`` (``1 - normalised distance``, Fig. 3)
         and ``"spline"`` (a generic smoothstep falloff of ``spline_extent`` frames, Fig. 6). Their
         frame-independent heads (ISOMAP's graph, the diffusion coordinates per sigma) are cached: a new frame
         costs a Dijkstra or a norm; :meth:`falloff_ready` says which are computed, :meth:`warm` fills them.
@@ -252,7 +254,7 @@ class CachedHeads:
         m = self.source if motion is None else motion
         fr = None if frame_range is None else tuple(frame_range)
         f = int(frame)
-        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), f, fr)}
+        out = {"green": wand.greens_falloff(self._ctx.wand_basis(m, sigma), f, fr, repetitions=bool(repetitions))}
         sg = None if sigma is None else float(sigma)
         for name in compare:
             if name == "isomap":

@@ -1,8 +1,9 @@
 """The op list with undo/redo and observers.
 
 The list is a tuple of typed ops (:mod:`.ops`); each change (``commit``) is one undo step, and a change
-that leaves the list equal is no step at all. Listeners are called as ``listener(owner)`` after every
-change, undo and redo included.
+that leaves the list equal is no step at all. Changes committed with the same ``gesture`` token, one after
+another, are one step (a slider drag or a burst of arrow keys: one undo goes back to before it). Listeners
+are called as ``listener(owner)`` after every change, undo and redo included.
 """
 from __future__ import annotations
 
@@ -45,13 +46,22 @@ class History:
         self._redo: list[tuple] = []
         self._listeners: list[Callable] = []
         self._owner = owner
+        self._gesture = None   # the gesture token of the last step (None: that step is closed)
 
-    def commit(self, new_ops) -> bool:
-        """Make ``new_ops`` current (one undo step); False (and no step) when nothing changed."""
+    def commit(self, new_ops, gesture=None) -> bool:
+        """Make ``new_ops`` current (one undo step); False (and no step) when nothing changed. With ``gesture``
+        (any token) equal to the last commit's, the last step is extended instead of a new one made (and
+        dropped when the gesture comes back to where it started); undo and redo close the step."""
         new_ops = tuple(new_ops)
         if new_ops == self.ops:
             return False
-        self._undo.append(self.ops)
+        if gesture is not None and gesture == self._gesture and self._undo:
+            if new_ops == self._undo[-1]:   # back to before the gesture: no step left
+                self._undo.pop()
+                self._gesture = None
+        else:
+            self._undo.append(self.ops)
+            self._gesture = gesture
         self._redo.clear()
         self.ops = new_ops
         self._notify()
@@ -76,6 +86,7 @@ class History:
         becomes current, the current one goes onto ``other``; False when ``source`` is empty."""
         if not source:
             return False
+        self._gesture = None
         other.append(self.ops)
         self.ops = source.pop()
         self._notify()

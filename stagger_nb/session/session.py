@@ -119,9 +119,10 @@ class Session(CachedHeads):
     def __len__(self) -> int:
         return len(self._history.ops)
 
-    def set_ops(self, ops) -> bool:
-        """Replace the whole op list (one undo step); returns False when nothing changed."""
-        return self._history.commit(self._typed_list(ops, "ops"))
+    def set_ops(self, ops, gesture=None) -> bool:
+        """Replace the whole op list (one undo step); returns False when nothing changed. ``gesture``: a token;
+        consecutive calls with the same one are one undo step (an editor's slider drag)."""
+        return self._history.commit(self._typed_list(ops, "ops"), gesture=gesture)
 
     def check_ops(self, ops) -> None:
         """Replay the op list ``ops`` without changing the session (op list, history, observers): ValueError

@@ -56,25 +56,18 @@ def _same_value(a, b) -> bool:
 
 
 def _stepped(control, old, new):
-    """``new`` as the user meant it when it is an arrow-key step of a number box (``FloatText``) from ``old``,
-    or of either handle of a ``FloatRangeSlider`` (a pair: each handle as a number on the slider's grid from its
-    ``min``).
+    """``new`` as the user meant it when it is an arrow-key step of a number box (``FloatText``) from ``old``.
 
     The browser steps a number box to the next multiple of its ``step`` (counted from 0) above or below the
     shown value. From a value the model rounded to its display precision between two multiples (a pose time
     of 2.0333 s on a 1/120 s grid) that move is less than a step, and the model's rounding puts it back (the
     box never moved on): a value on the step grid less than one step away from ``old`` is taken as one step
     from the multiple nearest ``old``, in the direction pressed. A typed value is not on the grid (to 1e-6 of a
-    step) and passes as it is. A range slider's handle snaps the same way (the wand's edit range in seconds,
-    rounded to 4 decimals: 0.0083 stepped to 0.008333, one frame again, browser review D2)."""
+    step) and passes as it is. Sliders need no such rule: they are given values on their page's grid
+    (:func:`_on_page_grid`), so a key press moves a whole step, and a value less than a step away is the page's
+    snap of what it was given, not a press."""
     step = getattr(control, "step", None)
-    if not step or step <= 0:
-        return new
-    if isinstance(control, widgets.FloatRangeSlider):
-        if not (isinstance(old, (list, tuple)) and isinstance(new, (list, tuple)) and len(old) == len(new) == 2):
-            return new
-        return tuple(_step_one(float(step), float(control.min), o, n) for o, n in zip(old, new))
-    if not isinstance(control, widgets.FloatText):
+    if not step or step <= 0 or not isinstance(control, widgets.FloatText):
         return new
     return _step_one(float(step), 0.0, old, new)
 
@@ -99,6 +92,34 @@ def _same_grid_point(control, shown) -> bool:
     return all(abs(float(a) - float(b)) < 0.5 * control.step for a, b in zip(control.value, shown))
 
 
+def _page_grid_point(control, v: float) -> float:
+    """``v`` as the slider's own grid point ``min + n * step`` (or its ``max``) when it lies within 10 % of a
+    step of one (the model rounds to one decimal finer than the step: at most 5 % off), else ``v``. The page's
+    slider (noUiSlider) snaps every value it is given to its grid and, when that moves it, sends the snapped
+    value back as the user's: the model's 4-decimal rounding of a frame time (3.7417 on a 1/120 s grid) was
+    sent back as 3.741667, taken as a move (the WarpEditor's opening warp recorded as an edit) or as an arrow
+    step (the segment slider flipped between two frames for ever)."""
+    step = getattr(control, "step", None)
+    if not step or step <= 0 or isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        return v
+    lo, hi = float(control.min), float(control.max)
+    n = round((v - lo) / step)
+    g = min(max(lo + n * step, lo), hi)
+    if abs(v - hi) < abs(v - g):
+        g = hi
+    return g if abs(v - g) < 0.1 * step else v
+
+
+def _on_page_grid(control, value):
+    """A value (a number, or a range slider's pair) as a float slider's page shows it (:func:`_page_grid_point`);
+    other controls' values unchanged."""
+    if isinstance(control, widgets.FloatRangeSlider) and isinstance(value, (list, tuple)):
+        return tuple(_page_grid_point(control, float(v)) for v in value)
+    if isinstance(control, widgets.FloatSlider) and not isinstance(control, widgets.FloatLogSlider):
+        return _page_grid_point(control, value)
+    return value
+
+
 class _ControlLink:
     """``model.name`` <-> ``control.value``, both ways, like ``traitlets.link``, except that a value the model
     refuses (``model.set_control``: a TraitError, the reason in ``model.notes[name]``) puts the control back to
@@ -110,25 +131,29 @@ class _ControlLink:
         self._to_c = transform[0] or (lambda v: v)
         self._to_m = transform[1] or (lambda v: v)
         self._busy = False
-        control.value = self._to_c(getattr(model, name))
+        control.value = self._shown(getattr(model, name))
         model.observe(self._to_control, names=name)
         control.observe(self._to_model, names="value")
+
+    def _shown(self, value):
+        """The model's ``value`` as the control shows it: transformed, on the page's slider grid."""
+        return _on_page_grid(self.control, self._to_c(value))
 
     def _to_control(self, change) -> None:
         if not self._busy:
             self._busy = True
             try:
-                self.control.value = self._to_c(change["new"])
+                self.control.value = self._shown(change["new"])
             finally:
                 self._busy = False
 
     def _to_model(self, change) -> None:
-        if self._busy:
-            return
+        if self._busy or _same_value(change["old"], change["new"]):
+            return   # the page's own value up to float noise (its grid arithmetic): not a move
         self._busy = True
         try:
             self.model.set_control(self.name, self._to_m(_stepped(self.control, change["old"], change["new"])))
-            shown = self._to_c(getattr(self.model, self.name))   # refused: back to the model's value
+            shown = self._shown(getattr(self.model, self.name))   # refused: back to the model's value
             if not _same_value(shown, self.control.value) and not _same_grid_point(self.control, shown):
                 self.control.value = shown
         finally:

@@ -176,10 +176,17 @@ class WandEditor(_Editor):
             fut.add_done_callback(lambda f: _on_kernel_thread(_clear_status, me))
 
     def _on_limit(self, change) -> None:
+        """"limit edit range": ticked, the propagation is limited to the range slider's span; when that is the
+        whole clip (nothing to see: the falloff would not change), to a window around the edited frames, a
+        quarter of the clip each side (drag the range to change it)."""
         m = self.model
         if change["new"] and not m.frame_range:
-            t = self.range.value
-            m.set_control("frame_range", m.range_frames(t))
+            rng = m.range_frames(self.range.value)
+            n = m.input_frames or self.session.source.num_frames
+            if rng[0] <= 0 and rng[1] >= n:
+                frames = m.edited_frames or [int(m.edit_frame)]
+                rng = [max(0, min(frames) - n // 4), min(n, max(frames) + n // 4 + 1)]
+            m.set_control("frame_range", rng)
         elif not change["new"] and m.frame_range:
             m.set_control("frame_range", [])
 
@@ -226,6 +233,8 @@ class WandEditor(_Editor):
                _SIGMA_TIP)
         _inert(c["repetitions"], not m.propagate, "repetitions apply to the propagation: inert while it is off")
         _inert(self.limit_range, not m.propagate, "the edit range limits the propagation: tick 'propagate' first")
+        _inert(c["compare"], not m.propagate, "the comparisons are of the propagation's falloff: tick 'propagate' "
+                                              "first")
         _inert(self.range, not (m.propagate and m.frame_range),
                "tick 'propagate' first" if not m.propagate else "tick 'limit edit range' to restrict the propagation")
         self.limit_range.value = bool(m.frame_range)
@@ -248,7 +257,8 @@ class WandEditor(_Editor):
         ready = self.session.falloff_ready(mod.sigma, compare)
         pending = [c for c in compare if c not in ready]
         drawn = (id(edited), self.session.typed_ops, mod.joint, float(mod.sigma), tuple(mod.frame_range),
-                 tuple(compare), tuple(ready), int(mod.edit_frame), tuple(mod.edited_frames), mod.repetitions)
+                 tuple(compare), tuple(ready), int(mod.edit_frame), tuple(mod.edited_frames), mod.repetitions,
+                 bool(mod.propagate))
         if drawn == getattr(self, "_drawn", None):
             return   # the same views (a model change and the session change it caused, drawn once)
         self._drawn = drawn
@@ -256,14 +266,20 @@ class WandEditor(_Editor):
         fr = mod.frame_range or None
         # the falloff depends on the source and these only (not on the rotation): rebuilt when they change
         key = (f, float(mod.sigma), None if fr is None else tuple(fr), tuple(compare), tuple(ready),
-               tuple(mod.edited_frames), _x_span(edited))
+               tuple(mod.edited_frames), _x_span(edited), mod.repetitions, bool(mod.propagate))
         if f < m.num_frames and (key != getattr(self, "_falloff_key", None) or not self.falloff_plot.figure):
-            curves = self.session.falloff_curves(f, mod.sigma, fr, compare=[c for c in compare if c in ready])
-            wait = f"; computing {', '.join(pending)}…" if pending else ""
-            self.falloff_plot.figure = falloff_figure(
-                m.times, curves, edited_times=mod.edited_times() or [mod.time_of(f)],
-                title=f"Green's falloff from frame {f} ({m.times[f]:.2f} s), σ = {mod.sigma:.3g}{wait}",
-                x_range=_x_span(edited), height=_PLOT_HEIGHT)
+            edited_times = mod.edited_times() or [mod.time_of(f)]
+            if mod.propagate:   # the weights the propagation gives (repetitions "discard": the valley only, §3.3)
+                curves = self.session.falloff_curves(f, mod.sigma, fr, compare=[c for c in compare if c in ready],
+                                                     repetitions=mod.repetitions == "keep")
+                wait = f"; computing {', '.join(pending)}…" if pending else ""
+                kept = "" if mod.repetitions == "keep" else ", repetitions discarded"
+                title = f"Green's falloff from frame {f} ({m.times[f]:.2f} s), σ = {mod.sigma:.3g}{kept}{wait}"
+            else:               # propagate off: weight 1 at the edited frames, 0 elsewhere
+                curves = {"edited frames only": mod.frame_weights(m.num_frames)}
+                title = "propagate off: only the edited frames change (weight 1 there, 0 elsewhere)"
+            self.falloff_plot.figure = falloff_figure(m.times, curves, edited_times=edited_times, title=title,
+                                                      x_range=_x_span(edited), height=_PLOT_HEIGHT)
             self._falloff_key = key
             if pending:
                 self._warm(("compare", [(c, float(mod.sigma)) for c in pending]), then=self._on_compared)

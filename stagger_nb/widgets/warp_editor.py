@@ -64,7 +64,9 @@ class WarpEditor(_Editor):
             else:
                 refs[name] = {"path": str(r)}
         D = m.duration
-        model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, round(D / 2, 6)])
+        # the segment opens on the first half of the clip, a whole number of frames (the slider's grid)
+        half = round(round(D / 2 / m.frame_time) * m.frame_time, 6)
+        model = WarpModel(frame_time=m.frame_time, duration=D, segment=[0.0, half])
         c = {}
         # each toggle's description beside its buttons, in 72 px (the "retime" row then fits the tool column)
         c["mode"] = widgets.ToggleButtons(options=["guided", "linear"], description="time warp",
@@ -203,12 +205,25 @@ class WarpEditor(_Editor):
         _inert(c["backward"], linear or m.target == "poses", "backward applies to guided warps of the motion only")
         _inert(self.keytimes, m.free_length and not linear, "keytimes need a fixed duration (free length is on)",
                _KEYTIMES_TIP)
+        _inert(self.click_keytime, self.keytimes.disabled, self.keytimes.tooltip,
+               "then a click on the warp plot at (output time, input time) adds that keytime")
+        _inert(self.clear_keytimes, self.keytimes.disabled or not m.keytimes,
+               self.keytimes.tooltip if self.keytimes.disabled else "there are no keytimes to clear",
+               "remove every keytime")
+
+    def _speed_limit(self) -> float | None:
+        """The skip limit drawn on the speed plot (a guided warp plays at most ``skip`` times real time, Hsu et
+        al. 2007, §3.1): the skip slider's move is seen there even where the warp stays under both values."""
+        m = self.model
+        identity = not self.binding.to_ops(m.params())   # (the skip slider is disabled then)
+        return float(m.skip) if m.mode == "guided" and not identity else None
 
     def _update_views(self, edited: Motion) -> None:
         v = warp_view(self.session)
         with self.binding.paused():   # free length: the readout shows the duration the warp chose, as the title
             self.model.show_chosen_duration(float(v["out_times"][-1]))
         self.warp_plot.figure = warp_figure(v["out_times"], v["warp"], v["speed"], keytimes=self.model.keytimes or None,
+                                            speed_limit=self._speed_limit(),
                                             title=f"{self.model.mode} warp: {self.session.source.duration:.2f} s "
                                                   f"→ {v['out_times'][-1]:.2f} s", height=_PLOT_HEIGHT + 30)
         self._show_motion(edited)

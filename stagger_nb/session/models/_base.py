@@ -187,15 +187,23 @@ class _Model(T.HasTraits):
         """The words a message uses for trait ``name`` (its ``label`` metadata, else the name)."""
         return self.trait_metadata(name, "label") or name
 
+    #: the trait :meth:`set_control` is setting (None otherwise): the binding merges a control's quick
+    #: successive changes into one undo step (a drag), not those of code setting traits
+    _control_change = None
+
     def set_control(self, name: str, value) -> str:
         """Set trait ``name`` to ``value`` as a control does: '' when it took the value; otherwise the model
-        is left as it was, ``notes[name]`` holds the plain sentence saying why and it is returned."""
+        is left as it was, ``notes[name]`` holds the plain sentence saying why and it is returned. Quick
+        successive changes from a control are one undo step (:class:`~.binding.ModelBinding`)."""
+        old, self._control_change = self._control_change, name
         try:
             setattr(self, name, value)
         except T.TraitError as e:
             why = str(e)
             self.notes = {**self.notes, name: why}
             return why
+        finally:
+            self._control_change = old
         if name in self.notes:
             self.notes = {k: v for k, v in self.notes.items() if k != name}
         return ""

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import itertools
 import json
+import time
 import weakref
 from collections.abc import Callable
 
@@ -34,6 +36,10 @@ class ModelBinding:
       op list that fails already, at the same op, before the change is not this change's doing: it is written.
     - A change of the session's op list (undo/redo, load, code) sets the model's op traits from it; the model
       then equals what the ops say (undo restores every parameter).
+    - One gesture is one undo step: changes from the same control (``model.set_control``) of a slider-like
+      trait (a number, a range, an edit table) with less than :attr:`gesture_rest` seconds between the end of
+      one and the next (a drag, a burst of arrow keys, however many of its values reach the kernel) extend one
+      step (``Session.set_ops(gesture=)``). Toggles, choices, picks and changes made by code are a step each.
 
     Parameters
     ----------
@@ -43,8 +49,15 @@ class ModelBinding:
         WarpModel only: ``{name: op reference JSON}`` of the extra reference clips.
     """
 
+    #: seconds of rest that end a gesture (see the class docstring)
+    gesture_rest = 1.0
+    #: op traits set by picks and choices, never merged into a gesture (each change is its own undo step)
+    _NOT_GESTURES = frozenset({"keep", "joints", "tau_joints", "keytimes"})
+    _gesture_ids = itertools.count()
+
     def __init__(self, model: _Model, session, references: dict | None = None):
         self.model = model
+        self._gesture = None   # (control trait, token, time the last change from it ended)
         self.session = session
         self.references = dict(references or {})
         if isinstance(model, StaggerModel):
@@ -125,9 +138,29 @@ class ModelBinding:
             return
         if change["name"] == "cull_by" and isinstance(self.model, StaggerModel):
             self._same_poses(change["new"])
-        if not self.push() and self._error:   # refused: the model goes back to what the session holds
-            self._revert()
-            raise T.TraitError(self._error)
+        control = self.model._control_change
+        gesture = self._gesture_of(change["name"], control)
+        try:
+            if not self.push(gesture) and self._error:   # refused: the model goes back to what the session holds
+                self._revert()
+                raise T.TraitError(self._error)
+        finally:
+            if gesture is not None:
+                self._gesture = (control, gesture, time.monotonic())
+
+    def _gesture_of(self, name: str, control):
+        """The gesture token a change of op trait ``name`` made through the control of trait ``control`` is
+        committed with: the last change's when it came from the same control and ended less than
+        :attr:`gesture_rest` s ago, a new one otherwise; None (a step of its own) for a change made by code, a
+        toggle, a choice or a pick."""
+        trait = self.model.traits().get(name)
+        if control is None or name in self._NOT_GESTURES or not isinstance(trait, (T.Float, T.Int, T.List, T.Dict)):
+            self._gesture = None
+            return None
+        g = self._gesture
+        if g is not None and g[0] == control and time.monotonic() - g[2] < self.gesture_rest:
+            return g[1]
+        return next(self._gesture_ids)
 
     def _same_poses(self, cull_by: str) -> None:
         """Switching the cull to "count" or "picked" starts from the poses the current cull keeps (its count,
@@ -159,10 +192,10 @@ class ModelBinding:
         finally:
             self._loading = False
 
-    def commit(self, ops: list) -> bool:
-        """Write ``ops`` as the session's op list (one undo step) if it replays; returns whether the list
-        changed. Raises ValueError (:class:`~stagger_nb.session.ReplayError` for a replay failure) and leaves
-        the session as it was otherwise."""
+    def commit(self, ops: list, gesture=None) -> bool:
+        """Write ``ops`` as the session's op list (one undo step, or the step of ``gesture``) if it replays;
+        returns whether the list changed. Raises ValueError (:class:`~stagger_nb.session.ReplayError` for a
+        replay failure) and leaves the session as it was otherwise."""
         if _canon(ops) == _canon(self.session.ops):
             return False
         try:
@@ -170,7 +203,7 @@ class ModelBinding:
         except ReplayError as e:
             if not self._fails_already(e):
                 raise
-        return self.session.set_ops(ops)
+        return self.session.set_ops(ops, gesture=None if gesture is None else ("model", id(self), gesture))
 
     def _fails_already(self, error: ReplayError) -> bool:
         """Whether the session's own op list fails at the same op as ``error`` (replayed states are cached:
@@ -181,9 +214,10 @@ class ModelBinding:
             return e.op.key == error.op.key
         return False
 
-    def push(self) -> bool:
-        """Model -> session. Returns True when the op list changed; False when nothing changed or the change
-        was refused (then ``model.message`` says why and the session is as it was)."""
+    def push(self, gesture=None) -> bool:
+        """Model -> session (as one step of ``gesture``, a token of :meth:`_gesture_of`, when given). Returns True
+        when the op list changed; False when nothing changed or the change was refused (then ``model.message``
+        says why and the session is as it was)."""
         new = self.model.params()
         old_ops = self.to_ops(self._last)  # as written (with the bases they were written with)
         if isinstance(self.model, StaggerModel):
@@ -201,14 +235,14 @@ class ModelBinding:
                                    if toggle or _canon(d[j]) != _canon(old_edits.get(k, {}).get(j)))
         ops = merge_ops(self.session.ops, old_ops, self.to_ops(new), self.owned, self._home)
         try:
-            changed = self.commit(ops)
+            changed = self.commit(ops, gesture)
         except ValueError as e:
             self._error = plain_message(e)
             self._show()
             return False
         self._error = ""
         self._last = new
-        if changed and self.model.notes:   # a change went through: the notes of earlier refusals are history
+        if self.model.notes:   # a change went through (even one writing no op): earlier refusals are history
             self.model.notes = {}
         if not changed:
             self._show()

@@ -55,9 +55,21 @@ def _clean(text: str) -> str:
     return text.rstrip(".")
 
 
+#: a pose-indexed edit whose pose the staggered state no longer has (run.py's pose check)
+_POSE_GONE = re.compile(r"^pose: (\d+) is outside the (\d+) poses$")
+
+
 def plain_message(error: Exception) -> str:
     """One plain sentence for ``error``: for a :class:`ReplayError` "<the op, in words> cannot be applied:
-    <why>", for another error its text without the op index and exception names."""
+    <why>", for another error its text without the op index and exception names. An edit of a pose the cull
+    no longer keeps (a cull to 10 poses under an IK target at pose 10) says what to do: keep more poses, or
+    undo or remove that edit first."""
     if isinstance(error, ReplayError):
-        return f"{describe_op(error.op)} cannot be applied: {_clean(error.cause)}"
+        cause = _clean(error.cause)
+        gone = _POSE_GONE.match(cause)
+        if gone:
+            k, n = (int(x) for x in gone.groups())
+            return (f"{describe_op(error.op)} would be lost: only {n} poses would be left (0 to {n - 1}); "
+                    f"keep {k + 1} poses or more, or undo or remove that edit first")
+        return f"{describe_op(error.op)} cannot be applied: {cause}"
     return _clean(str(error))

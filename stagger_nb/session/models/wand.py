@@ -65,6 +65,15 @@ class WandModel(_Model):
         a, b = self.frame_at(seconds[0]), self.frame_at(seconds[1])
         return [a, max(a + 1, b)]
 
+    def frame_weights(self, num_frames: int) -> list:
+        """The weight each of ``num_frames`` source frames gets with propagate off: 1 at the edited frames (the
+        selected frame when none is edited yet), 0 elsewhere; (F,) floats."""
+        w = [0.0] * int(num_frames)
+        for f in self.edited_frames or [self.edit_frame]:
+            if 0 <= f < len(w):
+                w[f] = 1.0
+        return w
+
     def edited_times(self) -> list:
         """Seconds of each edited frame (sorted)."""
         return [self.time_of(f) for f in self.edited_frames]
