@@ -1,0 +1,143 @@
+"""The next step of a slider (session/warm.py ``next_step``, ``Session.check_ops``): the op list one step further
+is warmed in the background, and what it caches is exactly what the foreground replay computes."""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import stagger_nb as sn
+from stagger_nb.session import Session
+from stagger_nb.session.cache import Cache
+from stagger_nb.session.heads import Heads
+from stagger_nb.session.ops import Op
+from stagger_nb.session.replay import Replay, Stopped, chain_keys
+from stagger_nb.session.warm import next_step
+
+
+def typed(*ops):
+    return tuple(Op.from_json(o) for o in ops)
+
+
+def ex(w):
+    return {"op": "exaggerate", "w_r": w}
+
+
+def rt(tau, seed=0):
+    return {"op": "random_timing", "tau": tau, "seed": seed}
+
+
+CULL = {"op": "cull", "percent": 40.0}
+
+
+def test_next_step_extrapolates_one_number_at_its_decimals():
+    a, b = typed(CULL, ex(0.5), rt(0.1)), typed(CULL, ex(0.55), rt(0.1))
+    nxt = next_step(a, b)
+    assert [o.to_json() for o in nxt] == [o.to_json() for o in typed(CULL, ex(0.6), rt(0.1))]
+    assert nxt[0] is b[0] and nxt[2] is b[2]            # the other ops are the same objects
+    assert next_step(b, a)[1].w_r == 0.45                # the other way
+    assert next_step(typed(rt(0.105)), typed(rt(0.11)))[0].tau == 0.115   # not 0.11499999999999999
+    assert next_step(typed(ex(0.55)), typed(ex(0.55))) is None           # nothing moved
+
+
+@pytest.mark.parametrize("before, after", [
+    ((CULL, ex(0.5)), (CULL, ex(0.55), rt(0.1))),                     # an op added
+    ((ex(0.5), rt(0.1)), (ex(0.55), rt(0.12))),                        # two ops changed
+    ((rt(0.1, seed=0),), (rt(0.1, seed=1),)),                          # an int field (a seed is no slider)
+    ((rt(0.1), ), (ex(0.1),)),                                         # another op
+    ((rt(0.14),), (rt(0.15 + 30.0),)),                                 # past the op's bound (60 s): refused
+    ((ex(1 / 3),), (ex(0.4),)),                                        # not on a decimal grid
+])
+def test_next_step_is_none_unless_one_number_of_one_op_moved(before, after):
+    assert next_step(typed(*before), typed(*after)) is None
+
+
+def test_stopped_between_two_ops_keeps_the_finished_steps():
+    m = sn.data.load("walk").slice(0, 120)
+    replay = Replay(Heads(Cache(), m, {}), m)
+    ops = typed(CULL, ex(0.5), rt(0.05))
+    asked = []
+
+    def stop():                 # let the first two ops run, stop before the third
+        asked.append(1)
+        return len(asked) > 2
+    with pytest.raises(Stopped):
+        replay.check(ops, stop=stop)
+    computed = []                                # resumes: only the last op is left
+    replay.run(ops, chain_keys(ops), len(ops), progress=lambda d, t, label: computed.append(label))
+    assert computed == ["random_timing", "done"]
+    ref = Session(m, ops=[o.to_json() for o in ops]).edited()
+    got = replay.edited(ops)
+    assert np.array_equal(got.local_quats, ref.local_quats) and np.array_equal(got.root_positions, ref.root_positions)
+    replay.into_cache(typed(CULL, ex(0.6)), stop=lambda: True)    # into_cache swallows a stop
+
+
+@pytest.mark.parametrize("field, values", [("w_r", (0.5, 0.55)), ("tau", (0.04, 0.045))])
+def test_check_ops_warms_the_next_step_and_it_replays_bit_exactly(field, values):
+    """Two check_ops moving one slider warm the third value; replaying it then computes no op, and its result
+    is bit for bit a fresh session's replay of the same list (the fast path is the full replay, cached)."""
+    m = sn.data.load("walk").slice(0, 120)
+
+    def ops(v):
+        return [CULL, ex(v if field == "w_r" else 0.5), rt(v if field == "tau" else 0.04)]
+    s = Session(m, ops=ops(values[0]))
+    s.edited()
+    for v in values:
+        s.check_ops(ops(v))
+        s.set_ops(ops(v))
+        s.edited()
+    fut = s.next_step
+    assert fut is not None and fut.result(timeout=120) == 1
+    third = round(2 * values[1] - values[0], 3)
+    s.set_ops(ops(third))
+    computed = []
+    got = s.edited(progress=lambda d, t, label: computed.append(label))
+    assert computed == []                                   # every step came from the warm-up
+    ref = Session(m, ops=ops(third)).edited()
+    assert np.array_equal(got.local_quats, ref.local_quats)
+    assert np.array_equal(got.root_positions, ref.root_positions)
+    s.close()
+
+
+def test_warm_next_step_off():
+    m = sn.data.load("walk").slice(0, 120)
+    s = Session(m, ops=[CULL, ex(0.5)])
+    s.warm_next_step = False
+    s.check_ops([CULL, ex(0.5)])
+    s.check_ops([CULL, ex(0.55)])
+    assert s.next_step is None
+    s.close()
+
+
+def test_a_replay_waiting_for_the_lock_stops_a_background_replay():
+    """``Replay.waiting`` counts a thread waiting for the replay's lock: the next-step warm-up asks it between two
+    ops and gives way (here its ``stop`` holds the lock until someone waits, then stops)."""
+    m = sn.data.load("walk").slice(0, 120)
+    replay = Replay(Heads(Cache(), m, {}), m)
+    ops = typed(CULL, ex(0.5), rt(0.05))
+    result = {}
+
+    def stop():
+        end = time.monotonic() + 30
+        while replay.waiting == 0 and time.monotonic() < end:
+            time.sleep(0.005)
+        return replay.waiting > 0
+
+    def background():
+        try:
+            replay.check(ops, stop=stop)
+            result["bg"] = "finished"
+        except Stopped:
+            result["bg"] = "stopped"
+    t = threading.Thread(target=background)
+    t.start()
+    while replay.lock.acquire(blocking=False):   # until the background thread holds the lock
+        replay.lock.release()
+        time.sleep(0.001)
+    got = replay.edited(ops)            # waits for the lock: the background stops at its first op
+    t.join(30)
+    assert result == {"bg": "stopped"} and replay.waiting == 0
+    ref = Session(m, ops=[o.to_json() for o in ops]).edited()
+    assert np.array_equal(got.local_quats, ref.local_quats)
