@@ -141,3 +141,20 @@ def test_a_replay_waiting_for_the_lock_stops_a_background_replay():
     assert result == {"bg": "stopped"} and replay.waiting == 0
     ref = Session(m, ops=[o.to_json() for o in ops]).edited()
     assert np.array_equal(got.local_quats, ref.local_quats)
+
+
+def test_a_stopped_speculation_resumes_at_the_next_pause_and_a_newer_one_replaces_it():
+    from stagger_nb.session.warm import Worker
+    w = Worker()
+    calls = []
+
+    def fn(report):
+        calls.append("run")
+        if len(calls) == 1:
+            raise Stopped(0)    # gave way to a foreground replay
+    assert w.speculate("next step", fn).result(timeout=30) == 1 and calls == ["run", "run"]
+    with w.foreground():        # held: neither starts; the first is replaced by the second
+        first = w.speculate("a", lambda r: calls.append("a"))
+        second = w.speculate("b", lambda r: calls.append("b"))
+    assert second.result(timeout=30) == 1 and first.cancelled() and calls[2:] == ["b"]
+    w.stop()

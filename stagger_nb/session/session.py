@@ -143,8 +143,8 @@ class Session(CachedHeads):
 
     def _warm_next_step(self, ops: tuple) -> None:
         """After :meth:`check_ops` of ``ops``: when it moved one number of one op from the list checked before (a
-        slider), warm the list one more step along (session/warm.py, ``next_step``; stopped between two ops by
-        the next foreground replay; :attr:`warm_next_step` False: not)."""
+        slider), warm the list one more step along (session/warm.py, ``next_step``; it gives way to every foreground
+        replay between two ops and resumes at the next pause; :attr:`warm_next_step` False: not)."""
         nxt = next_step(self._last_replayed, ops) if self.warm_next_step else None
         self._last_replayed = ops
         if nxt is not None:
@@ -152,7 +152,13 @@ class Session(CachedHeads):
 
             def wanted() -> bool:   # a foreground replay started, or a thread waits for the replay's lock
                 return worker.wanted() or replay.waiting > 0
-            self.next_step = worker.speculate("next step", lambda report: replay.into_cache(nxt, None, stop=wanted))
+
+            def fill(report) -> None:   # Stopped (it gave way) goes to the worker: it resumes at the next pause
+                try:
+                    replay.check(nxt, None, stop=wanted)
+                except (ValueError, ArithmeticError):
+                    pass                # the failure shows when the user reaches that value
+            self.next_step = worker.speculate("next step", fill)
 
     def add(self, op) -> bool:
         """Append one op."""

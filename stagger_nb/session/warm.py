@@ -16,7 +16,7 @@ of one op (a slider moved from ``v0`` to ``v1``), :func:`next_step` gives the li
 next key press or drag tick of the same slider finds its replay cached. The states are the ones the
 foreground replay would compute (the same ops on the same states, cached under their prefix digests): nothing
 changes but when they are computed. A foreground replay that starts meanwhile stops it between two ops
-(:meth:`Worker.wanted`); the steps it finished stay cached.
+(:meth:`Worker.wanted`) and resumes at the next pause; the steps it finished stay cached.
 """
 from __future__ import annotations
 
@@ -64,13 +64,31 @@ class Worker:
 
     def speculate(self, label: str, fn: Callable) -> Future:
         """Run ``fn(report)`` in the background like a :meth:`submit` item once no foreground replay has run for
-        :data:`NEXT_STEP_IDLE_S`, in place of the previous speculation (cancelled if it has not started: only the
-        latest next step is worth computing)."""
+        :data:`NEXT_STEP_IDLE_S`, in place of the previous speculation (cancelled: only the latest next step is
+        worth computing). ``fn`` raising :class:`~.replay.Stopped` (it gave way to a foreground replay) runs again
+        after the next such pause, until it returns or a newer speculation cancels it (the steps it finished are
+        cached: it resumes after them)."""
+        from .replay import Stopped
         with self._lock:
             old = self._speculation
         if old is not None:
             old.cancel()
-        fut = self.submit([(label, fn, NEXT_STEP_IDLE_S)])
+        holder: list[Future] = []
+        known = threading.Event()       # set once ``holder`` has the future (the item may start before)
+
+        def resumed(report):
+            while True:
+                try:
+                    return fn(report)
+                except Stopped:
+                    known.wait()
+                    fut = holder[0]
+                    self._wait_for_idle(fut, NEXT_STEP_IDLE_S)
+                    if fut.cancelled():
+                        return None
+        fut = self.submit([(label, resumed, NEXT_STEP_IDLE_S)])
+        holder.append(fut)
+        known.set()
         with self._lock:
             self._speculation = fut
         return fut
