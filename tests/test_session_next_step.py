@@ -40,10 +40,16 @@ def test_next_step_extrapolates_one_number_at_its_decimals():
     assert next_step(b, a)[1].w_r == 0.45                # the other way
     assert next_step(typed(rt(0.105)), typed(rt(0.11)))[0].tau == 0.115   # not 0.11499999999999999
     assert next_step(typed(ex(0.55)), typed(ex(0.55))) is None           # nothing moved
+    # an op appearing with its one required number: the slider left 0 (the editor writes no op at identity)
+    assert next_step(typed(CULL, rt(0.1)), typed(CULL, ex(0.05), rt(0.1)))[1].w_r == 0.1
+    assert next_step(typed(CULL), typed(CULL, rt(0.005)))[1].tau == 0.01
+    assert next_step(typed(ex(0.5)), typed(ex(0.5), {"op": "succession", "root": "Hips", "s": -0.005}))[1].s == -0.01
 
 
 @pytest.mark.parametrize("before, after", [
-    ((CULL, ex(0.5)), (CULL, ex(0.55), rt(0.1))),                     # an op added
+    ((CULL, ex(0.5)), (CULL, ex(0.55), rt(0.1))),                     # an op added and another changed
+    ((), (CULL,)),                                                     # an op added without a required number
+    ((CULL, ex(0.5)), (CULL,)),                                        # an op removed
     ((ex(0.5), rt(0.1)), (ex(0.55), rt(0.12))),                        # two ops changed
     ((rt(0.1, seed=0),), (rt(0.1, seed=1),)),                          # an int field (a seed is no slider)
     ((rt(0.1), ), (ex(0.1),)),                                         # another op

@@ -288,24 +288,50 @@ def _decimals(x: float) -> int | None:
     return None
 
 
+def _added_slider(before: tuple, after: tuple):
+    """``(index, field)`` when ``after`` is ``before`` with one op inserted whose only required field that is a
+    number is ``field`` (exaggerate's ``w_r``, random timing's ``tau``: a slider that left its identity 0, where an
+    editor writes no op), else None."""
+    import dataclasses
+    if len(after) != len(before) + 1:
+        return None
+    i = 0
+    while i < len(before) and (before[i] is after[i] or before[i].key == after[i].key):
+        i += 1
+    if any(a is not b and a.key != b.key for a, b in zip(before[i:], after[i + 1:])):
+        return None
+    op = after[i]
+    required = [f.name for f in dataclasses.fields(op) if f.default is dataclasses.MISSING
+                and f.default_factory is dataclasses.MISSING and type(getattr(op, f.name)) is float]
+    return (i, required[0]) if len(required) == 1 else None
+
+
 def next_step(before: tuple, after: tuple):
     """The typed op tuple one slider step past ``after`` when ``before`` -> ``after`` changed one number of one
     op: that field at ``2 v1 - v0`` rounded to the decimals of ``v0`` and ``v1`` (a control's values are snapped
-    to its step: 0.55 -> 0.6 gives 0.65). None when the change is anything else (several fields or ops, a
-    field that is not a float, an op added or removed) or the next value is refused by the op's own checks
-    (a slider at its end)."""
+    to its step: 0.55 -> 0.6 gives 0.65); an op inserted with one required number ``v1`` counts as a move from 0
+    (``2 v1``: w_r 0 -> 0.05, where the editor wrote no op, gives 0.1). None when the change is anything else
+    (several fields or ops, a field that is not a float, an op removed) or the next value is refused by the op's
+    own checks (a slider at its end)."""
     from .ops import Op
-    if len(before) != len(after):
-        return None
-    diff = [i for i, (a, b) in enumerate(zip(before, after)) if a is not b and a.key != b.key]
-    if len(diff) != 1 or type(before[diff[0]]) is not type(after[diff[0]]):
-        return None
-    i = diff[0]
-    a, b = before[i].to_json(), after[i].to_json()
-    keys = [k for k in b if a.get(k, None) != b[k] or k not in a]
-    if len(keys) != 1 or a.keys() != b.keys():
-        return None
-    v0, v1 = a[keys[0]], b[keys[0]]
+    added = _added_slider(before, after)
+    if added is not None:
+        i, field = added
+        b = after[i].to_json()
+        v0, v1 = 0.0, b[field]
+    else:
+        if len(before) != len(after):
+            return None
+        diff = [i for i, (x, y) in enumerate(zip(before, after)) if x is not y and x.key != y.key]
+        if len(diff) != 1 or type(before[diff[0]]) is not type(after[diff[0]]):
+            return None
+        i = diff[0]
+        a, b = before[i].to_json(), after[i].to_json()
+        keys = [k for k in b if a.get(k, None) != b[k] or k not in a]
+        if len(keys) != 1 or a.keys() != b.keys():
+            return None
+        field = keys[0]
+        v0, v1 = a[field], b[field]
     if not (type(v0) is float and type(v1) is float):
         return None
     n0, n1 = _decimals(v0), _decimals(v1)
@@ -313,7 +339,7 @@ def next_step(before: tuple, after: tuple):
         return None
     v2 = round(2.0 * v1 - v0, max(n0, n1)) + 0.0
     try:
-        op = Op.from_json({**b, keys[0]: v2})
+        op = Op.from_json({**b, field: v2})
     except ValueError:
         return None
     return after[:i] + (op,) + after[i + 1:]
