@@ -55,6 +55,8 @@ def test_next_step_extrapolates_one_number_at_its_decimals():
     ((rt(0.1), ), (ex(0.1),)),                                         # another op
     ((rt(0.14),), (rt(0.15 + 30.0),)),                                 # past the op's bound (60 s): refused
     ((ex(1 / 3),), (ex(0.4),)),                                        # not on a decimal grid
+    ((CULL,), ({"op": "cull", "percent": 45.0},)),                     # a cull (the editor warms those)
+    (({"op": "resample", "frame_time": 0.01},), ({"op": "resample", "frame_time": 0.02},)),   # a motion op
 ])
 def test_next_step_is_none_unless_one_number_of_one_op_moved(before, after):
     assert next_step(typed(*before), typed(*after)) is None

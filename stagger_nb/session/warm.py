@@ -288,6 +288,11 @@ def _decimals(x: float) -> int | None:
     return None
 
 
+#: Staggered ops whose next step is not guessed: a cull refits (a few hundred ms on a long clip, one op a
+#: foreground replay would have to wait for; the StaggerEditor warms every cull position itself).
+_NO_GUESS = ("cull",)
+
+
 def _added_slider(before: tuple, after: tuple):
     """``(index, field)`` when ``after`` is ``before`` with one op inserted whose only required field that is a
     number is ``field`` (exaggerate's ``w_r``, random timing's ``tau``: a slider that left its identity 0, where an
@@ -312,7 +317,9 @@ def next_step(before: tuple, after: tuple):
     to its step: 0.55 -> 0.6 gives 0.65); an op inserted with one required number ``v1`` counts as a move from 0
     (``2 v1``: w_r 0 -> 0.05, where the editor wrote no op, gives 0.1). None when the change is anything else
     (several fields or ops, a field that is not a float, an op removed) or the next value is refused by the op's
-    own checks (a slider at its end)."""
+    own checks (a slider at its end). Only ops on the staggered poses (Coleman et al. 2008, §5: their replay
+    is a few evaluations long), not a cull (see ``_NO_GUESS``) nor the motion ops (a warp or a propagation may
+    run for seconds, and a foreground replay stops a warm-up only between two ops)."""
     from .ops import Op
     added = _added_slider(before, after)
     if added is not None:
@@ -338,6 +345,8 @@ def next_step(before: tuple, after: tuple):
     if n0 is None or n1 is None:
         return None
     v2 = round(2.0 * v1 - v0, max(n0, n1)) + 0.0
+    if after[i].needs != "staggered" or after[i].name in _NO_GUESS:
+        return None
     try:
         op = Op.from_json({**b, field: v2})
     except ValueError:
