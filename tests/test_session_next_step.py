@@ -166,3 +166,39 @@ def test_a_stopped_speculation_resumes_at_the_next_pause_and_a_newer_one_replace
         second = w.speculate("b", lambda r: calls.append("b"))
     assert second.result(timeout=30) == 1 and first.cancelled() and calls[2:] == ["b"]
     w.stop()
+
+
+def test_a_stagger_model_slider_finds_its_next_step_warmed_and_bit_exact(monkeypatch):
+    """Through the StaggerModel's binding (the editor's path: check_ops, then set_ops): w_r 0 -> 0.05 -> 0.1 (the
+    exaggerate op appears, then moves) warms 0.15; moving there runs no op on this thread, and the edited motion
+    is a fresh session's replay of the same op list, bit for bit; then τ the same way."""
+    from stagger_nb import staggered
+    from stagger_nb.session import models as M
+    m = sn.data.load("walk").slice(0, 120)
+    s = Session(m)
+    model = M.StaggerModel(root="Hips")
+    M.ModelBinding(model, s)
+    model.percent = 50.0
+    here = []                    # the ops run on this (the user's) thread
+    for name in ("exaggerate", "random_timing", "evaluate"):
+        real = getattr(staggered, name)
+
+        def counted(*a, _real=real, _name=name, **k):
+            if threading.current_thread() is threading.main_thread():
+                here.append(_name)
+            return _real(*a, **k)
+        monkeypatch.setattr(staggered, name, counted)
+    for field, vals, op in (("w_r", (0.05, 0.1, 0.15), "exaggerate"), ("tau", (0.005, 0.01, 0.015), "random_timing")):
+        here.clear()
+        for v in vals[:2]:
+            setattr(model, field, v)
+        assert op in here                                 # the first two moves computed their replay here
+        s.next_step.result(timeout=120)
+        here.clear()
+        setattr(model, field, vals[2])
+        got = s.edited()
+        assert here == [], (field, here)                  # the third came from the warm-up
+        ref = Session(m, ops=s.ops).edited()
+        assert np.array_equal(got.local_quats, ref.local_quats)
+        assert np.array_equal(got.root_positions, ref.root_positions)
+    s.close()
