@@ -363,26 +363,26 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
     K, J = sm.num_poses, sm.num_joints
     mask = _joint_mask(sm, joints)
     full = np.tile(_IDENTITY, (K, J, 1))
-    mean = mean_pose(vals) if isinstance(reference, str) and reference == "mean" else None
-    for kk in ks:
-        if isinstance(reference, str):
-            if reference == "previous":
-                ref = vals[kk - 1] if kk > 0 else vals[kk + 1]
-            elif reference == "next":
-                ref = vals[kk + 1] if kk < K - 1 else vals[kk - 1]
-            elif reference == "mean":
-                ref = mean
-            else:
-                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
-                                 f"got {reference!r}")
-        elif isinstance(reference, (int, np.integer)):
-            ref = vals[_pose_index(sm, reference, "reference")]
+    at = np.asarray(ks, dtype=np.int64)
+    if isinstance(reference, str):
+        if reference == "previous":
+            refs = vals[np.where(at > 0, at - 1, at + 1)]
+        elif reference == "next":
+            refs = vals[np.where(at < K - 1, at + 1, at - 1)]
+        elif reference == "mean":
+            refs = mean_pose(vals)[None]
         else:
-            rq, given = _rotation_table(sm, reference, "reference")
-            ref = np.where(given[:, None], rq, vals[kk])    # joints without a reference value: no change
-        off = quat_hemisphere(quat_mul(quat_conj(ref), vals[kk]))           # v ⊖ vʳ
-        delta = quat_exp(w_r * quat_log(off))                                # rotation scale
-        full[kk] = np.where(mask[:, None], delta, _IDENTITY)
+            raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
+                             f"got {reference!r}")
+    elif isinstance(reference, (int, np.integer)):
+        refs = vals[_pose_index(sm, reference, "reference")][None]
+    else:
+        rq, given = _rotation_table(sm, reference, "reference")
+        refs = np.where(given[None, :, None], rq[None], vals[at])    # joints without a reference value: no change
+    # every pose at once (the same element-wise arithmetic as one pose at a time, bit for bit)
+    off = quat_hemisphere(quat_mul(quat_conj(refs), vals[at]))              # v ⊖ vʳ
+    delta = quat_exp(w_r * quat_log(off))                                    # rotation scale
+    full[at] = np.where(mask[None, :, None], delta, _IDENTITY)
     if spread is not None:
         full = spread_offsets(full[ks], spread)
     return _apply_pose_offsets(sm, full, basis=basis)
