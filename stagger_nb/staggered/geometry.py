@@ -21,7 +21,7 @@ from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, qua
 from . import _kernels as kern
 from ._checks import _IDENTITY, _check, _finite, _joint_mask, _pose_index, _pose_weights, _rotation_table
 from .channel import ROTATION, Channel
-from .displacement import _grid, _put_rows, measure
+from .displacement import _grid, measure
 from .evaluation import _rotations_at, channel_at, static_rotations
 from .representation import StaggeredMotion, knot_times
 from .source_times import _refresh
@@ -217,9 +217,8 @@ def _offset_channel(sm: StaggeredMotion, ch: Channel, d, gen, moved, basis):
             x = alg.step_rows(x, g, W.get(tag, (alg.dim, N)))
         return x.T
 
-    rows = measure(alg, values, tangents, knots, seg, col, counts, target, grid)
-    return ch.with_arrays(values=values, tangents=tangents,
-                          displacements=_put_rows(ch.displacements, (seg, col), rows))
+    table = measure(alg, values, tangents, knots, seg, col, counts, target, grid, into=ch.displacements)
+    return ch.with_arrays(values=values, tangents=tangents, displacements=table)
 
 
 def spread_offsets(offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
