@@ -6,7 +6,9 @@ prefix. Every computed state goes to the session's one cache under its prefix di
 that prefix (the session's own after an undo, or one warmed by :meth:`Session.warm
 <stagger_nb.session.Session.warm>`) finds it; the same op on the same state, reached by another prefix, is
 found by the state's content name and the op. :class:`Replay` also remembers, per step, the small things the
-views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`.
+views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`. A
+background replay (the next slider step, session/warm.py) passes ``stop``: it gives way between two ops when the
+user's replay starts or waits for the lock (:attr:`Replay.waiting`), raising :class:`Stopped`.
 
 The state flowing through the ops is a :class:`~stagger_nb.core.Motion` or a ``staggered.StaggeredMotion``;
 :func:`~.run.convert` turns it into what the next op needs (Coleman et al. 2008, §3-§4).
