@@ -202,3 +202,20 @@ def test_a_stagger_model_slider_finds_its_next_step_warmed_and_bit_exact(monkeyp
         assert np.array_equal(got.local_quats, ref.local_quats)
         assert np.array_equal(got.root_positions, ref.root_positions)
     s.close()
+
+
+def test_the_state_a_slider_resumes_from_stays_cached(monkeypatch):
+    """Each τ move adds its states to the bounded cache; the state its replays resume from (after the exaggeration)
+    is marked recently used each time, so it is not the one dropped: the exaggeration runs once for six moves."""
+    from stagger_nb import staggered
+    m = sn.data.load("walk").slice(0, 120)
+    replay = Replay(Heads(Cache(bounds={"state": 4}), m, {}), m)
+    runs = []
+    real = staggered.exaggerate
+    monkeypatch.setattr(staggered, "exaggerate", lambda *a, **k: runs.append(1) or real(*a, **k))
+    for i in range(6):
+        ops = typed(CULL, ex(0.5), rt(0.04 + 0.005 * i))
+        got = replay.edited(ops)
+    assert len(runs) == 1
+    ref = Session(m, ops=[o.to_json() for o in ops]).edited()
+    assert np.array_equal(got.local_quats, ref.local_quats)

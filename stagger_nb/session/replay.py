@@ -176,6 +176,9 @@ class Replay:
                     hit = self._available(keys[i - 1])
                     if hit is not None:
                         states[i - 1], r = hit, i
+                        # recently used: the state a slider's replays resume from stays cached while each move
+                        # adds newer states (a long clip's take a few MB each against the byte budget)
+                        cache.touch("state", [(keys[i - 1], None)])
                         break
             todo = [i for i in range(r, upto) if states[i] is None]
             total = len(todo)
