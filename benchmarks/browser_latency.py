@@ -23,7 +23,9 @@ wall and CPU ms per press). Printed: median / p90 / max of key->plot and key->3D
 each step (where the time goes), the load average; ``--json PATH`` writes every sample.
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/browser_latency.py`` (needs /usr/bin/chromium and
-playwright; about 3-6 minutes). The burners are this script's own child processes, stopped by their pids.
+playwright; about 3-6 minutes). ``--prepare cull=19,s=20 --sliders tau,w_r`` times the τ and w_r sliders from the
+state the default run reaches them in (cull 5 %, s 0.1), without the cull and s presses that change nothing. The
+burners are this script's own child processes, stopped by their pids.
 """
 from __future__ import annotations
 
@@ -146,6 +148,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--presses", type=int, default=32)
     ap.add_argument("--burners", type=int, default=2)
     ap.add_argument("--sliders", default="cull,s,tau,w_r")
+    ap.add_argument("--prepare", default="", help="presses made first and not timed, e.g. 'cull=19,s=20' (cull to "
+                    "5 %%, s to 0.1: the state the default run's tau and w_r sliders start from)")
     ap.add_argument("--clip", default=str(REPO / "data" / "cmu_01_01.bvh"))
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -176,6 +180,19 @@ def main(argv=None) -> dict:
                 idle0 = page.evaluate("() => window.__snLat.draws")
                 page.wait_for_timeout(1000)
                 out["idle_draws_per_s"] = page.evaluate("() => window.__snLat.draws") - idle0
+                for item in filter(None, args.prepare.split(",")):
+                    name, n = item.split("=")
+                    css, key = SLIDERS[name]
+                    handle = page.locator(f"{sel} {css} .noUi-handle").first
+                    handle.focus()
+                    for _ in range(int(n)):
+                        handle.press(key)
+                        page.wait_for_timeout(100)
+                        bh.wait_kernel_idle(page)
+                        bh.wait_plots_synced(page, sel)
+                    shown = page.locator(f"{sel} {css} .widget-readout").first.inner_text()
+                    out.setdefault("prepared", {})[name] = shown
+                    print(f"prepared {name}: {out['prepared'][name]}", flush=True)
                 for name in args.sliders.split(","):
                     css, key = SLIDERS[name]
                     handle = page.locator(f"{sel} {css} .noUi-handle").first
@@ -242,8 +259,9 @@ def _print(name, s) -> None:
     def f(x):
         return "-" if not x else f"{x['median']:.0f} / {x['p90']:.0f} / {x['max']:.0f}"
     print(f"{name:>5}: key->plot {f(s['key_to_plot'])} ms, key->3D {f(s['key_to_3d'])} ms (median / p90 / max, "
-          f"{s['presses_that_changed_the_plot']} presses changed the plot; load {s['load']})")
-    print("       " + "; ".join(f"{k} {v['median']:.0f}" for k, v in s["steps"].items() if v) + " (medians, ms)")
+          f"{s['presses_that_changed_the_plot']} presses changed the plot; load {s['load']})", flush=True)
+    steps = "; ".join(f"{k} {v['median']:.0f}" for k, v in s["steps"].items() if v)
+    print(f"       {steps} (medians, ms)", flush=True)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,9 @@ prefix. Every computed state goes to the session's one cache under its prefix di
 that prefix (the session's own after an undo, or one warmed by :meth:`Session.warm
 <stagger_nb.session.Session.warm>`) finds it; the same op on the same state, reached by another prefix, is
 found by the state's content name and the op. :class:`Replay` also remembers, per step, the small things the
-views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`.
+views ask for afterwards (the warp curve, runner notes, the timing-warning summary): :class:`_Info`. A
+background replay (the next slider step, session/warm.py) passes ``stop``: it gives way between two ops when the
+user's replay starts or waits for the lock (:attr:`Replay.waiting`), raising :class:`Stopped`.
 
 The state flowing through the ops is a :class:`~stagger_nb.core.Motion` or a ``staggered.StaggeredMotion``;
 :func:`~.run.convert` turns it into what the next op needs (Coleman et al. 2008, §3-§4).
@@ -17,6 +19,7 @@ import hashlib
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
+from contextlib import contextmanager
 from typing import Any
 
 from ..core.motion import Motion
@@ -25,7 +28,7 @@ from .ops import Op
 from .run import Run, convert
 from .runners import BATCHED, RUNNERS
 
-__all__ = ["Replay", "ReplayError", "chain_keys"]
+__all__ = ["Replay", "ReplayError", "Stopped", "chain_keys"]
 
 
 class ReplayError(ValueError):
@@ -35,6 +38,11 @@ class ReplayError(ValueError):
     def __init__(self, index: int, op: Op, cause: str):
         super().__init__(f"ops[{index}] ({op.name}): {cause}")
         self.index, self.op, self.cause = index, op, cause
+
+
+class Stopped(Exception):
+    """A background replay stopped between two ops because a foreground replay wants the lock (the steps it
+    finished are cached)."""
 
 
 class _Info:
@@ -89,11 +97,30 @@ class Replay:
         self.heads = heads
         self.source = source
         self.lock = threading.RLock()
+        self.waiting = 0                 # threads waiting for the lock now (a background replay gives way)
+        self._count = threading.Lock()
         self._keys_of: tuple = ()       # the op tuple self._keys was computed for
         self._keys: list[str] = []      # digest of each op prefix (ops[:i + 1])
         self._info: OrderedDict = OrderedDict()   # prefix digest -> _Info, LRU (bounded in run)
         self._held: dict[str, Any] = {}  # strong refs: the last replay's final and last staggered state
         self.replayed = False            # whether the current op list was replayed to its end once
+
+    @contextmanager
+    def _locked(self):
+        """``self.lock``, counting in :attr:`waiting` while another thread holds it (a warm-up replay asks
+        ``waiting`` between two ops and stops: the user's replay does not wait for it)."""
+        if not self.lock.acquire(blocking=False):
+            with self._count:
+                self.waiting += 1
+            try:
+                self.lock.acquire()
+            finally:
+                with self._count:
+                    self.waiting -= 1
+        try:
+            yield
+        finally:
+            self.lock.release()
 
     def prefix_keys(self, ops: tuple) -> list[str]:
         """Digest of each op prefix, chained (O(1) per op; recomputed only from the first changed op)."""
@@ -118,7 +145,7 @@ class Replay:
     def walk(self, ops: tuple, upto: int, keep_all: bool = False, progress: Callable | None = None):
         """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them); the
         final state is held."""
-        with self.lock:
+        with self._locked():
             keys = self.prefix_keys(ops)
             out = self.run(ops, keys, upto, keep_all, progress)
             if upto:
@@ -127,11 +154,13 @@ class Replay:
                 self.replayed = True
             return out
 
-    def run(self, ops: tuple, keys: list, upto: int, keep_all: bool = False, progress: Callable | None = None):
+    def run(self, ops: tuple, keys: list, upto: int, keep_all: bool = False, progress: Callable | None = None,
+            stop: Callable | None = None):
         """The state after ``ops[:upto]`` (``keys``: their chained prefix digests), resuming from the latest
         prefix whose state is held or cached and whose earlier steps are known. Linear in ``upto``: each state
-        is computed at most once; every computed state goes to the cache under its prefix digest."""
-        with self.lock:
+        is computed at most once; every computed state goes to the cache under its prefix digest. ``stop()``
+        is asked before each op computed: True raises :class:`Stopped` (a background replay giving way)."""
+        with self._locked():
             info, cache = self._info, self.heads.cache
             known = 0  # steps whose _Info is known, from the start
             while known < upto and keys[known] in info:
@@ -147,6 +176,9 @@ class Replay:
                     hit = self._available(keys[i - 1])
                     if hit is not None:
                         states[i - 1], r = hit, i
+                        # recently used: the state a slider's replays resume from stays cached while each move
+                        # adds newer states (a long clip's take a few MB each against the byte budget)
+                        cache.touch("state", [(keys[i - 1], None)])
                         break
             todo = [i for i in range(r, upto) if states[i] is None]
             total = len(todo)
@@ -160,6 +192,8 @@ class Replay:
                     state = states[i]
                     continue
                 op = ops[i]
+                if stop is not None and stop():
+                    raise Stopped(i)
                 if progress is not None:
                     progress(done, total, op.name)
                 # a run of ops one batched runner applies in one pass (10^5 edit_frame ops), but its last op:
@@ -255,13 +289,16 @@ class Replay:
         except (ValueError, ArithmeticError) as e:  # evaluating the last staggered state
             raise ReplayError(n - 1, ops[n - 1], f"evaluating the result: {e}") from None
 
-    def check(self, ops: tuple, report: Callable | None = None) -> None:
+    def check(self, ops: tuple, report: Callable | None = None, stop: Callable | None = None) -> None:
         """Replay ``ops`` into the cache (each step under its op-prefix digest, and the evaluated result),
         holding nothing: a later replay of ``ops`` (or of a list sharing a prefix) finds every state.
-        Raises :class:`ReplayError` naming the op that fails."""
+        Raises :class:`ReplayError` naming the op that fails (:class:`Stopped` when ``stop()`` turns True
+        between two ops, see :meth:`run`)."""
         keys = chain_keys(ops)
         progress = None if report is None else (lambda d, t, label: report(d / t if t else 1.0))
-        last = self.run(ops, keys, len(ops), progress=progress)
+        last = self.run(ops, keys, len(ops), progress=progress, stop=stop)
+        if stop is not None and stop():
+            raise Stopped(len(ops))
         if keys and not isinstance(last, Motion):
             cache = self.heads.cache
             try:
@@ -269,12 +306,12 @@ class Replay:
             except (ValueError, ArithmeticError) as e:
                 raise ReplayError(len(ops) - 1, ops[-1], f"evaluating the result: {e}") from None
 
-    def into_cache(self, ops: tuple, report: Callable | None = None) -> None:
-        """:meth:`check` that skips an op list that fails: the same failure is reported when a user's replay
-        reaches it."""
+    def into_cache(self, ops: tuple, report: Callable | None = None, stop: Callable | None = None) -> None:
+        """:meth:`check` that skips an op list that fails (the same failure is reported when a user's replay
+        reaches it) or is stopped (``stop``)."""
         try:
-            self.check(ops, report)
-        except (ValueError, ArithmeticError):
+            self.check(ops, report, stop)
+        except (ValueError, ArithmeticError, Stopped):
             pass
 
     def last_staggered_index(self, ops: tuple) -> int | None:
@@ -310,7 +347,7 @@ class Replay:
         changed since, or before the first replay)."""
         if not self.replayed:
             return []
-        with self.lock:
+        with self._locked():
             keys = self.prefix_keys(ops)
             if any(k not in self._info for k in keys):
                 return []  # the op list changed since the last replay
@@ -325,7 +362,7 @@ class Replay:
         n = len(ops)
         if n:
             self.walk(ops, n)
-        with self.lock:
+        with self._locked():
             return self._warnings_of(ops, n)
 
     def _warnings_of(self, ops: tuple, n: int) -> tuple[str, tuple]:  # under the lock, ops[:n] replayed

@@ -42,7 +42,7 @@ from .ops import Op
 from .ops.fields import _fail, _limit, check_extract_options, text
 from .quality import session_quality
 from .replay import Replay
-from .warm import Worker, warm_items
+from .warm import Worker, next_step, warm_items
 
 __all__ = ["Session", "joint_rotation_degrees"]
 
@@ -74,6 +74,9 @@ class Session(CachedHeads):
     """
 
     REQUIRED = REQUIRED  # deprecated with register_op
+    #: Whether :meth:`check_ops` warms the next step of a slider (see :attr:`next_step`); False on an instance or
+    #: the class turns it off (benchmarks compare both).
+    warm_next_step = True
 
     def __init__(self, source: Motion, ops=None, source_path=None, extract_options=None):
         if not isinstance(source, Motion):
@@ -86,6 +89,11 @@ class Session(CachedHeads):
         self._history = History(self._typed_list(ops or [], "ops"), owner=self)
         self._replay = Replay(self._ctx, source)
         self._worker = Worker()
+        self._last_replayed: tuple = ()   # the op list checked last (check_ops), for the next slider step
+        #: The warm-up of the next slider step (a Future, None before the first): :meth:`check_ops` of an op list
+        #: that moved one number of one op from the list checked before warms the list one step further
+        #: (session/warm.py, ``next_step``), so the next key press of that slider finds its replay cached.
+        self.next_step = None
         weakref.finalize(self, self._worker.stop)   # a dropped session leaves no thread behind
 
     @classmethod
@@ -132,6 +140,26 @@ class Session(CachedHeads):
         typed = self._typed_list(ops, "ops")
         with self._worker.foreground():   # the warm-up gives way (session/warm.py)
             self._replay.check(typed)
+        self._warm_next_step(typed)
+
+    def _warm_next_step(self, ops: tuple) -> None:
+        """After :meth:`check_ops` of ``ops``: when it moved one number of one op from the list checked before (a
+        slider), warm the list one more step along (session/warm.py, ``next_step``; it gives way to every foreground
+        replay between two ops and resumes at the next pause; :attr:`warm_next_step` False: not)."""
+        nxt = next_step(self._last_replayed, ops) if self.warm_next_step else None
+        self._last_replayed = ops
+        if nxt is not None:
+            replay, worker = self._replay, self._worker
+
+            def wanted() -> bool:   # a foreground replay started, or a thread waits for the replay's lock
+                return worker.wanted() or replay.waiting > 0
+
+            def fill(report) -> None:   # Stopped (it gave way) goes to the worker: it resumes at the next pause
+                try:
+                    replay.check(nxt, None, stop=wanted)
+                except (ValueError, ArithmeticError):
+                    pass                # the failure shows when the user reaches that value
+            self.next_step = worker.speculate("next step", fill)
 
     def add(self, op) -> bool:
         """Append one op."""

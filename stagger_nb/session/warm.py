@@ -9,6 +9,14 @@ stays cached). The thread is a daemon so an interpreter exit never waits for a l
 The warm-up gives way to the user: while a foreground replay runs (:meth:`Worker.foreground`, which
 ``Session.states``/``edited`` enter), and for :data:`IDLE_S` after it, no new item starts, so a slider moved
 just after an editor opens does not share the CPU with the warm-up (the item already running finishes).
+
+The next step of a slider: after a foreground replay whose op list differs from the previous one in one number
+of one op (a slider moved from ``v0`` to ``v1``), :func:`next_step` gives the list one more step along
+(``2 v1 - v0``, at the values' own decimals) and the session warms it (:meth:`Worker.speculate`), so that the
+next key press or drag tick of the same slider finds its replay cached. The states are the ones the
+foreground replay would compute (the same ops on the same states, cached under their prefix digests): nothing
+changes but when they are computed. A foreground replay that starts meanwhile stops it between two ops
+(:meth:`Worker.wanted`) and resumes at the next pause; the steps it finished stay cached.
 """
 from __future__ import annotations
 
@@ -21,11 +29,15 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["Worker", "IDLE_S", "LINGER_S", "warm_items"]
+__all__ = ["Worker", "IDLE_S", "NEXT_STEP_IDLE_S", "LINGER_S", "warm_items", "next_step"]
 
 #: Seconds the warm-up waits after the last foreground replay before its next item (a slider being dragged
 #: sends a value every ~50-100 ms: the warm-up resumes when the user pauses).
 IDLE_S = 0.15
+#: Seconds the warm-up of the next slider step (:meth:`Worker.speculate`) waits after the last foreground replay:
+#: less than :data:`IDLE_S`, as the step is the one the user is most likely to ask for next (the views of the
+#: move just made, ~5 ms of CPU in the kernel, are drawn by then; a foreground replay stops it between two ops).
+NEXT_STEP_IDLE_S = 0.04
 #: Seconds the worker thread waits for more work once its queue is empty before it ends (the next
 #: :meth:`Worker.submit` starts a new one): a session nobody warms any more holds no thread.
 LINGER_S = 2.0
@@ -44,6 +56,42 @@ class Worker:
         self._gate = threading.Condition()
         self._foreground = 0                 # foreground replays running now (other threads than the worker)
         self._idle_since = float("-inf")     # time.monotonic() when the last one ended
+        self._speculation: Future | None = None   # the latest next-step warm-up (one at a time)
+
+    def wanted(self) -> bool:
+        """Whether a foreground replay is running or waiting now (a warm-up replay stops between two ops)."""
+        return self._foreground > 0
+
+    def speculate(self, label: str, fn: Callable) -> Future:
+        """Run ``fn(report)`` in the background like a :meth:`submit` item once no foreground replay has run for
+        :data:`NEXT_STEP_IDLE_S`, in place of the previous speculation (cancelled: only the latest next step is
+        worth computing). ``fn`` raising :class:`~.replay.Stopped` (it gave way to a foreground replay) runs again
+        after the next such pause, until it returns or a newer speculation cancels it (the steps it finished are
+        cached: it resumes after them)."""
+        from .replay import Stopped
+        with self._lock:
+            old = self._speculation
+        if old is not None:
+            old.cancel()
+        holder: list[Future] = []
+        known = threading.Event()       # set once ``holder`` has the future (the item may start before)
+
+        def resumed(report):
+            while True:
+                try:
+                    return fn(report)
+                except Stopped:
+                    known.wait()
+                    fut = holder[0]
+                    self._wait_for_idle(fut, NEXT_STEP_IDLE_S)
+                    if fut.cancelled():
+                        return None
+        fut = self.submit([(label, resumed, NEXT_STEP_IDLE_S)])
+        holder.append(fut)
+        known.set()
+        with self._lock:
+            self._speculation = fut
+        return fut
 
     @contextmanager
     def foreground(self):
@@ -62,21 +110,22 @@ class Worker:
                 self._idle_since = time.monotonic()
                 self._gate.notify_all()
 
-    def _wait_for_idle(self, fut: Future) -> None:
-        """Block the worker until no foreground replay has run for :data:`IDLE_S` (or ``fut`` is cancelled)."""
+    def _wait_for_idle(self, fut: Future, idle: float = IDLE_S) -> None:
+        """Block the worker until no foreground replay has run for ``idle`` seconds (or ``fut`` is cancelled)."""
         with self._gate:
             while not fut.cancelled():
                 if self._foreground:
                     self._gate.wait(0.5)
                     continue
-                rest = IDLE_S - (time.monotonic() - self._idle_since)
+                rest = idle - (time.monotonic() - self._idle_since)
                 if rest <= 0:
                     return
                 self._gate.wait(rest)
 
     def submit(self, items: list, progress: Callable | None = None) -> Future:
         """Run ``items`` (``[(label, fn), ...]``, each called as ``fn(report)``; ``(label, fn, False)`` for an
-        item every foreground replay needs too, which does not wait for the user to pause) in the background; the
+        item every foreground replay needs too, which does not wait for the user to pause; ``(label, fn, seconds)``
+        for one that waits for a shorter or longer pause than :data:`IDLE_S`) in the background; the
         future's result is how many ran. ``progress(done, total, label)`` is called before each item, with a
         fractional ``done`` as an item reports ``report(fraction)``, and with ``"done"`` at the end
         (``report`` is None without ``progress``)."""
@@ -139,8 +188,11 @@ def _run(fut: Future, items: list, progress: Callable | None, wait: Callable[[Fu
     try:
         for item in items:
             label, fn = item[:2]
-            if len(item) < 3 or item[2]:   # a third field False: the user's next replay needs it anyway
+            gate = item[2] if len(item) > 2 else True
+            if gate is True:
                 wait(fut)
+            elif gate is not False:        # seconds of idle to wait for (the next slider step)
+                wait(fut, gate)            # (False: the user's next replay needs it anyway)
             if fut.cancelled():
                 return
             report = None
@@ -223,3 +275,80 @@ def warm_items(session, jobs) -> list:
             _fail(where, '"extract", ("cull", percents), ("wand_basis", sigmas), ("compare", pairs), '
                          '("warp_tables", warps) or ("replay", op_lists)', job)
     return items
+
+
+_DECIMALS = 10   # a slider value with more decimals than this is not on a decimal grid: no next step guessed
+
+
+def _decimals(x: float) -> int | None:
+    """Fewest decimals (<= _DECIMALS) that write ``x`` exactly as Python rounds it, else None."""
+    for n in range(_DECIMALS + 1):
+        if round(x, n) == x:
+            return n
+    return None
+
+
+#: Staggered ops whose next step is not guessed: a cull refits (a few hundred ms on a long clip, one op a
+#: foreground replay would have to wait for; the StaggerEditor warms every cull position itself).
+_NO_GUESS = ("cull",)
+
+
+def _added_slider(before: tuple, after: tuple):
+    """``(index, field)`` when ``after`` is ``before`` with one op inserted whose only required field that is a
+    number is ``field`` (exaggerate's ``w_r``, random timing's ``tau``: a slider that left its identity 0, where an
+    editor writes no op), else None."""
+    import dataclasses
+    if len(after) != len(before) + 1:
+        return None
+    i = 0
+    while i < len(before) and (before[i] is after[i] or before[i].key == after[i].key):
+        i += 1
+    if any(a is not b and a.key != b.key for a, b in zip(before[i:], after[i + 1:])):
+        return None
+    op = after[i]
+    required = [f.name for f in dataclasses.fields(op) if f.default is dataclasses.MISSING
+                and f.default_factory is dataclasses.MISSING and type(getattr(op, f.name)) is float]
+    return (i, required[0]) if len(required) == 1 else None
+
+
+def next_step(before: tuple, after: tuple):
+    """The typed op tuple one slider step past ``after`` when ``before`` -> ``after`` changed one number of one
+    op: that field at ``2 v1 - v0`` rounded to the decimals of ``v0`` and ``v1`` (a control's values are snapped
+    to its step: 0.55 -> 0.6 gives 0.65); an op inserted with one required number ``v1`` counts as a move from 0
+    (``2 v1``: w_r 0 -> 0.05, where the editor wrote no op, gives 0.1). None when the change is anything else
+    (several fields or ops, a field that is not a float, an op removed) or the next value is refused by the op's
+    own checks (a slider at its end). Only ops on the staggered poses (Coleman et al. 2008, §5: their replay
+    is a few evaluations long), not a cull (see ``_NO_GUESS``) nor the motion ops (a warp or a propagation may
+    run for seconds, and a foreground replay stops a warm-up only between two ops)."""
+    from .ops import Op
+    added = _added_slider(before, after)
+    if added is not None:
+        i, field = added
+        b = after[i].to_json()
+        v0, v1 = 0.0, b[field]
+    else:
+        if len(before) != len(after):
+            return None
+        diff = [i for i, (x, y) in enumerate(zip(before, after)) if x is not y and x.key != y.key]
+        if len(diff) != 1 or type(before[diff[0]]) is not type(after[diff[0]]):
+            return None
+        i = diff[0]
+        a, b = before[i].to_json(), after[i].to_json()
+        keys = [k for k in b if a.get(k, None) != b[k] or k not in a]
+        if len(keys) != 1 or a.keys() != b.keys():
+            return None
+        field = keys[0]
+        v0, v1 = a[field], b[field]
+    if not (type(v0) is float and type(v1) is float):
+        return None
+    n0, n1 = _decimals(v0), _decimals(v1)
+    if n0 is None or n1 is None:
+        return None
+    v2 = round(2.0 * v1 - v0, max(n0, n1)) + 0.0
+    if after[i].needs != "staggered" or after[i].name in _NO_GUESS:
+        return None
+    try:
+        op = Op.from_json({**b, field: v2})
+    except ValueError:
+        return None
+    return after[:i] + (op,) + after[i + 1:]

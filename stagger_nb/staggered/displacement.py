@@ -81,12 +81,13 @@ def _counts_for(a, b, frame_time):
     return np.maximum(np.rint((b - a) / frame_time * per).astype(np.int64) + 1, 2)
 
 
-def measure(algebra, values, tangents, knots, seg, col, counts, target_fn, grid=None):
+def measure(algebra, values, tangents, knots, seg, col, counts, target_fn, grid=None, into=None):
     """Displacement rows ``(P, max(counts), 3)`` of the pairs ``(seg[p], col[p])`` of a channel of ``algebra``
     with knots ``values (K, C, D)``, inner controls ``tangents (K - 1, C, 2, D)`` and knot times ``knots (K, C)``,
     such that ``spline ⊕ displacement`` equals ``target_fn(times, cols, pair, tn) (N, D)`` on each pair's grid
     (``grid``: :func:`_grid` of these pairs when the caller has it): ``d = target ⊖ spline`` (unwrapped along
-    each grid for rotations, as at extraction)."""
+    each grid for rotations, as at extraction). With ``into`` (the channel's table ``(K - 1, C, M, 3)``): that
+    table with these pairs' rows replaced instead, ``_put_rows(into, (seg, col), rows)`` written in one pass."""
     if grid is None:
         knots = np.maximum.accumulate(knots, axis=0)
         grid = _grid(knots[seg, col], knots[seg + 1, col], counts)
@@ -94,6 +95,13 @@ def measure(algebra, values, tangents, knots, seg, col, counts, target_fn, grid=
     s = algebra.spline_pairs(values[seg, col], tangents[seg, col, 0], tangents[seg, col, 1], values[seg + 1, col],
                              pair, tn, K.WORK.get("ms_s", (algebra.dim, tn.size)))   # read before the next call
     d = algebra.difference(s, target_fn(t, col[pair], pair, tn), pair)
+    if into is not None:
+        M = max(into.shape[-2], int(counts.max()))
+        out = np.zeros(into.shape[:-2] + (M, 3))
+        out[..., :into.shape[-2], :] = into
+        out[seg, col] = 0.0
+        out[seg[pair], col[pair], m] = d
+        return out
     return displacement_table(pair, m, d, (counts.size, int(counts.max()), 3))
 
 

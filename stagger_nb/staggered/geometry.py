@@ -21,7 +21,7 @@ from ..core.rotations import quat_conj, quat_exp, quat_hemisphere, quat_log, qua
 from . import _kernels as kern
 from ._checks import _IDENTITY, _check, _finite, _joint_mask, _pose_index, _pose_weights, _rotation_table
 from .channel import ROTATION, Channel
-from .displacement import _grid, _put_rows, measure
+from .displacement import _grid, measure
 from .evaluation import _rotations_at, channel_at, static_rotations
 from .representation import StaggeredMotion, knot_times
 from .source_times import _refresh
@@ -217,9 +217,8 @@ def _offset_channel(sm: StaggeredMotion, ch: Channel, d, gen, moved, basis):
             x = alg.step_rows(x, g, W.get(tag, (alg.dim, N)))
         return x.T
 
-    rows = measure(alg, values, tangents, knots, seg, col, counts, target, grid)
-    return ch.with_arrays(values=values, tangents=tangents,
-                          displacements=_put_rows(ch.displacements, (seg, col), rows))
+    table = measure(alg, values, tangents, knots, seg, col, counts, target, grid, into=ch.displacements)
+    return ch.with_arrays(values=values, tangents=tangents, displacements=table)
 
 
 def spread_offsets(offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -363,26 +362,26 @@ def exaggerate(sm: StaggeredMotion, k, w_r: float, *, reference="previous", mode
     K, J = sm.num_poses, sm.num_joints
     mask = _joint_mask(sm, joints)
     full = np.tile(_IDENTITY, (K, J, 1))
-    mean = mean_pose(vals) if isinstance(reference, str) and reference == "mean" else None
-    for kk in ks:
-        if isinstance(reference, str):
-            if reference == "previous":
-                ref = vals[kk - 1] if kk > 0 else vals[kk + 1]
-            elif reference == "next":
-                ref = vals[kk + 1] if kk < K - 1 else vals[kk - 1]
-            elif reference == "mean":
-                ref = mean
-            else:
-                raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
-                                 f"got {reference!r}")
-        elif isinstance(reference, (int, np.integer)):
-            ref = vals[_pose_index(sm, reference, "reference")]
+    at = np.asarray(ks, dtype=np.int64)
+    if isinstance(reference, str):
+        if reference == "previous":
+            refs = vals[np.where(at > 0, at - 1, at + 1)]
+        elif reference == "next":
+            refs = vals[np.where(at < K - 1, at + 1, at - 1)]
+        elif reference == "mean":
+            refs = mean_pose(vals)[None]
         else:
-            rq, given = _rotation_table(sm, reference, "reference")
-            ref = np.where(given[:, None], rq, vals[kk])    # joints without a reference value: no change
-        off = quat_hemisphere(quat_mul(quat_conj(ref), vals[kk]))           # v ⊖ vʳ
-        delta = quat_exp(w_r * quat_log(off))                                # rotation scale
-        full[kk] = np.where(mask[:, None], delta, _IDENTITY)
+            raise ValueError(f"reference must be 'previous', 'next', 'mean', a pose index or a pose, "
+                             f"got {reference!r}")
+    elif isinstance(reference, (int, np.integer)):
+        refs = vals[_pose_index(sm, reference, "reference")][None]
+    else:
+        rq, given = _rotation_table(sm, reference, "reference")
+        refs = np.where(given[None, :, None], rq[None], vals[at])    # joints without a reference value: no change
+    # every pose at once (the same element-wise arithmetic as one pose at a time, bit for bit)
+    off = quat_hemisphere(quat_mul(quat_conj(refs), vals[at]))              # v ⊖ vʳ
+    delta = quat_exp(w_r * quat_log(off))                                    # rotation scale
+    full[at] = np.where(mask[None, :, None], delta, _IDENTITY)
     if spread is not None:
         full = spread_offsets(full[ks], spread)
     return _apply_pose_offsets(sm, full, basis=basis)
