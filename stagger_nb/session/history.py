@@ -67,6 +67,14 @@ class History:
         self._notify()
         return True
 
+    def rebase(self) -> None:
+        """Forget the undo and redo stacks: the current op list is where undo stops."""
+        if self._undo or self._redo:
+            self._undo.clear()
+            self._redo.clear()
+            self._gesture = None
+            self._notify()
+
     @property
     def can_undo(self) -> bool:
         return bool(self._undo)

@@ -188,6 +188,11 @@ class Session(CachedHeads):
     def clear(self) -> bool:
         return self._history.commit(())
 
+    def reset_history(self) -> None:
+        """Forget undo and redo: the current op list becomes where :meth:`undo` stops (an editor's opening state,
+        e.g. the first warp on the reference its constructor was given). The op list itself is unchanged."""
+        self._history.rebase()
+
     @property
     def can_undo(self) -> Flag:
         """Whether :meth:`undo` would change something (a bool that may also be called: ``can_undo()``)."""

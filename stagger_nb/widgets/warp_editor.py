@@ -137,6 +137,8 @@ class WarpEditor(_Editor):
         self._on_inert()
         if given and not any(o["op"] in ("guided_warp", "linear_warp") for o in session.ops):
             model.reference = next(iter(given))   # a style warp on the given clip, at the same duration
+            if self._owns_session:                # the editor's opening state: nothing the user did to undo
+                session.reset_history()
         self._warmed_tables = None
         model.observe(lambda _: self._warm_skip_tables(),
                       names=["reference", "backward", "free_length", "duration", "segment", "mode"])
