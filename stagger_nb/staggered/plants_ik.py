@@ -139,13 +139,20 @@ def _hinge_local(src_pos, src_wq, limb: Limb) -> np.ndarray:
 BACK_MARGIN = np.radians(2.0)   # backward bend kept on its own branch beyond the source's largest
 
 
+def _flex(pos, wq, rows, limb: Limb, hinge_local):
+    """``(bend (n,), hinge (n, 3))``: the signed bend of the limb's middle joint about its hinge (radians, > 0
+    forwards, < 0 backwards) on ``rows`` of positions ``pos`` / world rotations ``wq`` ``(F, J, ...)``, and the
+    hinge axis there (world)."""
+    x = pos[rows, limb.mid] - pos[rows, limb.upper]
+    y = pos[rows, limb.eff] - pos[rows, limb.mid]
+    k = quat_rotate(wq[rows, limb.upper], hinge_local)
+    return np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y)), k
+
+
 def _source_back(src_pos, src_wq, limb: Limb, hinge_local) -> float:
     """The largest backward bend (radians, >= 0) of the limb's middle joint about its hinge in the source,
     plus :data:`BACK_MARGIN`: the hyperextension :func:`_leg_ik` keeps on the backward branch."""
-    x = src_pos[:, limb.mid] - src_pos[:, limb.upper]
-    y = src_pos[:, limb.eff] - src_pos[:, limb.mid]
-    k = quat_rotate(src_wq[:, limb.upper], hinge_local)
-    flex = np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y))
+    flex, _ = _flex(src_pos, src_wq, slice(None), limb, hinge_local)
     return float(max(0.0, -float(flex.min(initial=0.0)))) + BACK_MARGIN
 
 
@@ -178,21 +185,15 @@ def _no_hyperextension(sk, motion: Motion, lim: Limb, fr, out, lq, pos, wq, hing
     ``out (F, J, 4)``, frames ``fr``; ``pos`` / ``wq``: the edit's world positions and rotations)."""
     pm = int(sk.parents[lim.mid])
 
-    def flex(p, w, rows):
-        x = p[rows, lim.mid] - p[rows, lim.upper]
-        y = p[rows, lim.eff] - p[rows, lim.mid]
-        k = quat_rotate(w[rows, lim.upper], hinge_local)
-        return np.arctan2(np.einsum("ni,ni->n", np.cross(x, y), k), np.einsum("ni,ni->n", x, y)), k
-
     # only where the edit's own bend is smaller than the fade's turn of the knee can the sum bend backwards
-    f_e, _ = flex(pos, wq, fr)
+    f_e, _ = _flex(pos, wq, fr, lim, hinge_local)
     turned = quat_angle(lq[fr, lim.mid], out[fr, lim.mid]) + quat_angle(lq[fr, lim.upper], out[fr, lim.upper])
     maybe = f_e < turned + 1e-6
     if not maybe.any():
         return
     fr, f_e = fr[maybe], f_e[maybe]
     p_o, w_o = _fk_rows(motion, {lim.upper, lim.mid, lim.eff, pm}, fr, out)
-    f_o, k = flex(p_o, w_o, slice(None))
+    f_o, k = _flex(p_o, w_o, slice(None), lim, hinge_local)
     excess = np.minimum(f_e, 0.0) - f_o                  # > 0: more backwards than the edit
     bad = excess > 1e-9
     if not bad.any():
