@@ -14,19 +14,9 @@ from ..session import Session
 from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, reach_ik_targets, stagger_state
 from ..session.timeline import knot_table_of
-from ._editor import (
-    _LINES,
-    _PLOT_HEIGHT,
-    _STYLE,
-    _VIEW_SIZE,
-    _default_joint,
-    _Editor,
-    _inert,
-    _link,
-    _session_for,
-    _slider,
-    _x_span,
-)
+from ._controls import _STYLE, _inert, _link, _slider
+from ._editor import _Editor, _session_for
+from ._layout import _LINES, _PLOT_HEIGHT, _VIEW_SIZE, _default_joint, _x_span
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 from .timeline import Timeline
