@@ -8,7 +8,7 @@ import weakref
 from ..core.motion import Motion
 from ..session import joint_rotation_degrees
 from ..session.models import plain_message
-from ._lifecycle import _on_kernel_loop_later
+from ._lifecycle import _on_kernel_loop_later, _weakly
 
 
 class _Playhead:
@@ -17,18 +17,9 @@ class _Playhead:
     def _quality_later(self, delay: float = 0.5) -> None:
         """Ask the binding for the edit's quality line ``delay`` s after the last edit (on the kernel's loop,
         once a drag rests: its ~55 ms CPU on a 2,751-frame clip is not added to each slider move, nor to key
-        presses a few tenths of a second apart); at once outside a kernel."""
-        handle = self.__dict__.pop("_quality_handle", None)
-        if handle is not None:
-            handle.cancel()
-        me = weakref.ref(self)
-
-        def run():
-            ed = me()
-            if ed is not None and ed._finalizer.alive:
-                ed.__dict__.pop("_quality_handle", None)
-                ed.binding.show_quality()
-        self._quality_handle = _on_kernel_loop_later(delay, run)
+        presses a few tenths of a second apart); at once outside a kernel. One pending at a time, as every
+        :meth:`_later` job (an error is shown in the message line)."""
+        self._later("quality", _weakly(self.binding.show_quality), delay)
 
     def _plot_seeks(self, change) -> None:
         """A plot's frame moves the playhead, unless the browser set it through the Play's jsdlink: the Play's
