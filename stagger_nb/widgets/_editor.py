@@ -15,7 +15,7 @@ import weakref
 import ipywidgets as widgets
 
 from ..core.motion import Motion
-from ..session import Session
+from ..session import Session, joint_rotation_degrees
 from ..session.models import ModelBinding, plain_message
 from ._editor_playhead import _Playhead
 from ._editor_status import _StatusLine
@@ -143,6 +143,16 @@ class _Editor(_StatusLine, _Playhead, widgets.VBox):
         self.add_class(self._css)
         self._update_buttons()
         self._refresh()
+
+    def _source_degrees(self, j: int):
+        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""
+        src, cache = self.__dict__.get("_source_deg", (None, None))
+        if src is not self.session.source:
+            cache = {}
+            self._source_deg = (self.session.source, cache)
+        if j not in cache:
+            cache[j] = joint_rotation_degrees(self.session.source, j)
+        return cache[j]
 
     def figures(self) -> list:
         """The plots' current figures as plotly JSON dicts (for ``export_html``)."""

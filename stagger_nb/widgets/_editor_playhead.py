@@ -6,7 +6,6 @@ from __future__ import annotations
 import weakref
 
 from ..core.motion import Motion
-from ..session import joint_rotation_degrees
 from ..session.models import plain_message
 from ._lifecycle import _on_kernel_loop_later, _weakly
 
@@ -86,16 +85,6 @@ class _Playhead:
             self.view.preview(edited)
         pfs, cts = self._shown
         self._later("motion", lambda: self.view.set_motion(edited, pose_frames=pfs, contacts=cts))
-
-    def _source_degrees(self, j: int):
-        """The source's rotation vector of joint ``j`` in degrees, (F, 3): computed once per joint (and source)."""
-        src, cache = self.__dict__.get("_source_deg", (None, None))
-        if src is not self.session.source:
-            cache = {}
-            self._source_deg = (self.session.source, cache)
-        if j not in cache:
-            cache[j] = joint_rotation_degrees(self.session.source, j)
-        return cache[j]
 
     def seek(self, frame: int) -> None:
         """Move the playhead (what a click on a plot does)."""
