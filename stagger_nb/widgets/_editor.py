@@ -1,5 +1,6 @@
-"""What the three editors share: the message line, progress bar, undo/redo, the model <-> session binding, the
-one playhead, the warm-up futures and ``close``.
+"""What the three editors share: the model <-> session binding, the workspace set-up, the refresh after each
+change, the warm-up futures and ``close`` (here); the top bar and message line (:mod:`._editor_status`) and the one
+playhead with what an edit sends once it rests (:mod:`._editor_playhead`) are mixins of :class:`_Editor`.
 
 State lives in one place, the editor's model (:mod:`stagger_nb.session.models`): controls are attached with
 ``link``, the :class:`~stagger_nb.session.models.ModelBinding` writes the model into the session's op list (keeping
