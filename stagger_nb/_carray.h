@@ -1,5 +1,6 @@
-/* What the C extensions of stagger_nb (io/_cparse.c, staggered/_cspline.c) share: taking an argument's buffer
-   only when it holds what the function indexes (included by both; each is built from its one .c file). */
+/* What the C extensions of stagger_nb (io/_cparse.c, staggered/_cspline.c, timewarp/_cdp.c) share: taking an
+   argument's buffer only when it holds what the function indexes, and the module object with its init function
+   (included by each; each is built from its one .c file). */
 #ifndef STAGGER_NB_CARRAY_H
 #define STAGGER_NB_CARRAY_H
 #include <Python.h>
@@ -32,5 +33,12 @@ static inline int mul_ok(Py_ssize_t a, Py_ssize_t b, Py_ssize_t *r)
     *r = a * b;
     return 1;
 }
+
+/* The extension module ``name`` (an identifier: _cparse, _cspline, _cdp) with the docstring ``doc`` and the
+   method table ``methods`` (each entry's docstring a PyDoc_STRVAR beside its function), and its init function. */
+#define SN_MODULE(name, doc, methods)                                                                                \
+    static struct PyModuleDef name##_module = {PyModuleDef_HEAD_INIT, #name, doc, -1, methods, NULL, NULL, NULL, \
+                                               NULL};                                                             \
+    PyMODINIT_FUNC PyInit_##name(void) { return PyModule_Create(&name##_module); }
 
 #endif

@@ -129,3 +129,8 @@ def asf_bone(id: int, name: str, direction: str, length, axis: str, dof: str = "
             f"    axis {axis}"] + ([f"    dof {dof}"] if dof else [])
     rows += [("    limits " if i == 0 else "           ") + lim for i, lim in enumerate(limits)]
     return "  begin\n" + "\n".join(rows) + "\n  end\n"
+
+
+def line_of(text: str, needle: str) -> int:
+    """The number (1-based) of the first line of ``text`` holding ``needle``: where an error should point."""
+    return next(i for i, line in enumerate(text.splitlines(), 1) if needle in line)

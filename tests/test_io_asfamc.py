@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from io_samples import TINY_AMC, TINY_ASF
+from io_samples import TINY_AMC, TINY_ASF, line_of
 from scipy.spatial.transform import Rotation
 
 import stagger_nb as sn
@@ -176,10 +176,6 @@ def test_cmu_01_01_bvh_round_trip(cmu_01_01, tmp_path):
 
 
 # ---------------------------------------------------------------- errors name file and line
-def _line_of(text, needle):
-    return next(i for i, line in enumerate(text.splitlines(), 1) if needle in line)
-
-
 ASF_CASES = [
     ("no direction", TINY_ASF.replace("     direction 0 1 0\n", ""), "  end", "no 'direction'"),
     ("bad number", TINY_ASF.replace("length 2", "length two"), "length two", "expected a number"),
@@ -211,7 +207,7 @@ def test_asf_errors_name_file_line_and_expectation(tmp_path, label, asf, needle,
     err = _read_error(tmp_path, asf=asf)
     assert what in str(err)
     if label not in ("duplicate name", "missing end", "unbalanced hierarchy", "disconnected"):
-        assert err.line == _line_of(asf, needle), str(err)
+        assert err.line == line_of(asf, needle), str(err)
 
 
 AMC_CASES = [

@@ -9,17 +9,13 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from io_samples import TINY, TINY_AMC, TINY_ASF
+from io_samples import TINY, TINY_AMC, TINY_ASF, line_of
 
 from stagger_nb.core.motion import Motion
 from stagger_nb.io.asfamc import AMCError, asf_amc_to_motion, parse_amc, parse_asf
 from stagger_nb.io.bvh import BVHError, parse_bvh
 
 SRC = "clip.bvh"
-
-
-def _line(text: str, needle: str, nth: int = 0) -> int:
-    return [i for i, line in enumerate(text.splitlines(), 1) if needle in line][nth]
 
 
 BVH_CASES = [
@@ -65,7 +61,7 @@ def test_bvh_errors_name_file_line_and_expectation(label, text, where, what):
     assert isinstance(err, ValueError)
     msg = str(err)
     assert msg.startswith(f"{SRC}, line {err.line}: ") and what in msg, msg
-    assert err.line == (where if isinstance(where, int) else _line(text, where)), msg
+    assert err.line == (where if isinstance(where, int) else line_of(text, where)), msg
 
 
 def test_absurd_frame_count_allocates_nothing():

@@ -249,6 +249,11 @@ static Py_ssize_t parse_block(const char *buf, Py_ssize_t start, Py_ssize_t stop
     return p - buf;
 }
 
+PyDoc_STRVAR(parse_rows_doc,
+     "parse_rows(buf, start, stop, rows, out, base, stride) -> int\n\n"
+     "Parse ``rows`` lines of ``buf[start:stop]`` (``len(base)`` plain decimal numbers each) into\n"
+     "``out[base[c] + r * stride[c]]``; the offset after the last line, or -1 when not handled.");
+
 static PyObject *parse_rows(PyObject *Py_UNUSED(self), PyObject *args)
 {
     Py_buffer buf, out = {0}, base = {0}, stride = {0};
@@ -266,7 +271,8 @@ static PyObject *parse_rows(PyObject *Py_UNUSED(self), PyObject *args)
         goto done;
     }
     if (rows < 1 || cols < 1 || base.len != stride.len || base.len % (Py_ssize_t)sizeof(int64_t)) {
-        PyErr_SetString(PyExc_ValueError, "parse_rows: rows >= 1, and base and stride must be int64 buffers of one length >= 1");
+        PyErr_SetString(PyExc_ValueError,
+                        "parse_rows: rows >= 1, and base and stride must be int64 buffers of one length >= 1");
         goto done;
     }
     const int64_t *b = (const int64_t *)base.buf, *s = (const int64_t *)stride.buf;
@@ -312,6 +318,11 @@ static void continuity(double *q, Py_ssize_t frames, Py_ssize_t joints, double *
         }
     }
 }
+
+PyDoc_STRVAR(make_continuous_doc,
+     "make_continuous(q, joints) -> None\n\n"
+     "Hemisphere continuity over time in place: ``q`` a C-contiguous float64 (F, joints, 4) buffer\n"
+     "(x, y, z, w), as stagger_nb.core.rotations.quat_continuous (see _cparse.c for the sum order).");
 
 static PyObject *make_continuous(PyObject *Py_UNUSED(self), PyObject *args)
 {
@@ -376,6 +387,11 @@ static void quats_from_tan(const double *t, Py_ssize_t n, int i, int j, int k, i
     }
 }
 
+PyDoc_STRVAR(quats_from_tangents_doc,
+     "quats_from_tangents(t, axes, out) -> None\n\n"
+     "``t`` (3, n) float64 tangents of a quarter of each angle (numpy's tan), ``axes`` e.g. 'ZXY':\n"
+     "``out`` (n, 4) quaternions (x, y, z, w), bit for bit euler_components' (see _cparse.c).");
+
 static PyObject *quats_from_tangents(PyObject *Py_UNUSED(self), PyObject *args)
 {
     Py_buffer t, out;
@@ -416,22 +432,9 @@ static PyObject *quats_from_tangents(PyObject *Py_UNUSED(self), PyObject *args)
 }
 
 static PyMethodDef methods[] = {
-    {"quats_from_tangents", quats_from_tangents, METH_VARARGS,
-     "quats_from_tangents(t, axes, out) -> None\n\n"
-     "``t`` (3, n) float64 tangents of a quarter of each angle (numpy's tan), ``axes`` e.g. 'ZXY':\n"
-     "``out`` (n, 4) quaternions (x, y, z, w), bit for bit euler_components' (see _cparse.c)."},
-    {"make_continuous", make_continuous, METH_VARARGS,
-     "make_continuous(q, joints) -> None\n\n"
-     "Hemisphere continuity over time in place: ``q`` a C-contiguous float64 (F, joints, 4) buffer\n"
-     "(x, y, z, w), as stagger_nb.core.rotations.quat_continuous (see _cparse.c for the sum order)."},
-    {"parse_rows", parse_rows, METH_VARARGS,
-     "parse_rows(buf, start, stop, rows, out, base, stride) -> int\n\n"
-     "Parse ``rows`` lines of ``buf[start:stop]`` (``len(base)`` plain decimal numbers each) into\n"
-     "``out[base[c] + r * stride[c]]``; the offset after the last line, or -1 when not handled."},
+    {"quats_from_tangents", quats_from_tangents, METH_VARARGS, quats_from_tangents_doc},
+    {"make_continuous", make_continuous, METH_VARARGS, make_continuous_doc},
+    {"parse_rows", parse_rows, METH_VARARGS, parse_rows_doc},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_cparse",
-                                    "C parser of the BVH motion block (see _cparse.c).", -1, methods,
-                                    NULL, NULL, NULL, NULL};
-
-PyMODINIT_FUNC PyInit__cparse(void) { return PyModule_Create(&module); }
+SN_MODULE(_cparse, "C parser of the BVH motion block (see _cparse.c).", methods)

@@ -13,19 +13,22 @@ import hashlib
 import json
 import os
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
-from ..io._common import file_path, read_regular_file
-from ..io.bvh import parse_bvh
-from .ops.fields import _fail, integer, number, text, tuple_of
+from ..io._common import atomic_write_bytes, file_path, read_regular_file
+from ..io.bvh import parse_bvh, write_bvh
+from .ops.fields import _fail, check_extract_options, integer, number, text, tuple_of
+
+if TYPE_CHECKING:   # the return type of SessionFiles.from_json / load
+    from .session import Session
 
 __all__ = ["SESSION_FORMAT", "SESSION_VERSION", "motion_to_json", "motion_from_json", "read_source",
            "read_session_json", "session_bytes", "MAX_SESSION_BYTES", "check_save_target",
-           "check_export_target", "same_file", "export_gltf"]
+           "check_export_target", "same_file", "export_gltf", "SessionFiles"]
 
 SESSION_FORMAT = "stagger_nb.session"
 SESSION_VERSION = 1
@@ -221,3 +224,86 @@ def motion_from_json(d: Any, field: str) -> Motion:
         q.setflags(write=False)
         object.__setattr__(m, "local_quats", q)
     return m
+
+
+# --------------------------------------------------------------------------------------------------
+# the Session's own file methods
+# --------------------------------------------------------------------------------------------------
+class SessionFiles:
+    """What a :class:`~stagger_nb.session.Session` writes and reads: its JSON (source by path + SHA-256, or
+    embedded), save / load, and the exports of the edited motion. A mixin of the Session (it reads ``source``,
+    ``source_path``, ``extract_options``, ``ops`` and ``edited()``)."""
+
+    def to_json(self, embed_source: bool | None = None) -> dict:
+        """The session as a JSON-ready dict. The source is referenced by path (+ SHA-256) when the
+        session has one, otherwise embedded (``embed_source=True`` forces embedding)."""
+        if embed_source is None:
+            embed_source = self.source_path is None
+        if embed_source:
+            source = {"motion": motion_to_json(self.source)}
+        else:
+            if self.source_path is None:
+                raise ValueError("embed_source: False needs a session with a source_path")
+            raw = read_regular_file(self.source_path, what="source file")
+            source = {"path": self.source_path, "sha256": hashlib.sha256(raw).hexdigest()}
+        return {"format": SESSION_FORMAT, "version": SESSION_VERSION, "source": source,
+                "extract_options": json.loads(json.dumps(self.extract_options)), "ops": self.ops}
+
+    def save(self, path, embed_source: bool | None = None) -> None:
+        """Write the session as JSON, atomically (temporary file + rename). Refuses to replace the source
+        clip or any existing file that is not a session file."""
+        path = file_path(path, "path")
+        check_save_target(path, self.source_path)
+        atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
+
+    @classmethod
+    def from_json(cls, data: Any, source: Motion | None = None) -> Session:
+        """Validate ``data`` (a parsed session file) and build the session. ``source`` overrides the
+        stored source (for a moved file)."""
+        if not isinstance(data, dict):
+            _fail("session", "a JSON object", data)
+        for k in data:
+            if k not in ("format", "version", "source", "extract_options", "ops"):
+                raise ValueError(f"{k}: unknown field in a session file")
+        if data.get("format") != SESSION_FORMAT:
+            _fail("format", repr(SESSION_FORMAT), data.get("format"))
+        if type(data.get("version")) is not int or data.get("version") != SESSION_VERSION:  # true == 1
+            _fail("version", str(SESSION_VERSION), data.get("version"))
+        opts = check_extract_options(data.get("extract_options", {}))
+        ops = cls._typed_list(data.get("ops"), "ops")
+        src = data.get("source")
+        path = None
+        if source is None:
+            if not isinstance(src, dict):
+                _fail("source", '{"path": ..., "sha256": ...} or {"motion": {...}}', src)
+            if "path" in src and "motion" in src:
+                raise ValueError("source: give either path or motion, not both")
+            if "path" in src:
+                path = text(src["path"], "source.path")
+                source, digest = read_source(path, "source.path")
+                want = src.get("sha256")
+                if want is not None and text(want, "source.sha256") != digest:
+                    raise ValueError(f"source.sha256: {path} changed since the session was saved")
+            elif "motion" in src:
+                source = motion_from_json(src["motion"], "source.motion")
+            else:
+                _fail("source", '{"path": ...} or {"motion": {...}}', src)
+        elif isinstance(src, dict) and "path" in src:
+            path = src["path"] if isinstance(src["path"], str) else None
+        return cls(source, ops, source_path=path, extract_options=opts)
+
+    @classmethod
+    def load(cls, path, source: Motion | None = None) -> Session:
+        """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
+        return cls.from_json(read_session_json(path), source=source)
+
+    def export_bvh(self, path) -> None:
+        """Write the edited motion as BVH, atomically; refuses to overwrite the source file."""
+        path = file_path(path, "path")
+        check_export_target(path, self.source_path)
+        write_bvh(self.edited(), path)
+
+    def export_gltf(self, path, units="auto") -> None:
+        """Write the edited motion as glTF 2.0 (``.glb`` or ``.gltf``: a skinned skeleton and one animation,
+        metres; :func:`stagger_nb.io.gltf.write_gltf`), atomically; refuses to overwrite the source file."""
+        export_gltf(self.edited(), path, self.source_path, units)

@@ -8,38 +8,23 @@ an unknown op, an unknown or missing field or a wrongly typed value raises ``Val
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import weakref
 from collections.abc import Callable
 from concurrent.futures import Future
-from typing import Any
 
 import numpy as np
 
 from ..core.motion import Motion
 from ..core.rotations import quat_to_rotvec
-from ..io._common import atomic_write_bytes, file_path, read_regular_file
-from ..io.bvh import write_bvh
+from ..io._common import file_path
 from .cache import Cache
 from .deprecated import REQUIRED
-from .files import (
-    SESSION_FORMAT,
-    SESSION_VERSION,
-    check_export_target,
-    check_save_target,
-    export_gltf,
-    motion_from_json,
-    motion_to_json,
-    read_session_json,
-    read_source,
-    session_bytes,
-)
+from .files import SessionFiles, read_source
 from .heads import CachedHeads, Heads
 from .history import Flag, History
 from .ops import Op
-from .ops.fields import _fail, _limit, check_extract_options, text
+from .ops.fields import _fail, _limit, check_extract_options
 from .quality import session_quality
 from .replay import Replay
 from .warm import Worker, next_step, warm_items
@@ -52,7 +37,7 @@ def joint_rotation_degrees(motion: Motion, joint) -> np.ndarray:
     return np.degrees(quat_to_rotvec(motion.local_quats[:, j]))
 
 
-class Session(CachedHeads):
+class Session(SessionFiles, CachedHeads):
     """A source motion plus an ordered list of ops; :meth:`edited` replays them.
 
     Parameters
@@ -332,81 +317,6 @@ class Session(CachedHeads):
         self._worker.stop()
         if wait:
             self._worker.join()
-
-    # -- files -------------------------------------------------------------------------------------
-    def to_json(self, embed_source: bool | None = None) -> dict:
-        """The session as a JSON-ready dict. The source is referenced by path (+ SHA-256) when the
-        session has one, otherwise embedded (``embed_source=True`` forces embedding)."""
-        if embed_source is None:
-            embed_source = self.source_path is None
-        if embed_source:
-            source = {"motion": motion_to_json(self.source)}
-        else:
-            if self.source_path is None:
-                raise ValueError("embed_source: False needs a session with a source_path")
-            raw = read_regular_file(self.source_path, what="source file")
-            source = {"path": self.source_path, "sha256": hashlib.sha256(raw).hexdigest()}
-        return {"format": SESSION_FORMAT, "version": SESSION_VERSION, "source": source,
-                "extract_options": json.loads(json.dumps(self.extract_options)), "ops": self.ops}
-
-    def save(self, path, embed_source: bool | None = None) -> None:
-        """Write the session as JSON, atomically (temporary file + rename). Refuses to replace the source
-        clip or any existing file that is not a session file."""
-        path = file_path(path, "path")
-        check_save_target(path, self.source_path)
-        atomic_write_bytes(path, session_bytes(self.to_json(embed_source)))  # refused over the size limit
-
-    @classmethod
-    def from_json(cls, data: Any, source: Motion | None = None) -> Session:
-        """Validate ``data`` (a parsed session file) and build the session. ``source`` overrides the
-        stored source (for a moved file)."""
-        if not isinstance(data, dict):
-            _fail("session", "a JSON object", data)
-        for k in data:
-            if k not in ("format", "version", "source", "extract_options", "ops"):
-                raise ValueError(f"{k}: unknown field in a session file")
-        if data.get("format") != SESSION_FORMAT:
-            _fail("format", repr(SESSION_FORMAT), data.get("format"))
-        if type(data.get("version")) is not int or data.get("version") != SESSION_VERSION:  # true == 1
-            _fail("version", str(SESSION_VERSION), data.get("version"))
-        opts = check_extract_options(data.get("extract_options", {}))
-        ops = cls._typed_list(data.get("ops"), "ops")
-        src = data.get("source")
-        path = None
-        if source is None:
-            if not isinstance(src, dict):
-                _fail("source", '{"path": ..., "sha256": ...} or {"motion": {...}}', src)
-            if "path" in src and "motion" in src:
-                raise ValueError("source: give either path or motion, not both")
-            if "path" in src:
-                path = text(src["path"], "source.path")
-                source, digest = read_source(path, "source.path")
-                want = src.get("sha256")
-                if want is not None and text(want, "source.sha256") != digest:
-                    raise ValueError(f"source.sha256: {path} changed since the session was saved")
-            elif "motion" in src:
-                source = motion_from_json(src["motion"], "source.motion")
-            else:
-                _fail("source", '{"path": ...} or {"motion": {...}}', src)
-        elif isinstance(src, dict) and "path" in src:
-            path = src["path"] if isinstance(src["path"], str) else None
-        return cls(source, ops, source_path=path, extract_options=opts)
-
-    @classmethod
-    def load(cls, path, source: Motion | None = None) -> Session:
-        """Read a session file written by :meth:`save` (validated; ValueError names the bad field)."""
-        return cls.from_json(read_session_json(path), source=source)
-
-    def export_bvh(self, path) -> None:
-        """Write the edited motion as BVH, atomically; refuses to overwrite the source file."""
-        path = file_path(path, "path")
-        check_export_target(path, self.source_path)
-        write_bvh(self.edited(), path)
-
-    def export_gltf(self, path, units="auto") -> None:
-        """Write the edited motion as glTF 2.0 (``.glb`` or ``.gltf``: a skinned skeleton and one animation,
-        metres; :func:`stagger_nb.io.gltf.write_gltf`), atomically; refuses to overwrite the source file."""
-        export_gltf(self.edited(), path, self.source_path, units)
 
     def __repr__(self) -> str:
         src = os.path.basename(self.source_path) if self.source_path else repr(self.source)

@@ -229,6 +229,11 @@ static void block(int stage, const poly_t *P, const double *ctrl, const double *
 
 #define SCRATCH_ROWS 56
 
+PyDoc_STRVAR(rotations_block_doc,
+     "rotations_block(stage, ctrl, arcp, table, counts, M, idx, t, out, so, work, taylor, limits)\n\n"
+     "Stage 0..3 of evaluation._rotations_block into out (4 rows of stride so); between stages the\n"
+     "caller writes work row 46 (theta) = numpy.arccos(work row 47) (see _kernels.rotations_block_c).");
+
 static PyObject *rotations_block(PyObject *Py_UNUSED(self), PyObject *args)
 {
     Py_buffer ctrl = {0}, arcp = {0}, table = {0}, counts = {0}, idx = {0}, t = {0}, out = {0}, work = {0},
@@ -299,14 +304,7 @@ done:
 }
 
 static PyMethodDef methods[] = {
-    {"rotations_block", rotations_block, METH_VARARGS,
-     "rotations_block(stage, ctrl, arcp, table, counts, M, idx, t, out, so, work, taylor, limits)\n\n"
-     "Stage 0..3 of evaluation._rotations_block into out (4 rows of stride so); between stages the\n"
-     "caller writes work row 46 (theta) = numpy.arccos(work row 47) (see _kernels.rotations_block_c)."},
+    {"rotations_block", rotations_block, METH_VARARGS, rotations_block_doc},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_cspline",
-                                    "C kernel of evaluate()'s staggered spline samples (see _cspline.c).", -1,
-                                    methods, NULL, NULL, NULL, NULL};
-
-PyMODINIT_FUNC PyInit__cspline(void) { return PyModule_Create(&module); }
+SN_MODULE(_cspline, "C kernel of evaluate()'s staggered spline samples (see _cspline.c).", methods)

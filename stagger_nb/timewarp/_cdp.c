@@ -100,6 +100,13 @@ static void run(const double *S, Py_ssize_t n, Py_ssize_t s, const int64_t *lo, 
     }
 }
 
+PyDoc_STRVAR(forward_doc,
+     "forward(Sab, n, s, lo, hi, q0, q1, cur, wmax, back, offsets)\n\n"
+     "Output frames q0 .. q1 - 1 of constrained_dp's recurrence. Sab (s, s, n) float64: Sab[a-1, b-1, j] =\n"
+     "f(j - a, j, j + b); lo, hi (m,) int64 the band; cur (s, wmax) float64: on entry row a-1 holds the costs\n"
+     "of output frame q0 (columns k - lo[q0]), on return those of q1; back int8: the minimising a - 1 of step q\n"
+     "as an (s, hi[q] - lo[q] + 1) block at offsets[q] (int64, (m,)).");
+
 static PyObject *forward(PyObject *self, PyObject *args)
 {
     PyObject *oS, *olo, *ohi, *ocur, *oback, *ooff;
@@ -152,16 +159,7 @@ done:
 }
 
 static PyMethodDef methods[] = {
-    {"forward", forward, METH_VARARGS,
-     "forward(Sab, n, s, lo, hi, q0, q1, cur, wmax, back, offsets)\n\n"
-     "Output frames q0 .. q1 - 1 of constrained_dp's recurrence. Sab (s, s, n) float64: Sab[a-1, b-1, j] =\n"
-     "f(j - a, j, j + b); lo, hi (m,) int64 the band; cur (s, wmax) float64: on entry row a-1 holds the costs\n"
-     "of output frame q0 (columns k - lo[q0]), on return those of q1; back int8: the minimising a - 1 of step q\n"
-     "as an (s, hi[q] - lo[q] + 1) block at offsets[q] (int64, (m,))."},
+    {"forward", forward, METH_VARARGS, forward_doc},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_cdp",
-                                    "C kernel of constrained_dp's forward pass (see _cdp.c).", -1, methods, NULL,
-                                    NULL, NULL, NULL};
-
-PyMODINIT_FUNC PyInit__cdp(void) { return PyModule_Create(&module); }
+SN_MODULE(_cdp, "C kernel of constrained_dp's forward pass (see _cdp.c).", methods)

@@ -10,6 +10,7 @@
 // - `frame` (the store's, set by the kernel, or the view model's, set by a browser-side jsdlink) is drawn
 //   as a vertical line (the playhead) and moved with one relayout;
 // - a click sets `frame` (seek) and tells the kernel {event: "click", x, y, curve, frame};
+// - `storeOf` (the view's store) is _store_view.js's, put before this module by _store_view.py.
 // - the plot takes the width of its container (ResizeObserver), drawing only once it has a width.
 // - live edits: a new figure that differs from the drawn one only in the x/y arrays of scatter traces (lines,
 //   on any y axis; markers, points added or removed as their number changes), in a trace's name (the legend's
@@ -206,20 +207,6 @@ function frameOfX(model, x) {
   }
   const ft = model.get("frame_time");
   return Math.max(0, Math.round(x / ft));
-}
-
-async function storeOf(model, signal) {
-  // the view's state model ("IPY_MODEL_<id>"); during a page reload's restore it may be registered a little
-  // after this view's model: ask again until it is (or the view is gone)
-  const id = String(model.get("store") || "").replace(/^IPY_MODEL_/, "");
-  for (let wait = 100; ; wait = Math.min(2 * wait, 2000)) {
-    try {
-      return await model.widget_manager.get_model(id);
-    } catch (err) {
-      if (signal.disposed) throw err;
-      await new Promise((r) => setTimeout(r, wait));
-    }
-  }
 }
 
 async function render({ model, el }) {

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import base64
 from collections.abc import Callable
-from pathlib import Path
 
 import anywidget
 import ipywidgets as widgets
@@ -37,12 +36,13 @@ import numpy as np
 import traitlets as t
 
 from ..plotting import falloff_figure, joint_curves_figure, pose_probability_figure, warp_figure
+from ._store_view import _FrameFromBrowser, store_view_esm
 
 __all__ = ["PlotView", "PlotState", "plotly_js_bytes", "figure_to_json", "JointCurvesPlot", "ProbabilityPlot",
            "FalloffPlot",
            "WarpPlot"]
 
-_JS = (Path(__file__).with_name("plot_view.js")).read_text(encoding="utf-8")
+_JS = store_view_esm("plot_view.js")
 _CSS = """
 .sn-plot-view { width: 100%; max-width: 100%; min-width: 0; box-sizing: border-box; }
 .sn-plot-view .sn-plot { width: 100%; max-width: 100%; }
@@ -135,7 +135,7 @@ class PlotState(_Checked, widgets.Widget):
 _MIRRORED = ("figure", "frame_time", "playhead_x", "playhead_xref", "show_playhead", "seek_on_click")
 
 
-class PlotView(_Checked, anywidget.AnyWidget):
+class PlotView(_FrameFromBrowser, _Checked, anywidget.AnyWidget):
     """A view of one plotly figure on plotly.js, fed from Python.
 
     Traits
@@ -172,37 +172,9 @@ class PlotView(_Checked, anywidget.AnyWidget):
         super().__init__(store=PlotState(**own), **kwargs)
         store = self.store
         self._store_links = [t.dlink((self, k), (store, k)) for k in _MIRRORED]
-        self._browser_frame = False
-        self.observe(self._frame_to_store, names="frame")
-        store.observe(self._frame_from_store, names="frame")   # a click in the browser seeks
+        self._follow_store(store)   # a click in the browser seeks
         self._click_callbacks: list[Callable] = []
         store.on_msg(self._on_custom_msg)
-
-    def set_state(self, sync_data):
-        """State from the browser (ipywidgets calls it): a ``frame`` set there (a ``jsdlink`` from a Play
-        widget) is already drawn, so the store takes it without sending it back."""
-        self._browser_frame = "frame" in sync_data
-        try:
-            super().set_state(sync_data)
-        finally:
-            self._browser_frame = False
-
-    @property
-    def frame_from_browser(self) -> bool:
-        """True while the kernel applies a ``frame`` the browser set on this view (a ``jsdlink`` from a Play
-        widget). The Play's own message brings that frame to whatever follows the Play; an observer that moved
-        the Play from here would write it back from the kernel, already out of date under load (its message
-        arrives before the Play's: the browser saves a link's target inside the Play's change)."""
-        return self._browser_frame
-
-    def _frame_to_store(self, change) -> None:
-        if self._browser_frame:
-            self.store.set_state({"frame": change["new"]})   # the kernel's copy only (what a reload draws)
-        else:
-            self.store.frame = change["new"]
-
-    def _frame_from_store(self, change) -> None:
-        self.frame = change["new"]
 
     def close(self):
         """Close the view's model and its store."""

@@ -10,6 +10,7 @@
 //   a click on the empty sheet seeks (sets `frame`); the kernel checks every request and answers with a new
 //   table or a message (shown under the sheet);
 // - data-* attributes on the element say what is drawn (browser tests wait on them).
+// - `storeOf` (the view's store) is _store_view.js's, put before this module by _store_view.py.
 const SVG = "http://www.w3.org/2000/svg";
 const ROW = 15, HEAD = 30, FOOT = 4, LABEL = 118, RIGHT = 16;
 const COLOURS = { pose: "#dd6b20", knot: "#2b6cb0", onPose: "#718096", sel: "#e53e3e", grid: "#e2e8f0",
@@ -20,18 +21,6 @@ function node(tag, attrs, parent) {
   for (const k in attrs) e.setAttribute(k, attrs[k]);
   if (parent) parent.appendChild(e);
   return e;
-}
-
-async function storeOf(model, life) {
-  const id = String(model.get("store") || "").replace(/^IPY_MODEL_/, "");
-  for (let wait = 100; ; wait = Math.min(2 * wait, 2000)) {
-    try {
-      return await model.widget_manager.get_model(id);
-    } catch (err) {
-      if (life.disposed) throw err;
-      await new Promise((r) => setTimeout(r, wait));
-    }
-  }
 }
 
 const shortName = (n) => String(n).split(":").pop();

@@ -16,11 +16,12 @@ view itself, so a browser-side ``jsdlink`` from a Play moves the playhead withou
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 import anywidget
 import ipywidgets as widgets
 import traitlets as t
+
+from ._store_view import _FrameFromBrowser, store_view_esm
 
 __all__ = ["Timeline", "TimelineState"]
 
@@ -48,7 +49,7 @@ class TimelineState(widgets.Widget):
 _MIRRORED = ("table", "x_range", "selected_pose", "selected_joint", "collapsed", "message", "region")
 
 
-class Timeline(anywidget.AnyWidget):
+class Timeline(_FrameFromBrowser, anywidget.AnyWidget):
     """The dope sheet (CSS class ``sn-timeline``).
 
     Traits
@@ -64,7 +65,7 @@ class Timeline(anywidget.AnyWidget):
         drawn as a green mark under each pose's tab, as opaque as the pose's weight
     """
 
-    _esm = (Path(__file__).with_name("timeline.js")).read_text(encoding="utf-8")
+    _esm = store_view_esm("timeline.js")
     _css = _CSS
     store = t.Instance(TimelineState).tag(sync=True, **widgets.widget_serialization)
     frame = t.Int(0, min=0).tag(sync=True, echo_update=False)
@@ -83,9 +84,7 @@ class Timeline(anywidget.AnyWidget):
         super().__init__(store=TimelineState(**own), **kwargs)
         store = self.store
         self._links = [t.link((self, k), (store, k)) for k in _MIRRORED]
-        self._browser_frame = False
-        self.observe(self._frame_to_store, names="frame")
-        store.observe(self._frame_from_store, names="frame")
+        self._follow_store(store)
         self._callbacks: dict[str, list[Callable]] = {"refine": [], "retime": [], "select": []}
         store.on_msg(self._on_msg)
 
@@ -94,30 +93,6 @@ class Timeline(anywidget.AnyWidget):
         with self.hold_trait_notifications():
             self.table = table if isinstance(table, dict) else table.to_json()
             self.message = ""
-
-    def set_state(self, sync_data):
-        """State from the browser: a ``frame`` set there (a ``jsdlink`` from a Play) is already drawn, so the
-        store takes it without sending it back."""
-        self._browser_frame = "frame" in sync_data
-        try:
-            super().set_state(sync_data)
-        finally:
-            self._browser_frame = False
-
-    @property
-    def frame_from_browser(self) -> bool:
-        """True while the kernel applies a ``frame`` the browser set on this view (a ``jsdlink`` from a Play):
-        whatever follows the Play gets that frame from the Play's own message."""
-        return self._browser_frame
-
-    def _frame_to_store(self, change) -> None:
-        if self._browser_frame:
-            self.store.set_state({"frame": change["new"]})   # the kernel's copy only
-        else:
-            self.store.frame = change["new"]
-
-    def _frame_from_store(self, change) -> None:
-        self.frame = change["new"]
 
     # -- requests from the browser (and from code: what a drag or a click does) ----------------------------------
     def on_refine(self, callback: Callable[[int, str, float], None]) -> None:

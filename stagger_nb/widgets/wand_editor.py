@@ -14,21 +14,10 @@ from ..session import Session
 from ..session.heads import DIFFUSION_MAX_FRAMES
 from ..session.models import WandModel
 from ..session.models.views import joint_curves_view
-from ._editor import (
-    _PLOT_HEIGHT,
-    _STYLE,
-    _VIEW_SIZE,
-    _WIDE,
-    _default_joint,
-    _Editor,
-    _inert,
-    _inline,
-    _link,
-    _on_kernel_thread,
-    _session_for,
-    _slider,
-    _x_span,
-)
+from ._controls import _STYLE, _inert, _inline, _link, _slider
+from ._editor import _Editor, _session_for
+from ._layout import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE, _default_joint, _x_span
+from ._lifecycle import _on_kernel_thread
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 

@@ -11,7 +11,9 @@ from ..plotting import warp_figure
 from ..session import Session, warp_table_key
 from ..session.models import WarpModel
 from ..session.models.views import warp_replays_first_changes, warp_tables_first_changes, warp_view
-from ._editor import _PLOT_HEIGHT, _STYLE, _VIEW_SIZE, _WIDE, _Editor, _inert, _inline, _link, _session_for, _slider
+from ._controls import _STYLE, _inert, _inline, _link, _slider
+from ._editor import _Editor, _session_for
+from ._layout import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 

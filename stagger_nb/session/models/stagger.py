@@ -10,11 +10,12 @@ import traitlets as T
 from ..ops import MAX_DEGREES, MAX_WORLD, Cull, Exaggerate, RandomTiming, Retime, Succession, limits
 from ._base import _finite, _g, _int_within, _Model, _with_rotation, _within, snap
 from .stagger_ops import STAGGER_OPS, stagger_ops_to_params, stagger_params_to_ops
+from .stagger_readouts import _PoseReadouts
 
 __all__ = ["StaggerModel", "STAGGER_OPS", "stagger_params_to_ops", "stagger_ops_to_params"]
 
 
-class StaggerModel(_Model):
+class StaggerModel(_PoseReadouts, _Model):
     """Parameters of the staggered-pose editor (Coleman et al. 2008).
 
     Op traits (tagged ``op=True``) map to ops with :func:`stagger_params_to_ops`; the others are view state
@@ -143,15 +144,6 @@ class StaggerModel(_Model):
                                f"{self.pose}), got {_g(v)} s")
         return snap(v, self.step("pose_time"))
 
-    def pose_time_range(self, k: int | None = None) -> tuple:
-        """``(lo, hi)`` seconds pose ``k`` (default: the selected pose) may be retimed to: strictly between the
-        poses beside it as they are now; the first pose from 0 s, the last up to the source's end."""
-        k = self.pose if k is None else int(k)
-        t = self.pose_times
-        lo = t[k - 1] if k > 0 else limits(Retime, "time")[0]
-        hi = t[k + 1] if k + 1 < len(t) else max(self.source_duration, t[k]) if self.source_duration else t[k]
-        return float(lo), float(hi)
-
     @T.validate("sigma")
     def _v_sigma(self, p):
         v = _finite("sigma", p["value"])
@@ -238,15 +230,7 @@ class StaggerModel(_Model):
         rest = [e for e in self.refines if (e["pose"], e["joint"]) != (int(pose), joint)]
         self.refines = rest + [{"pose": int(pose), "joint": str(joint), "time": self.snap_time(time)}]
 
-    def snap_time(self, time: float) -> float:
-        """``time`` seconds rounded as the pose-time control rounds it (one decimal finer than a frame)."""
-        return snap(float(time), self.step("pose_time"))
-
     # -- consistency of the view state with the op traits (model-internal; no session involved) --------
-    def pose_frame(self, k: int) -> int:
-        """Frame of pose ``k`` (nearest to its time)."""
-        return int(round(self.pose_times[k] / self.frame_time))
-
     @T.observe("pose")
     def _pose_moves_playhead(self, change):
         """Choosing a pose moves the playhead to it (not while the playhead itself selects the pose)."""
@@ -360,35 +344,6 @@ class StaggerModel(_Model):
             self.ik_step = step
             self.ik_range = [[min(r0, a), max(r1, b)] for (r0, r1), (a, b) in zip(self.ik_range, box)]
 
-    def insert_refusal(self, time: float | None = None) -> str:
-        """Why a pose cannot be inserted at ``time`` seconds (default: the playhead), in one plain sentence with
-        rounded numbers, or "" when it can: a new pose goes strictly between two poses (§5.1), so not on a pose
-        (to 1e-6 s) nor before the first or after the last."""
-        t = self.frame * self.frame_time if time is None else float(time)
-        pt = self.pose_times
-        where = "the playhead" if time is None else f"{t:.2f} s"
-        fix = "move it between two poses to insert one" if time is None else "choose a time between two poses"
-        if not pt:   # not known yet (before the extraction): the replay judges
-            return ""
-        if len(pt) == 1:
-            return "there is one pose: a pose is inserted between two"
-        on = [k for k, x in enumerate(pt) if abs(x - t) <= 1e-6]
-        if on:
-            return f"{where} is on pose {on[0]} ({pt[on[0]]:.2f} s): {fix}"
-        if t < pt[0]:
-            return f"{where} is before the first pose ({pt[0]:.2f} s): {fix}"
-        if t > pt[-1]:
-            return f"{where} is after the last pose ({pt[-1]:.2f} s): {fix}"
-        return ""
-
-    def pose_frames(self) -> list:
-        """The frame of each current pose (nearest to its time): where the 3D view marks the poses."""
-        return [self.pose_frame(k) for k in range(len(self.pose_times))]
-
-    def candidate_near(self, time: float) -> int | None:
-        """Index of the extracted pose nearest to ``time`` seconds (None before the extraction is known)."""
-        t = self.candidate_times
-        return min(range(len(t)), key=lambda k: abs(t[k] - float(time))) if t else None
 
 
 def _round_step(x: float) -> float:

@@ -75,28 +75,8 @@ from .base import (  # noqa: F401
 )
 
 # the field checks, under their former module (ops.py before the split): stagger_nb.session.ops.number, ...
-from .fields import (  # noqa: F401
-                   EXTRACT_OPTIONS,
-                   MAX_ITEMS,
-                   _fail,
-                   _limit,
-                   boolean,
-                   check_extract_options,
-                   choice,
-                   falloff_region,
-                   frame_range,
-                   integer,
-                   joint_map,
-                   keytimes,
-                   number,
-                   optional,
-                   pose_reference,
-                   quaternions,
-                   text,
-                   time_range,
-                   tuple_of,
-                   warp_reference,
-)
+from .fields import *  # noqa: F403 (fields.__all__: what this package exported before the split)
+from .fields import EXTRACT_OPTIONS, MAX_ITEMS, check_extract_options
 from .motion import EditFrame, GuidedWarp, LinearWarp, Propagate, Resample
 from .staggered import (
                    Cull,
