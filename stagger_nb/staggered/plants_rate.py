@@ -1,0 +1,60 @@
+"""A turn-rate allowance inside plants (the contact layer, :mod:`stagger_nb.staggered.plants`): a held knee bends
+no faster from one plant frame to the next than the pop cap allows it to turn (:mod:`.plants_pops`), by lowering
+the leg's reach where the plant would ask for more.
+
+Near full extension a knee's bend is very sensitive to the hip-ankle distance (the bend grows like the square
+root of the distance given up): a plant whose first frames find the edited leg almost straight while the hip
+comes quickly over the foot asks the knee to bend 10-17 degrees in one frame (xia_depressed_run sliced
+mid-stance, strong edit). The pop cap then had to free the plant's first frames and ramp the knee there, which
+let the foot off its plant by 2-6 cm. Here, instead, each plant's knee bend is raised to the smallest profile
+at or above it that changes by at most the allowance a frame (the upper envelope of cones of that slope), and
+the reach of each frame lowered to the distance of that bend: the root then comes down by what that needs
+(a few millimetres: near extension a small drop buys a large bend) and the plant is still met exactly
+(Kovar, Schreiner & Gleicher 2002, §4: the plants met exactly, the root adjusted only as the plants need;
+Coleman et al. 2008, §3: the IK displacement only where a constraint is active, smoothly).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _segments(frames: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Index ``(n,)`` of the run of consecutive ``frames`` of one group each row belongs to (0, 1, ...)."""
+    if frames.size == 0:
+        return np.zeros(0, np.int64)
+    new = np.r_[True, (np.diff(frames) != 1) | (np.diff(groups) != 0)]
+    return np.cumsum(new) - 1
+
+
+def rate_envelope(x: np.ndarray, rate: float, seg: np.ndarray) -> np.ndarray:
+    """The smallest profile ``>= x (n,)`` that changes by at most ``rate`` from one row to the next inside each
+    run ``seg (n,)`` (:func:`_segments`): ``max_k x[k] - rate |n - k|`` over the rows ``k`` of the run."""
+    n = x.size
+    if n == 0:
+        return x.copy()
+    idx = np.arange(n, dtype=float)
+    big = 4.0 * (float(np.ptp(x)) + rate * n + 1.0)          # each run starts above every earlier one
+    off = seg * big
+    fwd = np.maximum.accumulate(x + rate * idx + off) - off - rate * idx
+    roff = (seg.max() - seg)[::-1] * big                    # the reversed runs, each above every earlier one
+    bwd = (np.maximum.accumulate(x[::-1] + rate * idx + roff) - roff - rate * idx)[::-1]
+    return np.maximum(np.maximum(fwd, bwd), x)
+
+
+def knee_rate_reach(hip: np.ndarray, target: np.ndarray, l1: np.ndarray, l2: np.ndarray, reach: np.ndarray,
+                    frames: np.ndarray, groups: np.ndarray, rate: float) -> np.ndarray:
+    """The reach ``(n,)`` (<= ``reach``) that keeps a held knee's bend changing by at most ``rate`` radians a
+    frame over each plant's consecutive ``frames`` (``groups``: the plant of each row), for ``target (n, 3)``
+    from ``hip (n, 3)`` with thigh and shin lengths ``l1``, ``l2`` ``(n,)`` (module docstring)."""
+    d = np.minimum(np.linalg.norm(target - hip, axis=-1), reach)
+    lo = np.abs(l1 - l2)
+    hi = l1 + l2
+    d = np.clip(d, lo, hi)
+    # the bend (0: straight) that puts the ankle at distance d: d^2 = l1^2 + l2^2 + 2 l1 l2 cos(bend)
+    c = np.clip((d * d - l1 * l1 - l2 * l2) / np.maximum(2.0 * l1 * l2, 1e-300), -1.0, 1.0)
+    bend = np.arccos(c)
+    want = rate_envelope(bend, rate, _segments(frames, groups))
+    if not np.any(want > bend + 1e-9):
+        return reach
+    d_new = np.sqrt(np.maximum(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * np.cos(want), 0.0))
+    return np.where(want > bend + 1e-9, np.minimum(reach, d_new), reach)
