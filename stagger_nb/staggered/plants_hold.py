@@ -34,7 +34,7 @@ from .plants_ik import (
     _unit,
 )
 from .plants_pops import POP_MARGIN, cap_pops, source_steps
-from .plants_rate import knee_rate_reach
+from .plants_rate import knee_rate_reach, pivot_rate
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
 from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
 
@@ -228,6 +228,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             toe_t = pt[k] + dt[k]
             off = ankle[k] - toe_t
             turn = _capped(quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k])), _MAX_PIVOT)
+            if cap:         # the lift adds no more turn a frame than the pop cap's margin (plants_rate)
+                turn = rotvec_to_quat(pivot_rate(off, h[k] - toe_t, quat_angle(turn), _MAX_PIVOT, fr[k], pid[k],
+                                                 np.radians(POP_MARGIN)))
             turn = slerp(np.broadcast_to(_ID, turn.shape), turn, (wt * (1 - wa))[k])
             ankle[k] = toe_t + quat_rotate(turn, off)
             q_ref[k] = quat_mul(turn, q_ref[k])
