@@ -26,25 +26,29 @@ def _segments(frames: np.ndarray, groups: np.ndarray) -> np.ndarray:
     return np.cumsum(new) - 1
 
 
-def rate_envelope(x: np.ndarray, rate: float, seg: np.ndarray) -> np.ndarray:
+def rate_envelope(x: np.ndarray, rate, seg: np.ndarray) -> np.ndarray:
     """The smallest profile ``>= x (n,)`` that changes by at most ``rate`` from one row to the next inside each
-    run ``seg (n,)`` (:func:`_segments`): ``max_k x[k] - rate |n - k|`` over the rows ``k`` of the run."""
+    run ``seg (n,)`` (:func:`_segments`): ``max_k x[k] - (the rates between k and n)`` over the rows ``k`` of the
+    run. ``rate``: a number, or ``(n,)`` with ``rate[i]`` the step allowed from row ``i - 1`` to row ``i``."""
     n = x.size
     if n == 0:
         return x.copy()
-    idx = np.arange(n, dtype=float)
-    big = 4.0 * (float(np.ptp(x)) + rate * n + 1.0)          # each run starts above every earlier one
+    r = np.broadcast_to(np.asarray(rate, dtype=float), (n,))
+    c = np.r_[0.0, np.cumsum(r[1:])]                          # the allowance from row 0 to each row
+    big = 4.0 * (float(np.ptp(x)) + float(c[-1]) + 1.0)     # each run starts above every earlier one
     off = seg * big
-    fwd = np.maximum.accumulate(x + rate * idx + off) - off - rate * idx
-    roff = (seg.max() - seg)[::-1] * big                    # the reversed runs, each above every earlier one
-    bwd = (np.maximum.accumulate(x[::-1] + rate * idx + roff) - roff - rate * idx)[::-1]
+    fwd = np.maximum.accumulate(x + c + off) - off - c
+    cb = c[-1] - c                                            # the allowance from each row to the last
+    roff = (seg.max() - seg) * big
+    bwd = (np.maximum.accumulate((x + cb + roff)[::-1]) - (roff + cb)[::-1])[::-1]
     return np.maximum(np.maximum(fwd, bwd), x)
 
 
 def knee_rate_reach(hip: np.ndarray, target: np.ndarray, l1: np.ndarray, l2: np.ndarray, reach: np.ndarray,
-                    frames: np.ndarray, groups: np.ndarray, rate: float) -> np.ndarray:
+                    frames: np.ndarray, groups: np.ndarray, rate) -> np.ndarray:
     """The reach ``(n,)`` (<= ``reach``) that keeps a held knee's bend changing by at most ``rate`` radians a
-    frame over each plant's consecutive ``frames`` (``groups``: the plant of each row), for ``target (n, 3)``
+    frame (a number or per row, :func:`rate_envelope`) over each plant's consecutive ``frames`` (``groups``: the
+    plant of each row), for ``target (n, 3)``
     from ``hip (n, 3)`` with thigh and shin lengths ``l1``, ``l2`` ``(n,)`` (module docstring)."""
     d = np.minimum(np.linalg.norm(target - hip, axis=-1), reach)
     lo = np.abs(l1 - l2)
