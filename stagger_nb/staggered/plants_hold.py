@@ -33,7 +33,7 @@ from .plants_ik import (
     _source_back,
     _unit,
 )
-from .plants_pops import _MIN_STEP, POP_MARGIN, cap_pops, source_steps
+from .plants_pops import POP_MARGIN, cap_pops, source_steps
 from .plants_rate import knee_rate_reach, pivot_rate
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
 from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
@@ -240,10 +240,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             # the plant's frames
             l1 = np.linalg.norm(pos[fr, lim.mid] - h, axis=-1)
             l2 = np.linalg.norm(e_cur - pos[fr, lim.mid], axis=-1)
-            # the step the cap allows the knee, less the edit's own turn of it there (turns add up at most)
-            prev = np.maximum(fr - 1, 0)
-            own = quat_angle(motion.local_quats[prev, lim.mid], motion.local_quats[fr, lim.mid])
-            rate = np.maximum(float(steps[lim.mid]) * ratio + np.radians(POP_MARGIN) - own, np.radians(_MIN_STEP))
+            rate = float(steps[lim.mid]) * ratio + np.radians(POP_MARGIN)
             R = knee_rate_reach(h, ankle, l1, l2, R, fr, pid, rate)
         np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
         foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
