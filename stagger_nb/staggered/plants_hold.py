@@ -34,7 +34,7 @@ from .plants_ik import (
     _unit,
 )
 from .plants_pops import POP_MARGIN, cap_pops, source_steps
-from .plants_rate import knee_rate_reach, pivot_rate
+from .plants_rate import KNEE_MARGIN, knee_rate_reach, pivot_rate
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
 from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
 
@@ -235,12 +235,12 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             ankle[k] = toe_t + quat_rotate(turn, off)
             q_ref[k] = quat_mul(turn, q_ref[k])
         if lim.leg and cap:
-            # the knee bends no faster inside a plant than the pop cap lets it turn: the reach lowered where the
-            # plant asks for more (plants_rate), so the root comes down that little instead of the cap freeing
-            # the plant's frames
+            # the knee bends no faster inside a plant than the source's fastest knee turn plus KNEE_MARGIN (half
+            # the pop cap's margin): the reach lowered where the plant asks for more (plants_rate), so the root
+            # comes down that little instead of the cap freeing the plant's frames
             l1 = np.linalg.norm(pos[fr, lim.mid] - h, axis=-1)
             l2 = np.linalg.norm(e_cur - pos[fr, lim.mid], axis=-1)
-            rate = float(steps[lim.mid]) * ratio + np.radians(POP_MARGIN)
+            rate = float(steps[lim.mid]) * ratio + np.radians(KNEE_MARGIN)
             R = knee_rate_reach(h, ankle, l1, l2, R, fr, pid, rate)
         np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
         foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
