@@ -50,11 +50,17 @@ and heel, moves with it as one foot):
 6. **Pops.** No corrected joint turns from one frame to the next faster than the source ever turns it plus
    2.5 degrees (or than the edit itself does there, plus 1): where a fade would, its IK displacement is ramped,
    outside the plant (the plants' own frames are kept unless a step inside is too fast by another 2.5 degrees).
+   Inside a plant it is met before the IK (:mod:`.plants_rate`): a held knee bends no faster than the source
+   turns it plus 1.25 degrees (the leg's reach lowered where the plant asks for more: the root comes down a few
+   millimetres),
+   and a held toe's heel lift changes by at most 2.5 degrees a frame (lifted a little more, and sooner), so the
+   cap need not free a plant's first frames (which let the foot off its plant by 2-6 cm).
 
 Modules: :mod:`.plants_carry` (contacts carried and grouped into plants), :mod:`.plants_hold` (targets, IK on
 the plants, fades), :mod:`.plants_air` (the legs between plants, the floor), :mod:`.plants_sample` (sampling
 helpers), :mod:`.plants_ik` (the analytic leg IK), :mod:`.plants_root` (reach, plant and root shifts),
-:mod:`.plants_pops` (the pop cap), :mod:`.plants_up` (another up axis); this module: the public functions.
+:mod:`.plants_pops` (the pop cap), :mod:`.plants_rate` (the turn-rate allowance inside plants), :mod:`.plants_up`
+(another up axis); this module: the public functions.
 
 Contacts are ``(joint_name, start_frame, stop_frame)``; up axis +Y (BVH; another up axis, found by
 :func:`~stagger_nb.core.body.up_axis`, is turned to +Y and back, :mod:`.plants_up`); lengths in file units, every

@@ -33,7 +33,8 @@ from .plants_ik import (
     _source_back,
     _unit,
 )
-from .plants_pops import cap_pops, source_steps
+from .plants_pops import POP_MARGIN, cap_pops, source_steps
+from .plants_rate import KNEE_MARGIN, knee_rate_reach, pivot_rate
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
 from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
 
@@ -99,6 +100,7 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
     slq = source.local_quats
     length = {e: _length(pos, lim) for e, lim in limbs.items()}              # (F,) per limb
     med = {e: float(np.median(length[e])) for e in limbs}
+    steps, ratio = _source_steps(source), ft / ft_s
     if not plants:
         # no plant (no contact, or none carried onto a frame): only the legs kept above the source's floor
         out = np.array(motion.local_quats)
@@ -226,9 +228,20 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             toe_t = pt[k] + dt[k]
             off = ankle[k] - toe_t
             turn = _capped(quat_between_vectors(off, _pivot(off, h[k] - toe_t, R[k])), _MAX_PIVOT)
+            if cap:         # the lift adds no more turn a frame than the pop cap's margin (plants_rate)
+                turn = rotvec_to_quat(pivot_rate(off, h[k] - toe_t, quat_angle(turn), _MAX_PIVOT, fr[k], pid[k],
+                                                 np.radians(POP_MARGIN)))
             turn = slerp(np.broadcast_to(_ID, turn.shape), turn, (wt * (1 - wa))[k])
             ankle[k] = toe_t + quat_rotate(turn, off)
             q_ref[k] = quat_mul(turn, q_ref[k])
+        if lim.leg and cap:
+            # the knee bends no faster inside a plant than the source's fastest knee turn plus KNEE_MARGIN (half
+            # the pop cap's margin): the reach lowered where the plant asks for more (plants_rate), so the root
+            # comes down that little instead of the cap freeing the plant's frames
+            l1 = np.linalg.norm(pos[fr, lim.mid] - h, axis=-1)
+            l2 = np.linalg.norm(e_cur - pos[fr, lim.mid], axis=-1)
+            rate = float(steps[lim.mid]) * ratio + np.radians(KNEE_MARGIN)
+            R = knee_rate_reach(h, ankle, l1, l2, R, fr, pid, rate)
         np.maximum.at(need, fr, _vertical_need(h, ankle, R) - _TOL * length[eff][fr])
         foot_q = [_sample_quats(slq[:, k], sig) for k in lim.foot]
         rows.append(dict(lim=lim, fr=fr, g=ankle, R=R, q=q_ref, foot=foot_q, sig=sig, pid=pid))
