@@ -99,14 +99,17 @@ def warm_next_lengths(replay, worker, heads, before: tuple, ops: tuple):
     """After ``Session.check_ops`` of ``ops`` (``before``: the list checked before it): when it moved one guided
     warp's duration (or added the warp), :func:`solve_next_lengths` in the background on the session's
     ``worker`` (``Worker.speculate``: it replaces the previous speculation, gives way to every foreground replay
-    and resumes at the next pause, starting the search it was in again). The future, or None when the change
-    is anything else."""
+    and resumes at the next pause, starting the search it was in again; cancelled, by a newer speculation or
+    ``Session.close``, it stops between two chunks of its search). The future, or None when the change is
+    anything else."""
     guess = next_warp_lengths(before, ops, lambda i: replay.known_state(ops, i))
     if guess is None:
         return None
     cur, state, nxt = guess
+    mine: list = []
 
-    def wanted() -> bool:   # a foreground replay started, or a thread waits for the replay's lock
-        return worker.wanted() or replay.waiting > 0
-    return worker.speculate("next warp lengths", lambda report: solve_next_lengths(heads, state, cur, nxt,
-                                                                                   stop=wanted))
+    def wanted() -> bool:   # a foreground replay started, a thread waits for the replay's lock, or cancelled
+        return worker.wanted() or replay.waiting > 0 or bool(mine and mine[0].cancelled())
+    mine.append(worker.speculate("next warp lengths", lambda report: solve_next_lengths(heads, state, cur, nxt,
+                                                                                        stop=wanted)))
+    return mine[0]
