@@ -11,7 +11,8 @@ time, with the load average (the machine is shared).
 
 The duration slider (``slider``, issue 26: sliders <= 50 ms warm): after the first duration key (-10 % / +10 %,
 untimed, the editor's warm-up redone), a sequence of moves as a hand makes them: arrow keys (one frame, 1/120 s),
-a drag of three-frame ticks, keys turning back (to new lengths, then to one seen), a drag of 12-frame ticks.
+a drag of three-frame ticks, keys turning back (to new lengths, then to one seen), a drag of 26-frame ticks (one
+pixel of the WarpEditor's duration track, 1/8x .. 2x of the clip on ~200 px).
 ``cold``: every move searched (the session's next-step speculation off, ``Session.warm_next_step = False``: the
 path before session 12); ``warm``: with it, each move
 timed once the background work the previous one started has finished (the user paused), whose CPU is printed
@@ -89,7 +90,8 @@ def warp_changes(cmu, warm: bool) -> dict:
 
 SLIDER_MOVES = (("key +1", 1), ("key +1 again", 1), ("drag +3 (1st tick)", 3), ("drag +3 (2nd)", 3),
                 ("drag +3 (3rd)", 3), ("key -1 (turn back)", -1), ("key -1 again", -1),
-                ("key +1 (to a seen one)", 1), ("drag +12 (1st tick)", 12), ("drag +12 (2nd)", 12))
+                ("key +1 (to a seen one)", 1), ("drag +26 (1st tick)", 26), ("drag +26 (2nd)", 26),
+                ("drag +26 (3rd)", 26))
 
 
 def slider_changes(cmu, warm: bool) -> dict:

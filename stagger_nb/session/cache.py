@@ -34,7 +34,7 @@ BOUNDS = {
     "basis": 64,      # magic-wand eigenbases: every position of a sigma slider (F x 50 floats each)
     "warp": 8,        # guided-warp kNN tables
     "warp_solution": 32,  # their searches per output length (a duration slider's recent steps: ~50 KB each)
-    "warp_sweep": 2,  # ... and one forward pass serving +- 32 lengths (timewarp.length_sweep; ~10-70 MB each)
+    "warp_sweep": 2,  # ... and one forward pass serving +- 128 lengths (timewarp.length_sweep; 5-15 MB on CMU 01_01)
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
     "compare": 8,     # their frame-independent heads: ISOMAP's kNN graph, diffusion coordinates per sigma

@@ -26,8 +26,9 @@ __all__ = ["Heads", "CachedHeads", "DIFFUSION_TOL", "DIFFUSION_MAX_FRAMES", "SWE
 
 DIFFUSION_TOL = 1e-8  # diffusion comparison: coordinates weighted below this fraction are left out (Heads.diffusion)
 DIFFUSION_MAX_FRAMES = 6000  # ... and clips longer than this are refused (a dense F x F kernel: 0.27 GiB here)
-SWEEP_FRAMES = 32   # Heads.sweep_ahead: the lengths a sweep searches, +- this many output frames around the current
-SWEEP_MARGIN = 8    # ... rebuilt around a new length closer than this to its ends
+SWEEP_FRAMES = 128  # Heads.sweep_ahead: the lengths a sweep searches, +- this many output frames around the current
+SWEEP_MARGIN = 32   # ... (+-1.07 s at 120 Hz, ~5 px of the duration track), rebuilt around a new length this close to
+                    # its ends
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = optional(number(0.0, open_lo=True))
