@@ -9,7 +9,17 @@ is the model trait set as a control does (``set_control``) plus the replay it ca
 CPU time (``time.process_time``, every thread of the process: the warm-up has finished before timing) and wall
 time, with the load average (the machine is shared).
 
-Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_editor_first_changes.py [warp] [wand]``
+The duration slider (``slider``, issue 26: sliders <= 50 ms warm): after the first duration key (-10 % / +10 %,
+untimed, the editor's warm-up redone), a sequence of moves as a hand makes them: arrow keys (one frame, 1/120 s),
+a drag of three-frame ticks, keys turning back (to new lengths, then to one seen), a drag of 26-frame ticks (one
+pixel of the WarpEditor's duration track, 1/8x .. 2x of the clip on ~200 px).
+``cold``: every move searched (the session's next-step speculation off, ``Session.warm_next_step = False``: the
+path before session 12); ``warm``: with it, each move
+timed once the background work the previous one started has finished (the user paused), whose CPU is printed
+as ``bg``. +10 % searches 8,251 upsampled frames coarse-to-fine (no sweep): a move of a new size (the first
+tick of a drag after a key) is searched in the foreground (~100-150 ms), the steps guessed are not.
+
+Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_editor_first_changes.py [warp] [wand] [slider]``
 """
 from __future__ import annotations
 
@@ -28,6 +38,7 @@ from stagger_nb.session.heads import DIFFUSION_MAX_FRAMES
 from stagger_nb.session.models.views import warp_replays_first_changes, warp_tables_first_changes
 
 BUDGET = 0.3
+SLIDER_BUDGET = 0.05
 MAX_SKIP = 16   # the WarpEditor's skip slider's largest value
 
 
@@ -77,6 +88,47 @@ def warp_changes(cmu, warm: bool) -> dict:
     return out
 
 
+SLIDER_MOVES = (("key +1", 1), ("key +1 again", 1), ("drag +3 (1st tick)", 3), ("drag +3 (2nd)", 3),
+                ("drag +3 (3rd)", 3), ("key -1 (turn back)", -1), ("key -1 again", -1),
+                ("key +1 (to a seen one)", 1), ("drag +26 (1st tick)", 26), ("drag +26 (2nd)", 26),
+                ("drag +26 (3rd)", 26))
+
+
+def slider_changes(cmu, warm: bool) -> dict:
+    """The duration slider's moves after a first duration key of -10 % and +10 % (see the module): ``{name: (wall,
+    cpu, background cpu)}``."""
+    D, ft = cmu.duration, cmu.frame_time
+    out = {}
+    for start in (0.9, 1.1):
+        s = Session(cmu)
+        s.warm_next_step = warm
+        w = M.WarpModel()
+        b = M.ModelBinding(w, s)
+        warm_up(s, b)
+        w.set_control("duration", round(start * D, 3))
+        s.edited()
+        warm_up(s, b)   # the WarpEditor re-warms when the duration changes
+
+        def pause():    # the user pauses: what the last move started in the background finishes
+            c = time.process_time()
+            if s.next_step is not None:
+                s.next_step.result()
+            return time.process_time() - c
+        bg = pause()
+        for name, frames in SLIDER_MOVES:
+            v = w.duration + frames * ft
+
+            def move(v=v):
+                why = w.set_control("duration", v)
+                assert not why, why
+                s.edited()
+            wall, cpu = timed(move)
+            bg = pause()
+            out[f"{start - 1:+.0%} {name}"] = (wall, cpu, bg)
+        s.close()
+    return out
+
+
 def wand_changes(cmu, warm: bool) -> dict:
     """The first sigma move, "compare + isomap" and "compare + diffusion" (each on a fresh session)."""
     out = {}
@@ -106,6 +158,14 @@ def main():
     only = sys.argv[1:] or ["warp", "wand"]
     cmu = sn.io.read_bvh(str(REPO / "data" / "cmu_01_01.bvh"))
     print(f"CMU 01_01: {cmu.num_frames} frames, {cmu.duration:.2f} s; load {os.getloadavg()[0]:.1f}")
+    if "slider" in only:
+        cold, warm = slider_changes(cmu, False), slider_changes(cmu, True)
+        for name in cold:
+            (cw, cc, _), (ww, wc, wb) = cold[name], warm[name]
+            print(f"duration {name:28s} cold cpu {cc * 1e3:5.0f} ms (wall {cw * 1e3:5.0f})  warm cpu {wc * 1e3:4.0f} "
+                  f"ms "
+                  f"(wall {ww * 1e3:4.0f}, then bg {wb * 1e3:4.0f})  {'ok' if wc <= SLIDER_BUDGET else 'OVER'} "
+                  f"(<= {SLIDER_BUDGET * 1e3:.0f} ms)")
     for label, fn in (("warp", warp_changes), ("wand", wand_changes)):
         if label not in only:
             continue

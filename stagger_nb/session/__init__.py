@@ -21,6 +21,7 @@ One module per job:
 - :mod:`.cache` — the one cache (one lock, compute-once futures, content/weakref keys, bounded);
 - :mod:`.files` — save/load/export and the JSON motion format, with the path and overwrite guards;
 - :mod:`.warm` — the session's background worker for :meth:`Session.warm` and the next slider step (``next_step``);
+- :mod:`.warp_steps` — a guided warp's duration slider: the searches of its likely next lengths, in the background;
 - :mod:`.progress` — :func:`progress_bar`, a tqdm bar as the ``progress`` callback of ``edited``/``warm``;
 - :mod:`.timeline` — the dope sheet's rows and marks of a staggered state;
 - :mod:`.models` — the editors' evented models and the binding that keeps one in step with a session.

@@ -33,6 +33,8 @@ BOUNDS = {
     "graph": 4,       # magic-wand pose graphs (sigma-independent head)
     "basis": 64,      # magic-wand eigenbases: every position of a sigma slider (F x 50 floats each)
     "warp": 8,        # guided-warp kNN tables
+    "warp_solution": 32,  # their searches per output length (a duration slider's recent steps: ~50 KB each)
+    "warp_sweep": 2,  # ... and one forward pass serving +- 128 lengths (timewarp.length_sweep; 5-15 MB on CMU 01_01)
     "reference": 8,   # resolved warp references (segments, files)
     "curve": 16,      # comparison falloff curves (ISOMAP, diffusion, spline)
     "compare": 8,     # their frame-independent heads: ISOMAP's kNN graph, diffusion coordinates per sigma
@@ -48,11 +50,12 @@ BOUNDS = {
 
 #: Bytes of arrays kept per kind (finished entries), besides the count bound: replay states are whole motions
 #: (F x J x 4 floats and more), so a long clip keeps fewer of them (a 27,510-frame take: ~10, not 64).
-BUDGETS = {"state": 384 * 2**20, "compare": 128 * 2**20}
+BUDGETS = {"state": 384 * 2**20, "compare": 128 * 2**20, "warp_sweep": 128 * 2**20}
 
-# not reported to ``busy`` (replay steps and heads about one evaluate long, a falloff one row product: the replay
-# reports its own progress)
-QUIET = {"state", "step", "offset_basis", "positions", "falloff", "quality_source", "quality"}
+# not reported to ``busy`` (replay steps and heads about one evaluate long, a falloff one row product, a warp's
+# search: the replay reports its own progress)
+QUIET = {"state", "step", "warp_solution", "warp_sweep", "offset_basis", "positions", "falloff", "quality_source",
+         "quality"}
 
 
 class Cache:

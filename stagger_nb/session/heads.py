@@ -22,10 +22,13 @@ from .ops import MAX_SKIP
 from .ops.fields import number, optional, text
 from .run import Run, _staggered, _timewarp, _wand
 
-__all__ = ["Heads", "CachedHeads", "DIFFUSION_TOL", "DIFFUSION_MAX_FRAMES"]
+__all__ = ["Heads", "CachedHeads", "DIFFUSION_TOL", "DIFFUSION_MAX_FRAMES", "SWEEP_FRAMES", "SWEEP_MARGIN"]
 
 DIFFUSION_TOL = 1e-8  # diffusion comparison: coordinates weighted below this fraction are left out (Heads.diffusion)
 DIFFUSION_MAX_FRAMES = 6000  # ... and clips longer than this are refused (a dense F x F kernel: 0.27 GiB here)
+SWEEP_FRAMES = 128  # Heads.sweep_ahead: the lengths a sweep searches, +- this many output frames around the current
+SWEEP_MARGIN = 32   # ... (+-1.07 s at 120 Hz, ~5 px of the duration track), rebuilt around a new length this close to
+                    # its ends
 
 _percent = number(0.0, 100.0, open_lo=True)
 _sigma = optional(number(0.0, open_lo=True))
@@ -186,6 +189,107 @@ class Heads:
                               lambda: _timewarp().prepare_warp(motion, reference, skip, int(upsample),
                                                                reverse=bool(reverse), k=int(k),
                                                                out_step=int(out_step), progress=progress))
+
+
+    def warp_solution(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool, k: int, out_step: int,
+                      num_frames: int | None, keytimes=None, progress: Callable | None = None):
+        """``(tables, solution)``: :meth:`warp_tables` and guided warping's search on them for ``num_frames``
+        output frames through ``keytimes`` (Hsu et al. 2007, §3.3, ``timewarp.solve_warp`` with its default
+        options, what ``guided_warp`` runs), the search cached per (tables, length, keytimes): a duration
+        slider's step back, or the next step solved ahead (:meth:`solve_ahead`), runs only §3.4's tail.
+        ``progress(fraction)``: the tables up to 0.9, the search after."""
+        head = None if progress is None else (lambda f: progress(0.9 * f))    # the tables, then the search
+        tail = None if progress is None else (lambda f: progress(0.9 + 0.1 * f))
+        tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, head, out_step=out_step)
+        key = self._solution_key(ref, skip, upsample, reverse, k, out_step, num_frames, keytimes)
+        sweep = self.cache.peek("warp_sweep", self.key(motion), key[:-2] + key[-1:])
+        return tables, self.cache.get("warp_solution", self.key(motion), key,
+                                      lambda: _timewarp().solve_warp(tables, num_frames, keytimes, progress=tail,
+                                                                     sweep=sweep))
+
+    def solve_ahead(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool, k: int, out_step: int,
+                    num_frames: int | None, keytimes=None, stop: Callable | None = None) -> bool:
+        """:meth:`warp_solution`'s search computed in the background (the next step of a duration slider): from
+        tables already cached only (False when they are not, or the search is cached already); ``stop()`` is
+        asked between chunks of the search and True raises :class:`~.replay.Stopped`, the partial work thrown
+        away (nothing is cached until the search has finished; a foreground replay asking meanwhile runs its
+        own). A refused search (ValueError) is not cached either: the user's replay reports it."""
+        from .replay import Stopped
+        owner = self.key(motion)
+        key = self._solution_key(ref, skip, upsample, reverse, k, out_step, num_frames, keytimes)
+        if self.cache.peek("warp_solution", owner, key) is not None or not self._has_tables(
+                motion, ref, skip, upsample, reverse, k, out_step):
+            return False
+        tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, out_step=out_step)
+
+        def check(_fraction) -> None:
+            if stop is not None and stop():
+                raise Stopped(0)
+        check(0.0)
+        sweep = self.cache.peek("warp_sweep", owner, key[:-2] + key[-1:])
+        try:
+            sol = _timewarp().solve_warp(tables, num_frames, keytimes, progress=check, sweep=sweep)
+        except ValueError:
+            return False
+        self.cache.put("warp_solution", owner, key, sol)
+        return True
+
+    def sweep_ahead(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool, k: int, out_step: int,
+                    num_frames: int, keytimes=None, stop: Callable | None = None) -> bool:
+        """In the background: the search of every length within :data:`SWEEP_FRAMES` of ``num_frames`` at once
+        (``timewarp.length_sweep``, Hsu et al. 2007 §3.3's exact DP in one pass; the same frames as each
+        search alone), so that :meth:`warp_solution` of any of them is a backtrack. Only from cached tables,
+        only where the search is the exact DP (not coarse-to-fine) and only when the cached sweep of these
+        tables does not reach :data:`SWEEP_MARGIN` frames either side of ``num_frames`` already (one sweep per
+        tables and keytimes, bounded in the cache by count and bytes). ``stop()`` as :meth:`solve_ahead`'s.
+        True when a sweep was built."""
+        from ..timewarp.solve import AUTO_COARSE_FRAMES
+        from .replay import Stopped
+        if num_frames is None or out_step != 1 or not self._has_tables(motion, ref, skip, upsample, reverse, k,
+                                                                      out_step):
+            return False
+        owner = self.key(motion)
+        key = self._solution_key(ref, skip, upsample, reverse, k, out_step, None, keytimes)
+        skey = key[:-2] + key[-1:]
+        old = self.cache.peek("warp_sweep", owner, skey)
+        n = int(num_frames)
+        if old is not None and old.m_lo <= n - SWEEP_MARGIN and n + SWEEP_MARGIN <= old.m_hi:
+            return False
+        tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, out_step=out_step)
+        if tables.n_up > AUTO_COARSE_FRAMES:
+            return False
+
+        def check(_fraction) -> None:
+            if stop is not None and stop():
+                raise Stopped(0)
+        check(0.0)
+        shortest = -(-(tables.n_up - 1) // tables.skip) + 1
+        lo, hi = max(3, shortest, n - SWEEP_FRAMES), min(tables.n_up, n + SWEEP_FRAMES)
+        if lo > hi:
+            return False
+        try:
+            sweep = _timewarp().length_sweep(tables, lo, hi, keytimes, progress=check)
+        except ValueError:
+            return False   # a length or keytime the search refuses, too large a sweep, no C kernel
+        self.cache.put("warp_sweep", owner, skey, sweep)
+        return True
+
+    def _has_tables(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool, k: int,
+                    out_step: int) -> bool:
+        """Whether :meth:`warp_tables` would find its tables cached (or slice them from a larger skip's)."""
+        owner, rkey = self.key(motion), self.key(self.reference(ref))
+        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
+            (() if out_step == 1 else (("step", int(out_step)),))
+        for s in range(MAX_SKIP, int(skip) - 1, -1):
+            t = self.cache.peek("warp", owner, (rkey, s) + rest)
+            if t is not None and (s == int(skip) or t.knn == "exact"):
+                return True
+        return False
+
+    def _solution_key(self, ref, skip, upsample, reverse, k, out_step, num_frames, keytimes) -> tuple:
+        pairs = None if keytimes is None else tuple((float(a), float(b)) for a, b in keytimes)
+        return (self.key(self.reference(ref)), int(skip), int(upsample), bool(reverse), int(k), int(out_step),
+                None if num_frames is None else int(num_frames), pairs)
 
 
 class CachedHeads:

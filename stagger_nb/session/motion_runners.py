@@ -133,10 +133,11 @@ def _guided_warp(m, op: O.GuidedWarp, run):
     n, u, step = warp_search(m, op)
     p = run.progress
     k = warp_k(n)
-    tables = run.heads.warp_tables(m, op.reference, op.skip, u, op.backward, k,
-                                   None if p is None else (lambda f: p(0.9 * f)), out_step=step)
+    # the tables, then the search (cached per length: a duration slider's step back, or its next step solved
+    # ahead in the background, session/warp_steps.py, runs only the smoothing and resampling, §3.4)
+    tables, sol = run.heads.warp_solution(m, op.reference, op.skip, u, op.backward, k, step, n, _pairs(op.keytimes), p)
     out, warp = tw.guided_warp(m, tables.reference, n, skip=op.skip, keytimes=_pairs(op.keytimes),
-                               upsample=u, reverse=op.backward, k=k, tables=tables, progress=p)  # 0.9 .. 1 here
+                               upsample=u, reverse=op.backward, k=k, tables=tables, progress=p, solution=sol)
     run.warp = warp
     return out
 

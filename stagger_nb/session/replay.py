@@ -142,6 +142,13 @@ class Replay:
         hit = self._held.get(key)
         return hit if hit is not None else self.heads.cache.peek("state", key)
 
+    def known_state(self, ops: tuple, upto: int):
+        """The state after ``ops[:upto]`` when it is held or cached (the source for ``upto == 0``), else None;
+        computes nothing."""
+        if upto == 0:
+            return self.source
+        return self._available(chain_keys(ops[:upto])[-1])
+
     def walk(self, ops: tuple, upto: int, keep_all: bool = False, progress: Callable | None = None):
         """The state after ``ops[:upto]`` (with ``keep_all``, the list of states after each of them); the
         final state is held."""

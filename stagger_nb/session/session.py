@@ -28,6 +28,7 @@ from .ops.fields import _fail, _limit, check_extract_options
 from .quality import session_quality
 from .replay import Replay
 from .warm import Worker, next_step, warm_items
+from .warp_steps import warm_next_lengths
 
 __all__ = ["Session", "joint_rotation_degrees"]
 
@@ -77,7 +78,8 @@ class Session(SessionFiles, CachedHeads):
         self._last_replayed: tuple = ()   # the op list checked last (check_ops), for the next slider step
         #: The warm-up of the next slider step (a Future, None before the first): :meth:`check_ops` of an op list
         #: that moved one number of one op from the list checked before warms the list one step further
-        #: (session/warm.py, ``next_step``), so the next key press of that slider finds its replay cached.
+        #: (session/warm.py, ``next_step``), so the next key press of that slider finds its replay cached; a moved
+        #: guided-warp duration: its search at the next lengths (session/warp_steps.py).
         self.next_step = None
         weakref.finalize(self, self._worker.stop)   # a dropped session leaves no thread behind
 
@@ -132,7 +134,9 @@ class Session(SessionFiles, CachedHeads):
         slider), warm the list one more step along (session/warm.py, ``next_step``; it gives way to every foreground
         replay between two ops and resumes at the next pause; :attr:`warm_next_step` False: not)."""
         nxt = next_step(self._last_replayed, ops) if self.warm_next_step else None
-        self._last_replayed = ops
+        before, self._last_replayed = self._last_replayed, ops
+        if nxt is None and self.warm_next_step:   # a guided warp's duration: its next searches (warp_steps.py)
+            self.next_step = warm_next_lengths(self._replay, self._worker, self._ctx, before, ops) or self.next_step
         if nxt is not None:
             replay, worker = self._replay, self._worker
 

@@ -319,7 +319,8 @@ def next_step(before: tuple, after: tuple):
     (several fields or ops, a field that is not a float, an op removed) or the next value is refused by the op's
     own checks (a slider at its end). Only ops on the staggered poses (Coleman et al. 2008, §5: their replay
     is a few evaluations long), not a cull (see ``_NO_GUESS``) nor the motion ops (a warp or a propagation may
-    run for seconds, and a foreground replay stops a warm-up only between two ops)."""
+    run for seconds, and a foreground replay stops a warm-up only between two ops; a guided warp's duration is
+    guessed by :mod:`.warp_steps`, whose searches stop between chunks)."""
     from .ops import Op
     added = _added_slider(before, after)
     if added is not None:

@@ -25,7 +25,9 @@ anywhere inside the clip (:func:`required_upsample` with ``keytimes=``).  Measur
 :func:`airborne_speed` (:mod:`.measures`).  An editor that precomputes tables: duration changes use
 ``prepare_warp(m, ref, skip, required_upsample(n, num_frames, keytimes=..., frame_time=..., skip=...))``;
 free length and backward use ``u, r = free_length_search(m.frame_time)`` and
-``prepare_warp(m, ref, skip, u, k=FREE_K, out_step=r, reverse=...)``.
+``prepare_warp(m, ref, skip, u, k=FREE_K, out_step=r, reverse=...)``; a duration slider's next lengths:
+``sweep = length_sweep(tables, m_lo, m_hi)`` then ``solve_warp(tables, m, sweep=sweep)`` (:mod:`.sweep`, the
+same frames as without it).
 """
 from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, unconstrained_dp, warp_bounds
 from .features import pose_features, reference_features, triple_features
@@ -58,6 +60,8 @@ from .postprocess import (
                      speed_jumps,
                      warp_speed,
 )
+from .solve import length_sweep
+from .sweep import LengthSweep
 
 __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "solve_warp", "WarpTables",
            "WarpSolution", "required_upsample", "reverse_motion", "knn_scores", "constrained_dp",
@@ -66,4 +70,4 @@ __all__ = ["guided_warp", "linear_warp", "linear_warp_curve", "prepare_warp", "s
            "speed_jumps", "warp_memory", "mean_cost_dp", "FREE_K", "FREE_UPSAMPLE", "slice_tables",
            "cached_prepare_warp", "clear_tables_cache", "input_time_dp", "free_length_search", "penalty_unit",
            "airborne_frames", "airborne_speed", "intervals", "overall_speed", "speed_inside", "end_scores",
-           "meet_keytimes"]
+           "meet_keytimes", "length_sweep", "LengthSweep"]

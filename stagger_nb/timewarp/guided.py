@@ -84,7 +84,8 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                 candidates: int = DEFAULT_CANDIDATES, tables: WarpTables | None = None,
                 free_objective: str = FREE_OBJECTIVE, frame: str = "pelvis_height", end_terms: bool = True,
                 penalty_scale: str = "doubling", reverse_reference: bool | None = None,
-                weighting: str = "input_time", penalty_free_ratio: float | None = None, progress=None):
+                weighting: str = "input_time", penalty_free_ratio: float | None = None, progress=None,
+                solution: WarpSolution | None = None):
     """Retime ``m`` to ``num_frames`` frames through ``keytimes`` so its local timing matches ``reference``.
 
     What an editor can ask for (issue 11 item 5):
@@ -153,6 +154,9 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
         ``reverse`` and the objective options are the ones the tables were prepared with (the editor's cheap
         tail: cache one table per upsampling factor, :func:`required_upsample` says which one a length needs)
     progress : callable(fraction in [0, 1]) or None
+    solution : a :func:`solve_warp` result of ``tables`` for ``num_frames`` and ``keytimes`` with the search
+        options given here, used instead of searching again (§3.3; a session caches them per length, so a
+        duration slider's step back, or one solved ahead in the background, runs only §3.4)
 
     Returns
     -------
@@ -212,9 +216,13 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
                                      or tables.motion.num_joints != m.num_joints):
         raise ValueError("tables were prepared for a different input motion")
     tail = None if progress is None else (lambda f: progress(0.9 + 0.1 * f))
-    sol = solve_warp(tables, num_frames, keytimes, coarse=coarse, band=band, speed_penalty=speed_penalty,
-                     free_objective=free_objective, penalty_scale=penalty_scale, weighting=weighting,
-                     penalty_free_ratio=penalty_free_ratio, progress=tail)
+    if solution is not None:
+        _check_solution(solution, tables, num_frames)
+        sol = solution
+    else:
+        sol = solve_warp(tables, num_frames, keytimes, coarse=coarse, band=band, speed_penalty=speed_penalty,
+                         free_objective=free_objective, penalty_scale=penalty_scale, weighting=weighting,
+                         penalty_free_ratio=penalty_free_ratio, progress=tail)
     ft = m.frame_time
     times, pinned = sol.times, sol.pinned
     if sol.out_step > 1:     # a free-length search at a coarser output rate: every output frame, linearly
@@ -230,3 +238,18 @@ def guided_warp(m: Motion, reference: Motion, num_frames: int | None, skip: int 
     if progress is not None:
         progress(1.0)
     return out, warp
+
+
+def _check_solution(sol, tables: WarpTables, num_frames: int | None) -> None:
+    """ValueError naming ``solution`` unless it is a :class:`WarpSolution` that ``tables`` can have given for
+    ``num_frames`` (its frame count, output step and searched-frame range)."""
+    if not isinstance(sol, WarpSolution):
+        raise ValueError(f"solution must be a WarpSolution (solve_warp's result), got {type(sol).__name__}")
+    frames = np.asarray(sol.frames)
+    if sol.out_step != tables.out_step or frames.ndim != 1 or frames.size < 2 \
+            or (num_frames is not None and frames.size != num_frames) or frames[0] != 0 \
+            or frames[-1] != tables.n_up - 1:
+        raise ValueError(f"solution: {frames.size} frames over [{frames[0] if frames.size else '-'}, "
+                         f"{frames[-1] if frames.size else '-'}] at output step {sol.out_step} is not a search of "
+                         f"these tables ({tables.n_up} searched frames, output step {tables.out_step}) for "
+                         f"num_frames={num_frames}")

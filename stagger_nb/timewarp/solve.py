@@ -12,6 +12,7 @@ from .dp import constrained_dp, input_time_dp, mean_cost_dp, path_cost, step_wei
 from .linear import validate_num_frames
 from .objective import candidate_scores, knn_scores
 from .postprocess import parse_keytimes
+from .sweep import LengthSweep
 from .tables import WarpTables, required_upsample
 
 FREE_OBJECTIVE = "input_time"   # default free_objective (see guided_warp)
@@ -171,7 +172,7 @@ def _check_speed_penalty(speed_penalty) -> float:
 def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coarse: int | None = None,
                band: float | None = None, speed_penalty: float = SPEED_PENALTY, free_objective: str = FREE_OBJECTIVE,
                penalty_scale: str = "doubling", weighting: str = "input_time", penalty_free_ratio: float | None = None,
-               progress=None) -> WarpSolution:
+               progress=None, sweep: LengthSweep | None = None) -> WarpSolution:
     """The optimal discrete warp for a target length and keytimes (§3.3), from precomputed tables.
 
     Parameters
@@ -213,13 +214,15 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
         (with ``"output"`` 0.92-1.37, three outside 0.85-1.15); pops 95th percentile <= 0.11 / max <= 0.25
         per 1/30 s on CMU 01_01, CMU 131_01, bandai_kick and the jump.
     progress : callable(fraction) or None
+    sweep : a :func:`length_sweep` of these tables, or None: where it serves the search (the exact DP, the same
+        search options, ``num_frames`` in its range, the same keytimes) the search is its backtrack, the same
+        frames and cost (:mod:`.sweep`); otherwise it is ignored
 
     Raises ``ValueError`` naming ``num_frames`` (too short for ``skip``, longer than the searched input) or
     ``keytimes`` (out of range or order, infeasible segment).
     """
     n = tables.n_up
     s = tables.skip
-    to_seconds = tables.search_frame_time
     lam = _check_speed_penalty(speed_penalty)
     ratio = PENALTY_FREE_RATIO if penalty_free_ratio is None else float(penalty_free_ratio)
     if not np.isfinite(ratio) or ratio < 1:
@@ -253,15 +256,51 @@ def solve_warp(tables: WarpTables, num_frames: int | None, keytimes=None, *, coa
             b = _coarse_band(tables, m, keys, int(coarse), band, weighting)
             if b is not None:
                 lo, hi = b
+        if lo is None and coarse is None and isinstance(sweep, LengthSweep) and sweep.n == n and sweep.skip == s \
+                and sweep.options == (lam, penalty_scale, weighting, ratio) and sweep.covers(m, keys):
+            frames, cost = sweep.solve(m)
+            if progress is not None:
+                progress(1.0)
+            pinned = tuple(q for q, _ in keys)
+            return _solution(tables, frames, cost, pinned)
         S = _penalised(tables, lam, penalty_scale, weighting, ratio)
         ends = _weighted(tables, weighting)[1]
         frames, cost = constrained_dp(S, m, keys=keys, lo=lo, hi=hi, progress=progress, ends=ends)
         if lo is not None and not np.isfinite(cost):
             frames, cost = constrained_dp(S, m, keys=keys, progress=progress, ends=ends)
         pinned = tuple(q for q, _ in keys)
+    return _solution(tables, frames, cost, pinned)
+
+
+def _solution(tables: WarpTables, frames: np.ndarray, cost: float, pinned: tuple) -> WarpSolution:
     if np.isfinite(cost):
         cost = path_cost(tables.scores, frames, tables.ends)
-    times = frames * to_seconds
+    times = frames * tables.search_frame_time
     if tables.reverse:
         times = tables.motion.duration - times
     return WarpSolution(frames, times, float(cost), pinned, tables.out_step)
+
+
+def length_sweep(tables: WarpTables, m_lo: int, m_hi: int, keytimes=None, *, speed_penalty: float = SPEED_PENALTY,
+                 penalty_scale: str = "doubling", weighting: str = "input_time",
+                 penalty_free_ratio: float | None = None, progress=None) -> LengthSweep:
+    """The exact search of :func:`solve_warp` (§3.3, no coarse-to-fine) for every output length ``m_lo .. m_hi``
+    through ``keytimes`` at once (:class:`.sweep.LengthSweep`, one forward pass over the union of their bands):
+    ``solve_warp(tables, m, keytimes, sweep=...)`` is then a backtrack for each, the same frames and cost as
+    without it. The search options as :func:`solve_warp`'s. Raises ``ValueError`` naming the parameter (a
+    length or keytime the search refuses, a sweep over :data:`.sweep.MAX_SWEEP_BYTES`, no C kernel)."""
+    if tables.out_step != 1:
+        raise ValueError(f"tables: out_step={tables.out_step} tables serve free length only (num_frames=None)")
+    n = tables.n_up
+    lam = _check_speed_penalty(speed_penalty)
+    ratio = PENALTY_FREE_RATIO if penalty_free_ratio is None else float(penalty_free_ratio)
+    if not np.isfinite(ratio) or ratio < 1:
+        raise ValueError(f"penalty_free_ratio must be a number >= 1, got {penalty_free_ratio!r}")
+    lo_m, hi_m = validate_num_frames(m_lo), validate_num_frames(m_hi)
+    if hi_m > n:
+        raise ValueError(f"m_hi: {hi_m} is more than the {n} searched input frames (upsample={tables.upsample})")
+    keys = _frame_keys(tables, lo_m, keytimes)
+    inner = tuple(k for k in keys[1:-1])
+    S = _penalised(tables, lam, penalty_scale, weighting, ratio)
+    return LengthSweep(S, max(3, lo_m), max(3, hi_m), keys=inner, ends=_weighted(tables, weighting)[1],
+                       progress=progress, options=(lam, penalty_scale, weighting, ratio))
