@@ -19,9 +19,10 @@ from ..core.motion import Motion
 from ..core.rotations import quat_to_rotvec
 from ..io._common import file_path
 from .cache import Cache
+from .cached_heads import CachedHeads
 from .deprecated import REQUIRED
 from .files import SessionFiles, read_source
-from .heads import CachedHeads, Heads
+from .heads import Heads
 from .history import Flag, History
 from .ops import Op
 from .ops.fields import _fail, _limit, check_extract_options
