@@ -105,7 +105,7 @@ class _Editor(_StatusLine, _Playhead, widgets.VBox):
             quick, tools = tools(model)
         if model.has_trait("joint") and view.has_trait("selected_joint"):
             view.observe(self._on_picked, names="selected_joint")
-        model.observe(self._show_message, names=["message", "notes"])
+        model.observe(self._show_message, names=["message", "notes", "hint"])
         self._session_listener, self._busy_listener = _weakly(self._on_session), _weakly(self._on_busy)
         session.observe(self._session_listener)
         session.observe_busy(self._busy_listener)

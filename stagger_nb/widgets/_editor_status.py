@@ -67,7 +67,7 @@ class _StatusLine:
 
     def _show_message(self, change=None) -> None:
         """The message line: a replay error, the model's message, each refused control's note (why its last
-        value was refused), the runners' notes and the timing warnings."""
+        value was refused), the runners' notes, the model's hint (a suggestion, in blue) and the timing warnings."""
         parts = []
         beside = {self.model.notes.get(k, "") for k in self._NOTES_BESIDE}   # said once, beside their control
         shown = set(beside)
@@ -78,6 +78,9 @@ class _StatusLine:
                              f'{html.escape(text)}</div>')
         for text in self._notes():
             parts.append(f'<div style="color:#b7791f;{_LINES}">{html.escape(text)}</div>')
+        if self.model.hint:
+            parts.append(f'<div class="sn-hint" style="color:#2b6cb0;{_LINES}">tip: '
+                         f'{html.escape(self.model.hint)}</div>')
         w = self._warnings_html()
         if w:
             parts.append(w)

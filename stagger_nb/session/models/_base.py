@@ -108,6 +108,9 @@ class _Model(T.HasTraits):
     message = T.Unicode("", help="plain-text note about the parameters ('' when none): a refused value, an "
                                  "op naming a joint this skeleton does not have")
 
+    hint = T.Unicode("", help="plain-text suggestion of what would improve the edit ('' when none), e.g. holding "
+                              "the feet a timing edit slides; never a refusal (those are the message)")
+
     num_frames = T.Int(0, help="frames of the edited motion the playhead moves over (set by the editor when "
                                "it shows a new edit; 0 = unknown)")
     notes = T.Dict(help="{trait: plain sentence}: why the last value given to that trait through "

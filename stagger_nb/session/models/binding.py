@@ -22,6 +22,12 @@ from .stagger import STAGGER_OPS, StaggerModel, stagger_ops_to_params, stagger_p
 from .wand import WAND_OPS, WandModel, wand_ops_to_params, wand_params_to_ops
 from .warp import WARP_OPS, WarpModel, warp_ops_to_params, warp_params_to_ops
 
+#: the quality report's figures about the feet (``SummaryItem.figure``): one out of bounds while the contact layer is
+#: off gets :data:`CONTACTS_HINT` as the model's ``hint`` (the layer is off by default, and a user seeing "right foot
+#: slides 68 cm" after a timing edit should learn that the editor can hold the feet)
+FOOT_FIGURES = frozenset({"foot_travel", "foot_travel_vs_baseline", "foot_height", "floor", "plant", "contacts"})
+CONTACTS_HINT = "the feet leave their contacts: tick \u201ckeep foot contacts\u201d (contacts tab) to hold them"
+
 __all__ = ["ModelBinding", "merge_ops"]
 
 
@@ -317,6 +323,12 @@ class ModelBinding:
                                       "items": [{"text": i.text, "ok": bool(i.ok)} for i in q.items]}
         with self.model.loading():
             self.model.quality = value
+        note = CONTACTS_HINT if (q is not None and isinstance(self.model, StaggerModel)
+                                 and not self.model.keep_contacts
+                                 and any(not i.ok and i.figure in FOOT_FIGURES for i in q.items)) else ""
+        if note != self.model.hint:
+            with self.model.loading():
+                self.model.hint = note
 
     def _clear_bases(self) -> None:
         if self.model.edit_bases:
