@@ -23,10 +23,12 @@ and heel, moves with it as one foot):
    hip's travel only if that lets the leg reach without lowering the pelvis. The height is the source's.
    With no timing edit ``σ`` is the identity and ``d`` zero: the motion comes back unchanged.
 3. **Blend.** Around each plant a raised-cosine weight (C1, ``blend`` seconds each side) moves the target
-   from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1,
-   shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated. A leg's fade is
-   blended in world space (Kovar et al. 2002, §4) and its leg solved by IK for it (step 5); an arm's fade is the
-   plant boundary's joint displacement, faded (Coleman et al. 2008, §3).
+   from the edited foot to the plant: the source's approach / take-off through ``σ`` extended with slope 1
+   (a take-off into the air, no plant ahead, where the edit slowed the knee's clock against the hip's: at the
+   knee's pace, at most 4 times slower, so the knee does not bend through the take-off within a few of its own
+   frames), shifted by the plant's ``d``; between two plants of one limb the two targets are interpolated. A
+   leg's fade is blended in world space (Kovar et al. 2002, §4) and its leg solved by IK for it (step 5); an
+   arm's fade is the plant boundary's joint displacement, faded (Coleman et al. 2008, §3).
 4. **Root.** Where a held leg cannot reach its target within ``reach`` of its length (or of the extension
    the edited pose already has, if larger), the root moves by the smallest displacement that brings every held
    leg of that frame within reach (the nearest point to the origin in the intersection of their reach balls,

@@ -44,6 +44,7 @@ _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel li
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _SOFT_DROP = 0.028   # share of a leg: the root is lowered beyond this (up to max_drop) only where with it ...
 _SHORT = 0.005       # ... a held leg would stop more than this share of a leg (~0.45 cm) short of its plant
+_MIN_SLOW = 0.25     # the slowest a take-off is replayed, for a knee the edit slowed against its hip
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
 
 _SOURCE_CACHE = weakref.WeakKeyDictionary()
@@ -319,6 +320,9 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
         has_l, has_r = (li >= 0) & ~inside, (ri < starts.size) & ~inside
         dl = np.where(has_l, f_all - ends[li_], 0)
         dr = np.where(has_r, starts[ri_] - f_all, 0)
+        # how far a leg's take-off into the air (no plant ahead of it) is replayed: on the knee's own clock
+        # where the edit slowed the knee against the hip (_knee_lag), else frame for frame (below)
+        x_l = dl * np.where(has_r, 1.0, _knee_lag(tables, t0, ft, ft_s, lim, ends, nb, F)[li_]) if lim.leg else dl
         wl = np.where(has_l, _raised_cosine(dl, w_end[li_]), 0.0)
         wr = np.where(has_r, _raised_cosine(dr, w_start[ri_]), 0.0)
         win = np.flatnonzero((wl > 0) | (wr > 0))
@@ -369,8 +373,11 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
             off_p = r["g"][gi] - _sample(spos[:, lim.eff], sig_b)
             off_q = quat_mul(quat_conj(_sample_quats(swq[:, lim.eff], sig_b)), r["q"][gi])
             ext = []
-            for k in (kl, kr):
-                sg = sig_b[k] + (win - bnd[k]) * (ft / ft_s)
+            # (a take-off into the air on the knee's clock, x_l: frame for frame, a knee whose clock the edit
+            # slowed against the hip's bent through the source's whole take-off within a few of its own frames,
+            # which read as jitter on its own timing: xia_neutral_walk at s = -0.1, detail of the knee x8.8)
+            for k, off in ((kl, x_l[win]), (kr, -dr[win])):
+                sg = sig_b[k] + off * ratio
                 ext.append((_sample(spos[:, lim.eff], sg) + off_p[k],
                             quat_mul(_sample_quats(swq[:, lim.eff], sg), off_q[k]), _sample(src_share[lim.eff], sg)))
             g_mix = ext[0][0] * (1 - al)[:, None] + ext[1][0] * al[:, None]
@@ -392,6 +399,22 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
 
 
 
+
+
+def _knee_lag(tables, t0: float, ft: float, ft_s: float, lim, ends: np.ndarray, nb: int, F: int) -> np.ndarray:
+    """``(E,)``: per plant end (edited frames ``ends``), how fast the knee's own clock runs over the ``nb``
+    frames after it against the hip's (the mean slopes of their inverse warps there), in [_MIN_SLOW, 1]: 1
+    where the knee keeps the hip's pace or runs ahead of it, and without a timing edit."""
+    if tables is None or nb < 1 or not ends.size:
+        return np.ones(ends.size)
+    a = np.minimum(ends + nb, F - 1)
+    frames = np.r_[ends, a].astype(float)
+    knee = _source_frames(tables, t0, ft, ft_s, lim.mid, frames)
+    hip = _source_frames(tables, t0, ft, ft_s, lim.upper, frames)
+    n = ends.size
+    dk, dh = knee[n:] - knee[:n], hip[n:] - hip[:n]
+    lag = np.where((a > ends) & (dh > 0), dk / np.where(dh > 0, dh, 1.0), 1.0)
+    return np.clip(lag, _MIN_SLOW, 1.0)
 
 
 def _cap(sk, limbs: dict, rows: list, out: np.ndarray, lq: np.ndarray, source: Motion, ratio: float) -> None:
