@@ -1,4 +1,4 @@
-"""A leg's take-off into the air replayed on its knee's own clock (stagger_nb.staggered.plants_hold._knee_lag):
+"""A leg's take-off into the air replayed on its knee's own clock (stagger_nb.staggered.plants_rate._knee_lag):
 where a timing edit slows the knee against the hip, the fade out of a plant no longer bends the knee through the
 source's whole take-off within a few of the knee's own frames (jitter on its own timing, which
 ``sn.quality.compare`` reads each joint on).

@@ -1,11 +1,10 @@
 """Holding the plants (the contact layer's core, :mod:`stagger_nb.staggered.plants`): the target of each held foot
 (the source's own foot replayed on the edited timing), exact IK on the plants' frames, C1 fades of the IK
 displacement around them, the root's shift, and the pop cap; the legs in the air are :mod:`.plants_air`'s, the
-sampling helpers :mod:`.plants_sample`'s.
+sampling helpers :mod:`.plants_sample`'s, what is read of the source :mod:`.plants_source`'s, the turn-rate
+allowances :mod:`.plants_rate`'s.
 """
 from __future__ import annotations
-
-import weakref
 
 import numpy as np
 
@@ -26,17 +25,16 @@ from .plants_air import _leaf_effectors_as_edited, _legs_in_air, _toe_up  # noqa
 from .plants_carry import _source_frames
 from .plants_ik import (
     _capped,
-    _hinge_local,
     _no_hyperextension,
     _pivot,
     _solve,
-    _source_back,
     _unit,
 )
-from .plants_pops import POP_MARGIN, cap_pops, source_steps
-from .plants_rate import KNEE_MARGIN, knee_rate_reach, pivot_rate
+from .plants_pops import POP_MARGIN, cap_pops
+from .plants_rate import KNEE_MARGIN, _knee_lag, knee_rate_reach, pivot_rate
 from .plants_root import _MAX_SIDE, _TOL, _below, _choose_shifts, _reach, _root_shift, _vertical_need
 from .plants_sample import _length, _raised_cosine, _sample, _sample_quats, _sample_rows, _scaled_along
+from .plants_source import _SOURCE_CACHE, _source_steps, _source_tables  # noqa: F401  (_SOURCE_CACHE: plants)
 
 _ID = np.array([0.0, 0.0, 0.0, 1.0])
 _MAX_AIM = np.radians(30.0)     # the most the foot turns about its ankle to put the toe on its own plant
@@ -44,39 +42,7 @@ _MAX_PIVOT = np.radians(45.0)   # the most the foot turns about its toe (heel li
 _SOFT = 0.05         # share of a leg over which a fading target's reach limit is approached smoothly
 _SOFT_DROP = 0.028   # share of a leg: the root is lowered beyond this (up to max_drop) only where with it ...
 _SHORT = 0.005       # ... a held leg would stop more than this share of a leg (~0.45 cm) short of its plant
-_MIN_SLOW = 0.25     # the slowest a take-off is replayed, for a knee the edit slowed against its hip
 _FADE_RATE = 90.0     # degrees per second: the most a fade out of (into) a plant turns a joint on top of the edit
-
-_SOURCE_CACHE = weakref.WeakKeyDictionary()
-
-def _source_tables(source: Motion, limbs: dict):
-    """What the layer reads of the source, once per (source, limbs) (a slider's replays share it): world
-    positions and rotations of the limbs' and feet's chains, the share of each limb's length it uses per
-    frame, each limb's hinge axis, and the floor (the lowest height of the feet's joints)."""
-    key = tuple(sorted((lim.upper, lim.mid, lim.eff) + lim.foot for lim in limbs.values()))
-    per = _SOURCE_CACHE.setdefault(source, {})
-    if key not in per:
-        joints = {x for lim in limbs.values() for x in (lim.upper, lim.mid, lim.eff) + lim.foot}
-        spos, swq = _fk_joints(source, joints)
-        share = {e: np.linalg.norm(spos[:, e] - spos[:, lim.upper], axis=-1) / _length(spos, lim)
-                 for e, lim in limbs.items()}
-        hinges = {e: _hinge_local(spos, swq, lim) for e, lim in limbs.items()}
-        backs = {e: _source_back(spos, swq, lim, hinges[e]) for e, lim in limbs.items()}
-        feet = [x for lim in limbs.values() if lim.leg for x in (lim.eff,) + lim.foot]
-        floor = float(np.min(spos[:, feet, 1])) if feet else -np.inf
-        if len(per) > 8:
-            per.clear()
-        per[key] = (spos, swq, share, hinges, floor, backs)
-    return per[key]
-
-
-def _source_steps(source: Motion) -> np.ndarray:
-    """:func:`source_steps` of the source's local rotations (scale 1), once per source (the slider's replays
-    share it; the caller scales it by the edited frame time over the source's)."""
-    per = _SOURCE_CACHE.setdefault(source, {})
-    if "steps" not in per:
-        per["steps"] = source_steps(source.local_quats, 1.0)
-    return per["steps"]
 
 
 def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: list, timeline, blend: float,
@@ -399,22 +365,6 @@ def _hold(motion: Motion, source: Motion, limbs: dict, plants: list, carried: li
 
 
 
-
-
-def _knee_lag(tables, t0: float, ft: float, ft_s: float, lim, ends: np.ndarray, nb: int, F: int) -> np.ndarray:
-    """``(E,)``: per plant end (edited frames ``ends``), how fast the knee's own clock runs over the ``nb``
-    frames after it against the hip's (the mean slopes of their inverse warps there), in [_MIN_SLOW, 1]: 1
-    where the knee keeps the hip's pace or runs ahead of it, and without a timing edit."""
-    if tables is None or nb < 1 or not ends.size:
-        return np.ones(ends.size)
-    a = np.minimum(ends + nb, F - 1)
-    frames = np.r_[ends, a].astype(float)
-    knee = _source_frames(tables, t0, ft, ft_s, lim.mid, frames)
-    hip = _source_frames(tables, t0, ft, ft_s, lim.upper, frames)
-    n = ends.size
-    dk, dh = knee[n:] - knee[:n], hip[n:] - hip[:n]
-    lag = np.where((a > ends) & (dh > 0), dk / np.where(dh > 0, dh, 1.0), 1.0)
-    return np.clip(lag, _MIN_SLOW, 1.0)
 
 
 def _cap(sk, limbs: dict, rows: list, out: np.ndarray, lq: np.ndarray, source: Motion, ratio: float) -> None:

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .plants_carry import _source_frames
+
 #: degrees a frame a held knee's bend may change beyond the source's fastest turn of the knee: half the pop cap's
 #: margin (:data:`~.plants_pops.POP_MARGIN`), the other half left for what the bend does not measure (the edit's
 #: own turn of the knee about other axes, the root's shift). Measured on benchmarks/bench_edit_quality.py's
@@ -25,6 +27,7 @@ import numpy as np
 #: margin) 115 / 114 / 114, 1.25: 116 / 115 / 116 (the root lowered up to 0.5 cm more where the clips passed
 #: already), 0: 116 / 115 / 116 (up to 1 cm).
 KNEE_MARGIN = 1.25
+_MIN_SLOW = 0.25     # the slowest a take-off is replayed, for a knee the edit slowed against its hip
 
 
 def _segments(frames: np.ndarray, groups: np.ndarray) -> np.ndarray:
@@ -89,3 +92,19 @@ def pivot_rate(off: np.ndarray, to_hip: np.ndarray, angle: np.ndarray, limit: fl
     want = np.minimum(rate_envelope(angle, rate, _segments(frames, groups)), most)
     want = np.maximum(want, angle)
     return axis / np.maximum(s, 1e-300)[:, None] * want[:, None]
+
+
+def _knee_lag(tables, t0: float, ft: float, ft_s: float, lim, ends: np.ndarray, nb: int, F: int) -> np.ndarray:
+    """``(E,)``: per plant end (edited frames ``ends``), how fast the knee's own clock runs over the ``nb``
+    frames after it against the hip's (the mean slopes of their inverse warps there), in [_MIN_SLOW, 1]: 1
+    where the knee keeps the hip's pace or runs ahead of it, and without a timing edit."""
+    if tables is None or nb < 1 or not ends.size:
+        return np.ones(ends.size)
+    a = np.minimum(ends + nb, F - 1)
+    frames = np.r_[ends, a].astype(float)
+    knee = _source_frames(tables, t0, ft, ft_s, lim.mid, frames)
+    hip = _source_frames(tables, t0, ft, ft_s, lim.upper, frames)
+    n = ends.size
+    dk, dh = knee[n:] - knee[:n], hip[n:] - hip[:n]
+    lag = np.where((a > ends) & (dh > 0), dk / np.where(dh > 0, dh, 1.0), 1.0)
+    return np.clip(lag, _MIN_SLOW, 1.0)

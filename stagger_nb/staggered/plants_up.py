@@ -12,7 +12,7 @@ import numpy as np
 from ..core.body import up_axis
 from ..core.motion import Motion
 from ..core.rotations import quat_between_vectors, quat_conj, quat_mul, quat_rotate
-from .plants_hold import _SOURCE_CACHE
+from .plants_source import _SOURCE_CACHE
 
 _Y = np.array([0.0, 1.0, 0.0])
 
