@@ -20,8 +20,8 @@ from ..session import Session, joint_rotation_degrees
 from ..session.models import ModelBinding, plain_message
 from ._editor_playhead import _Playhead
 from ._editor_status import _StatusLine
-from ._layout import _WIDE, _share_layouts_and_styles
 from ._lifecycle import _on_kernel_thread, _stop_work, _weakly, _widgets_under
+from ._sizes import _WIDE, _share_layouts_and_styles
 from .skeleton_view import SkeletonView
 
 __all__ = ["_Editor"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import html
 
-from ._layout import _LINES
+from ._sizes import _LINES
 
 
 class _StatusLine:

@@ -8,7 +8,7 @@ import traitlets
 from ..core.motion import Motion
 from ..session.models import plain_message
 from ..session.timeline import knot_table_of
-from ._layout import _x_span
+from ._sizes import _x_span
 
 
 class _DopeSheet:

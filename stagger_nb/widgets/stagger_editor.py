@@ -14,7 +14,7 @@ from ..session.models import STAGGER_OPS, StaggerModel, plain_message
 from ..session.models.views import joint_curves_view, place_ik_target, probability_view, reach_ik_targets, stagger_state
 from ._controls import _inert, _link
 from ._editor import _Editor, _session_for
-from ._layout import _LINES, _PLOT_HEIGHT, _VIEW_SIZE, _default_joint, _x_span
+from ._sizes import _LINES, _PLOT_HEIGHT, _VIEW_SIZE, _default_joint, _x_span
 from ._stagger_controls import IK_TIP, KEEP_TIP, _controls, _hint, _tools
 from ._stagger_sheet import _DopeSheet
 from .plots import PlotView

@@ -16,8 +16,8 @@ from ..session.models import WandModel
 from ..session.models.views import joint_curves_view
 from ._controls import _STYLE, _inert, _inline, _link, _slider
 from ._editor import _Editor, _session_for
-from ._layout import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE, _default_joint, _x_span
 from ._lifecycle import _on_kernel_thread
+from ._sizes import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE, _default_joint, _x_span
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 

@@ -13,7 +13,7 @@ from ..session.models import WarpModel
 from ..session.models.views import warp_replays_first_changes, warp_tables_first_changes, warp_view
 from ._controls import _STYLE, _inert, _inline, _link, _slider
 from ._editor import _Editor, _session_for
-from ._layout import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE
+from ._sizes import _PLOT_HEIGHT, _VIEW_SIZE, _WIDE
 from .plots import PlotView
 from .skeleton_view import SkeletonView
 
