@@ -444,7 +444,10 @@ class Kernel:
             raise RuntimeError(f"no kernel connection file in {runtime}")
         self.kc = BlockingKernelClient(connection_file=str(files[-1]))
         self.kc.load_connection_file()
-        self.kc.start_channels()
+        # the shell channel only (execute + its replies): a heartbeat thread that has not made its socket yet when
+        # a short-lived client closes raised "ZMQError: Too many open files" in that thread (seen once in CI, in
+        # jupyter_client's HBChannel._create_socket; the same trace as jupyter-server/kernel_gateway#322)
+        self.kc.start_channels(iopub=False, stdin=False, hb=False, control=False)
 
     def _reply(self, msg_id: str, timeout: float):
         reply = self.kc.get_shell_msg(timeout=timeout)
