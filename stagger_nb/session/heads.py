@@ -172,8 +172,7 @@ class Heads:
         numbers), uncached."""
         reference = self.reference(ref)  # keyed by the resolved clip: a re-registered in-memory name is new
         owner, rkey, skip = self.key(motion), self.key(reference), int(skip)
-        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
-            (() if out_step == 1 else (("step", int(out_step)),))
+        rest = _tables_rest(upsample, reverse, k, out_step)
         own = self.cache.peek("warp", owner, (rkey, skip) + rest)
         if own is not None:
             self.cache.touch("warp", [(owner, (rkey, skip) + rest)])
@@ -188,7 +187,6 @@ class Heads:
                                                                reverse=bool(reverse), k=int(k),
                                                                out_step=int(out_step), progress=progress))
 
-
     def warp_solution(self, motion: Motion, ref, skip: int, upsample: int, reverse: bool, k: int, out_step: int,
                       num_frames: int | None, keytimes=None, progress: Callable | None = None):
         """``(tables, solution)``: :meth:`warp_tables` and guided warping's search on them for ``num_frames``
@@ -200,7 +198,7 @@ class Heads:
         tail = None if progress is None else (lambda f: progress(0.9 + 0.1 * f))
         tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, head, out_step=out_step)
         key = self._solution_key(ref, skip, upsample, reverse, k, out_step, num_frames, keytimes)
-        sweep = self.cache.peek("warp_sweep", self.key(motion), key[:-2] + key[-1:])
+        sweep = self.cache.peek("warp_sweep", self.key(motion), _sweep_key(key))
         return tables, self.cache.get("warp_solution", self.key(motion), key,
                                       lambda: _timewarp().solve_warp(tables, num_frames, keytimes, progress=tail,
                                                                      sweep=sweep))
@@ -212,19 +210,15 @@ class Heads:
         asked between chunks of the search and True raises :class:`~.replay.Stopped`, the partial work thrown
         away (nothing is cached until the search has finished; a foreground replay asking meanwhile runs its
         own). A refused search (ValueError) is not cached either: the user's replay reports it."""
-        from .replay import Stopped
         owner = self.key(motion)
         key = self._solution_key(ref, skip, upsample, reverse, k, out_step, num_frames, keytimes)
         if self.cache.peek("warp_solution", owner, key) is not None or not self._has_tables(
                 motion, ref, skip, upsample, reverse, k, out_step):
             return False
         tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, out_step=out_step)
-
-        def check(_fraction) -> None:
-            if stop is not None and stop():
-                raise Stopped(0)
+        check = _stopper(stop)
         check(0.0)
-        sweep = self.cache.peek("warp_sweep", owner, key[:-2] + key[-1:])
+        sweep = self.cache.peek("warp_sweep", owner, _sweep_key(key))
         try:
             sol = _timewarp().solve_warp(tables, num_frames, keytimes, progress=check, sweep=sweep)
         except ValueError:
@@ -242,13 +236,12 @@ class Heads:
         tables and keytimes, bounded in the cache by count and bytes). ``stop()`` as :meth:`solve_ahead`'s.
         True when a sweep was built."""
         from ..timewarp.solve import AUTO_COARSE_FRAMES
-        from .replay import Stopped
         if num_frames is None or out_step != 1 or not self._has_tables(motion, ref, skip, upsample, reverse, k,
                                                                       out_step):
             return False
         owner = self.key(motion)
         key = self._solution_key(ref, skip, upsample, reverse, k, out_step, None, keytimes)
-        skey = key[:-2] + key[-1:]
+        skey = _sweep_key(key)
         old = self.cache.peek("warp_sweep", owner, skey)
         n = int(num_frames)
         if old is not None and old.m_lo <= n - SWEEP_MARGIN and n + SWEEP_MARGIN <= old.m_hi:
@@ -256,10 +249,7 @@ class Heads:
         tables = self.warp_tables(motion, ref, skip, upsample, reverse, k, out_step=out_step)
         if tables.n_up > AUTO_COARSE_FRAMES:
             return False
-
-        def check(_fraction) -> None:
-            if stop is not None and stop():
-                raise Stopped(0)
+        check = _stopper(stop)
         check(0.0)
         shortest = -(-(tables.n_up - 1) // tables.skip) + 1
         lo, hi = max(3, shortest, n - SWEEP_FRAMES), min(tables.n_up, n + SWEEP_FRAMES)
@@ -276,8 +266,7 @@ class Heads:
                     out_step: int) -> bool:
         """Whether :meth:`warp_tables` would find its tables cached (or slice them from a larger skip's)."""
         owner, rkey = self.key(motion), self.key(self.reference(ref))
-        rest = (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
-            (() if out_step == 1 else (("step", int(out_step)),))
+        rest = _tables_rest(upsample, reverse, k, out_step)
         for s in range(MAX_SKIP, int(skip) - 1, -1):
             t = self.cache.peek("warp", owner, (rkey, s) + rest)
             if t is not None and (s == int(skip) or t.knn == "exact"):
@@ -288,3 +277,26 @@ class Heads:
         pairs = None if keytimes is None else tuple((float(a), float(b)) for a, b in keytimes)
         return (self.key(self.reference(ref)), int(skip), int(upsample), bool(reverse), int(k), int(out_step),
                 None if num_frames is None else int(num_frames), pairs)
+
+
+def _tables_rest(upsample, reverse, k, out_step) -> tuple:
+    """The part of a warp table's cache key after (reference, skip): upsampling, direction, a kNN count other
+    than 3 and an output step other than 1 (the defaults left out, as the keys were first written)."""
+    return (int(upsample), bool(reverse)) + (() if k == 3 else (int(k),)) + \
+        (() if out_step == 1 else (("step", int(out_step)),))
+
+
+def _sweep_key(solution_key: tuple) -> tuple:
+    """A length sweep's cache key: :meth:`Heads._solution_key` without the length (one sweep serves them all)."""
+    return solution_key[:-2] + solution_key[-1:]
+
+
+def _stopper(stop: Callable | None) -> Callable:
+    """A search's progress callback that raises :class:`~.replay.Stopped` (the partial work thrown away) once
+    ``stop()`` is True; ``stop`` None: never."""
+    from .replay import Stopped
+
+    def check(_fraction) -> None:
+        if stop is not None and stop():
+            raise Stopped(0)
+    return check
